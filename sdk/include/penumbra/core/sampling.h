@@ -1,0 +1,41 @@
+// Quasi-Monte Carlo point sets and the mappings from the unit square to directions.
+//
+// Point sets: Owen-scrambled Sobol' (Burley 2020, "Practical Hash-based Owen Scrambling"), first
+// four dimensions, and the Halton sequence for any number of dimensions. A scrambled Sobol' set of
+// 2^k points is a (0,m,2)-net in each pair of its first two dimensions: every elementary
+// interval of volume 2^-k holds exactly one point.
+#pragma once
+
+#include <cstdint>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+namespace penumbra {
+
+// Sobol' point `index` in dimension `dim` (0..3), Owen-scrambled by `seed`; in [0, 1).
+float sobol(std::uint32_t index, std::uint32_t dim, std::uint32_t seed);
+// The first two dimensions together.
+glm::vec2 sobol_2d(std::uint32_t index, std::uint32_t seed);
+
+// Halton point `index` in dimension `dim` (base = dim-th prime, dim < 32), Cranley-Patterson
+// rotated by `rotation` in [0, 1) when non-zero; in [0, 1).
+float halton(std::uint32_t index, std::uint32_t dim, float rotation = 0.0f);
+
+// Directions in the local frame whose +Z is the normal. pdf functions give the density per unit
+// solid angle of the matching mapping.
+glm::vec3 uniform_sphere(glm::vec2 u);
+constexpr float uniform_sphere_pdf() { return 0.07957747154594767f; }  // 1 / (4 pi)
+glm::vec3 uniform_hemisphere(glm::vec2 u);
+constexpr float uniform_hemisphere_pdf() { return 0.15915494309189535f; }  // 1 / (2 pi)
+// Cosine-weighted (Malley's method over the concentric disk mapping of Shirley & Chiu 1997).
+glm::vec3 cosine_hemisphere(glm::vec2 u);
+inline float cosine_hemisphere_pdf(float cos_theta) { return cos_theta * 0.3183098861837907f; }
+glm::vec2 concentric_disk(glm::vec2 u);
+
+// An orthonormal basis around unit vector n (Duff et al. 2017, "Building an Orthonormal Basis,
+// Revisited"); returns the world-space direction of local direction d (d.z along n).
+glm::vec3 to_world(glm::vec3 n, glm::vec3 d);
+void orthonormal_basis(glm::vec3 n, glm::vec3& tangent, glm::vec3& bitangent);
+
+}  // namespace penumbra

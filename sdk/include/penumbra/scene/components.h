@@ -1,0 +1,147 @@
+// Scene components: what a World holds after importing a glTF file or building a built-in scene.
+// Transform, WorldTransform and the parent/child hierarchy live in the ecs layer
+// (penumbra/ecs/transform.h); this header adds geometry, materials, lights, cameras, skins and
+// animation.
+//
+// Units and frames: metres, right-handed, +Y up (as glTF). Radiometric quantities are named where
+// they are declared.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/common.hpp>
+#include <glm/ext/vector_uint4_sized.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "penumbra/core/result.h"
+#include "penumbra/ecs/world.h"
+
+namespace penumbra {
+
+struct Aabb {
+  glm::vec3 min{std::numeric_limits<float>::max()};
+  glm::vec3 max{-std::numeric_limits<float>::max()};
+  bool empty() const { return min.x > max.x; }
+  void extend(glm::vec3 p) { min = glm::min(min, p); max = glm::max(max, p); }
+  glm::vec3 center() const { return 0.5f * (min + max); }
+  glm::vec3 extent() const { return max - min; }
+};
+
+// Triangle mesh in the mesh's local frame, shared between entities (an asset).
+// Invariants established by import and by MeshData::validate(): every attribute array is empty or
+// has positions.size() entries; indices.size() is a multiple of 3 and every index is in range; all
+// values are finite; no triangle has zero area (degenerate ones are dropped and counted at import).
+struct MeshData {
+  std::string name;
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;      // unit length; computed (area-weighted) when the source has none
+  std::vector<glm::vec2> uvs;          // TEXCOORD_0
+  std::vector<glm::u16vec4> joints;    // JOINTS_0: indices into the entity's Skin::joints
+  std::vector<glm::vec4> weights;      // WEIGHTS_0: sum to 1
+  std::vector<std::uint32_t> indices;  // triangle list
+  Aabb bounds;                         // of positions
+
+  std::size_t triangle_count() const { return indices.size() / 3; }
+  std::size_t bytes() const;
+  // Checks the invariants above; the error names `context` (e.g. "scene.gltf: meshes[2]").
+  Status validate(std::string_view context) const;
+};
+
+// The geometry of an entity: one triangle mesh with one Material (a glTF mesh with several
+// primitives becomes one child entity per primitive).
+struct Mesh {
+  std::shared_ptr<const MeshData> data;
+};
+
+// An RGBA8 image (an asset), sRGB-encoded colour unless stated.
+struct Texture {
+  std::string name;
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgba8;
+  glm::vec3 average_linear{1.0f};  // mean linear colour, for bakers that need one albedo per material
+};
+
+// Lambertian surface with emission (glTF metallic-roughness subset that lighting uses).
+struct Material {
+  glm::vec4 base_color{1.0f};                       // linear RGB reflectance (albedo) and alpha
+  std::shared_ptr<const Texture> base_color_texture;  // multiplies base_color; may be null
+  glm::vec3 emissive{0.0f};  // emitted radiance, W/(m^2 sr) per channel (glTF emissiveFactor x KHR_materials_emissive_strength)
+  bool double_sided = false;
+};
+
+// KHR_lights_punctual semantics, plus rectangular area lights for built-in scenes.
+// Lights shine along the entity's local -Z (directional, spot, rect).
+struct Light {
+  enum class Type : std::uint8_t { Directional, Point, Spot, Rect };
+  Type type = Type::Point;
+  glm::vec3 color{1.0f};  // linear RGB, multiplies intensity
+  // Directional: illuminance in lux (W/m^2 in our radiometric use).
+  // Point, spot: luminous intensity in candela (W/sr).
+  // Rect: emitted radiance in W/(m^2 sr), one-sided (towards local -Z), Lambertian.
+  float intensity = 1.0f;
+  float range = 0.0f;             // 0: infinite; else the KHR_lights_punctual window (d/range)^4
+  float inner_cone_angle = 0.0f;  // spot, radians
+  float outer_cone_angle = 0.7853981633974483f;  // spot, radians (pi/4)
+  glm::vec2 size{1.0f};           // rect: width (local X) and height (local Y) in metres
+};
+
+struct Camera {
+  float yfov = 0.8f;   // radians
+  float aspect = 0.0f; // 0: from the render target
+  float znear = 0.05f;
+  float zfar = 1000.0f;
+};
+
+// Skinning: joints are entities of the hierarchy; the posed matrices are computed each frame.
+struct Skin {
+  std::vector<Entity> joints;
+  std::vector<glm::mat4> inverse_bind;  // one per joint
+};
+// Written by the skinning system: joint_matrices[j] = inverse(mesh world) * joint world * inverse_bind[j].
+struct SkinPose {
+  std::vector<glm::mat4> joint_matrices;
+};
+
+// Animation clips (an asset): keyframe channels targeting entities' Transforms.
+struct AnimationChannel {
+  enum class Path : std::uint8_t { Translation, Rotation, Scale };
+  enum class Interpolation : std::uint8_t { Linear, Step, CubicSpline };
+  std::uint32_t target = 0;          // index into AnimationClip::targets
+  Path path = Path::Translation;
+  Interpolation interpolation = Interpolation::Linear;
+  std::vector<float> times;          // strictly increasing seconds
+  std::vector<glm::vec4> values;     // xyz (translation, scale) or quaternion xyzw; CubicSpline: in-tangent, value, out-tangent per key
+};
+struct AnimationClip {
+  std::string name;
+  float duration = 0.0f;
+  std::vector<Entity> targets;
+  std::vector<AnimationChannel> channels;
+};
+// Plays one clip of a set on the entities the clips target.
+struct Animator {
+  std::shared_ptr<const std::vector<AnimationClip>> clips;
+  std::uint32_t clip = 0;
+  float time = 0.0f;   // seconds into the clip
+  float speed = 1.0f;
+  bool loop = true;
+  bool playing = true;
+};
+
+// Tag: the entity and its geometry never move (baked into the static BVH).
+struct Static {};
+
+// Name from the source file (glTF node name) or the built-in scene.
+struct Name {
+  std::string value;
+};
+
+}  // namespace penumbra
