@@ -63,8 +63,15 @@ struct Measurement {
 // the median. Measurements come back in the order of `cases`.
 std::vector<Measurement> run_cases(const std::vector<Case>& cases, double min_time, int repetitions = 1);
 
-// "%.3g"-style formatting for CSV cells and table entries.
+// "%.4g"-style formatting for CSV cells and table entries.
 std::string fmt(double value, int precision = 4);
+
+// Output of a finished benchmark: the table as text (columns aligned, notes below), and the files
+// DIR/NAME.csv and DIR/NAME.png (the plot is drawn by gnuplot; without gnuplot the CSV is still
+// written and the error says so). Files are written to a temporary name and renamed.
+std::string format_table(const Report& report);
+Status write_csv(const std::string& path, const Report& report);
+Status write_plot(const std::string& png_path, const std::string& csv_path, const Report& report);
 
 }  // namespace penumbra::bench
 

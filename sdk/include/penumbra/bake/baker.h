@@ -1,0 +1,98 @@
+// Bakers: the offline half of every lighting technique. A module registers its Baker with a
+// World's BakerRegistry; `bake_world` builds the RayScene once, runs the selected bakers in
+// registration order and collects their chunks into a BakeFile (penumbra/bake/pbake.h).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "penumbra/bake/pbake.h"
+#include "penumbra/core/hash.h"
+#include "penumbra/core/jobs.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/result.h"
+#include "penumbra/ecs/world.h"
+
+namespace penumbra {
+
+class RayScene;
+
+// Quality presets shared by every technique: each maps them to its own sample counts.
+enum class Preset : std::uint8_t { Draft, Medium, High };
+const char* to_string(Preset preset);
+Result<Preset> parse_preset(std::string_view text);  // "draft", "medium", "high"
+
+struct BakeSettings {
+  Preset preset = Preset::Medium;
+  std::uint64_t seed = 1;
+  std::uint64_t memory_limit_bytes = 0;  // 0: unlimited
+};
+
+// What a baker receives. `jobs` already carries the host's scheduler, progress and cancellation;
+// a baker opens its own stages with jobs.begin_stage().
+struct BakeInputs {
+  const World& world;
+  const RayScene& rays;
+  const BakeSettings& settings;
+  JobContext& jobs;
+  MemoryBudget& budget;
+};
+
+struct Baker {
+  std::string name;         // what `--only` names, e.g. "vertex-ao"
+  std::string description;  // one line for `penumbra bake --help`
+  int stages = 1;           // how many progress stages bake() opens
+  // Adds everything bake() reads (scene content it depends on, its settings) to the input hash,
+  // so that an unchanged scene is not baked again.
+  std::function<void(const World&, const BakeSettings&, Hasher&)> hash_inputs;
+  std::function<Result<std::vector<BakeChunk>>(BakeInputs&)> bake;
+  // Human-readable lines about one of its chunks, for `penumbra info`; empty when not its chunk.
+  std::function<std::vector<std::string>(const BakeChunk&)> describe;
+};
+
+// The bakers a World knows: world.resource<BakerRegistry>().
+class BakerRegistry {
+ public:
+  void add(Baker baker);
+  const Baker* find(std::string_view name) const;
+  const std::vector<Baker>& all() const { return bakers_; }
+
+ private:
+  std::vector<Baker> bakers_;
+};
+
+// Hashes the geometry, materials, lights and transforms of every entity with a Mesh or Light, in
+// entity order: the part of the input hash that every baker shares.
+void hash_scene(const World& world, Hasher& hasher);
+
+// The input hash of a bake of `names` with `settings` (the seed included, the thread count not).
+std::uint64_t bake_input_hash(const World& world, const std::vector<std::string>& names, const BakeSettings& settings);
+
+// What a bake did: per baker, the wall time, the bytes of its chunks and its description lines.
+struct BakeReport {
+  struct Item {
+    std::string baker;
+    double seconds = 0.0;
+    std::uint64_t bytes = 0;
+    std::vector<std::string> lines;
+  };
+  double ray_scene_seconds = 0.0;
+  std::uint64_t ray_scene_bytes = 0;
+  std::size_t triangles = 0;
+  std::vector<Item> items;
+};
+
+struct BakeResult {
+  BakeFile file;
+  BakeReport report;
+};
+
+// Runs the named bakers (all registered ones when `names` is empty). Fails naming an unknown baker
+// and listing the known ones. The World must be up to date (world transforms computed).
+Result<BakeResult> bake_world(const World& world, const std::vector<std::string>& names, const BakeSettings& settings,
+                              JobContext& jobs);
+
+}  // namespace penumbra

@@ -1,0 +1,13 @@
+# The tool's usage contract: --help, exit codes 0/1/2, clear messages.
+source "$(dirname "$0")/lib.sh"
+expect_exit 0 "$PENUMBRA" --help;              expect_output "penumbra bake\|bake SCENE"
+expect_exit 2 "$PENUMBRA";                     expect_output "usage"
+expect_exit 2 "$PENUMBRA" frobnicate;          expect_output "unknown command 'frobnicate'"
+expect_exit 2 "$PENUMBRA" bake builtin:cornell; expect_output "needs -o"
+expect_exit 2 "$PENUMBRA" bake builtin:cornell -o "$scratch/a.pbake" --threads lots; expect_output "non-negative integer"
+expect_exit 2 "$PENUMBRA" bake builtin:cornell -o "$scratch/a.pbake" --preset ultra; expect_output "ultra"
+expect_exit 2 "$PENUMBRA" bench;               expect_output "one benchmark name"
+expect_exit 2 "$PENUMBRA" bench nosuch;        expect_output "no benchmark named 'nosuch'"
+expect_exit 0 "$PENUMBRA" bench --list;        expect_output "ecs"; expect_output "rays"
+expect_exit 0 "$PENUMBRA" bake --list;         expect_output "vertex-ao"
+finish

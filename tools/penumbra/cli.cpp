@@ -1,0 +1,77 @@
+#include "cli.h"
+
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <unistd.h>
+
+namespace penumbra::cli {
+
+std::optional<std::string> Args::take(std::string_view name) {
+  for (std::size_t i = 0; i < words_.size(); ++i) {
+    const std::string& w = words_[i];
+    if (w == name) {
+      if (i + 1 >= words_.size()) {
+        missing_value = true;
+        missing_name = std::string(name);
+        words_.erase(words_.begin() + static_cast<std::ptrdiff_t>(i));
+        return std::nullopt;
+      }
+      std::string value = words_[i + 1];
+      words_.erase(words_.begin() + static_cast<std::ptrdiff_t>(i), words_.begin() + static_cast<std::ptrdiff_t>(i) + 2);
+      return value;
+    }
+    if (w.size() > name.size() && w.compare(0, name.size(), name) == 0 && w[name.size()] == '=') {
+      std::string value = w.substr(name.size() + 1);
+      words_.erase(words_.begin() + static_cast<std::ptrdiff_t>(i));
+      return value;
+    }
+  }
+  return std::nullopt;
+}
+
+bool Args::take_flag(std::string_view name) {
+  for (std::size_t i = 0; i < words_.size(); ++i) {
+    if (words_[i] == name) {
+      words_.erase(words_.begin() + static_cast<std::ptrdiff_t>(i));
+      return true;
+    }
+  }
+  return false;
+}
+
+int fail(int code, std::string_view message) {
+  std::fprintf(stderr, "penumbra: %.*s\n", static_cast<int>(message.size()), message.data());
+  if (code == kUsage) std::fputs("Run 'penumbra --help' for usage.\n", stderr);
+  return code;
+}
+
+std::optional<unsigned long long> parse_count(std::string_view option, const std::string& text) {
+  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos || text.size() > 18) {
+    fail(kUsage, std::string(option) + " takes a non-negative integer, not '" + text + "'");
+    return std::nullopt;
+  }
+  return std::stoull(text);
+}
+
+ProgressCallback terminal_progress() {
+  if (!::isatty(STDERR_FILENO)) return {};
+  struct Bar {
+    std::mutex mutex;
+    std::string stage;
+  };
+  auto bar = std::make_shared<Bar>();
+  return [bar](const Progress& p) {
+    std::lock_guard lock(bar->mutex);
+    const int width = 30;
+    const int filled = static_cast<int>(p.fraction * width + 0.5);
+    std::fprintf(stderr, "\r  [%d/%d] %-28.*s [%s%s] %5.1f%%", p.stage_index + 1, p.stage_count,
+                 static_cast<int>(std::min<std::size_t>(p.stage.size(), 28)), p.stage.data(),
+                 std::string(static_cast<std::size_t>(filled), '#').c_str(),
+                 std::string(static_cast<std::size_t>(width - filled), '.').c_str(), 100.0 * p.fraction);
+    if (p.fraction >= 1.0) std::fputc('\n', stderr);
+    std::fflush(stderr);
+  };
+}
+
+}  // namespace penumbra::cli

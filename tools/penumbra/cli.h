@@ -1,0 +1,50 @@
+// Shared pieces of the penumbra command-line tool: argument parsing, exit codes, progress output.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "penumbra/core/jobs.h"
+#include "penumbra/ecs/world.h"
+
+namespace penumbra::cli {
+
+// Exit codes: 0 success, 1 failure with a message, 2 bad usage.
+enum Exit : int { kSuccess = 0, kFailure = 1, kUsage = 2 };
+
+// Arguments after the command name: positional words and --options (with or without a value).
+class Args {
+ public:
+  Args(std::vector<std::string> words) : words_(std::move(words)) {}
+  // The value of --name VALUE (or --name=VALUE); removes it. Sets `missing_value` when the option
+  // is last and has no value.
+  std::optional<std::string> take(std::string_view name);
+  bool take_flag(std::string_view name);
+  // What is left: positional arguments; an unknown --option left here is a usage error.
+  const std::vector<std::string>& rest() const { return words_; }
+  bool missing_value = false;
+  std::string missing_name;
+
+ private:
+  std::vector<std::string> words_;
+};
+
+// Prints "penumbra: message" to stderr and returns `code`.
+int fail(int code, std::string_view message);
+// Parses a non-negative integer option; prints a usage error on failure.
+std::optional<unsigned long long> parse_count(std::string_view option, const std::string& text);
+
+// A progress bar on stderr when it is a terminal; nothing in a pipe.
+ProgressCallback terminal_progress();
+
+// Loads `builtin:NAME` or a glTF path into `world`, registers every module's systems and bakers and
+// runs one update so that world transforms and poses are current.
+Status load_world(World& world, std::string_view scene);
+
+int cmd_info(Args args);
+int cmd_bake(Args args);
+int cmd_bench(Args args);
+
+}  // namespace penumbra::cli

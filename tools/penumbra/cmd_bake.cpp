@@ -1,0 +1,145 @@
+// penumbra bake SCENE -o FILE.pbake [...] and penumbra info FILE.pbake
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "cli.h"
+#include "penumbra/bake/baker.h"
+#include "penumbra/bake/pbake.h"
+#include "penumbra/core/memory.h"
+
+namespace penumbra::cli {
+
+namespace {
+
+CancelToken g_cancel;
+
+void on_interrupt(int) { g_cancel.cancel(); }
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+std::string hex64(std::uint64_t v) {
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+std::string fourcc_text(std::uint32_t type) {
+  std::string s(4, ' ');
+  for (int i = 0; i < 4; ++i) s[static_cast<std::size_t>(i)] = static_cast<char>((type >> (8 * i)) & 0xffu);
+  return s;
+}
+
+}  // namespace
+
+int cmd_bake(Args args) {
+  const bool list = args.take_flag("--list");
+  const bool force = args.take_flag("--force");
+  const auto out = args.take("-o");
+  const auto only = args.take("--only");
+  const auto preset = args.take("--preset");
+  const auto threads = args.take("--threads");
+  const auto seed = args.take("--seed");
+  if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
+
+  if (list) {
+    World world;
+    if (Status s = load_world(world, "builtin:furnace"); !s) return fail(kFailure, s.error().message);
+    for (const Baker& b : world.resource<BakerRegistry>().all())
+      std::printf("%-12s %s\n", b.name.c_str(), b.description.c_str());
+    return kSuccess;
+  }
+  if (args.rest().size() != 1 || args.rest()[0].starts_with("-"))
+    return fail(kUsage, "bake takes one SCENE (a glTF file or builtin:NAME) and -o FILE.pbake");
+  if (!out) return fail(kUsage, "bake needs -o FILE.pbake");
+
+  BakeSettings settings;
+  if (preset) {
+    auto p = parse_preset(*preset);
+    if (!p) return fail(kUsage, p.error().message);
+    settings.preset = *p;
+  }
+  if (seed) {
+    auto s = parse_count("--seed", *seed);
+    if (!s) return kUsage;
+    settings.seed = *s;
+  }
+  unsigned thread_count = 0;
+  if (threads) {
+    auto n = parse_count("--threads", *threads);
+    if (!n) return kUsage;
+    if (*n == 0 || *n > 1024) return fail(kUsage, "--threads takes a count from 1 to 1024");
+    thread_count = static_cast<unsigned>(*n);
+  }
+  const std::vector<std::string> names = only ? split_list(*only) : std::vector<std::string>{};
+
+  const std::string& scene = args.rest()[0];
+  const auto t0 = std::chrono::steady_clock::now();
+  World world;
+  if (Status s = load_world(world, scene); !s) return fail(kFailure, s.error().message);
+
+  // Skip the bake when the file on disk was made from the same inputs.
+  const std::uint64_t input_hash = bake_input_hash(world, names, settings);
+  if (!force && std::filesystem::exists(*out)) {
+    if (auto info = read_bake_info(*out); info && info->input_hash == input_hash) {
+      std::printf("%s is up to date (input hash %s): nothing to bake; --force bakes anyway\n", out->c_str(),
+                  hex64(input_hash).c_str());
+      return kSuccess;
+    }
+  }
+
+  ThreadPool pool(thread_count);
+  std::signal(SIGINT, on_interrupt);
+  JobContext jobs(&pool, terminal_progress(), &g_cancel);
+  auto result = bake_world(world, names, settings, jobs);
+  std::signal(SIGINT, SIG_DFL);
+  if (!result) return fail(kFailure, scene + ": " + result.error().message);
+  if (Status s = write_bake_file(*out, result->file); !s) return fail(kFailure, s.error().message);
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  const BakeReport& r = result->report;
+  std::printf("baked %s -> %s (preset %s, seed %llu, %u threads)\n", scene.c_str(), out->c_str(),
+              to_string(settings.preset), static_cast<unsigned long long>(settings.seed), pool.concurrency());
+  std::printf("  ray scene     %8.3f s  %10s  %zu triangles\n", r.ray_scene_seconds,
+              format_bytes(r.ray_scene_bytes).c_str(), r.triangles);
+  for (const auto& item : r.items) {
+    std::printf("  %-12s  %8.3f s  %10s\n", item.baker.c_str(), item.seconds, format_bytes(item.bytes).c_str());
+    for (const auto& line : item.lines) std::printf("      %s\n", line.c_str());
+  }
+  std::printf("  total         %8.3f s  %10s on disk, input hash %s\n", total,
+              format_bytes(std::filesystem::file_size(*out)).c_str(), hex64(input_hash).c_str());
+  return kSuccess;
+}
+
+int cmd_info(Args args) {
+  if (args.rest().size() != 1 || args.rest()[0].starts_with("-")) return fail(kUsage, "info takes one FILE.pbake");
+  const std::string& path = args.rest()[0];
+  auto file = read_bake_file(path);
+  if (!file) return fail(kFailure, file.error().message);
+
+  // Bakers describe their own chunks; any World knows every registered baker.
+  World world;
+  if (Status s = load_world(world, "builtin:furnace"); !s) return fail(kFailure, s.error().message);
+
+  std::printf("%s\n  format version %u, written by Penumbra %s\n  input hash %s\n  %zu chunks, %s in all\n",
+              path.c_str(), file->format_version, file->sdk_version.c_str(), hex64(file->input_hash).c_str(),
+              file->chunks.size(), format_bytes(std::filesystem::file_size(path)).c_str());
+  for (const BakeChunk& chunk : file->chunks) {
+    std::printf("  chunk %s v%u '%s': %s\n", fourcc_text(chunk.type).c_str(), chunk.version, chunk.label.c_str(),
+                format_bytes(chunk.payload.size()).c_str());
+    for (const Baker& b : world.resource<BakerRegistry>().all())
+      if (b.describe)
+        for (const auto& line : b.describe(chunk)) std::printf("      %s\n", line.c_str());
+  }
+  return kSuccess;
+}
+
+}  // namespace penumbra::cli

@@ -1,0 +1,53 @@
+// penumbra: the command-line face of the SDK (bake, inspect and benchmark; render arrives with the
+// renderer).
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "cli.h"
+
+namespace {
+
+constexpr const char* kUsage = R"(usage: penumbra COMMAND [ARGS]
+
+Commands:
+  bake SCENE -o FILE.pbake [--only LIST] [--preset draft|medium|high] [--threads N] [--seed S] [--force]
+      Bake the lighting data of SCENE (a glTF file or builtin:NAME) into FILE.pbake. --only takes a
+      comma-separated list of bakers (default: all; 'penumbra bake --list' names them). An unchanged
+      scene with the same settings is not baked again unless --force is given.
+  info FILE.pbake
+      Show the file's version, input hash, chunks, their sizes and what they hold.
+  bench NAME [--quick] [--out DIR] [--threads N]
+      Run a benchmark: print its table, write DIR/NAME.csv and the plot DIR/NAME.png (DIR defaults to
+      bench-results). 'penumbra bench --list' names them.
+
+Scenes: builtin:cornell, builtin:courtyard, builtin:furnace, or a .gltf/.glb path.
+Exit codes: 0 success, 1 failure (with a message), 2 bad usage.
+)";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> words(argv + 1, argv + argc);
+  if (words.empty()) {
+    std::fputs(kUsage, stderr);
+    return penumbra::cli::kUsage;
+  }
+  const std::string command = words.front();
+  words.erase(words.begin());
+  if (command == "--help" || command == "-h" || command == "help") {
+    std::fputs(kUsage, stdout);
+    return penumbra::cli::kSuccess;
+  }
+  if (command == "--version") {
+    std::printf("penumbra %s\n", PENUMBRA_VERSION);
+    return penumbra::cli::kSuccess;
+  }
+  penumbra::cli::Args args(std::move(words));
+  if (command == "bake") return penumbra::cli::cmd_bake(std::move(args));
+  if (command == "info") return penumbra::cli::cmd_info(std::move(args));
+  if (command == "bench") return penumbra::cli::cmd_bench(std::move(args));
+  std::fprintf(stderr, "penumbra: unknown command '%s'\n\n%s", command.c_str(), kUsage);
+  return penumbra::cli::kUsage;
+}
