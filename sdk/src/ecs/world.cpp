@@ -1,0 +1,265 @@
+// World: entity slots, the type-independent half of the sparse-set pools, systems and events.
+// Layout and semantics are documented in penumbra/ecs/world.h.
+#include "penumbra/ecs/world.h"
+
+#include <algorithm>
+#include <chrono>
+#include <deque>
+#include <mutex>
+
+namespace penumbra {
+
+namespace {
+
+struct ComponentRegistry {
+  std::mutex mutex;
+  std::deque<std::string> names;  // deque: names handed out as string_views never move
+};
+
+ComponentRegistry& registry() {
+  static ComponentRegistry r;
+  return r;
+}
+
+// "... [with T = penumbra::Transform; std::string_view = ...]" -> "Transform".
+std::string type_name_from_signature(std::string_view signature) {
+  const std::size_t begin = signature.find("T = ");
+  if (begin == std::string_view::npos) return std::string(signature);
+  std::string_view name = signature.substr(begin + 4);
+  name = name.substr(0, std::min(name.find(';'), name.rfind(']')));
+  constexpr std::string_view kOurs = "penumbra::";
+  if (name.substr(0, kOurs.size()) == kOurs) name.remove_prefix(kOurs.size());
+  return std::string(name);
+}
+
+}  // namespace
+
+namespace detail {
+
+ComponentId register_component(std::string_view signature) {
+  ComponentRegistry& r = registry();
+  std::lock_guard lock(r.mutex);
+  r.names.push_back(type_name_from_signature(signature));
+  return static_cast<ComponentId>(r.names.size() - 1);
+}
+
+// --- PoolBase ----------------------------------------------------------------------------------
+
+void PoolBase::set_sparse(std::uint32_t index, std::uint32_t pos) {
+  const std::uint32_t page = index >> kSparseShift;
+  if (page >= sparse_.size()) sparse_.resize(page + 1);
+  if (!sparse_[page]) {
+    sparse_[page] = std::make_unique<std::uint32_t[]>(kSparsePage);
+    std::fill_n(sparse_[page].get(), kSparsePage, kNone);
+  }
+  sparse_[page][index & (kSparsePage - 1)] = pos;
+}
+
+void PoolBase::push(Entity e, std::uint64_t tick) {
+  set_sparse(e.index, size());
+  dense_.push_back(e);
+  ticks_.push_back(tick);
+}
+
+bool PoolBase::erase(std::uint32_t pos, bool iterating) {
+  const std::uint32_t index = dense_[pos].index;
+  sparse_[index >> kSparseShift][index & (kSparsePage - 1)] = kNone;
+  destroy_at(pos);
+  if (iterating) {
+    // Leave a tombstone: positions the running iteration has not reached must not move.
+    dense_[pos].index = kNone;
+    ++tombstones_;
+    return true;
+  }
+  // Swap-and-pop: the last component moves into the hole.
+  const std::uint32_t last = size() - 1;
+  if (pos != last) {
+    relocate(last, pos);
+    dense_[pos] = dense_[last];
+    ticks_[pos] = ticks_[last];
+    set_sparse(dense_[pos].index, pos);
+  }
+  dense_.pop_back();
+  ticks_.pop_back();
+  return false;
+}
+
+void PoolBase::compact() {
+  std::uint32_t out = 0;
+  for (std::uint32_t i = 0; i < size(); ++i) {
+    if (dense_[i].index == kNone) continue;
+    if (i != out) {
+      relocate(i, out);
+      dense_[out] = dense_[i];
+      ticks_[out] = ticks_[i];
+      set_sparse(dense_[out].index, out);
+    }
+    ++out;
+  }
+  dense_.resize(out);
+  ticks_.resize(out);
+  tombstones_ = 0;
+  compact_pending_ = false;
+}
+
+void PoolBase::fire(World& world, std::vector<std::shared_ptr<Listener>>& listeners, Entity e) {
+  struct Firing {
+    PoolBase& p;
+    explicit Firing(PoolBase& pool) : p(pool) { ++p.firing_; }
+    ~Firing() { --p.firing_; }
+    Firing(const Firing&) = delete;
+    Firing& operator=(const Firing&) = delete;
+  };
+  {
+    Firing firing(*this);
+    // Index loop and a held reference: listeners may connect others (the vector may grow).
+    for (std::size_t i = 0; i < listeners.size(); ++i) {
+      const std::shared_ptr<Listener> l = listeners[i];
+      if (l->connected) l->fn(world, e);
+    }
+  }
+  prune_listeners();
+}
+
+void PoolBase::prune_listeners() {
+  if (firing_ != 0) return;
+  const auto disconnected = [](const std::shared_ptr<Listener>& l) { return !l->connected; };
+  std::erase_if(on_add_, disconnected);
+  std::erase_if(on_remove_, disconnected);
+}
+
+}  // namespace detail
+
+std::string_view component_name(ComponentId id) {
+  ComponentRegistry& r = registry();
+  std::lock_guard lock(r.mutex);
+  return id < r.names.size() ? std::string_view(r.names[id]) : std::string_view();
+}
+
+const char* to_string(Phase phase) {
+  switch (phase) {
+    case Phase::Input: return "input";
+    case Phase::Animation: return "animation";
+    case Phase::Transform: return "transform";
+    case Phase::Lighting: return "lighting";
+    case Phase::Render: return "render";
+  }
+  return "unknown";
+}
+
+// --- World -------------------------------------------------------------------------------------
+
+World::World() = default;
+World::~World() = default;
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+
+Entity World::create() {
+  if (!free_.empty()) {
+    const std::uint32_t index = free_.back();
+    free_.pop_back();
+    live_[index] = 1;
+    return Entity{index, generations_[index]};
+  }
+  const auto index = static_cast<std::uint32_t>(generations_.size());
+  assert(index != detail::kNone && "World::create: 2^32 - 1 entity slots in use");
+  generations_.push_back(0);
+  live_.push_back(1);
+  return Entity{index, 0};
+}
+
+void World::destroy(Entity e) {
+  if (!alive(e)) return;
+  // Remove every component; repeat in case an on_remove listener added one back.
+  for (bool removed = true; removed && alive(e);) {
+    removed = false;
+    for (std::size_t id = 0; id < pools_.size() && alive(e); ++id) {
+      detail::PoolBase* p = pools_[id].get();
+      if (p && p->find(e.index) != detail::kNone) removed |= remove_from(*p, e);
+    }
+  }
+  if (!alive(e)) return;  // a listener destroyed it already
+  live_[e.index] = 0;
+  // Bump the generation so old handles turn stale; an exhausted index is retired, never reused.
+  if (generations_[e.index] == ~0u) {
+    ++retired_;
+  } else {
+    ++generations_[e.index];
+    free_.push_back(e.index);
+  }
+}
+
+bool World::remove_from(detail::PoolBase& p, Entity e) {
+  std::uint32_t pos = p.find(e.index);
+  if (pos == detail::kNone) return false;
+  if (!p.on_remove_.empty()) {
+    p.fire(*this, p.on_remove_, e);
+    pos = p.find(e.index);  // a listener may have removed it, or moved it by another removal
+    if (pos == detail::kNone) return true;
+  }
+  if (p.erase(pos, iterating_ > 0) && !p.compact_pending_) {
+    p.compact_pending_ = true;
+    pending_compaction_.push_back(&p);
+  }
+  return true;
+}
+
+void World::compact_pending() {
+  for (detail::PoolBase* p : pending_compaction_) p->compact();
+  pending_compaction_.clear();
+}
+
+Connection World::connect(detail::PoolBase& p, std::vector<std::shared_ptr<detail::Listener>>& list,
+                          std::function<void(World&, Entity)> fn) {
+  p.prune_listeners();
+  auto listener = std::make_shared<detail::Listener>();
+  listener->fn = std::move(fn);
+  list.push_back(listener);
+  return Connection(listener);
+}
+
+bool World::write_declared(ComponentId id) const {
+  if (running_system_ < 0) return true;
+  const auto& writes = systems_[static_cast<std::size_t>(running_system_)].writes;
+  return std::find(writes.begin(), writes.end(), id) != writes.end();
+}
+
+void World::add_system(SystemDesc desc) {
+  assert(running_system_ < 0 && "World::add_system: not while update() runs");
+  // After the last system of the same or an earlier phase.
+  const auto at = std::find_if(systems_.begin(), systems_.end(),
+                               [&](const SystemInfo& s) { return s.phase > desc.phase; });
+  const auto offset = at - systems_.begin();
+  SystemInfo info;
+  info.name = std::move(desc.name);
+  info.phase = desc.phase;
+  info.reads = std::move(desc.reads);
+  info.writes = std::move(desc.writes);
+  systems_.insert(at, std::move(info));
+  system_fns_.insert(system_fns_.begin() + offset, std::move(desc.run));
+}
+
+void World::run_phase(Phase phase, double dt) {
+  for (std::size_t i = 0; i < systems_.size(); ++i) {
+    if (systems_[i].phase != phase || !system_fns_[i]) continue;
+    SystemContext ctx;
+    ctx.dt = dt;
+    ctx.last_run = systems_[i].last_run;
+    ctx.tick = advance_tick();
+    running_system_ = static_cast<int>(i);
+    const auto start = std::chrono::steady_clock::now();
+    system_fns_[i](*this, ctx);
+    const auto stop = std::chrono::steady_clock::now();
+    running_system_ = -1;
+    systems_[i].last_run = ctx.tick;
+    systems_[i].last_ms = std::chrono::duration<double, std::milli>(stop - start).count();
+    ++systems_[i].runs;
+  }
+  advance_tick();
+}
+
+void World::update(double dt) {
+  for (int phase = 0; phase < kPhaseCount; ++phase) run_phase(static_cast<Phase>(phase), dt);
+}
+
+}  // namespace penumbra

@@ -1,0 +1,587 @@
+// The entity-component-system World: entities with generation-checked handles, components in
+// sparse sets, views, systems run in phases, change ticks, add/remove events and resources.
+//
+// Storage. Each component type T has one pool, a sparse set: a paged sparse array (entity index ->
+// dense position), a dense array of entities, the components themselves in fixed pages of 1024
+// (adding a component never moves existing ones) and one change tick per component.
+//
+// Change ticks. The world has a tick counter (tick()); add() and patch() stamp the component with
+// the current tick. The tick advances before each system runs and after each update(), so every
+// write is ordered against every system run: a system that keeps its last-run tick sees exactly
+// the components written after it last ran (view.each_changed(ctx.last_run, fn)).
+//
+// Structural changes during iteration (defined behaviour). While a view is iterating, each entity
+// that has all the components when iteration starts is visited exactly once unless it loses one
+// of them before it is reached; entities that gain them during iteration are not visited.
+// Removals during iteration leave a tombstone that is compacted when the outermost iteration ends.
+//
+// References. A reference to a component stays valid while other components are added (to any
+// pool) and while anything is removed during iteration. A removal outside iteration (including
+// the compaction at the end of an iteration with removals) may move other components of that
+// pool: fetch again after removing.
+//
+// Thread safety: a World is not thread-safe; use it from one thread at a time (systems may fan
+// work out to the job system over component references they fetched beforehand).
+#pragma once
+
+#include <cassert>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <new>
+#include <string>
+#include <string_view>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace penumbra {
+
+class World;
+
+// A generation-checked handle: when an entity is destroyed its index's generation is bumped, so an
+// old handle is detected as stale (alive() == false) and never aliases a later entity.
+struct Entity {
+  std::uint32_t index = ~0u;
+  std::uint32_t generation = 0;
+
+  bool operator==(const Entity&) const = default;
+  explicit operator bool() const { return index != ~0u; }  // false for null
+  static constexpr Entity null() { return Entity{}; }
+};
+
+// A small integer naming a component (or resource) type, process-wide, assigned on first use.
+using ComponentId = std::uint32_t;
+
+namespace detail {
+ComponentId register_component(std::string_view signature);
+template <class T>
+constexpr std::string_view type_signature() { return __PRETTY_FUNCTION__; }
+template <class T>
+ComponentId component_id_of() {
+  static const ComponentId id = register_component(type_signature<T>());
+  return id;
+}
+}  // namespace detail
+
+// The id of component type T (cv-qualifiers ignored). Thread-safe.
+template <class T>
+ComponentId component_id() { return detail::component_id_of<std::remove_cv_t<T>>(); }
+
+// The type's name, e.g. "Transform" (namespace penumbra:: dropped); "" for an unknown id.
+std::string_view component_name(ComponentId id);
+
+// Systems run phase by phase in this order; within a phase in registration order.
+enum class Phase : std::uint8_t { Input, Animation, Transform, Lighting, Render };
+inline constexpr int kPhaseCount = 5;
+const char* to_string(Phase phase);
+
+// What a system receives when it runs.
+struct SystemContext {
+  double dt = 0.0;              // seconds since the previous update()
+  std::uint64_t last_run = 0;   // the tick of this system's previous run; 0 before its first run
+  std::uint64_t tick = 0;       // the tick of this run; this system's writes carry it
+};
+
+struct SystemDesc {
+  std::string name;
+  Phase phase = Phase::Input;
+  std::vector<ComponentId> reads, writes;  // declared access (component_id<T>())
+  std::function<void(World&, const SystemContext&)> run;
+};
+
+// A registered system as the editor and tools see it.
+struct SystemInfo {
+  std::string name;
+  Phase phase = Phase::Input;
+  std::vector<ComponentId> reads, writes;
+  std::uint64_t last_run = 0;  // tick of the last run (0: never ran)
+  double last_ms = 0.0;        // wall-clock milliseconds of the last run
+  std::uint64_t runs = 0;
+};
+
+namespace detail {
+struct Listener {
+  std::function<void(World&, Entity)> fn;
+  bool connected = true;  // cleared by Connection::disconnect(); pruned when no event is firing
+};
+}  // namespace detail
+
+// Keeps an event listener connected; disconnects it when destroyed (or by disconnect()). Safe to
+// destroy after the World is gone. release() leaves the listener connected for the World's life.
+class [[nodiscard]] Connection {
+ public:
+  Connection() = default;
+  explicit Connection(std::weak_ptr<detail::Listener> listener) : listener_(std::move(listener)) {}
+  Connection(Connection&&) noexcept = default;
+  Connection& operator=(Connection&& other) noexcept {
+    if (this != &other) {
+      disconnect();
+      listener_ = std::move(other.listener_);
+    }
+    return *this;
+  }
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+  ~Connection() { disconnect(); }
+
+  void disconnect() {
+    if (auto l = listener_.lock()) l->connected = false;
+    listener_.reset();
+  }
+  void release() { listener_.reset(); }
+  bool connected() const {
+    auto l = listener_.lock();
+    return l && l->connected;
+  }
+
+ private:
+  std::weak_ptr<detail::Listener> listener_;
+};
+
+namespace detail {
+
+inline constexpr std::uint32_t kNone = ~0u;             // no dense position / tombstone index
+inline constexpr std::uint32_t kPageShift = 10;          // 1024 components per page
+inline constexpr std::uint32_t kPageSize = 1u << kPageShift;
+inline constexpr std::uint32_t kSparseShift = 12;        // 4096 sparse entries per page
+inline constexpr std::uint32_t kSparsePage = 1u << kSparseShift;
+
+// The type-independent half of a component pool (see the header comment for the layout).
+class PoolBase {
+ public:
+  PoolBase() = default;
+  PoolBase(const PoolBase&) = delete;
+  PoolBase& operator=(const PoolBase&) = delete;
+  virtual ~PoolBase() = default;
+
+  // Dense slots, tombstones included.
+  std::uint32_t size() const { return static_cast<std::uint32_t>(dense_.size()); }
+  std::uint32_t live() const { return size() - tombstones_; }
+
+  // Dense position of the entity with this index, or kNone.
+  std::uint32_t find(std::uint32_t index) const {
+    const std::uint32_t page = index >> kSparseShift;
+    if (page >= sparse_.size() || !sparse_[page]) return kNone;
+    return sparse_[page][index & (kSparsePage - 1)];
+  }
+  // As find(), trying `hint` first: pools filled in the same order line up, so a view's other
+  // pools are usually at the lead pool's position.
+  std::uint32_t find(std::uint32_t index, std::uint32_t hint) const {
+    if (hint < dense_.size() && dense_[hint].index == index) return hint;
+    return find(index);
+  }
+
+  // Appends `e` (its component must already be constructed at position size()).
+  void push(Entity e, std::uint64_t tick);
+  // Removes the component at `pos`: swap-and-pop, or a tombstone while `iterating`.
+  // Returns true when a tombstone was left (the pool then needs compact()).
+  bool erase(std::uint32_t pos, bool iterating);
+  // Removes tombstones, keeping the order of the survivors.
+  void compact();
+  // Calls the connected listeners (those connected during the call included).
+  void fire(World& world, std::vector<std::shared_ptr<Listener>>& listeners, Entity e);
+  // Drops disconnected listeners unless an event of this pool is firing.
+  void prune_listeners();
+
+  std::vector<Entity> dense_;          // entity per dense slot; index == kNone marks a tombstone
+  std::vector<std::uint64_t> ticks_;   // change tick per dense slot
+  std::vector<std::unique_ptr<std::uint32_t[]>> sparse_;
+  std::uint32_t tombstones_ = 0;
+  bool compact_pending_ = false;
+  std::vector<std::shared_ptr<Listener>> on_add_, on_remove_;
+  int firing_ = 0;
+
+ protected:
+  virtual void destroy_at(std::uint32_t pos) = 0;
+  virtual void relocate(std::uint32_t from, std::uint32_t to) = 0;  // move-construct `to`, destroy `from`
+
+ private:
+  void set_sparse(std::uint32_t index, std::uint32_t pos);
+};
+
+template <class T>
+class Pool final : public PoolBase {
+ public:
+  Pool() = default;
+  ~Pool() override {
+    for (std::uint32_t i = 0; i < size(); ++i)
+      if (dense_[i].index != kNone) at(i).~T();
+    for (T* page : pages_) ::operator delete(page, std::align_val_t{alignof(T)});
+  }
+
+  T& at(std::uint32_t pos) { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  const T& at(std::uint32_t pos) const { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  T* page(std::uint32_t p) { return pages_[p]; }
+
+  // Constructs a new component at the end of the pool.
+  template <class... Args>
+  T& emplace(Entity e, std::uint64_t tick, Args&&... args) {
+    const std::uint32_t pos = size();
+    if ((pos >> kPageShift) >= pages_.size())
+      pages_.push_back(static_cast<T*>(::operator new(sizeof(T) * kPageSize, std::align_val_t{alignof(T)})));
+    T* slot = &at(pos);
+    ::new (static_cast<void*>(slot)) T(std::forward<Args>(args)...);
+    push(e, tick);
+    return *slot;
+  }
+
+ private:
+  void destroy_at(std::uint32_t pos) override { at(pos).~T(); }
+  void relocate(std::uint32_t from, std::uint32_t to) override {
+    ::new (static_cast<void*>(&at(to))) T(std::move(at(from)));
+    at(from).~T();
+  }
+
+  std::vector<T*> pages_;
+};
+
+template <class Fn, class... T>
+inline constexpr bool kTakesEntity = std::is_invocable_v<Fn&, Entity, T&...>;
+
+}  // namespace detail
+
+template <class... T>
+class View;
+
+class World {
+ public:
+  World();
+  ~World();
+  World(World&&) noexcept;
+  World& operator=(World&&) noexcept;
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  // --- Entities ---------------------------------------------------------------------------
+  // A new entity without components. O(1) amortised.
+  Entity create();
+  // Removes every component (each on_remove fires while the entity is still alive), then bumps
+  // the index's generation so every handle to it turns stale. A stale or null handle is ignored.
+  void destroy(Entity e);
+  // False for null and stale handles.
+  bool alive(Entity e) const {
+    return e.index < generations_.size() && generations_[e.index] == e.generation && live_[e.index];
+  }
+  // Number of alive entities.
+  std::size_t entity_count() const { return generations_.size() - free_.size() - retired_; }
+
+  // --- Components (T: a movable object type) ------------------------------------------------
+  // Constructs T(args...) (aggregates too), or replaces the present one; stamps the current tick.
+  // on_add fires only when the component was absent. Precondition: alive(e) (asserted).
+  template <class T, class... Args>
+  T& add(Entity e, Args&&... args);
+  // False when absent or the handle is stale.
+  template <class T>
+  bool has(Entity e) const {
+    const auto* p = pool_if<T>();
+    return p && alive(e) && p->find(e.index) != detail::kNone;
+  }
+  // Precondition: has<T>(e) (asserted). O(1): two page look-ups.
+  template <class T>
+  T& get(Entity e) {
+    T* c = try_get<T>(e);
+    assert(c && "World::get: the entity lacks this component or the handle is stale");
+    return *c;
+  }
+  template <class T>
+  const T& get(Entity e) const {
+    const T* c = try_get<T>(e);
+    assert(c && "World::get: the entity lacks this component or the handle is stale");
+    return *c;
+  }
+  // nullptr when absent or the handle is stale.
+  template <class T>
+  T* try_get(Entity e) {
+    auto* p = pool_if<T>();
+    if (!p || !alive(e)) return nullptr;
+    const std::uint32_t pos = p->find(e.index);
+    return pos == detail::kNone ? nullptr : &p->at(pos);
+  }
+  template <class T>
+  const T* try_get(Entity e) const {
+    const auto* p = pool_if<T>();
+    if (!p || !alive(e)) return nullptr;
+    const std::uint32_t pos = p->find(e.index);
+    return pos == detail::kNone ? nullptr : &p->at(pos);
+  }
+  // Fires on_remove (the component still readable), then removes it. False when absent.
+  template <class T>
+  bool remove(Entity e);
+  // get() and stamp the current tick: use it for writes that systems should notice.
+  template <class T>
+  T& patch(Entity e);
+  // The tick at which e's T was last added or patched; 0 when absent.
+  template <class T>
+  std::uint64_t changed_tick(Entity e) const {
+    const auto* p = pool_if<T>();
+    if (!p || !alive(e)) return 0;
+    const std::uint32_t pos = p->find(e.index);
+    return pos == detail::kNone ? 0 : p->ticks_[pos];
+  }
+  // Number of entities with T. O(1).
+  template <class T>
+  std::size_t count() const {
+    const auto* p = pool_if<T>();
+    return p ? p->live() : 0;
+  }
+
+  // --- Views --------------------------------------------------------------------------------
+  // Entities having all of T...; callbacks take (Entity, T&...) or (T&...). See View below.
+  template <class... T>
+  View<T...> view();
+  // Shorthand for view<T...>().each(fn).
+  template <class... T, class Fn>
+  void each(Fn&& fn);
+
+  // --- Change ticks -------------------------------------------------------------------------
+  std::uint64_t tick() const { return tick_; }
+  // Advances and returns the tick. update() and run_phase() do this around every system; call
+  // it when running a change-tracking pass by hand (see update_world_transforms()).
+  std::uint64_t advance_tick() { return ++tick_; }
+
+  // --- Systems ------------------------------------------------------------------------------
+  // Registers a system after those of its phase. Not during update(). A system that writes a
+  // component it did not declare in `writes` (add/patch/remove) fails an assertion in debug builds.
+  void add_system(SystemDesc desc);
+  // Runs the systems of one phase, then advances the tick.
+  void run_phase(Phase phase, double dt);
+  // Runs every phase in order; records each system's milliseconds.
+  void update(double dt);
+  // Registered systems in execution order, with their declared access and last timings.
+  const std::vector<SystemInfo>& systems() const { return systems_; }
+
+  // --- Events -------------------------------------------------------------------------------
+  // on_add fires after T was added to an entity; on_remove before T is removed (or its entity
+  // destroyed), while get<T>() still works. Listeners may change the World.
+  template <class T>
+  Connection on_add(std::function<void(World&, Entity)> fn) {
+    auto& p = pool<T>();
+    return connect(p, p.on_add_, std::move(fn));
+  }
+  template <class T>
+  Connection on_remove(std::function<void(World&, Entity)> fn) {
+    auto& p = pool<T>();
+    return connect(p, p.on_remove_, std::move(fn));
+  }
+
+  // --- Resources ----------------------------------------------------------------------------
+  // World-level singleton of type T (default-constructed on first use); stable address.
+  template <class T>
+  T& resource() {
+    const ComponentId id = component_id<T>();
+    if (id >= resources_.size()) resources_.resize(id + 1);
+    if (!resources_[id]) resources_[id] = std::make_shared<T>();
+    return *static_cast<T*>(resources_[id].get());
+  }
+
+ private:
+  template <class... T>
+  friend class View;
+
+  template <class T>
+  detail::Pool<T>& pool() {
+    const ComponentId id = component_id<T>();
+    if (id >= pools_.size()) pools_.resize(id + 1);
+    if (!pools_[id]) pools_[id] = std::make_unique<detail::Pool<T>>();
+    return static_cast<detail::Pool<T>&>(*pools_[id]);
+  }
+  template <class T>
+  detail::Pool<T>* pool_if() {
+    const ComponentId id = component_id<T>();
+    return id < pools_.size() ? static_cast<detail::Pool<T>*>(pools_[id].get()) : nullptr;
+  }
+  template <class T>
+  const detail::Pool<T>* pool_if() const {
+    const ComponentId id = component_id<T>();
+    return id < pools_.size() ? static_cast<const detail::Pool<T>*>(pools_[id].get()) : nullptr;
+  }
+
+  // Removes e's component from `p` (firing on_remove); false when absent.
+  bool remove_from(detail::PoolBase& p, Entity e);
+  Connection connect(detail::PoolBase& p, std::vector<std::shared_ptr<detail::Listener>>& list,
+                     std::function<void(World&, Entity)> fn);
+  // Debug check that a running system declared a write to `id`.
+  bool write_declared(ComponentId id) const;
+
+  // Iteration scope: structural removals leave tombstones until the outermost scope ends.
+  void begin_iteration() { ++iterating_; }
+  void end_iteration() {
+    if (--iterating_ == 0 && !pending_compaction_.empty()) compact_pending();
+  }
+  void compact_pending();
+  struct IterationScope {
+    World& w;
+    explicit IterationScope(World& world) : w(world) { w.begin_iteration(); }
+    ~IterationScope() { w.end_iteration(); }
+    IterationScope(const IterationScope&) = delete;
+    IterationScope& operator=(const IterationScope&) = delete;
+  };
+
+  std::vector<std::uint32_t> generations_;
+  std::vector<std::uint8_t> live_;
+  std::vector<std::uint32_t> free_;
+  std::size_t retired_ = 0;  // indices whose generation is exhausted (never reused)
+  std::vector<std::unique_ptr<detail::PoolBase>> pools_;
+  std::vector<std::shared_ptr<void>> resources_;
+  std::uint64_t tick_ = 1;
+  int iterating_ = 0;
+  std::vector<detail::PoolBase*> pending_compaction_;
+
+  std::vector<SystemInfo> systems_;
+  std::vector<std::function<void(World&, const SystemContext&)>> system_fns_;
+  int running_system_ = -1;  // index into systems_ while one runs
+};
+
+// Iterates the entities that have all of T... . Obtain with World::view<T...>(); cheap to create.
+// Cost: one pass over the smallest pool (each) or over the first pool (each_changed), plus one
+// look-up per other component. Structural changes inside the callback follow the rules at the top.
+template <class... T>
+class View {
+  static_assert(sizeof...(T) >= 1, "a view needs at least one component type");
+
+ public:
+  explicit View(World& world) : world_(&world) {}
+
+  // Calls fn(Entity, T&...) or fn(T&...) for each entity with all of T... .
+  template <class Fn>
+  void each(Fn&& fn) {
+    if constexpr (sizeof...(T) == 1) {
+      each_single(fn);
+    } else {
+      detail::PoolBase* pools[] = {&world_->pool<T>()...};
+      detail::PoolBase* lead = pools[0];
+      for (detail::PoolBase* p : pools)
+        if (p->live() < lead->live()) lead = p;
+      each_multi(lead, fn, [](std::uint32_t) { return true; });
+    }
+  }
+
+  // As each(), restricted to entities whose first listed component was added or patched after
+  // tick `since` (pass SystemContext::last_run).
+  template <class Fn>
+  void each_changed(std::uint64_t since, Fn&& fn) {
+    detail::PoolBase* lead = &world_->pool<First>();
+    each_multi(lead, fn, [lead, since](std::uint32_t i) { return lead->ticks_[i] > since; });
+  }
+
+  // Number of entities with all of T... (one pass for several components).
+  std::size_t count() {
+    std::size_t n = 0;
+    each([&n](Entity, T&...) { ++n; });
+    return n;
+  }
+
+ private:
+  using First = std::tuple_element_t<0, std::tuple<T...>>;
+
+  // One component: a plain loop over each page's contiguous array; tombstones are checked only
+  // when the pool has some.
+  template <class Fn>
+  void each_single(Fn& fn) {
+    auto& p = world_->pool<First>();
+    World::IterationScope scope(*world_);
+    const std::uint32_t n = p.size();
+    for (std::uint32_t base = 0; base < n; base += detail::kPageSize) {
+      First* data = p.page(base >> detail::kPageShift);
+      const std::uint32_t end = n - base < detail::kPageSize ? n - base : detail::kPageSize;
+      for (std::uint32_t i = 0; i < end; ++i) {
+        if (p.tombstones_ != 0 && p.dense_[base + i].index == detail::kNone) continue;
+        if constexpr (detail::kTakesEntity<Fn, First>)
+          fn(p.dense_[base + i], data[i]);
+        else
+          fn(data[i]);
+      }
+    }
+  }
+
+  template <class Fn, class Filter>
+  void each_multi(detail::PoolBase* lead, Fn& fn, Filter&& filter) {
+    const std::tuple<detail::Pool<T>*...> pools{&world_->pool<T>()...};
+    World::IterationScope scope(*world_);
+    const std::uint32_t n = lead->size();
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const Entity e = lead->dense_[i];
+      if (e.index == detail::kNone || !filter(i)) continue;
+      visit(fn, pools, e, i, std::index_sequence_for<T...>{});
+    }
+  }
+
+  // Looks the entity up in every pool (trying the lead's position first) and calls fn.
+  template <class Fn, std::size_t... I>
+  static void visit(Fn& fn, const std::tuple<detail::Pool<T>*...>& pools, Entity e, std::uint32_t hint,
+                    std::index_sequence<I...>) {
+    const std::uint32_t pos[] = {std::get<I>(pools)->find(e.index, hint)...};
+    for (std::uint32_t p : pos)
+      if (p == detail::kNone) return;
+    if constexpr (detail::kTakesEntity<Fn, T...>)
+      fn(e, std::get<I>(pools)->at(pos[I])...);
+    else
+      fn(std::get<I>(pools)->at(pos[I])...);
+  }
+
+  World* world_;
+};
+
+// --- World templates ---------------------------------------------------------------------------
+
+template <class T, class... Args>
+T& World::add(Entity e, Args&&... args) {
+  assert(alive(e) && "World::add: stale or null entity handle");
+  assert(write_declared(component_id<T>()) && "a system adds a component it did not declare in SystemDesc::writes");
+  auto& p = pool<T>();
+  const std::uint32_t pos = p.find(e.index);
+  if (pos != detail::kNone) {
+    T& c = p.at(pos);
+    c = T(std::forward<Args>(args)...);
+    p.ticks_[pos] = tick_;
+    return c;
+  }
+  T& c = p.emplace(e, tick_, std::forward<Args>(args)...);
+  if (p.on_add_.empty()) return c;
+  p.fire(*this, p.on_add_, e);
+  // A listener may have removed or replaced it (or moved it by a removal): look it up again.
+  T* now = try_get<T>(e);
+  assert(now && "an on_add listener removed the component it was told about");
+  return *now;
+}
+
+template <class T>
+bool World::remove(Entity e) {
+  assert(write_declared(component_id<T>()) && "a system removes a component it did not declare in SystemDesc::writes");
+  auto* p = pool_if<T>();
+  if (!p || !alive(e)) return false;
+  return remove_from(*p, e);
+}
+
+template <class T>
+T& World::patch(Entity e) {
+  assert(write_declared(component_id<T>()) && "a system patches a component it did not declare in SystemDesc::writes");
+  auto* p = pool_if<T>();
+  assert(p && alive(e) && "World::patch: the entity lacks this component or the handle is stale");
+  const std::uint32_t pos = p->find(e.index);
+  assert(pos != detail::kNone && "World::patch: the entity lacks this component");
+  p->ticks_[pos] = tick_;
+  return p->at(pos);
+}
+
+template <class... T>
+View<T...> World::view() {
+  return View<T...>(*this);
+}
+
+template <class... T, class Fn>
+void World::each(Fn&& fn) {
+  view<T...>().each(std::forward<Fn>(fn));
+}
+
+}  // namespace penumbra
+
+template <>
+struct std::hash<penumbra::Entity> {
+  std::size_t operator()(const penumbra::Entity& e) const noexcept {
+    return std::hash<std::uint64_t>{}((std::uint64_t{e.generation} << 32) | e.index);
+  }
+};
