@@ -27,8 +27,10 @@ class TaskScheduler {
   virtual void run(std::size_t count, const std::function<void(std::size_t)>& task) = 0;
 };
 
-// Penumbra's default scheduler: a fixed pool of worker threads. threads == 0 means one per
-// hardware thread. The calling thread takes part in run().
+// Penumbra's default scheduler: a fixed pool of threads - 1 workers plus the calling thread, which
+// takes part in run(). threads == 0 means one per hardware thread; threads == 1 runs serially.
+// run() may be called from several threads (calls are served one at a time) and from inside a
+// task of the same pool (the nested call runs serially on the calling thread).
 class ThreadPool final : public TaskScheduler {
  public:
   explicit ThreadPool(unsigned threads = 0);
@@ -54,7 +56,8 @@ class CancelToken {
   std::atomic<bool> flag_{false};
 };
 
-// One progress report: stage `stage_index` of `stage_count` named `stage`, `fraction` in [0, 1].
+// One progress report: stage `stage_index` (1-based) of `stage_count` named `stage`, `fraction` in
+// [0, 1]. Within a stage the fractions reported never decrease and the last one is exactly 1.
 struct Progress {
   std::string_view stage;
   int stage_index = 0;
@@ -78,7 +81,9 @@ class JobContext {
 
   // Declares how many stages the work has in total (for "stage 2 of 5" reports).
   void set_stage_count(int count);
-  // Starts the next named stage with `work_units` units of work to report through advance().
+  // Starts the next named stage with `work_units` units of work to report through advance(),
+  // closing the previous stage (a final report) if its units were not all advanced. Call from
+  // the thread that drives the work, not from inside parallel_for.
   void begin_stage(std::string name, std::uint64_t work_units);
   // Reports `units` more units done in the current stage. Thread-safe.
   void advance(std::uint64_t units);
@@ -86,9 +91,10 @@ class JobContext {
   bool cancelled() const { return cancel_ != nullptr && cancel_->cancelled(); }
   unsigned concurrency() const;
 
-  // Runs fn(begin, end) over [0, count) in chunks of `grain` items (the last one shorter), in
-  // parallel on the scheduler, advancing progress by each chunk's size. Chunks not yet started
-  // when cancellation is seen are skipped and the result is ErrorCode::Cancelled.
+  // Runs fn(begin, end) over [0, count) in chunks of `grain` items (the last one shorter; grain 0
+  // means 1), in parallel on the scheduler, advancing progress by each chunk's size. Chunks not
+  // yet started when cancellation is seen are skipped and the result is ErrorCode::Cancelled;
+  // chunks already running finish. The chunk boundaries depend only on count and grain.
   Status parallel_for(std::size_t count, std::size_t grain,
                       const std::function<void(std::size_t begin, std::size_t end)>& fn);
 

@@ -20,7 +20,8 @@ std::size_t bytes_of(const std::vector<T>& v) { return v.capacity() * sizeof(T);
 // "1.5 MiB", "812 B": for reports.
 std::string format_bytes(std::uint64_t bytes);
 
-// A limit on what a computation may allocate, checked before allocating.
+// A limit on what a computation may allocate, checked before allocating. Not thread-safe: one
+// budget belongs to the thread that plans a computation's allocations.
 class MemoryBudget {
  public:
   // limit_bytes == 0 means unlimited.
@@ -29,6 +30,7 @@ class MemoryBudget {
   // Reserves `bytes` for `what`; fails with ErrorCode::OutOfBudget naming `what`, the request,
   // what is already reserved and the limit, and suggesting a smaller setting.
   Status reserve(std::string_view what, std::uint64_t bytes);
+  // Returns `bytes` of an earlier reservation (releasing more than is reserved is a bug).
   void release(std::uint64_t bytes);
 
   std::uint64_t limit() const { return limit_; }

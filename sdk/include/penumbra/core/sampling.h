@@ -1,9 +1,10 @@
 // Quasi-Monte Carlo point sets and the mappings from the unit square to directions.
 //
 // Point sets: Owen-scrambled Sobol' (Burley 2020, "Practical Hash-based Owen Scrambling"), first
-// four dimensions, and the Halton sequence for any number of dimensions. A scrambled Sobol' set of
-// 2^k points is a (0,m,2)-net in each pair of its first two dimensions: every elementary
-// interval of volume 2^-k holds exactly one point.
+// four dimensions, and the Halton sequence in its first 32 dimensions. The first 2^k points of a
+// scrambled Sobol' sequence form a (0,k,2)-net in dimensions (0, 1): every elementary interval
+// [a 2^-i, (a+1) 2^-i) x [b 2^-j, (b+1) 2^-j) with i + j = k holds exactly one point.
+// All functions are pure (thread-safe) and cost tens of nanoseconds.
 #pragma once
 
 #include <cstdint>
