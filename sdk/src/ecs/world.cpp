@@ -193,7 +193,11 @@ bool World::remove_from(detail::PoolBase& p, Entity e) {
   std::uint32_t pos = p.find(e.index);
   if (pos == detail::kNone) return false;
   if (!p.on_remove_.empty()) {
+    const std::pair<const detail::PoolBase*, std::uint32_t> key{&p, e.index};
+    if (std::find(removing_.begin(), removing_.end(), key) != removing_.end()) return false;
+    removing_.push_back(key);
     p.fire(*this, p.on_remove_, e);
+    removing_.erase(std::find(removing_.begin(), removing_.end(), key));
     pos = p.find(e.index);  // a listener may have removed it, or moved it by another removal
     if (pos == detail::kNone) return true;
   }

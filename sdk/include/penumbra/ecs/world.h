@@ -429,6 +429,9 @@ class World {
   std::uint64_t tick_ = 1;
   int iterating_ = 0;
   std::vector<detail::PoolBase*> pending_compaction_;
+  // Removals whose on_remove listeners are running: a listener that removes the same component
+  // again (for example by destroying the entity) does not fire it twice.
+  std::vector<std::pair<const detail::PoolBase*, std::uint32_t>> removing_;
 
   std::vector<SystemInfo> systems_;
   std::vector<std::function<void(World&, const SystemContext&)>> system_fns_;

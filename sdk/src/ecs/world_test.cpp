@@ -1,0 +1,461 @@
+// World semantics: stale handles, storage against a reference model, structural changes during
+// iteration, change ticks, system phases and events.
+#include "penumbra/ecs/world.h"
+
+#include <algorithm>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "penumbra/core/random.h"
+
+namespace penumbra {
+namespace {
+
+struct Position {
+  float x = 0, y = 0;
+};
+struct Velocity {
+  float x = 0, y = 0;
+};
+struct Health {
+  int value = 100;
+};
+// Counts live instances so that tests can check every component is destroyed exactly once.
+struct Tracked {
+  static inline int live = 0;
+  int value = 0;
+  explicit Tracked(int v = 0) : value(v) { ++live; }
+  Tracked(const Tracked& o) : value(o.value) { ++live; }
+  Tracked(Tracked&& o) noexcept : value(o.value) { ++live; }
+  Tracked& operator=(const Tracked&) = default;
+  Tracked& operator=(Tracked&&) = default;
+  ~Tracked() { --live; }
+};
+
+std::set<std::uint32_t> visited_indices(World& w) {
+  std::set<std::uint32_t> out;
+  w.each<Position, Velocity>([&](Entity e, Position&, Velocity&) { out.insert(e.index); });
+  return out;
+}
+
+TEST(World, StaleHandlesAreDetectedNeverAliased) {
+  World w;
+  EXPECT_FALSE(w.alive(Entity::null()));
+  EXPECT_FALSE(static_cast<bool>(Entity::null()));
+  const Entity a = w.create();
+  w.add<Health>(a, 7);
+  EXPECT_TRUE(w.alive(a));
+  w.destroy(a);
+  EXPECT_FALSE(w.alive(a));
+  EXPECT_EQ(w.try_get<Health>(a), nullptr);
+  EXPECT_FALSE(w.has<Health>(a));
+  EXPECT_FALSE(w.remove<Health>(a));
+  w.destroy(a);  // destroying a stale handle is a no-op
+
+  // The slot is reused under a new generation; the old handle stays stale.
+  const Entity b = w.create();
+  EXPECT_EQ(b.index, a.index);
+  EXPECT_NE(b.generation, a.generation);
+  EXPECT_FALSE(w.alive(a));
+  EXPECT_TRUE(w.alive(b));
+  EXPECT_FALSE(w.has<Health>(b));  // the new entity did not inherit the old component
+  w.add<Health>(b, 9);
+  EXPECT_EQ(w.try_get<Health>(a), nullptr);
+  EXPECT_EQ(w.get<Health>(b).value, 9);
+  EXPECT_EQ(w.entity_count(), 1u);
+}
+
+TEST(World, AddReplacesAndRemoveReportsAbsence) {
+  World w;
+  const Entity e = w.create();
+  int adds = 0;
+  Connection c = w.on_add<Health>([&](World&, Entity) { ++adds; });
+  w.add<Health>(e, 1);
+  w.add<Health>(e, 2);  // replaces
+  EXPECT_EQ(w.get<Health>(e).value, 2);
+  EXPECT_EQ(adds, 1);
+  EXPECT_EQ(w.count<Health>(), 1u);
+  EXPECT_TRUE(w.remove<Health>(e));
+  EXPECT_FALSE(w.remove<Health>(e));
+  EXPECT_EQ(w.count<Health>(), 0u);
+  EXPECT_EQ(w.count<Velocity>(), 0u);  // never used: no pool
+  const World& cw = w;
+  EXPECT_EQ(cw.try_get<Health>(e), nullptr);
+}
+
+TEST(World, ReferencesStayValidAcrossAdds) {
+  World w;
+  const Entity first = w.create();
+  Position& p = w.add<Position>(first, 1.0f, 2.0f);
+  for (int i = 0; i < 5000; ++i) w.add<Position>(w.create(), float(i), 0.0f);
+  EXPECT_EQ(&p, &w.get<Position>(first));
+  EXPECT_EQ(p.x, 1.0f);
+  EXPECT_EQ(p.y, 2.0f);
+}
+
+// Random operations checked against a std::map model: storage, views and handles agree.
+TEST(World, RandomOperationsMatchAReferenceModel) {
+  World w;
+  std::map<std::uint32_t, Entity> entities;   // index -> live handle
+  std::map<std::uint32_t, float> pos, vel;    // index -> Position::x / Velocity::x
+  std::vector<Entity> dead;
+  Rng rng = Rng::stream(42, 0);
+  const auto pick = [&]() {
+    auto it = entities.begin();
+    std::advance(it, rng.next_u32() % entities.size());
+    return it->second;
+  };
+  for (int step = 0; step < 20000; ++step) {
+    const std::uint32_t op = rng.next_u32() % 8;
+    if (op == 0 || entities.size() < 4) {
+      const Entity e = w.create();
+      ASSERT_FALSE(entities.count(e.index));
+      entities[e.index] = e;
+    } else if (op == 1) {
+      const Entity e = pick();
+      w.destroy(e);
+      entities.erase(e.index);
+      pos.erase(e.index);
+      vel.erase(e.index);
+      dead.push_back(e);
+    } else if (op == 2 || op == 3) {
+      const Entity e = pick();
+      const float v = float(step);
+      w.add<Position>(e, v, 0.0f);
+      pos[e.index] = v;
+    } else if (op == 4 || op == 5) {
+      const Entity e = pick();
+      const float v = float(-step);
+      w.add<Velocity>(e, v, 0.0f);
+      vel[e.index] = v;
+    } else if (op == 6) {
+      const Entity e = pick();
+      EXPECT_EQ(w.remove<Position>(e), pos.erase(e.index) == 1);
+    } else {
+      const Entity e = pick();
+      EXPECT_EQ(w.remove<Velocity>(e), vel.erase(e.index) == 1);
+    }
+  }
+  ASSERT_EQ(w.entity_count(), entities.size());
+  ASSERT_EQ(w.count<Position>(), pos.size());
+  ASSERT_EQ(w.count<Velocity>(), vel.size());
+  for (const auto& [index, e] : entities) {
+    ASSERT_TRUE(w.alive(e));
+    const Position* p = w.try_get<Position>(e);
+    ASSERT_EQ(p != nullptr, pos.count(index) == 1);
+    if (p) {
+      EXPECT_EQ(p->x, pos[index]);
+    }
+    const Velocity* v = w.try_get<Velocity>(e);
+    ASSERT_EQ(v != nullptr, vel.count(index) == 1);
+    if (v) {
+      EXPECT_EQ(v->x, vel[index]);
+    }
+  }
+  for (const Entity e : dead) EXPECT_FALSE(w.alive(e));  // destroyed handles never come back
+  std::set<std::uint32_t> both;
+  for (const auto& [index, x] : pos)
+    if (vel.count(index)) both.insert(index);
+  EXPECT_EQ(visited_indices(w), both);
+  std::size_t n = 0;
+  w.each<Position>([&](Entity e, Position& p) {
+    EXPECT_EQ(p.x, pos.at(e.index));
+    ++n;
+  });
+  EXPECT_EQ(n, pos.size());
+}
+
+TEST(World, EveryComponentIsDestroyedExactlyOnce) {
+  Tracked::live = 0;
+  {
+    World w;
+    std::vector<Entity> es;
+    for (int i = 0; i < 3000; ++i) {
+      es.push_back(w.create());
+      w.add<Tracked>(es.back(), i);
+    }
+    for (int i = 0; i < 3000; i += 3) w.remove<Tracked>(es[static_cast<std::size_t>(i)]);
+    w.each<Tracked>([&](Entity e, Tracked& t) {
+      if (t.value % 3 == 1) w.destroy(e);  // tombstones, compacted afterwards
+    });
+    EXPECT_EQ(Tracked::live, 1000);
+    EXPECT_EQ(w.count<Tracked>(), 1000u);
+    w.each<Tracked>([](Tracked& t) { EXPECT_EQ(t.value % 3, 2); });
+  }
+  EXPECT_EQ(Tracked::live, 0);
+}
+
+TEST(World, ViewsVisitTheIntersectionWithEitherCallbackForm) {
+  World w;
+  std::set<std::uint32_t> expected;
+  for (int i = 0; i < 2000; ++i) {
+    const Entity e = w.create();
+    if (i % 2 == 0) w.add<Position>(e, float(i), 0.0f);
+    if (i % 3 == 0) w.add<Velocity>(e, 1.0f, 0.0f);
+    if (i % 6 == 0) expected.insert(e.index);
+  }
+  EXPECT_EQ(visited_indices(w), expected);
+  w.each<Velocity, Position>([](Velocity& v, Position& p) { p.y += v.x; });
+  float sum = 0;
+  w.each<Position>([&](Position& p) { sum += p.y; });
+  EXPECT_EQ(sum, float(expected.size()));
+  EXPECT_EQ((w.view<Position, Velocity>().count()), expected.size());
+}
+
+TEST(World, RemovalDuringIterationSkipsUnreachedAndVisitsOthersOnce) {
+  World w;
+  std::vector<Entity> es;
+  for (int i = 0; i < 3000; ++i) {
+    es.push_back(w.create());
+    w.add<Position>(es.back(), float(i), 0.0f);
+    w.add<Velocity>(es.back());
+  }
+  // Each visited entity removes the Position of the entity 1500 slots later (not yet reached) and
+  // its own Velocity: the later ones must be skipped, everything else visited once.
+  std::map<std::uint32_t, int> visits;
+  w.each<Position, Velocity>([&](Entity e, Position& p, Velocity&) {
+    ++visits[e.index];
+    const auto i = static_cast<std::size_t>(p.x);
+    if (i < 1500) w.remove<Position>(es[i + 1500]);
+    w.remove<Velocity>(e);
+    EXPECT_EQ(w.try_get<Velocity>(e), nullptr);
+    EXPECT_EQ(&w.get<Position>(e), &p);  // the visited component did not move
+  });
+  EXPECT_EQ(visits.size(), 1500u);
+  for (const auto& [index, count] : visits) {
+    EXPECT_EQ(count, 1);
+    EXPECT_LT(index, es[1500].index);
+  }
+  // Compaction after the iteration left consistent pools.
+  EXPECT_EQ(w.count<Position>(), 1500u);
+  EXPECT_EQ(w.count<Velocity>(), 1500u);  // the unvisited half keeps its Velocity
+  for (std::size_t i = 0; i < 1500; ++i) {
+    EXPECT_EQ(w.get<Position>(es[i]).x, float(i));
+    EXPECT_FALSE(w.has<Velocity>(es[i]));
+    EXPECT_TRUE(w.has<Velocity>(es[i + 1500]));
+  }
+}
+
+TEST(World, AdditionsDuringIterationAreNotVisited) {
+  World w;
+  for (int i = 0; i < 1500; ++i) w.add<Position>(w.create(), float(i), 0.0f);
+  int visits = 0;
+  w.each<Position>([&](Position& p) {
+    ++visits;
+    EXPECT_LT(p.x, 1500.0f);
+    w.add<Position>(w.create(), 1e6f, 0.0f);  // grows the pool past a page boundary
+  });
+  EXPECT_EQ(visits, 1500);
+  EXPECT_EQ(w.count<Position>(), 3000u);
+}
+
+TEST(World, NestedIterationWithDestroyAndRecreate) {
+  World w;
+  std::vector<Entity> es;
+  for (int i = 0; i < 100; ++i) {
+    es.push_back(w.create());
+    w.add<Health>(es.back(), i);
+  }
+  int outer = 0, inner = 0;
+  w.each<Health>([&](Entity e, Health& h) {
+    ++outer;
+    if (h.value == 10) {
+      // Destroy every other entity from inside a nested iteration; the destroyed slots are
+      // reused at once by new entities, which must not be visited by either loop.
+      w.each<Health>([&](Entity f, Health& g) {
+        ++inner;
+        if (g.value % 2 == 1 && f != e) {
+          w.destroy(f);
+          w.add<Health>(w.create(), -1);
+        }
+      });
+    }
+  });
+  EXPECT_EQ(inner, 100);
+  // The outer loop saw 0..10 and then only the even values above 10.
+  EXPECT_EQ(outer, 11 + 44);
+  EXPECT_EQ(w.count<Health>(), 100u);
+  for (int i = 0; i < 100; ++i) EXPECT_EQ(w.alive(es[static_cast<std::size_t>(i)]), i % 2 == 0);
+}
+
+TEST(World, ChangeTicksSelectPatchedAndAdded) {
+  World w;
+  std::vector<Entity> es;
+  for (int i = 0; i < 10; ++i) {
+    es.push_back(w.create());
+    w.add<Position>(es.back());
+    w.add<Velocity>(es.back());
+  }
+  const std::uint64_t since = w.tick();
+  w.advance_tick();
+  w.patch<Position>(es[3]).x = 1;
+  w.patch<Velocity>(es[4]).x = 1;  // not the first listed component: not selected
+  const Entity fresh = w.create();
+  w.add<Position>(fresh);
+  w.add<Velocity>(fresh);
+  std::set<std::uint32_t> changed;
+  w.view<Position, Velocity>().each_changed(since, [&](Entity e, Position&, Velocity&) { changed.insert(e.index); });
+  EXPECT_EQ(changed, (std::set<std::uint32_t>{es[3].index, fresh.index}));
+  EXPECT_EQ(w.changed_tick<Position>(es[3]), since + 1);
+  EXPECT_EQ(w.changed_tick<Position>(es[2]), since);
+  EXPECT_EQ(w.changed_tick<Health>(es[2]), 0u);
+}
+
+TEST(World, SystemsRunInPhaseOrderAndSeeChangesSinceTheirLastRun) {
+  World w;
+  std::vector<std::string> order;
+  std::vector<std::size_t> mover_seen;
+  const auto record = [&](std::string name, Phase phase) {
+    SystemDesc d;
+    d.name = name;
+    d.phase = phase;
+    d.run = [&order, name](World&, const SystemContext&) { order.push_back(name); };
+    w.add_system(std::move(d));
+  };
+  record("render", Phase::Render);
+  record("input", Phase::Input);
+  record("lighting", Phase::Lighting);
+  record("input2", Phase::Input);
+
+  // "watch" (Animation) counts the Positions changed since it last ran; "mover" (Lighting) patches
+  // one Position per run, after "watch" has run in the same update.
+  const Entity a = w.create();
+  w.add<Position>(a);
+  const Entity b = w.create();
+  w.add<Position>(b);
+  SystemDesc watch;
+  watch.name = "watch";
+  watch.phase = Phase::Animation;
+  watch.reads = {component_id<Position>()};
+  watch.run = [&](World& world, const SystemContext& ctx) {
+    std::size_t n = 0;
+    world.view<Position>().each_changed(ctx.last_run, [&](Position&) { ++n; });
+    mover_seen.push_back(n);
+    order.push_back("watch");
+  };
+  w.add_system(std::move(watch));
+  SystemDesc mover;
+  mover.name = "mover";
+  mover.phase = Phase::Lighting;
+  mover.writes = {component_id<Position>()};
+  mover.run = [&](World& world, const SystemContext& ctx) {
+    if (ctx.last_run == 0) world.patch<Position>(a).x += 1;
+  };
+  w.add_system(std::move(mover));
+
+  w.update(0.016);
+  EXPECT_EQ(order, (std::vector<std::string>{"input", "input2", "watch", "lighting", "render"}));
+  w.update(0.016);
+  w.patch<Position>(b).x = 5;  // written between updates by game code
+  w.update(0.016);
+  w.update(0.016);
+  // First run: both new; second: mover's write from the first update; third: game code's write.
+  EXPECT_EQ(mover_seen, (std::vector<std::size_t>{2, 1, 1, 0}));
+
+  const auto& systems = w.systems();
+  ASSERT_EQ(systems.size(), 6u);
+  EXPECT_EQ(systems[2].name, "watch");
+  EXPECT_EQ(systems[2].reads, std::vector<ComponentId>{component_id<Position>()});
+  EXPECT_EQ(systems[4].name, "mover");
+  EXPECT_EQ(systems[4].writes, std::vector<ComponentId>{component_id<Position>()});
+  for (const SystemInfo& s : systems) {
+    EXPECT_EQ(s.runs, 4u);
+    EXPECT_GE(s.last_ms, 0.0);
+    EXPECT_GT(s.last_run, 0u);
+  }
+  EXPECT_TRUE(component_name(component_id<Position>()).ends_with("::Position"));
+  EXPECT_EQ(component_name(component_id<std::string>()).substr(0, 5), "std::");
+  EXPECT_STREQ(to_string(Phase::Lighting), "lighting");
+}
+
+TEST(World, EventsSeeTheComponentAndStopWhenDisconnected) {
+  World w;
+  std::vector<int> added, removed;
+  Connection on_add = w.on_add<Health>([&](World& world, Entity e) { added.push_back(world.get<Health>(e).value); });
+  Connection on_remove =
+      w.on_remove<Health>([&](World& world, Entity e) { removed.push_back(world.get<Health>(e).value); });
+  const Entity a = w.create();
+  const Entity b = w.create();
+  w.add<Health>(a, 1);
+  w.add<Health>(b, 2);
+  w.remove<Health>(a);
+  w.destroy(b);  // fires on_remove while b is still alive
+  EXPECT_EQ(added, (std::vector<int>{1, 2}));
+  EXPECT_EQ(removed, (std::vector<int>{1, 2}));
+  EXPECT_TRUE(on_add.connected());
+  on_add.disconnect();
+  EXPECT_FALSE(on_add.connected());
+  {
+    Connection scoped = std::move(on_remove);
+  }
+  const Entity c = w.create();
+  w.add<Health>(c, 3);
+  w.remove<Health>(c);
+  EXPECT_EQ(added.size(), 2u);
+  EXPECT_EQ(removed.size(), 2u);
+}
+
+TEST(World, ListenersMayChangeTheWorld) {
+  World w;
+  // Adding a Position gives a Velocity; removing a Position destroys the entity.
+  Connection c1 = w.on_add<Position>([](World& world, Entity e) { world.add<Velocity>(e, 2.0f, 0.0f); });
+  Connection c2 = w.on_remove<Position>([](World& world, Entity e) { world.destroy(e); });
+  std::vector<Entity> es;
+  for (int i = 0; i < 10; ++i) {
+    es.push_back(w.create());
+    w.add<Position>(es.back());
+  }
+  EXPECT_EQ(w.count<Velocity>(), 10u);
+  w.each<Position>([&](Entity e, Position&) {
+    if (e.index % 2 == 0) w.remove<Position>(e);
+  });
+  EXPECT_EQ(w.entity_count(), 5u);
+  EXPECT_EQ(w.count<Velocity>(), 5u);
+  EXPECT_EQ(w.count<Position>(), 5u);
+  c1.release();  // stays connected for the World's life
+  const Entity e = w.create();
+  w.add<Position>(e);
+  EXPECT_TRUE(w.has<Velocity>(e));
+}
+
+TEST(World, ConnectionOutlivingItsWorldIsHarmless) {
+  Connection c;
+  {
+    World w;
+    c = w.on_add<Health>([](World&, Entity) {});
+    EXPECT_TRUE(c.connected());
+  }
+  EXPECT_FALSE(c.connected());
+  c.disconnect();
+}
+
+TEST(World, ResourcesAreSingletonsAndWorldsMove) {
+  World w;
+  w.resource<Health>().value = 5;
+  EXPECT_EQ(&w.resource<Health>(), &w.resource<Health>());
+  const Entity e = w.create();
+  w.add<Position>(e, 3.0f, 4.0f);
+  World moved = std::move(w);
+  EXPECT_EQ(moved.resource<Health>().value, 5);
+  EXPECT_EQ(moved.get<Position>(e).y, 4.0f);
+}
+
+#ifndef NDEBUG
+TEST(WorldDeathTest, UndeclaredWriteFromASystemAsserts) {
+  World w;
+  const Entity e = w.create();
+  w.add<Position>(e);
+  SystemDesc d;
+  d.name = "sneaky";
+  d.run = [e](World& world, const SystemContext&) { world.patch<Position>(e).x = 1; };
+  w.add_system(std::move(d));
+  EXPECT_DEATH(w.update(0.0), "did not declare");
+}
+#endif
+
+}  // namespace
+}  // namespace penumbra
