@@ -32,12 +32,6 @@ std::string hex64(std::uint64_t v) {
   return buf;
 }
 
-std::string fourcc_text(std::uint32_t type) {
-  std::string s(4, ' ');
-  for (int i = 0; i < 4; ++i) s[static_cast<std::size_t>(i)] = static_cast<char>((type >> (8 * i)) & 0xffu);
-  return s;
-}
-
 }  // namespace
 
 int cmd_bake(Args args) {
@@ -102,7 +96,7 @@ int cmd_bake(Args args) {
   auto result = bake_world(world, names, settings, jobs);
   std::signal(SIGINT, SIG_DFL);
   if (!result) return fail(kFailure, scene + ": " + result.error().message);
-  if (Status s = write_bake_file(*out, result->file); !s) return fail(kFailure, s.error().message);
+  if (Status s = write_bake_file(*out, result->file, &g_cancel); !s) return fail(kFailure, s.error().message);
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   const BakeReport& r = result->report;
@@ -133,7 +127,7 @@ int cmd_info(Args args) {
               path.c_str(), file->format_version, file->sdk_version.c_str(), hex64(file->input_hash).c_str(),
               file->chunks.size(), format_bytes(std::filesystem::file_size(path)).c_str());
   for (const BakeChunk& chunk : file->chunks) {
-    std::printf("  chunk %s v%u '%s': %s\n", fourcc_text(chunk.type).c_str(), chunk.version, chunk.label.c_str(),
+    std::printf("  chunk %s v%u '%s': %s\n", fourcc_to_string(chunk.type).c_str(), chunk.version, chunk.label.c_str(),
                 format_bytes(chunk.payload.size()).c_str());
     for (const Baker& b : world.resource<BakerRegistry>().all())
       if (b.describe)

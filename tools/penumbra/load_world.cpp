@@ -1,6 +1,5 @@
 #include "cli.h"
 #include "penumbra/bake/vertex_ao.h"
-#include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 
@@ -8,7 +7,6 @@ namespace penumbra::cli {
 
 Status load_world(World& world, std::string_view scene) {
   // Every module the tool links registers its systems and bakers.
-  register_transform_systems(world);
   register_scene_systems(world);
   register_vertex_ao(world);
 

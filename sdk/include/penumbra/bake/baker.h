@@ -34,7 +34,7 @@ struct BakeSettings {
 // What a baker receives. `jobs` already carries the host's scheduler, progress and cancellation;
 // a baker opens its own stages with jobs.begin_stage().
 struct BakeInputs {
-  const World& world;
+  World& world;
   const RayScene& rays;
   const BakeSettings& settings;
   JobContext& jobs;
@@ -47,7 +47,7 @@ struct Baker {
   int stages = 1;           // how many progress stages bake() opens
   // Adds everything bake() reads (scene content it depends on, its settings) to the input hash,
   // so that an unchanged scene is not baked again.
-  std::function<void(const World&, const BakeSettings&, Hasher&)> hash_inputs;
+  std::function<void(World&, const BakeSettings&, Hasher&)> hash_inputs;
   std::function<Result<std::vector<BakeChunk>>(BakeInputs&)> bake;
   // Human-readable lines about one of its chunks, for `penumbra info`; empty when not its chunk.
   std::function<std::vector<std::string>(const BakeChunk&)> describe;
@@ -66,10 +66,10 @@ class BakerRegistry {
 
 // Hashes the geometry, materials, lights and transforms of every entity with a Mesh or Light, in
 // entity order: the part of the input hash that every baker shares.
-void hash_scene(const World& world, Hasher& hasher);
+void hash_scene(World& world, Hasher& hasher);
 
 // The input hash of a bake of `names` with `settings` (the seed included, the thread count not).
-std::uint64_t bake_input_hash(const World& world, const std::vector<std::string>& names, const BakeSettings& settings);
+std::uint64_t bake_input_hash(World& world, const std::vector<std::string>& names, const BakeSettings& settings);
 
 // What a bake did: per baker, the wall time, the bytes of its chunks and its description lines.
 struct BakeReport {
@@ -92,7 +92,7 @@ struct BakeResult {
 
 // Runs the named bakers (all registered ones when `names` is empty). Fails naming an unknown baker
 // and listing the known ones. The World must be up to date (world transforms computed).
-Result<BakeResult> bake_world(const World& world, const std::vector<std::string>& names, const BakeSettings& settings,
+Result<BakeResult> bake_world(World& world, const std::vector<std::string>& names, const BakeSettings& settings,
                               JobContext& jobs);
 
 }  // namespace penumbra

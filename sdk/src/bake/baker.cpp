@@ -1,0 +1,180 @@
+// Baker registry, input hashing and the bake driver shared by every technique.
+#include "penumbra/bake/baker.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "penumbra/bake/ray_scene.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr const char* kSdkVersion = "0.1.0";
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+template <class T>
+std::vector<Entity> sorted_entities(World& world) {
+  std::vector<Entity> out;
+  world.each<T>([&](Entity e, T&) { out.push_back(e); });
+  std::sort(out.begin(), out.end(), [](Entity a, Entity b) { return a.index < b.index; });
+  return out;
+}
+
+}  // namespace
+
+const char* to_string(Preset preset) {
+  switch (preset) {
+    case Preset::Draft: return "draft";
+    case Preset::Medium: return "medium";
+    case Preset::High: return "high";
+  }
+  return "medium";
+}
+
+Result<Preset> parse_preset(std::string_view text) {
+  if (text == "draft") return Preset::Draft;
+  if (text == "medium") return Preset::Medium;
+  if (text == "high") return Preset::High;
+  return make_error(ErrorCode::InvalidArgument,
+                    "unknown preset '" + std::string(text) + "'; use draft, medium or high");
+}
+
+void BakerRegistry::add(Baker baker) {
+  for (Baker& b : bakers_)
+    if (b.name == baker.name) {
+      b = std::move(baker);
+      return;
+    }
+  bakers_.push_back(std::move(baker));
+}
+
+const Baker* BakerRegistry::find(std::string_view name) const {
+  for (const Baker& b : bakers_)
+    if (b.name == name) return &b;
+  return nullptr;
+}
+
+void hash_scene(World& world, Hasher& h) {
+  for (Entity e : sorted_entities<Mesh>(world)) {
+    h.add(e.index);
+    const Mesh& mesh = world.get<Mesh>(e);
+    if (mesh.data) {
+      h.add(mesh.data->positions);
+      h.add(mesh.data->normals);
+      h.add(mesh.data->indices);
+      h.add(mesh.data->joints);
+      h.add(mesh.data->weights);
+    }
+    if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
+    h.add(world.has<Static>(e));
+    if (const auto* m = world.try_get<Material>(e)) {
+      h.add(m->base_color);
+      h.add(m->emissive);
+      h.add(m->double_sided);
+      if (m->base_color_texture) h.add(m->base_color_texture->rgba8);
+    }
+  }
+  for (Entity e : sorted_entities<Light>(world)) {
+    h.add(e.index);
+    const Light& l = world.get<Light>(e);
+    h.add(l.type);
+    h.add(l.color);
+    h.add(l.intensity);
+    h.add(l.range);
+    h.add(l.inner_cone_angle);
+    h.add(l.outer_cone_angle);
+    h.add(l.size);
+    if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
+  }
+}
+
+namespace {
+
+// The bakers `names` selects, in registration order; all when empty.
+Result<std::vector<const Baker*>> select_bakers(const BakerRegistry& registry, const std::vector<std::string>& names) {
+  std::vector<const Baker*> selected;
+  for (const std::string& name : names) {
+    if (registry.find(name) == nullptr) {
+      std::string known;
+      for (const Baker& b : registry.all()) known += (known.empty() ? "" : ", ") + b.name;
+      return make_error(ErrorCode::NotFound, "no baker named '" + name + "'; known bakers: " + known);
+    }
+  }
+  for (const Baker& b : registry.all())
+    if (names.empty() || std::find(names.begin(), names.end(), b.name) != names.end()) selected.push_back(&b);
+  return selected;
+}
+
+}  // namespace
+
+std::uint64_t bake_input_hash(World& world, const std::vector<std::string>& names, const BakeSettings& settings) {
+  Hasher h;
+  h.add(std::string_view(kSdkVersion));
+  hash_scene(world, h);
+  h.add(settings.preset);
+  h.add(settings.seed);
+  auto bakers = select_bakers(world.resource<BakerRegistry>(), names);
+  if (bakers) {
+    for (const Baker* b : *bakers) {
+      h.add(std::string_view(b->name));
+      if (b->hash_inputs) b->hash_inputs(world, settings, h);
+    }
+  }
+  return h.digest();
+}
+
+Result<BakeResult> bake_world(World& world, const std::vector<std::string>& names, const BakeSettings& settings,
+                              JobContext& jobs) {
+  auto bakers = select_bakers(world.resource<BakerRegistry>(), names);
+  if (!bakers) return bakers.error();
+  if (bakers->empty()) return make_error(ErrorCode::NotFound, "no baker is registered; link a lighting module");
+
+  int stages = 1;
+  for (const Baker* b : *bakers) stages += b->stages;
+  jobs.set_stage_count(stages);
+
+  BakeResult result;
+  result.file.input_hash = bake_input_hash(world, names, settings);
+  result.file.sdk_version = kSdkVersion;
+
+  // Build the ray scene once for every baker (static geometry; bakers bake what does not move).
+  jobs.begin_stage("ray scene", 1);
+  auto start = std::chrono::steady_clock::now();
+  RaySceneOptions options;
+  options.build_threads = jobs.concurrency();
+  options.include_dynamic = false;
+  auto rays = RayScene::build(world, options);
+  if (!rays) return rays.error();
+  jobs.advance(1);
+  result.report.ray_scene_seconds = seconds_since(start);
+  result.report.ray_scene_bytes = rays->bvh_bytes();
+  result.report.triangles = rays->triangle_count();
+
+  MemoryBudget budget(settings.memory_limit_bytes);
+  for (const Baker* b : *bakers) {
+    if (jobs.cancelled()) return make_error(ErrorCode::Cancelled, "the bake was cancelled");
+    start = std::chrono::steady_clock::now();
+    BakeInputs inputs{world, *rays, settings, jobs, budget};
+    auto chunks = b->bake(inputs);
+    if (!chunks) return Error{chunks.error().code, b->name + ": " + chunks.error().message};
+    BakeReport::Item item;
+    item.baker = b->name;
+    item.seconds = seconds_since(start);
+    for (BakeChunk& chunk : *chunks) {
+      item.bytes += chunk.payload.size();
+      if (b->describe)
+        for (auto& line : b->describe(chunk)) item.lines.push_back(std::move(line));
+      result.file.chunks.push_back(std::move(chunk));
+    }
+    result.report.items.push_back(std::move(item));
+  }
+  return result;
+}
+
+}  // namespace penumbra
