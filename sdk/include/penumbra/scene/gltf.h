@@ -1,0 +1,55 @@
+// glTF 2.0 import (.gltf with external or base64 buffers, .glb) into a World, through tinygltf.
+//
+// What becomes what:
+//   node                -> entity with Transform, Name and Parent/Children (ecs set_parent)
+//   mesh primitive      -> child entity of the node with Mesh + Material (+ Skin if the node has one)
+//   material            -> Material (baseColorFactor/Texture, emissiveFactor x
+//                          KHR_materials_emissive_strength, doubleSided)
+//   texture image       -> Texture (RGBA8, decoded by tinygltf through stb) with average_linear
+//   skin                -> Skin on each primitive entity of the skinned node
+//   animations          -> one AnimationClip each, shared by one Animator on the root entity
+//   KHR_lights_punctual -> Light;  camera (perspective) -> Camera
+// Everything tinygltf does not check is validated here: accessor ranges against buffer views and
+// buffers, component types, index ranges, finite values, joint indices against the skin, weight
+// sums, node and skin references, animation key times. Degenerate triangles are dropped and
+// counted. Errors name the file and the element, e.g. "scene.gltf: accessors[1]: ...".
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "penumbra/core/result.h"
+#include "penumbra/ecs/world.h"
+
+namespace penumbra {
+
+struct ImportOptions {
+  // Tag every non-skinned, non-animated mesh entity Static (the bakers put those in the static BVH).
+  bool mark_static = true;
+  // Degenerate-triangle threshold, relative to the mesh's squared bounding-box diagonal.
+  float degenerate_epsilon = 1e-9f;
+  // Decode base colour textures (off: materials keep only their factors).
+  bool load_textures = true;
+};
+
+struct ImportedScene {
+  Entity root;                 // parent of the scene's root nodes; holds the Animator if any
+  std::vector<Entity> nodes;   // entity of glTF node i (null for nodes not in the scene)
+  std::size_t mesh_entities = 0;        // entities with a Mesh (one per primitive)
+  std::size_t triangles = 0;            // after dropping degenerate ones
+  std::size_t dropped_degenerate = 0;   // degenerate triangles removed
+  std::size_t materials = 0, textures = 0, skins = 0, animations = 0, lights = 0, cameras = 0;
+  std::vector<std::string> warnings;    // non-fatal findings (also sent to the log)
+};
+
+// Imports `path` into `world`. Cost: linear in the file size (plus texture decoding).
+// Thread safety: mutates `world`; do not call concurrently on the same World.
+// On error nothing is left in the world (entities created so far are destroyed).
+// Error codes: NotFound (file or external buffer missing), InvalidInput (malformed file or data),
+// Unsupported (a required extension or feature Penumbra does not handle), Io (unreadable file).
+Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& path,
+                                  const ImportOptions& options = {});
+
+}  // namespace penumbra

@@ -1,0 +1,162 @@
+#!/usr/bin/env python3
+"""Writes the small glTF files the scene tests import (tests/data/gltf/*.gltf).
+
+Each malformed file breaks exactly one rule of the glTF 2.0 specification (or one limit of
+Penumbra) in an otherwise valid scene, so the test can check the error code and that the message
+names the file and the offending element. Re-run after editing: python3 make_gltf_cases.py
+"""
+import base64
+import copy
+import json
+import math
+import os
+import struct
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def floats(values):
+    return struct.pack("<%df" % len(values), *values)
+
+
+def u16(values):
+    data = struct.pack("<%dH" % len(values), *values)
+    return data + b"\0" * (-len(data) % 4)
+
+
+def build(positions, normals, indices, extra_views=()):
+    """A buffer holding positions, normals and indices (in that order), plus views/accessors."""
+    chunks = [floats(sum(positions, [])), floats(sum(normals, [])), u16(indices)] + [c for c, _ in extra_views]
+    views, offset = [], 0
+    for c in chunks:
+        views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(c)})
+        offset += len(c)
+    data = b"".join(chunks)
+    lo = [min(p[i] for p in positions) for i in range(3)]
+    hi = [max(p[i] for p in positions) for i in range(3)]
+    accessors = [
+        {"bufferView": 0, "componentType": 5126, "count": len(positions), "type": "VEC3"},
+        {"bufferView": 1, "componentType": 5126, "count": len(normals), "type": "VEC3"},
+        {"bufferView": 2, "componentType": 5123, "count": len(indices), "type": "SCALAR"},
+    ]
+    if all(math.isfinite(x) for x in lo + hi):  # min/max are required for POSITION, but JSON has no NaN
+        accessors[0].update(min=lo, max=hi)
+    for i, (_, accessor) in enumerate(extra_views):
+        accessor = dict(accessor, bufferView=3 + i)
+        accessors.append(accessor)
+    return data, views, accessors
+
+
+def scene(data, views, accessors, primitives=None, **extra):
+    doc = {
+        "asset": {"version": "2.0", "generator": "penumbra make_gltf_cases.py"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "root", "translation": [0, 1, 0], "children": [1]}, {"name": "quad", "mesh": 0}],
+        "meshes": [{"name": "quad", "primitives": primitives or [
+            {"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
+        "materials": [{"name": "grey", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]}}],
+        "buffers": [{"byteLength": len(data),
+                     "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+        "bufferViews": views,
+        "accessors": accessors,
+    }
+    doc.update(extra)
+    return doc
+
+
+QUAD_P = [[0, 0, 0], [1, 0, 0], [1, 0, -1], [0, 0, -1]]
+QUAD_N = [[0, 1, 0]] * 4
+QUAD_I = [0, 1, 2, 0, 2, 3]
+
+
+def write(name, doc):
+    with open(os.path.join(HERE, name), "w") as f:
+        if isinstance(doc, str):
+            f.write(doc)
+        else:
+            json.dump(doc, f, indent=1)
+            f.write("\n")
+
+
+def main():
+    data, views, accessors = build(QUAD_P, QUAD_N, QUAD_I)
+    base = scene(data, views, accessors)
+
+    # valid.gltf: hierarchy, two primitives (indexed and not), emissive strength, a spot light and a camera.
+    valid = copy.deepcopy(base)
+    valid["extensionsUsed"] = ["KHR_lights_punctual", "KHR_materials_emissive_strength"]
+    valid["meshes"][0]["primitives"].append({"attributes": {"POSITION": 0}, "material": 1})
+    valid["materials"].append({"name": "glow", "emissiveFactor": [1.0, 0.5, 0.25],
+                               "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}})
+    valid["extensions"] = {"KHR_lights_punctual": {"lights": [
+        {"type": "spot", "color": [1.0, 0.9, 0.8], "intensity": 30.0, "range": 10.0,
+         "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}}]}}
+    valid["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.1, "zfar": 50.0, "aspectRatio": 1.5}}]
+    valid["nodes"][0]["children"] = [1, 2, 3]
+    valid["nodes"].append({"name": "spot", "translation": [0, 3, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}})
+    valid["nodes"].append({"name": "eye", "translation": [0, 1, 5], "camera": 0})
+    write("valid.gltf", valid)
+
+    # valid_external.gltf + .bin: the same quad with its buffer in a file.
+    external = copy.deepcopy(base)
+    external["buffers"][0]["uri"] = "valid_external.bin"
+    with open(os.path.join(HERE, "valid_external.bin"), "wb") as f:
+        f.write(data)
+    write("valid_external.gltf", external)
+
+    # missing_buffer.gltf: the external .bin does not exist.
+    missing = copy.deepcopy(base)
+    missing["buffers"][0]["uri"] = "missing.bin"
+    write("missing_buffer.gltf", missing)
+
+    # short_buffer.gltf: the normals' buffer view runs 48 bytes past the end of the buffer.
+    short = copy.deepcopy(base)
+    short["bufferViews"][2]["byteLength"] += 48
+    write("short_buffer.gltf", short)
+
+    # accessor_past_view.gltf: the position accessor claims 8 vertices in a 4-vertex view.
+    past = copy.deepcopy(base)
+    past["accessors"][0]["count"] = 8
+    write("accessor_past_view.gltf", past)
+
+    # index_out_of_range.gltf: index 7 with 4 vertices.
+    d, v, a = build(QUAD_P, QUAD_N, [0, 1, 2, 0, 2, 7])
+    write("index_out_of_range.gltf", scene(d, v, a))
+
+    # nan_position.gltf / inf_normal.gltf: non-finite attribute values.
+    d, v, a = build([[0, 0, 0], [1, 0, 0], [1, 0, float("nan")], [0, 0, -1]], QUAD_N, QUAD_I)
+    write("nan_position.gltf", scene(d, v, a))
+    d, v, a = build(QUAD_P, [[0, 1, 0], [0, float("inf"), 0], [0, 1, 0], [0, 1, 0]], QUAD_I)
+    write("inf_normal.gltf", scene(d, v, a))
+
+    # degenerate.gltf: the quad plus a collinear triangle and one repeating an index (both dropped).
+    d, v, a = build(QUAD_P + [[2, 0, 0], [3, 0, 0], [4, 0, 0]], QUAD_N + [[0, 1, 0]] * 3,
+                    QUAD_I + [4, 5, 6, 0, 0, 1])
+    write("degenerate.gltf", scene(d, v, a))
+
+    # required_extension.gltf: requires Draco mesh compression, which Penumbra does not implement.
+    required = copy.deepcopy(base)
+    required["extensionsUsed"] = required["extensionsRequired"] = ["KHR_draco_mesh_compression"]
+    write("required_extension.gltf", required)
+
+    # bad_json.gltf: truncated in the middle of an object.
+    write("bad_json.gltf", json.dumps(base, indent=1)[:300])
+
+    # joint_out_of_range.gltf: a two-joint skin whose vertices name joint 5.
+    joints = (struct.pack("<16B", 0, 0, 0, 0, 1, 0, 0, 0, 5, 0, 0, 0, 1, 0, 0, 0),
+              {"componentType": 5121, "count": 4, "type": "VEC4"})
+    weights = (floats([1, 0, 0, 0] * 4), {"componentType": 5126, "count": 4, "type": "VEC4"})
+    ibm = (floats([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1] * 2),
+           {"componentType": 5126, "count": 2, "type": "MAT4"})
+    d, v, a = build(QUAD_P, QUAD_N, QUAD_I, [joints, weights, ibm])
+    skinned = scene(d, v, a, primitives=[
+        {"attributes": {"POSITION": 0, "NORMAL": 1, "JOINTS_0": 3, "WEIGHTS_0": 4}, "indices": 2, "material": 0}])
+    skinned["nodes"] = [{"name": "root", "children": [1, 2, 3]}, {"name": "skinned", "mesh": 0, "skin": 0},
+                        {"name": "bone0"}, {"name": "bone1", "translation": [0, 1, 0]}]
+    skinned["skins"] = [{"joints": [2, 3], "inverseBindMatrices": 5}]
+    write("joint_out_of_range.gltf", skinned)
+
+
+if __name__ == "__main__":
+    main()
