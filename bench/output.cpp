@@ -95,7 +95,7 @@ Status write_plot(const std::string& png_path, const std::string& csv_path, cons
 
   const std::string tmp = png_path + ".tmp-" + std::to_string(::getpid());
   std::ostringstream script;
-  script << "set terminal pngcairo size 1000,640 font 'sans,10'\n"
+  script << "set terminal pngcairo noenhanced size 1000,640 font 'sans,10'\n"
          << "set output '" << tmp << "'\n"
          << "set title \"" << p.title << " (data: " << std::filesystem::path(csv_path).filename().string() << ")\"\n"
          << "set xlabel \"" << p.x_label << "\"\nset ylabel \"" << p.y_label << "\"\n"
