@@ -736,7 +736,7 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
   const std::string file = path.filename().string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
-    return make_error(ErrorCode::NotFound, path.string() + ": file not found; check the path");
+    return make_error(ErrorCode::NotFound, file + ": file not found (looked for " + path.string() + "); check the path");
 
   // Sniff the container: binary glTF starts with the magic "glTF".
   std::ifstream stream(path, std::ios::binary);

@@ -86,7 +86,10 @@ def main():
     # valid.gltf: hierarchy, two primitives (indexed and not), emissive strength, a spot light and a camera.
     valid = copy.deepcopy(base)
     valid["extensionsUsed"] = ["KHR_lights_punctual", "KHR_materials_emissive_strength"]
-    valid["meshes"][0]["primitives"].append({"attributes": {"POSITION": 0}, "material": 1})
+    # Non-indexed primitive: the first three vertices as a triangle list of its own.
+    valid["accessors"].append({"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                               "min": [0, 0, -1], "max": [1, 0, 0]})
+    valid["meshes"][0]["primitives"].append({"attributes": {"POSITION": 3}, "material": 1})
     valid["materials"].append({"name": "glow", "emissiveFactor": [1.0, 0.5, 0.25],
                                "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}})
     valid["extensions"] = {"KHR_lights_punctual": {"lights": [

@@ -1,0 +1,216 @@
+#include "penumbra/scene/gltf.h"
+
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+
+#include "penumbra/ecs/transform.h"
+#include "penumbra/scene/animation.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+namespace {
+
+const std::filesystem::path kCases = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf";
+
+std::size_t entity_count(World& world) {
+  std::size_t n = 0;
+  world.each<Name>([&](Entity, Name&) { ++n; });
+  return n;
+}
+
+TEST(GltfImport, ValidSceneHierarchyPrimitivesMaterialsLightAndCamera) {
+  World world;
+  auto imported = import_gltf(world, kCases / "valid.gltf");
+  ASSERT_TRUE(imported.ok()) << imported.error().message;
+  EXPECT_EQ(imported->nodes.size(), 4u);
+  EXPECT_EQ(imported->mesh_entities, 2u);  // one mesh, two primitives
+  EXPECT_EQ(imported->triangles, 3u);      // 2 indexed + 1 non-indexed
+  EXPECT_EQ(imported->lights, 1u);
+  EXPECT_EQ(imported->cameras, 1u);
+  EXPECT_EQ(imported->materials, 2u);
+  EXPECT_EQ(imported->dropped_degenerate, 0u);
+
+  // Hierarchy: root node under the import root, primitives under the mesh node.
+  const Entity root_node = imported->nodes[0], quad_node = imported->nodes[1];
+  ASSERT_TRUE(world.has<Parent>(root_node));
+  EXPECT_EQ(world.get<Parent>(root_node).entity, imported->root);
+  EXPECT_EQ(world.get<Parent>(quad_node).entity, root_node);
+  ASSERT_TRUE(world.has<Children>(quad_node));
+  const std::vector<Entity> prims = world.get<Children>(quad_node).entities;
+  ASSERT_EQ(prims.size(), 2u);
+  update_world_transforms(world);
+  for (Entity p : prims) {
+    ASSERT_TRUE(world.has<Mesh>(p));
+    EXPECT_TRUE(world.has<Static>(p));
+    EXPECT_TRUE(world.get<Mesh>(p).data->validate("prim").ok());
+    EXPECT_NEAR(world.get<WorldTransform>(p).matrix[3].y, 1.0f, 0.0f);  // inherits the root's translation
+  }
+  EXPECT_NEAR(world.get<Material>(prims[0]).base_color.r, 0.5f, 1e-6f);
+  // Emissive = emissiveFactor x KHR_materials_emissive_strength.
+  const glm::vec3 emissive = world.get<Material>(prims[1]).emissive;
+  EXPECT_NEAR(emissive.r, 4.0f, 1e-6f);
+  EXPECT_NEAR(emissive.g, 2.0f, 1e-6f);
+  EXPECT_NEAR(emissive.b, 1.0f, 1e-6f);
+  // The second primitive had no normals: computed, facing +Y like its winding.
+  for (const glm::vec3& n : world.get<Mesh>(prims[1]).data->normals) EXPECT_NEAR(n.y, 1.0f, 1e-6f);
+
+  const Light& light = world.get<Light>(imported->nodes[2]);
+  EXPECT_EQ(light.type, Light::Type::Spot);
+  EXPECT_FLOAT_EQ(light.intensity, 30.0f);
+  EXPECT_FLOAT_EQ(light.range, 10.0f);
+  EXPECT_FLOAT_EQ(light.inner_cone_angle, 0.2f);
+  EXPECT_FLOAT_EQ(light.outer_cone_angle, 0.5f);
+  const Camera& camera = world.get<Camera>(imported->nodes[3]);
+  EXPECT_FLOAT_EQ(camera.yfov, 0.7f);
+  EXPECT_FLOAT_EQ(camera.aspect, 1.5f);
+  EXPECT_FLOAT_EQ(camera.zfar, 50.0f);
+}
+
+TEST(GltfImport, ExternalBinMatchesEmbeddedBase64) {
+  World a, b;
+  auto embedded = import_gltf(a, kCases / "valid.gltf");
+  auto external = import_gltf(b, kCases / "valid_external.gltf");
+  ASSERT_TRUE(embedded.ok() && external.ok());
+  const Entity pa = a.get<Children>(embedded->nodes[1]).entities[0];
+  const Entity pb = b.get<Children>(external->nodes[1]).entities[0];
+  EXPECT_EQ(a.get<Mesh>(pa).data->positions, b.get<Mesh>(pb).data->positions);
+  EXPECT_EQ(a.get<Mesh>(pa).data->indices, b.get<Mesh>(pb).data->indices);
+}
+
+TEST(GltfImport, MarkStaticCanBeTurnedOff) {
+  World world;
+  ImportOptions options;
+  options.mark_static = false;
+  ASSERT_TRUE(import_gltf(world, kCases / "valid.gltf", options).ok());
+  EXPECT_EQ(world.count<Static>(), 0u);
+}
+
+TEST(GltfImport, DegenerateTrianglesAreDroppedAndCounted) {
+  World world;
+  auto imported = import_gltf(world, kCases / "degenerate.gltf");
+  ASSERT_TRUE(imported.ok()) << imported.error().message;
+  EXPECT_EQ(imported->dropped_degenerate, 2u);
+  EXPECT_EQ(imported->triangles, 2u);
+  ASSERT_EQ(imported->warnings.size(), 1u);
+  EXPECT_NE(imported->warnings[0].find("degenerate.gltf: meshes[0].primitives[0]"), std::string::npos);
+  EXPECT_NE(imported->warnings[0].find("2 degenerate"), std::string::npos);
+}
+
+struct BadCase {
+  const char* file;
+  ErrorCode code;
+  std::vector<const char*> mentions;  // besides the file name
+};
+
+void PrintTo(const BadCase& c, std::ostream* os) { *os << c.file; }
+
+class GltfMalformed : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(GltfMalformed, FailsWithCodeFileAndElement) {
+  const BadCase& c = GetParam();
+  World world;
+  auto imported = import_gltf(world, kCases / c.file);
+  ASSERT_FALSE(imported.ok()) << c.file << " was accepted";
+  EXPECT_EQ(imported.error().code, c.code) << imported.error().message;
+  const std::string& message = imported.error().message;
+  EXPECT_EQ(message.rfind(c.file, 0), 0u) << "message must start with the file: " << message;
+  for (const char* m : c.mentions) EXPECT_NE(message.find(m), std::string::npos) << "'" << m << "' not in: " << message;
+  EXPECT_EQ(entity_count(world), 0u) << "a failed import must leave nothing behind";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, GltfMalformed,
+    ::testing::Values(
+        BadCase{"missing_buffer.gltf", ErrorCode::NotFound, {"buffers[0]", "missing.bin"}},
+        BadCase{"short_buffer.gltf", ErrorCode::InvalidInput, {"bufferViews[2]", "buffers[0]"}},
+        BadCase{"accessor_past_view.gltf", ErrorCode::InvalidInput, {"accessors[0]", "bufferViews[0]", "POSITION"}},
+        BadCase{"index_out_of_range.gltf", ErrorCode::InvalidInput, {"accessors[2]", "indices", "is 7"}},
+        BadCase{"nan_position.gltf", ErrorCode::InvalidInput, {"accessors[0]", "POSITION", "NaN"}},
+        BadCase{"inf_normal.gltf", ErrorCode::InvalidInput, {"accessors[1]", "NORMAL", "element 1"}},
+        BadCase{"required_extension.gltf", ErrorCode::Unsupported, {"extensionsRequired", "KHR_draco_mesh_compression"}},
+        BadCase{"bad_json.gltf", ErrorCode::InvalidInput, {"JSON"}},
+        BadCase{"joint_out_of_range.gltf", ErrorCode::InvalidInput, {"JOINTS_0", "joint 5", "skins[0]", "nodes[1]"}},
+        BadCase{"does_not_exist.gltf", ErrorCode::NotFound, {"not found"}}),
+    [](const ::testing::TestParamInfo<BadCase>& param_info) {
+      std::string name = param_info.param.file;
+      name = name.substr(0, name.find('.'));
+      std::erase(name, '_');
+      return name;
+    });
+
+// The Khronos sample character (../shared/assets, not copied into the repository).
+TEST(GltfImport, CesiumManSkinAnimationAndPose) {
+  const std::filesystem::path asset = std::filesystem::path(PENUMBRA_SHARED_DIR) / "assets/CesiumMan.glb";
+  if (!std::filesystem::exists(asset)) GTEST_SKIP() << "shared asset folder absent: " << asset << " not found";
+  World world;
+  register_scene_systems(world);
+  auto imported = import_gltf(world, asset);
+  ASSERT_TRUE(imported.ok()) << imported.error().message;
+  EXPECT_EQ(imported->skins, 1u);
+  EXPECT_EQ(imported->animations, 1u);
+  EXPECT_EQ(imported->textures, 1u);
+  EXPECT_EQ(imported->triangles + imported->dropped_degenerate, 4672u);
+
+  Entity body;
+  world.each<Skin>([&](Entity e, Skin&) { body = e; });
+  ASSERT_TRUE(body);
+  const Skin& skin = world.get<Skin>(body);
+  EXPECT_EQ(skin.joints.size(), 19u);
+  EXPECT_FALSE(world.has<Static>(body));
+  const MeshData& mesh = *world.get<Mesh>(body).data;
+  EXPECT_EQ(mesh.positions.size(), 3273u);
+  for (const glm::vec4& w : mesh.weights) EXPECT_NEAR(w.x + w.y + w.z + w.w, 1.0f, 1e-5f);
+
+  // Texture decoded to RGBA8 with a plausible mean colour.
+  const Material& material = world.get<Material>(body);
+  ASSERT_TRUE(material.base_color_texture);
+  const Texture& texture = *material.base_color_texture;
+  EXPECT_EQ(texture.rgba8.size(), static_cast<std::size_t>(texture.width) * static_cast<std::size_t>(texture.height) * 4);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_GT(texture.average_linear[c], 0.0f);
+    EXPECT_LT(texture.average_linear[c], 1.0f);
+  }
+
+  const AnimationClip& clip = (*world.get<Animator>(imported->root).clips)[0];
+  EXPECT_GT(clip.duration, 0.5f);
+
+  // Pose at two times: finite, and the animated poses differ from the bind pose and each other.
+  std::vector<glm::vec3> a, b;
+  world.update(0.0);
+  skin_positions(mesh, world.get<SkinPose>(body), a);
+  world.update(0.5);
+  skin_positions(mesh, world.get<SkinPose>(body), b);
+  float from_bind = 0.0f, between = 0.0f;
+  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+    ASSERT_TRUE(std::isfinite(b[i].x + b[i].y + b[i].z));
+    from_bind = std::max(from_bind, glm::distance(b[i], mesh.positions[i]));
+    between = std::max(between, glm::distance(a[i], b[i]));
+  }
+  EXPECT_GT(from_bind, 0.05f);
+  EXPECT_GT(between, 0.05f);
+  // Still a person-sized figure (bounds of the posed mesh within 3 m).
+  Aabb bounds;
+  for (const glm::vec3& p : b) bounds.extend(p);
+  EXPECT_LT(glm::length(bounds.extent()), 3.0f);
+  EXPECT_GT(glm::length(bounds.extent()), 0.5f);
+}
+
+TEST(GltfImport, ImportIsDeterministic) {
+  const std::filesystem::path asset = std::filesystem::path(PENUMBRA_SHARED_DIR) / "assets/CesiumMan.glb";
+  if (!std::filesystem::exists(asset)) GTEST_SKIP() << "shared asset folder absent: " << asset << " not found";
+  World w1, w2;
+  auto a = import_gltf(w1, asset);
+  auto b = import_gltf(w2, asset);
+  ASSERT_TRUE(a.ok() && b.ok());
+  std::vector<std::vector<glm::vec3>> pa, pb;
+  w1.each<Mesh>([&](Entity, Mesh& m) { pa.push_back(m.data->positions); });
+  w2.each<Mesh>([&](Entity, Mesh& m) { pb.push_back(m.data->positions); });
+  EXPECT_EQ(pa, pb);
+}
+
+}  // namespace
+}  // namespace penumbra
