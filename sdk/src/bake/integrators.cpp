@@ -1,0 +1,271 @@
+// Monte Carlo integrators over a RayScene: ambient occlusion by cosine-weighted visibility rays,
+// and irradiance by path tracing with next-event estimation (Kajiya 1986, "The Rendering
+// Equation"; Veach 1997, ch. 10 for light sampling; Arvo & Kirk 1990 for Russian roulette).
+// Light models follow KHR_lights_punctual; rect lights are one-sided Lambertian emitters.
+#include "penumbra/bake/integrators.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
+
+#include "penumbra/core/log.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/ecs/transform.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr float kPi = 3.14159265358979323846f;
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// Running mean and variance of a vector quantity (sums in double).
+struct Accumulator {
+  glm::dvec3 sum{0.0}, sum_sq{0.0};
+  std::uint32_t n = 0;
+  void add(glm::vec3 v) {
+    const glm::dvec3 d(v);
+    sum += d;
+    sum_sq += d * d;
+    ++n;
+  }
+  Estimate estimate() const {
+    Estimate e;
+    e.samples = n;
+    if (n == 0) return e;
+    const glm::dvec3 mean = sum / double(n);
+    e.value = glm::vec3(mean);
+    if (n > 1) {
+      // Sample variance (Bessel-corrected), then the standard error of the mean.
+      const glm::dvec3 var = glm::max((sum_sq - double(n) * mean * mean) / double(n - 1), glm::dvec3(0.0));
+      e.std_error = glm::vec3(glm::sqrt(var / double(n)));
+    }
+    return e;
+  }
+};
+
+// Direct irradiance at p (unit normal n) from every light, with shadow rays from p + eps n.
+glm::vec3 direct_light(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 p, glm::vec3 n,
+                       std::uint32_t rect_samples, Rng& rng) {
+  const glm::vec3 origin = p + scene.ray_epsilon(p) * n;
+  glm::vec3 e(0.0f);
+  for (const WorldLight& wl : lights) {
+    const Light& light = wl.light;
+    const glm::vec3 power = light.color * light.intensity;
+    switch (light.type) {
+      case Light::Type::Directional: {
+        // Illuminance times cos, if the way towards the light is free.
+        const glm::vec3 l = -wl.direction;
+        const float c = glm::dot(n, l);
+        if (c > 0.0f && !scene.occluded(Ray{origin, 0.0f, l, kInf})) e += power * c;
+        break;
+      }
+      case Light::Type::Point:
+      case Light::Type::Spot: {
+        // Intensity x cos / d^2, windowed by range (KHR_lights_punctual's recommended falloff).
+        const glm::vec3 d = wl.position - p;
+        const float dist2 = glm::dot(d, d);
+        if (!(dist2 > 0.0f)) break;
+        const float dist = std::sqrt(dist2);
+        const glm::vec3 l = d / dist;
+        const float c = glm::dot(n, l);
+        if (!(c > 0.0f)) break;
+        float falloff = 1.0f / dist2;
+        if (light.range > 0.0f) {
+          const float r = dist / light.range;
+          const float w = glm::clamp(1.0f - r * r * r * r, 0.0f, 1.0f);
+          falloff *= w * w;
+        }
+        if (light.type == Light::Type::Spot) {
+          // Smooth cone: squared linear ramp in cos between the outer and inner angles.
+          const float cos_outer = std::cos(light.outer_cone_angle);
+          const float scale = 1.0f / std::max(0.001f, std::cos(light.inner_cone_angle) - cos_outer);
+          const float a = glm::clamp((glm::dot(wl.direction, -l) - cos_outer) * scale, 0.0f, 1.0f);
+          falloff *= a * a;
+        }
+        // The shadow ray's direction is the segment itself: t = 1 reaches the light.
+        if (falloff > 0.0f && !scene.occluded(Ray{origin, 0.0f, wl.position - origin, 1.0f})) {
+          e += power * (c * falloff);
+        }
+        break;
+      }
+      case Light::Type::Rect: {
+        // Area sampling: E = L \int cos_x cos_l / d^2 dA, over a scrambled Sobol' net on the rect.
+        const glm::vec3 axis = glm::cross(wl.half_x, wl.half_y);
+        const float area = 4.0f * glm::length(axis);
+        const std::uint32_t scramble = rng.next_u32();
+        float sum = 0.0f;
+        for (std::uint32_t k = 0; k < rect_samples; ++k) {
+          const glm::vec2 u = sobol_2d(k, scramble);
+          const glm::vec3 q = wl.position + (2.0f * u.x - 1.0f) * wl.half_x + (2.0f * u.y - 1.0f) * wl.half_y;
+          const glm::vec3 d = q - p;
+          const float dist2 = glm::dot(d, d);
+          if (!(dist2 > 0.0f)) continue;
+          const float dist = std::sqrt(dist2);
+          const glm::vec3 l = d / dist;
+          const float cx = glm::dot(n, l);
+          const float cl = -glm::dot(wl.direction, l);  // one-sided: emits towards `direction`
+          if (!(cx > 0.0f) || !(cl > 0.0f)) continue;  // also skips NaN
+          if (!scene.occluded(Ray{origin, 0.0f, q - origin, 1.0f})) sum += cx * cl / dist2;
+        }
+        e += power * (sum * area / float(rect_samples));
+        break;
+      }
+    }
+  }
+  return e;
+}
+
+// One sample of E(x, n): next-event estimation at x plus one cosine-sampled path. Each vertex adds
+// the emission it sees (pi Le, the cosine-sampling estimator of \int Le cos) and, after the albedo
+// is folded into the throughput, its own direct light.
+glm::vec3 irradiance_sample(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
+                            const IrradianceSettings& s, Rng& rng) {
+  glm::vec3 sum = direct_light(scene, lights, x, n, s.rect_light_samples, rng);
+  glm::vec3 throughput(1.0f);
+  glm::vec3 p = x, pn = n;
+  for (std::uint32_t depth = 0;; ++depth) {
+    const float u0 = rng.next_float(), u1 = rng.next_float();
+    const glm::vec3 dir = to_world(pn, cosine_hemisphere({u0, u1}));
+    const Ray ray{p + scene.ray_epsilon(p) * pn, 0.0f, dir, kInf};
+    Hit hit;
+    if (!scene.intersect(ray, hit)) break;
+    // Emission of the surface hit (front side, or both when double sided).
+    if (!hit.back_face || hit.material.double_sided) sum += throughput * (kPi * hit.material.emissive);
+    if (!s.reference && depth >= s.bounces) break;
+    // Reflect: Lambertian, on the side the path arrived from.
+    throughput *= hit.material.albedo;
+    if (s.reference && depth + 1 >= s.roulette_depth) {
+      const float q = std::min(0.95f, std::max({hit.material.albedo.x, hit.material.albedo.y, hit.material.albedo.z}));
+      if (!(q > 0.0f) || rng.next_float() >= q) break;
+      throughput /= q;
+    }
+    if (throughput == glm::vec3(0.0f)) break;
+    p = ray.origin + hit.t * dir;
+    pn = hit.back_face ? -hit.normal : hit.normal;
+    sum += throughput * direct_light(scene, lights, p, pn, s.rect_light_samples, rng);
+  }
+  return sum;
+}
+
+Status check_points(std::size_t points, std::size_t out, const char* what) {
+  if (points == out) return {};
+  return make_error(ErrorCode::InvalidArgument, std::string(what) + ": " + std::to_string(points) +
+                                                    " points but room for " + std::to_string(out) +
+                                                    " results; size the output like the points");
+}
+
+}  // namespace
+
+AoEstimate ambient_occlusion(const RayScene& scene, glm::vec3 x, glm::vec3 n, float max_distance,
+                             std::uint32_t rays, Rng& rng) {
+  const glm::vec3 origin = x + scene.ray_epsilon(x) * n;
+  glm::vec3 t, b;
+  orthonormal_basis(n, t, b);
+  // Trace in blocks of 64 (four packets of 16): generating a block, then tracing it.
+  constexpr std::uint32_t kBlock = 64;
+  std::array<Ray, kBlock> block;
+  std::array<std::uint8_t, kBlock> hit{};
+  std::uint32_t open = 0;
+  for (std::uint32_t first = 0; first < rays; first += kBlock) {
+    const std::uint32_t count = std::min(kBlock, rays - first);
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const float u0 = rng.next_float(), u1 = rng.next_float();
+      const glm::vec3 d = cosine_hemisphere({u0, u1});
+      block[i] = Ray{origin, 0.0f, d.x * t + d.y * b + d.z * n, max_distance};
+    }
+    scene.occluded(std::span<const Ray>(block.data(), count), std::span<std::uint8_t>(hit.data(), count));
+    for (std::uint32_t i = 0; i < count; ++i) open += hit[i] == 0 ? 1u : 0u;
+  }
+  // Bernoulli samples: mean a, Bessel-corrected variance a (1 - a) N / (N - 1).
+  AoEstimate e;
+  e.samples = rays;
+  if (rays == 0) return e;
+  const double a = double(open) / double(rays);
+  e.value = float(a);
+  if (rays > 1) e.std_error = float(std::sqrt(a * (1.0 - a) / double(rays - 1)));
+  return e;
+}
+
+Status ambient_occlusion(const RayScene& scene, std::span<const SurfacePoint> points, const AoSettings& settings,
+                         std::span<AoEstimate> out, JobContext& jobs) {
+  PENUMBRA_TRY(check_points(points.size(), out.size(), "ambient_occlusion"));
+  if (settings.rays < 2) {
+    return make_error(ErrorCode::InvalidArgument, "ambient_occlusion: AoSettings::rays is " +
+                                                      std::to_string(settings.rays) + "; use at least 2");
+  }
+  if (!(settings.max_distance > 0.0f)) {
+    return make_error(ErrorCode::InvalidArgument, "ambient_occlusion: AoSettings::max_distance is " +
+                                                      std::to_string(settings.max_distance) +
+                                                      "; use a positive distance (or infinity)");
+  }
+  jobs.begin_stage("ambient occlusion", points.size());
+  return jobs.parallel_for(points.size(), 16, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      Rng rng = Rng::stream(settings.seed, i);
+      out[i] = ambient_occlusion(scene, points[i].position, points[i].normal, settings.max_distance, settings.rays,
+                                 rng);
+    }
+  });
+}
+
+std::vector<WorldLight> gather_lights(World& world) {
+  std::vector<WorldLight> lights;
+  world.view<Light, WorldTransform>().each([&](Entity e, Light& light, WorldTransform& wt) {
+    const glm::mat4& m = wt.matrix;
+    const glm::mat3 basis(m);
+    WorldLight wl;
+    wl.light = light;
+    wl.entity = e;
+    wl.position = glm::vec3(m[3]);
+    const glm::vec3 forward = basis * glm::vec3(0.0f, 0.0f, -1.0f);
+    wl.half_x = basis * glm::vec3(0.5f * light.size.x, 0.0f, 0.0f);
+    wl.half_y = basis * glm::vec3(0.0f, 0.5f * light.size.y, 0.0f);
+    const float len = glm::length(forward);
+    const bool finite = std::isfinite(len) && std::isfinite(wl.position.x) && std::isfinite(wl.position.y) &&
+                        std::isfinite(wl.position.z) && std::isfinite(glm::length(wl.half_x)) &&
+                        std::isfinite(glm::length(wl.half_y));
+    const bool zero_rect = light.type == Light::Type::Rect && !(glm::length(glm::cross(wl.half_x, wl.half_y)) > 0.0f);
+    if (!finite || !(len > 0.0f) || zero_rect) {
+      log(LogLevel::Warning, "gather_lights: light entity " + std::to_string(e.index) +
+                                 (zero_rect ? " is a rect of zero area" : " has a non-finite or singular transform") +
+                                 "; it is skipped (fix its Transform or Light::size)");
+      return;
+    }
+    wl.direction = forward / len;
+    lights.push_back(wl);
+  });
+  std::sort(lights.begin(), lights.end(),
+            [](const WorldLight& a, const WorldLight& b) { return a.entity.index < b.entity.index; });
+  return lights;
+}
+
+Estimate irradiance(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
+                    const IrradianceSettings& settings, Rng& rng) {
+  Accumulator acc;
+  for (std::uint32_t k = 0; k < settings.samples; ++k) acc.add(irradiance_sample(scene, lights, x, n, settings, rng));
+  return acc.estimate();
+}
+
+Status irradiance(const RayScene& scene, std::span<const WorldLight> lights, std::span<const SurfacePoint> points,
+                  const IrradianceSettings& settings, std::span<Estimate> out, JobContext& jobs) {
+  PENUMBRA_TRY(check_points(points.size(), out.size(), "irradiance"));
+  if (settings.samples < 2) {
+    return make_error(ErrorCode::InvalidArgument, "irradiance: IrradianceSettings::samples is " +
+                                                      std::to_string(settings.samples) + "; use at least 2");
+  }
+  jobs.begin_stage("irradiance", points.size());
+  return jobs.parallel_for(points.size(), 4, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      Rng rng = Rng::stream(settings.seed, i);
+      out[i] = irradiance(scene, lights, points[i].position, points[i].normal, settings, rng);
+    }
+  });
+}
+
+}  // namespace penumbra
