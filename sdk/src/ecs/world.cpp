@@ -49,55 +49,59 @@ void PoolBase::set_sparse(std::uint32_t index, std::uint32_t pos) {
   const std::uint32_t page = index >> kSparseShift;
   if (page >= sparse_.size()) sparse_.resize(page + 1);
   if (!sparse_[page]) {
-    sparse_[page] = std::make_unique<std::uint32_t[]>(kSparsePage);
+    sparse_[page] = std::make_unique_for_overwrite<std::uint32_t[]>(kSparsePage);
     std::fill_n(sparse_[page].get(), kSparsePage, kNone);
   }
   sparse_[page][index & (kSparsePage - 1)] = pos;
 }
 
-void PoolBase::push(Entity e, std::uint64_t tick) {
-  set_sparse(e.index, size());
-  dense_.push_back(e);
-  ticks_.push_back(tick);
+void PoolBase::push(Entity e, std::uint64_t tick_value) {
+  const std::uint32_t pos = size_;
+  if ((pos >> kPageShift) >= entity_pages_.size()) {
+    entity_pages_.push_back(std::make_unique_for_overwrite<Entity[]>(kPageSize));
+    tick_pages_.push_back(std::make_unique_for_overwrite<std::uint64_t[]>(kPageSize));
+  }
+  set_sparse(e.index, pos);
+  entity(pos) = e;
+  tick(pos) = tick_value;
+  ++size_;
 }
 
 bool PoolBase::erase(std::uint32_t pos, bool iterating) {
-  const std::uint32_t index = dense_[pos].index;
+  const std::uint32_t index = entity(pos).index;
   sparse_[index >> kSparseShift][index & (kSparsePage - 1)] = kNone;
   destroy_at(pos);
   if (iterating) {
     // Leave a tombstone: positions the running iteration has not reached must not move.
-    dense_[pos].index = kNone;
+    entity(pos).index = kNone;
     ++tombstones_;
     return true;
   }
   // Swap-and-pop: the last component moves into the hole.
-  const std::uint32_t last = size() - 1;
+  const std::uint32_t last = size_ - 1;
   if (pos != last) {
     relocate(last, pos);
-    dense_[pos] = dense_[last];
-    ticks_[pos] = ticks_[last];
-    set_sparse(dense_[pos].index, pos);
+    entity(pos) = entity(last);
+    tick(pos) = tick(last);
+    set_sparse(entity(pos).index, pos);
   }
-  dense_.pop_back();
-  ticks_.pop_back();
+  --size_;
   return false;
 }
 
 void PoolBase::compact() {
   std::uint32_t out = 0;
-  for (std::uint32_t i = 0; i < size(); ++i) {
-    if (dense_[i].index == kNone) continue;
+  for (std::uint32_t i = 0; i < size_; ++i) {
+    if (entity(i).index == kNone) continue;
     if (i != out) {
       relocate(i, out);
-      dense_[out] = dense_[i];
-      ticks_[out] = ticks_[i];
-      set_sparse(dense_[out].index, out);
+      entity(out) = entity(i);
+      tick(out) = tick(i);
+      set_sparse(entity(out).index, out);
     }
     ++out;
   }
-  dense_.resize(out);
-  ticks_.resize(out);
+  size_ = out;
   tombstones_ = 0;
   compact_pending_ = false;
 }
@@ -155,16 +159,16 @@ World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
 
 Entity World::create() {
+  ++alive_count_;
   if (!free_.empty()) {
     const std::uint32_t index = free_.back();
     free_.pop_back();
-    live_[index] = 1;
-    return Entity{index, generations_[index]};
+    slots_[index] &= ~kDeadBit;
+    return Entity{index, slots_[index]};
   }
-  const auto index = static_cast<std::uint32_t>(generations_.size());
+  const auto index = static_cast<std::uint32_t>(slots_.size());
   assert(index != detail::kNone && "World::create: 2^32 - 1 entity slots in use");
-  generations_.push_back(0);
-  live_.push_back(1);
+  slots_.push_back(0);
   return Entity{index, 0};
 }
 
@@ -179,12 +183,13 @@ void World::destroy(Entity e) {
     }
   }
   if (!alive(e)) return;  // a listener destroyed it already
-  live_[e.index] = 0;
+  --alive_count_;
   // Bump the generation so old handles turn stale; an exhausted index is retired, never reused.
-  if (generations_[e.index] == ~0u) {
-    ++retired_;
+  const std::uint32_t next = e.generation + 1;
+  if (next == kDeadBit) {
+    slots_[e.index] = kDeadBit | e.generation;
   } else {
-    ++generations_[e.index];
+    slots_[e.index] = kDeadBit | next;
     free_.push_back(e.index);
   }
 }

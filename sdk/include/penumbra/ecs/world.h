@@ -27,6 +27,7 @@
 #include <cassert>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <functional>
 #include <memory>
 #include <new>
@@ -149,7 +150,9 @@ inline constexpr std::uint32_t kPageSize = 1u << kPageShift;
 inline constexpr std::uint32_t kSparseShift = 12;        // 4096 sparse entries per page
 inline constexpr std::uint32_t kSparsePage = 1u << kSparseShift;
 
-// The type-independent half of a component pool (see the header comment for the layout).
+// The type-independent half of a component pool (see the header comment for the layout). Dense
+// entities and ticks live in pages of kPageSize like the components, so nothing is ever copied
+// when a pool grows.
 class PoolBase {
  public:
   PoolBase() = default;
@@ -158,8 +161,15 @@ class PoolBase {
   virtual ~PoolBase() = default;
 
   // Dense slots, tombstones included.
-  std::uint32_t size() const { return static_cast<std::uint32_t>(dense_.size()); }
-  std::uint32_t live() const { return size() - tombstones_; }
+  std::uint32_t size() const { return size_; }
+  std::uint32_t live() const { return size_ - tombstones_; }
+
+  // Entity and change tick of a dense slot; a tombstone's entity index is kNone.
+  Entity& entity(std::uint32_t pos) { return entity_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  const Entity& entity(std::uint32_t pos) const { return entity_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  std::uint64_t& tick(std::uint32_t pos) { return tick_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  std::uint64_t tick(std::uint32_t pos) const { return tick_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  const Entity* entity_page(std::uint32_t page) const { return entity_pages_[page].get(); }
 
   // Dense position of the entity with this index, or kNone.
   std::uint32_t find(std::uint32_t index) const {
@@ -170,7 +180,7 @@ class PoolBase {
   // As find(), trying `hint` first: pools filled in the same order line up, so a view's other
   // pools are usually at the lead pool's position.
   std::uint32_t find(std::uint32_t index, std::uint32_t hint) const {
-    if (hint < dense_.size() && dense_[hint].index == index) return hint;
+    if (hint < size_ && entity(hint).index == index) return hint;
     return find(index);
   }
 
@@ -186,9 +196,6 @@ class PoolBase {
   // Drops disconnected listeners unless an event of this pool is firing.
   void prune_listeners();
 
-  std::vector<Entity> dense_;          // entity per dense slot; index == kNone marks a tombstone
-  std::vector<std::uint64_t> ticks_;   // change tick per dense slot
-  std::vector<std::unique_ptr<std::uint32_t[]>> sparse_;
   std::uint32_t tombstones_ = 0;
   bool compact_pending_ = false;
   std::vector<std::shared_ptr<Listener>> on_add_, on_remove_;
@@ -200,6 +207,11 @@ class PoolBase {
 
  private:
   void set_sparse(std::uint32_t index, std::uint32_t pos);
+
+  std::uint32_t size_ = 0;
+  std::vector<std::unique_ptr<Entity[]>> entity_pages_;
+  std::vector<std::unique_ptr<std::uint64_t[]>> tick_pages_;
+  std::vector<std::unique_ptr<std::uint32_t[]>> sparse_;
 };
 
 template <class T>
@@ -208,7 +220,7 @@ class Pool final : public PoolBase {
   Pool() = default;
   ~Pool() override {
     for (std::uint32_t i = 0; i < size(); ++i)
-      if (dense_[i].index != kNone) at(i).~T();
+      if (entity(i).index != kNone) at(i).~T();
     for (T* page : pages_) ::operator delete(page, std::align_val_t{alignof(T)});
   }
 
@@ -263,10 +275,10 @@ class World {
   void destroy(Entity e);
   // False for null and stale handles.
   bool alive(Entity e) const {
-    return e.index < generations_.size() && generations_[e.index] == e.generation && live_[e.index];
+    return e.index < slots_.size() && slots_[e.index] == e.generation;
   }
   // Number of alive entities.
-  std::size_t entity_count() const { return generations_.size() - free_.size() - retired_; }
+  std::size_t entity_count() const { return alive_count_; }
 
   // --- Components (T: a movable object type) ------------------------------------------------
   // Constructs T(args...) (aggregates too), or replaces the present one; stamps the current tick.
@@ -319,7 +331,7 @@ class World {
     const auto* p = pool_if<T>();
     if (!p || !alive(e)) return 0;
     const std::uint32_t pos = p->find(e.index);
-    return pos == detail::kNone ? 0 : p->ticks_[pos];
+    return pos == detail::kNone ? 0 : p->tick(pos);
   }
   // Number of entities with T. O(1).
   template <class T>
@@ -420,10 +432,13 @@ class World {
     IterationScope& operator=(const IterationScope&) = delete;
   };
 
-  std::vector<std::uint32_t> generations_;
-  std::vector<std::uint8_t> live_;
+  // Per entity index: its generation while alive; generation | kDeadBit while free (handles never
+  // carry that bit, so one compare tells alive handles). An index whose 31-bit generation is
+  // exhausted is retired: dead forever, never reused.
+  static constexpr std::uint32_t kDeadBit = 0x80000000u;
+  std::vector<std::uint32_t> slots_;
   std::vector<std::uint32_t> free_;
-  std::size_t retired_ = 0;  // indices whose generation is exhausted (never reused)
+  std::size_t alive_count_ = 0;
   std::vector<std::unique_ptr<detail::PoolBase>> pools_;
   std::vector<std::shared_ptr<void>> resources_;
   std::uint64_t tick_ = 1;
@@ -454,11 +469,8 @@ class View {
     if constexpr (sizeof...(T) == 1) {
       each_single(fn);
     } else {
-      detail::PoolBase* pools[] = {&world_->pool<T>()...};
-      detail::PoolBase* lead = pools[0];
-      for (detail::PoolBase* p : pools)
-        if (p->live() < lead->live()) lead = p;
-      each_multi(lead, fn, [](std::uint32_t) { return true; });
+      const Pools pools{&world_->pool<T>()...};
+      dispatch(pools, smallest(pools, Indices{}), fn, All{}, Indices{});
     }
   }
 
@@ -466,8 +478,8 @@ class View {
   // tick `since` (pass SystemContext::last_run).
   template <class Fn>
   void each_changed(std::uint64_t since, Fn&& fn) {
-    detail::PoolBase* lead = &world_->pool<First>();
-    each_multi(lead, fn, [lead, since](std::uint32_t i) { return lead->ticks_[i] > since; });
+    const Pools pools{&world_->pool<T>()...};
+    each_lead<0>(pools, fn, ChangedAfter{std::get<0>(pools), since});
   }
 
   // Number of entities with all of T... (one pass for several components).
@@ -479,6 +491,20 @@ class View {
 
  private:
   using First = std::tuple_element_t<0, std::tuple<T...>>;
+  using Pools = std::tuple<detail::Pool<T>*...>;
+  using Indices = std::index_sequence_for<T...>;
+
+  // Which of the lead pool's slots to visit.
+  struct All {
+    static constexpr bool kAll = true;
+    bool operator()(std::uint32_t) const { return true; }
+  };
+  struct ChangedAfter {
+    static constexpr bool kAll = false;
+    const detail::PoolBase* lead;
+    std::uint64_t since;
+    bool operator()(std::uint32_t pos) const { return lead->tick(pos) > since; }
+  };
 
   // One component: a plain loop over each page's contiguous array; tombstones are checked only
   // when the pool has some.
@@ -489,40 +515,107 @@ class View {
     const std::uint32_t n = p.size();
     for (std::uint32_t base = 0; base < n; base += detail::kPageSize) {
       First* data = p.page(base >> detail::kPageShift);
+      const Entity* entities = p.entity_page(base >> detail::kPageShift);
       const std::uint32_t end = n - base < detail::kPageSize ? n - base : detail::kPageSize;
       for (std::uint32_t i = 0; i < end; ++i) {
-        if (p.tombstones_ != 0 && p.dense_[base + i].index == detail::kNone) continue;
+        if (p.tombstones_ != 0 && entities[i].index == detail::kNone) continue;
         if constexpr (detail::kTakesEntity<Fn, First>)
-          fn(p.dense_[base + i], data[i]);
+          fn(entities[i], data[i]);
         else
           fn(data[i]);
       }
     }
   }
 
-  template <class Fn, class Filter>
-  void each_multi(detail::PoolBase* lead, Fn& fn, Filter&& filter) {
-    const std::tuple<detail::Pool<T>*...> pools{&world_->pool<T>()...};
+  template <std::size_t... I>
+  static std::size_t smallest(const Pools& pools, std::index_sequence<I...>) {
+    const std::uint32_t sizes[] = {std::get<I>(pools)->live()...};
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < sizeof...(I); ++i)
+      if (sizes[i] < sizes[best]) best = i;
+    return best;
+  }
+
+  // Runs each_lead<L> for the runtime lead index, so the lead's position needs no look-up.
+  template <class Fn, class Filter, std::size_t... I>
+  void dispatch(const Pools& pools, std::size_t lead, Fn& fn, const Filter& filter, std::index_sequence<I...>) {
+    ((lead == I ? each_lead<I>(pools, fn, filter) : void()), ...);
+  }
+
+  // Where a pool's page `page` starts: its components, its entities and how many slots it holds
+  // (limit 0 when the pool is shorter). Pages never move, so a cursor survives additions.
+  template <class C>
+  struct Cursor {
+    C* data = nullptr;
+    const Entity* entities = nullptr;
+    std::uint32_t limit = 0;
+  };
+  template <class C>
+  static Cursor<C> cursor(detail::Pool<C>* p, std::uint32_t page) {
+    const std::uint32_t base = page << detail::kPageShift;
+    if (base >= p->size()) return {};
+    const std::uint32_t left = p->size() - base;
+    return {p->page(page), p->entity_page(page), left < detail::kPageSize ? left : detail::kPageSize};
+  }
+
+  template <std::size_t L, class Fn, class Filter>
+  void each_lead(const Pools& pools, Fn& fn, const Filter& filter) {
+    each_lead<L>(pools, fn, filter, Indices{});
+  }
+
+  // Walks the lead pool page by page; the other pools are first tried at the same slot (pools
+  // filled in the same order line up), then looked up through their sparse arrays.
+  template <std::size_t L, class Fn, class Filter, std::size_t... I>
+  void each_lead(const Pools& pools, Fn& fn, const Filter& filter, std::index_sequence<I...>) {
+    const auto* lead = std::get<L>(pools);
     World::IterationScope scope(*world_);
     const std::uint32_t n = lead->size();
-    for (std::uint32_t i = 0; i < n; ++i) {
-      const Entity e = lead->dense_[i];
-      if (e.index == detail::kNone || !filter(i)) continue;
-      visit(fn, pools, e, i, std::index_sequence_for<T...>{});
+    for (std::uint32_t base = 0; base < n; base += detail::kPageSize) {
+      const std::uint32_t page = base >> detail::kPageShift;
+      const std::tuple<Cursor<T>...> cursors{cursor(std::get<I>(pools), page)...};
+      const Entity* entities = std::get<L>(cursors).entities;
+      const std::uint32_t end = n - base < detail::kPageSize ? n - base : detail::kPageSize;
+      std::uint32_t i = 0;
+      // Fast path: every pool holds this page's entities in the same slots and has no
+      // tombstones, so the loop needs no look-up; it stops where a callback leaves a tombstone.
+      if (Filter::kAll && aligned(pools, cursors, end, std::index_sequence<I...>{})) {
+        for (; i < end && !(std::get<I>(pools)->tombstones_ || ...); ++i) {
+          if constexpr (detail::kTakesEntity<Fn, T...>)
+            fn(entities[i], std::get<I>(cursors).data[i]...);
+          else
+            fn(std::get<I>(cursors).data[i]...);
+        }
+      }
+      for (; i < end; ++i) {
+        const Entity e = entities[i];
+        if (e.index == detail::kNone || !filter(base + i)) continue;
+        const std::tuple<T*...> components{component<I, L>(std::get<I>(pools), std::get<I>(cursors), e, i)...};
+        if (!((std::get<I>(components) != nullptr) && ...)) continue;
+        if constexpr (detail::kTakesEntity<Fn, T...>)
+          fn(e, *std::get<I>(components)...);
+        else
+          fn(*std::get<I>(components)...);
+      }
     }
   }
 
-  // Looks the entity up in every pool (trying the lead's position first) and calls fn.
-  template <class Fn, std::size_t... I>
-  static void visit(Fn& fn, const std::tuple<detail::Pool<T>*...>& pools, Entity e, std::uint32_t hint,
-                    std::index_sequence<I...>) {
-    const std::uint32_t pos[] = {std::get<I>(pools)->find(e.index, hint)...};
-    for (std::uint32_t p : pos)
-      if (p == detail::kNone) return;
-    if constexpr (detail::kTakesEntity<Fn, T...>)
-      fn(e, std::get<I>(pools)->at(pos[I])...);
-    else
-      fn(std::get<I>(pools)->at(pos[I])...);
+  template <std::size_t... I>
+  static bool aligned(const Pools& pools, const std::tuple<Cursor<T>...>& cursors, std::uint32_t end,
+                      std::index_sequence<I...>) {
+    const Entity* first = std::get<0>(cursors).entities;
+    return ((std::get<I>(pools)->tombstones_ == 0) && ...) && ((std::get<I>(cursors).limit >= end) && ...) &&
+           ((std::memcmp(first, std::get<I>(cursors).entities, end * sizeof(Entity)) == 0) && ...);
+  }
+
+  template <std::size_t I, std::size_t L, class C>
+  static C* component(detail::Pool<C>* p, const Cursor<C>& c, Entity e, std::uint32_t i) {
+    if constexpr (I == L) {
+      return c.data + i;
+    } else {
+      if (i < c.limit && c.entities[i].index == e.index) return c.data + i;
+      const std::uint32_t at = p->find(e.index);
+      return at == detail::kNone ? nullptr : &p->at(at);
+    }
   }
 
   World* world_;
@@ -539,7 +632,7 @@ T& World::add(Entity e, Args&&... args) {
   if (pos != detail::kNone) {
     T& c = p.at(pos);
     c = T(std::forward<Args>(args)...);
-    p.ticks_[pos] = tick_;
+    p.tick(pos) = tick_;
     return c;
   }
   T& c = p.emplace(e, tick_, std::forward<Args>(args)...);
@@ -566,7 +659,7 @@ T& World::patch(Entity e) {
   assert(p && alive(e) && "World::patch: the entity lacks this component or the handle is stale");
   const std::uint32_t pos = p->find(e.index);
   assert(pos != detail::kNone && "World::patch: the entity lacks this component");
-  p->ticks_[pos] = tick_;
+  p->tick(pos) = tick_;
   return p->at(pos);
 }
 
