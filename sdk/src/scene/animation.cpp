@@ -116,14 +116,14 @@ void update_skin_poses(World& world) {
   for (Entity e : skinned) {
     const Skin& skin = world.get<Skin>(e);
     const glm::mat4 inverse_mesh = glm::inverse(world.get<WorldTransform>(e).matrix);
-    SkinPose pose;
-    pose.joint_matrices.resize(skin.joints.size(), glm::mat4(1.0f));
+    // Reuse the previous pose's storage; patch() marks it changed for the systems that follow.
+    SkinPose& pose = world.has<SkinPose>(e) ? world.patch<SkinPose>(e) : world.add<SkinPose>(e);
+    pose.joint_matrices.resize(skin.joints.size());
     for (std::size_t j = 0; j < skin.joints.size(); ++j) {
-      const WorldTransform* joint = world.alive(skin.joints[j]) ? world.try_get<WorldTransform>(skin.joints[j]) : nullptr;
+      const WorldTransform* joint = world.try_get<WorldTransform>(skin.joints[j]);  // null when stale
       const glm::mat4 joint_world = joint ? joint->matrix : glm::mat4(1.0f);
       pose.joint_matrices[j] = inverse_mesh * joint_world * skin.inverse_bind[j];
     }
-    world.add<SkinPose>(e, std::move(pose));
   }
 }
 

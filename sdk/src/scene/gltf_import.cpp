@@ -9,7 +9,6 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
-#include <set>
 #include <sstream>
 
 #include <glm/gtc/quaternion.hpp>
@@ -149,7 +148,7 @@ class Importer {
   Result<std::shared_ptr<const MeshData>> load_primitive(std::size_t mesh, std::size_t primitive);
   Status load_meshes();
   Status create_nodes();
-  Status create_node(int index, Entity parent, bool animated, std::set<int>& visiting);
+  Status create_node(int index, Entity parent, bool animated);
   Status load_skins();
   Status load_animations();
   Status attach_node_contents(std::size_t node, bool animated);
@@ -224,6 +223,10 @@ Result<AccessorView> Importer::accessor(int index, const std::string& user, std:
                 "byteStride " + std::to_string(bv.byteStride) + " is smaller than the " +
                     std::to_string(element_size) + "-byte elements of " + element("accessors", ai));
   if (a.count > 0) {
+    if (a.count - 1 > bv.byteLength / view.stride)  // also keeps the product below from overflowing
+      return fail(ErrorCode::InvalidInput, where,
+                  "count " + std::to_string(a.count) + " cannot fit in " + element("bufferViews", vi) + " (" +
+                      std::to_string(bv.byteLength) + " bytes); the accessor runs past its buffer view");
     const std::size_t needed = a.byteOffset + view.stride * (a.count - 1) + element_size;
     if (a.byteOffset > bv.byteLength || needed > bv.byteLength)
       return fail(ErrorCode::InvalidInput, where,
@@ -475,14 +478,14 @@ Result<Transform> node_transform(const tinygltf::Node& node) {
   return t;
 }
 
-Status Importer::create_node(int index, Entity parent, bool animated, std::set<int>& visiting) {
+Status Importer::create_node(int index, Entity parent, bool animated) {
   if (index < 0 || static_cast<std::size_t>(index) >= model_.nodes.size())
     return fail(ErrorCode::InvalidInput, "nodes", "node " + std::to_string(index) + " is referenced but the file has " +
                                                       std::to_string(model_.nodes.size()) + " nodes");
   const auto ni = static_cast<std::size_t>(index);
   const std::string where = element("nodes", ni);
-  if (out_.nodes[ni] || !visiting.insert(index).second)
-    return fail(ErrorCode::InvalidInput, where, "is reachable twice (a cycle or a shared child); nodes form a forest");
+  if (out_.nodes[ni])
+    return fail(ErrorCode::InvalidInput, where, "is reachable twice (a cycle or a shared child); nodes must form a forest");
   const tinygltf::Node& node = model_.nodes[ni];
   auto transform = node_transform(node);
   if (!transform)
@@ -491,8 +494,7 @@ Status Importer::create_node(int index, Entity parent, bool animated, std::set<i
   out_.nodes[ni] = e;
   world_.add<Transform>(e, *transform);
   set_parent(world_, e, parent);
-  animated_nodes_[ni] = animated = animated || animated_nodes_[ni];
-  for (int child : node.children) PENUMBRA_TRY(create_node(child, e, animated, visiting));
+  animated_nodes_[ni] = animated || animated_nodes_[ni];
   return {};
 }
 
@@ -708,8 +710,23 @@ Status Importer::create_nodes() {
       if (ch.target_node >= 0 && static_cast<std::size_t>(ch.target_node) < model_.nodes.size())
         animated_nodes_[static_cast<std::size_t>(ch.target_node)] = true;
   out_.nodes.assign(model_.nodes.size(), Entity::null());
-  std::set<int> visiting;
-  for (int root : roots) PENUMBRA_TRY(create_node(root, out_.root, false, visiting));
+  // Depth-first with an explicit stack: a hostile file's deep hierarchy cannot overflow ours.
+  struct Pending {
+    int node;
+    Entity parent;
+    bool parent_animated;
+  };
+  std::vector<Pending> stack;
+  for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, out_.root, false});
+  while (!stack.empty()) {
+    const Pending p = stack.back();
+    stack.pop_back();
+    PENUMBRA_TRY(create_node(p.node, p.parent, p.parent_animated));
+    const auto ni = static_cast<std::size_t>(p.node);
+    const std::vector<int>& children = model_.nodes[ni].children;
+    for (auto it = children.rbegin(); it != children.rend(); ++it)
+      stack.push_back({*it, out_.nodes[ni], animated_nodes_[ni]});
+  }
   return {};
 }
 

@@ -81,6 +81,18 @@ TEST(GltfImport, ExternalBinMatchesEmbeddedBase64) {
   EXPECT_EQ(a.get<Mesh>(pa).data->indices, b.get<Mesh>(pb).data->indices);
 }
 
+TEST(GltfImport, BinaryGlbMatchesExternalBin) {
+  World a, b;
+  auto embedded = import_gltf(a, kCases / "valid_external.gltf");
+  auto binary = import_gltf(b, kCases / "valid.glb");
+  ASSERT_TRUE(embedded.ok() && binary.ok()) << (binary.ok() ? "" : binary.error().message);
+  const Entity pa = a.get<Children>(embedded->nodes[1]).entities[0];
+  const Entity pb = b.get<Children>(binary->nodes[1]).entities[0];
+  EXPECT_EQ(a.get<Mesh>(pa).data->positions, b.get<Mesh>(pb).data->positions);
+  EXPECT_EQ(a.get<Mesh>(pa).data->normals, b.get<Mesh>(pb).data->normals);
+  EXPECT_EQ(a.get<Mesh>(pa).data->indices, b.get<Mesh>(pb).data->indices);
+}
+
 TEST(GltfImport, MarkStaticCanBeTurnedOff) {
   World world;
   ImportOptions options;
@@ -134,6 +146,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"required_extension.gltf", ErrorCode::Unsupported, {"extensionsRequired", "KHR_draco_mesh_compression"}},
         BadCase{"bad_json.gltf", ErrorCode::InvalidInput, {"JSON"}},
         BadCase{"joint_out_of_range.gltf", ErrorCode::InvalidInput, {"JOINTS_0", "joint 5", "skins[0]", "nodes[1]"}},
+        BadCase{"cycle.gltf", ErrorCode::InvalidInput, {"nodes[0]", "reachable twice"}},
+        BadCase{"bad_key_times.gltf", ErrorCode::InvalidInput, {"animations[0].samplers[0].input", "key 2"}},
+        BadCase{"truncated.glb", ErrorCode::InvalidInput, {"tinygltf"}},
         BadCase{"does_not_exist.gltf", ErrorCode::NotFound, {"not found"}}),
     [](const ::testing::TestParamInfo<BadCase>& param_info) {
       std::string name = param_info.param.file;

@@ -160,6 +160,33 @@ def main():
     skinned["skins"] = [{"joints": [2, 3], "inverseBindMatrices": 5}]
     write("joint_out_of_range.gltf", skinned)
 
+    # cycle.gltf: the child node lists its parent as a child.
+    cycle = copy.deepcopy(base)
+    cycle["nodes"][1]["children"] = [0]
+    write("cycle.gltf", cycle)
+
+    # bad_key_times.gltf: an animation whose key times go backwards.
+    times = (floats([0.0, 1.0, 0.5]), {"componentType": 5126, "count": 3, "type": "SCALAR"})
+    moves = (floats([0, 0, 0, 1, 0, 0, 2, 0, 0]), {"componentType": 5126, "count": 3, "type": "VEC3"})
+    d, v, a = build(QUAD_P, QUAD_N, QUAD_I, [times, moves])
+    animated = scene(d, v, a)
+    animated["animations"] = [{"channels": [{"sampler": 0, "target": {"node": 1, "path": "translation"}}],
+                               "samplers": [{"input": 3, "output": 4, "interpolation": "LINEAR"}]}]
+    write("bad_key_times.gltf", animated)
+
+    # valid.glb and truncated.glb: the quad as binary glTF, then cut inside its BIN chunk.
+    doc = copy.deepcopy(base)
+    del doc["buffers"][0]["uri"]
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    binary = data + b"\0" * (-len(data) % 4)
+    chunks = struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(binary), 0x004E4942) + binary
+    glb = struct.pack("<III", 0x46546C67, 2, 12 + len(chunks)) + chunks
+    with open(os.path.join(HERE, "valid.glb"), "wb") as f:
+        f.write(glb)
+    with open(os.path.join(HERE, "truncated.glb"), "wb") as f:
+        f.write(glb[:-40])
+
 
 if __name__ == "__main__":
     main()
