@@ -3,12 +3,12 @@
 //
 //   cornell    the Cornell Box (Cornell University Program of Computer Graphics measurements),
 //              metres, open at the front (-Z), one Light{Rect} under the ceiling, a Camera at
-//              the published position; about 40 triangles.
+//              the published position; 30 triangles.
 //   courtyard  a 20 x 20 m open courtyard: ground, two perimeter walls, a free-standing 5 cm
 //              thin wall (open on both sides: light leaks through it in a naive probe grid),
 //              pillars, an arch, crates (movable: not Static), a sun (Directional) and a point
 //              light, a camera, and a procedural skinned character (8 joints) with a looping
-//              walk clip on an Animator; a few thousand triangles.
+//              walk clip on an Animator; about 2,000 triangles.
 //   furnace    a closed inward-facing icosphere of radius kFurnaceRadius with albedo
 //              kFurnaceAlbedo and emitted radiance kFurnaceRadiance: at every interior point and
 //              for every normal the irradiance is pi * Le / (1 - rho) (all bounces), i.e.
