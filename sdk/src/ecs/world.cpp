@@ -55,25 +55,31 @@ void PoolBase::set_sparse(std::uint32_t index, std::uint32_t pos) {
   sparse_[page][index & (kSparsePage - 1)] = pos;
 }
 
-void PoolBase::push(Entity e, std::uint64_t tick_value) {
+void PoolBase::push(std::uint32_t entity_index, std::uint64_t tick_value) {
   const std::uint32_t pos = size_;
-  if ((pos >> kPageShift) >= entity_pages_.size()) {
-    entity_pages_.push_back(std::make_unique_for_overwrite<Entity[]>(kPageSize));
-    tick_pages_.push_back(std::make_unique_for_overwrite<std::uint64_t[]>(kPageSize));
+  if ((pos >> kPageShift) >= index_pages_.size()) {
+    // Blocks grow geometrically, as for the components (Pool::emplace).
+    const std::size_t count = index_pages_.empty() ? 1 : index_pages_.size();
+    index_blocks_.push_back(std::make_unique_for_overwrite<std::uint32_t[]>(kPageSize * count));
+    tick_blocks_.push_back(std::make_unique_for_overwrite<std::uint64_t[]>(kPageSize * count));
+    for (std::size_t i = 0; i < count; ++i) {
+      index_pages_.push_back(index_blocks_.back().get() + i * kPageSize);
+      tick_pages_.push_back(tick_blocks_.back().get() + i * kPageSize);
+    }
   }
-  set_sparse(e.index, pos);
-  entity(pos) = e;
+  set_sparse(entity_index, pos);
+  index(pos) = entity_index;
   tick(pos) = tick_value;
   ++size_;
 }
 
 bool PoolBase::erase(std::uint32_t pos, bool iterating) {
-  const std::uint32_t index = entity(pos).index;
-  sparse_[index >> kSparseShift][index & (kSparsePage - 1)] = kNone;
+  const std::uint32_t removed = index(pos);
+  sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
   destroy_at(pos);
   if (iterating) {
     // Leave a tombstone: positions the running iteration has not reached must not move.
-    entity(pos).index = kNone;
+    index(pos) = kNone;
     ++tombstones_;
     return true;
   }
@@ -81,9 +87,9 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
   const std::uint32_t last = size_ - 1;
   if (pos != last) {
     relocate(last, pos);
-    entity(pos) = entity(last);
+    index(pos) = index(last);
     tick(pos) = tick(last);
-    set_sparse(entity(pos).index, pos);
+    set_sparse(index(pos), pos);
   }
   --size_;
   return false;
@@ -92,12 +98,12 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
 void PoolBase::compact() {
   std::uint32_t out = 0;
   for (std::uint32_t i = 0; i < size_; ++i) {
-    if (entity(i).index == kNone) continue;
+    if (index(i) == kNone) continue;
     if (i != out) {
       relocate(i, out);
-      entity(out) = entity(i);
+      index(out) = index(i);
       tick(out) = tick(i);
-      set_sparse(entity(out).index, out);
+      set_sparse(index(out), out);
     }
     ++out;
   }

@@ -164,12 +164,13 @@ class PoolBase {
   std::uint32_t size() const { return size_; }
   std::uint32_t live() const { return size_ - tombstones_; }
 
-  // Entity and change tick of a dense slot; a tombstone's entity index is kNone.
-  Entity& entity(std::uint32_t pos) { return entity_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
-  const Entity& entity(std::uint32_t pos) const { return entity_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  // Entity index and change tick of a dense slot; a tombstone's index is kNone. (Generations are
+  // not stored: a pool only holds components of alive entities.)
+  std::uint32_t& index(std::uint32_t pos) { return index_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  std::uint32_t index(std::uint32_t pos) const { return index_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
   std::uint64_t& tick(std::uint32_t pos) { return tick_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
   std::uint64_t tick(std::uint32_t pos) const { return tick_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
-  const Entity* entity_page(std::uint32_t page) const { return entity_pages_[page].get(); }
+  const std::uint32_t* index_page(std::uint32_t page) const { return index_pages_[page]; }
 
   // Dense position of the entity with this index, or kNone.
   std::uint32_t find(std::uint32_t index) const {
@@ -180,12 +181,12 @@ class PoolBase {
   // As find(), trying `hint` first: pools filled in the same order line up, so a view's other
   // pools are usually at the lead pool's position.
   std::uint32_t find(std::uint32_t index, std::uint32_t hint) const {
-    if (hint < size_ && entity(hint).index == index) return hint;
+    if (hint < size_ && this->index(hint) == index) return hint;
     return find(index);
   }
 
-  // Appends `e` (its component must already be constructed at position size()).
-  void push(Entity e, std::uint64_t tick);
+  // Appends entity `index` (its component must already be constructed at position size()).
+  void push(std::uint32_t index, std::uint64_t tick);
   // Removes the component at `pos`: swap-and-pop, or a tombstone while `iterating`.
   // Returns true when a tombstone was left (the pool then needs compact()).
   bool erase(std::uint32_t pos, bool iterating);
@@ -209,8 +210,10 @@ class PoolBase {
   void set_sparse(std::uint32_t index, std::uint32_t pos);
 
   std::uint32_t size_ = 0;
-  std::vector<std::unique_ptr<Entity[]>> entity_pages_;
-  std::vector<std::unique_ptr<std::uint64_t[]>> tick_pages_;
+  std::vector<std::uint32_t*> index_pages_;  // into index_blocks_
+  std::vector<std::uint64_t*> tick_pages_;   // into tick_blocks_
+  std::vector<std::unique_ptr<std::uint32_t[]>> index_blocks_;
+  std::vector<std::unique_ptr<std::uint64_t[]>> tick_blocks_;
   std::vector<std::unique_ptr<std::uint32_t[]>> sparse_;
 };
 
@@ -220,8 +223,8 @@ class Pool final : public PoolBase {
   Pool() = default;
   ~Pool() override {
     for (std::uint32_t i = 0; i < size(); ++i)
-      if (entity(i).index != kNone) at(i).~T();
-    for (T* page : pages_) ::operator delete(page, std::align_val_t{alignof(T)});
+      if (index(i) != kNone) at(i).~T();
+    for (T* block : blocks_) ::operator delete(block, std::align_val_t{alignof(T)});
   }
 
   T& at(std::uint32_t pos) { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
@@ -230,13 +233,19 @@ class Pool final : public PoolBase {
 
   // Constructs a new component at the end of the pool.
   template <class... Args>
-  T& emplace(Entity e, std::uint64_t tick, Args&&... args) {
+  T& emplace(std::uint32_t entity_index, std::uint64_t tick, Args&&... args) {
     const std::uint32_t pos = size();
-    if ((pos >> kPageShift) >= pages_.size())
-      pages_.push_back(static_cast<T*>(::operator new(sizeof(T) * kPageSize, std::align_val_t{alignof(T)})));
+    if ((pos >> kPageShift) >= pages_.size()) {
+      // A new block as large as all before it (one page at first): pages stay put, and
+      // consecutive pages are mostly adjacent in memory, which keeps iteration streaming.
+      const std::size_t count = pages_.empty() ? 1 : pages_.size();
+      T* block = static_cast<T*>(::operator new(sizeof(T) * kPageSize * count, std::align_val_t{alignof(T)}));
+      blocks_.push_back(block);
+      for (std::size_t i = 0; i < count; ++i) pages_.push_back(block + i * kPageSize);
+    }
     T* slot = &at(pos);
     ::new (static_cast<void*>(slot)) T(std::forward<Args>(args)...);
-    push(e, tick);
+    push(entity_index, tick);
     return *slot;
   }
 
@@ -247,7 +256,8 @@ class Pool final : public PoolBase {
     at(from).~T();
   }
 
-  std::vector<T*> pages_;
+  std::vector<T*> pages_;   // kPageSize components each, inside blocks_
+  std::vector<T*> blocks_;  // the allocations
 };
 
 template <class Fn, class... T>
@@ -279,6 +289,9 @@ class World {
   }
   // Number of alive entities.
   std::size_t entity_count() const { return alive_count_; }
+  // The handle of the alive entity with this index (for code that stores indices).
+  // Precondition: an entity with this index is alive.
+  Entity handle(std::uint32_t index) const { return Entity{index, slots_[index]}; }
 
   // --- Components (T: a movable object type) ------------------------------------------------
   // Constructs T(args...) (aggregates too), or replaces the present one; stamps the current tick.
@@ -515,12 +528,12 @@ class View {
     const std::uint32_t n = p.size();
     for (std::uint32_t base = 0; base < n; base += detail::kPageSize) {
       First* data = p.page(base >> detail::kPageShift);
-      const Entity* entities = p.entity_page(base >> detail::kPageShift);
+      const std::uint32_t* indices = p.index_page(base >> detail::kPageShift);
       const std::uint32_t end = n - base < detail::kPageSize ? n - base : detail::kPageSize;
       for (std::uint32_t i = 0; i < end; ++i) {
-        if (p.tombstones_ != 0 && entities[i].index == detail::kNone) continue;
+        if (p.tombstones_ != 0 && indices[i] == detail::kNone) continue;
         if constexpr (detail::kTakesEntity<Fn, First>)
-          fn(entities[i], data[i]);
+          fn(world_->handle(indices[i]), data[i]);
         else
           fn(data[i]);
       }
@@ -547,7 +560,7 @@ class View {
   template <class C>
   struct Cursor {
     C* data = nullptr;
-    const Entity* entities = nullptr;
+    const std::uint32_t* indices = nullptr;
     std::uint32_t limit = 0;
   };
   template <class C>
@@ -555,7 +568,7 @@ class View {
     const std::uint32_t base = page << detail::kPageShift;
     if (base >= p->size()) return {};
     const std::uint32_t left = p->size() - base;
-    return {p->page(page), p->entity_page(page), left < detail::kPageSize ? left : detail::kPageSize};
+    return {p->page(page), p->index_page(page), left < detail::kPageSize ? left : detail::kPageSize};
   }
 
   template <std::size_t L, class Fn, class Filter>
@@ -573,7 +586,7 @@ class View {
     for (std::uint32_t base = 0; base < n; base += detail::kPageSize) {
       const std::uint32_t page = base >> detail::kPageShift;
       const std::tuple<Cursor<T>...> cursors{cursor(std::get<I>(pools), page)...};
-      const Entity* entities = std::get<L>(cursors).entities;
+      const std::uint32_t* indices = std::get<L>(cursors).indices;
       const std::uint32_t end = n - base < detail::kPageSize ? n - base : detail::kPageSize;
       std::uint32_t i = 0;
       // Fast path: every pool holds this page's entities in the same slots and has no
@@ -581,18 +594,18 @@ class View {
       if (Filter::kAll && aligned(pools, cursors, end, std::index_sequence<I...>{})) {
         for (; i < end && !(std::get<I>(pools)->tombstones_ || ...); ++i) {
           if constexpr (detail::kTakesEntity<Fn, T...>)
-            fn(entities[i], std::get<I>(cursors).data[i]...);
+            fn(world_->handle(indices[i]), std::get<I>(cursors).data[i]...);
           else
             fn(std::get<I>(cursors).data[i]...);
         }
       }
       for (; i < end; ++i) {
-        const Entity e = entities[i];
-        if (e.index == detail::kNone || !filter(base + i)) continue;
-        const std::tuple<T*...> components{component<I, L>(std::get<I>(pools), std::get<I>(cursors), e, i)...};
+        const std::uint32_t index = indices[i];
+        if (index == detail::kNone || !filter(base + i)) continue;
+        const std::tuple<T*...> components{component<I, L>(std::get<I>(pools), std::get<I>(cursors), index, i)...};
         if (!((std::get<I>(components) != nullptr) && ...)) continue;
         if constexpr (detail::kTakesEntity<Fn, T...>)
-          fn(e, *std::get<I>(components)...);
+          fn(world_->handle(index), *std::get<I>(components)...);
         else
           fn(*std::get<I>(components)...);
       }
@@ -602,18 +615,18 @@ class View {
   template <std::size_t... I>
   static bool aligned(const Pools& pools, const std::tuple<Cursor<T>...>& cursors, std::uint32_t end,
                       std::index_sequence<I...>) {
-    const Entity* first = std::get<0>(cursors).entities;
+    const std::uint32_t* first = std::get<0>(cursors).indices;
     return ((std::get<I>(pools)->tombstones_ == 0) && ...) && ((std::get<I>(cursors).limit >= end) && ...) &&
-           ((std::memcmp(first, std::get<I>(cursors).entities, end * sizeof(Entity)) == 0) && ...);
+           ((std::memcmp(first, std::get<I>(cursors).indices, end * sizeof(std::uint32_t)) == 0) && ...);
   }
 
   template <std::size_t I, std::size_t L, class C>
-  static C* component(detail::Pool<C>* p, const Cursor<C>& c, Entity e, std::uint32_t i) {
+  static C* component(detail::Pool<C>* p, const Cursor<C>& c, std::uint32_t index, std::uint32_t i) {
     if constexpr (I == L) {
       return c.data + i;
     } else {
-      if (i < c.limit && c.entities[i].index == e.index) return c.data + i;
-      const std::uint32_t at = p->find(e.index);
+      if (i < c.limit && c.indices[i] == index) return c.data + i;
+      const std::uint32_t at = p->find(index);
       return at == detail::kNone ? nullptr : &p->at(at);
     }
   }
@@ -635,7 +648,7 @@ T& World::add(Entity e, Args&&... args) {
     p.tick(pos) = tick_;
     return c;
   }
-  T& c = p.emplace(e, tick_, std::forward<Args>(args)...);
+  T& c = p.emplace(e.index, tick_, std::forward<Args>(args)...);
   if (p.on_add_.empty()) return c;
   p.fire(*this, p.on_add_, e);
   // A listener may have removed or replaced it (or moved it by a removal): look it up again.
