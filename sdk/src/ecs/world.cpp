@@ -45,32 +45,21 @@ ComponentId register_component(std::string_view signature) {
 
 // --- PoolBase ----------------------------------------------------------------------------------
 
-void PoolBase::set_sparse(std::uint32_t index, std::uint32_t pos) {
-  const std::uint32_t page = index >> kSparseShift;
+void PoolBase::add_sparse_page(std::uint32_t page) {
   if (page >= sparse_.size()) sparse_.resize(page + 1);
-  if (!sparse_[page]) {
-    sparse_[page] = std::make_unique_for_overwrite<std::uint32_t[]>(kSparsePage);
-    std::fill_n(sparse_[page].get(), kSparsePage, kNone);
-  }
-  sparse_[page][index & (kSparsePage - 1)] = pos;
+  sparse_[page] = std::make_unique_for_overwrite<std::uint32_t[]>(kSparsePage);
+  std::fill_n(sparse_[page].get(), kSparsePage, kNone);
 }
 
-void PoolBase::push(std::uint32_t entity_index, std::uint64_t tick_value) {
-  const std::uint32_t pos = size_;
-  if ((pos >> kPageShift) >= index_pages_.size()) {
-    // Blocks grow geometrically, as for the components (Pool::emplace).
-    const std::size_t count = index_pages_.empty() ? 1 : index_pages_.size();
-    index_blocks_.push_back(std::make_unique_for_overwrite<std::uint32_t[]>(kPageSize * count));
-    tick_blocks_.push_back(std::make_unique_for_overwrite<std::uint64_t[]>(kPageSize * count));
-    for (std::size_t i = 0; i < count; ++i) {
-      index_pages_.push_back(index_blocks_.back().get() + i * kPageSize);
-      tick_pages_.push_back(tick_blocks_.back().get() + i * kPageSize);
-    }
+void PoolBase::grow() {
+  // Blocks grow geometrically, as for the components (Pool::emplace).
+  const std::size_t count = index_pages_.empty() ? 1 : index_pages_.size();
+  index_blocks_.push_back(std::make_unique_for_overwrite<std::uint32_t[]>(kPageSize * count));
+  tick_blocks_.push_back(std::make_unique_for_overwrite<std::uint64_t[]>(kPageSize * count));
+  for (std::size_t i = 0; i < count; ++i) {
+    index_pages_.push_back(index_blocks_.back().get() + i * kPageSize);
+    tick_pages_.push_back(tick_blocks_.back().get() + i * kPageSize);
   }
-  set_sparse(entity_index, pos);
-  index(pos) = entity_index;
-  tick(pos) = tick_value;
-  ++size_;
 }
 
 bool PoolBase::erase(std::uint32_t pos, bool iterating) {

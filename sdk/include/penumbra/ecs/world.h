@@ -186,7 +186,14 @@ class PoolBase {
   }
 
   // Appends entity `index` (its component must already be constructed at position size()).
-  void push(std::uint32_t index, std::uint64_t tick);
+  void push(std::uint32_t entity_index, std::uint64_t tick_value) {
+    const std::uint32_t pos = size_;
+    if ((pos >> kPageShift) >= index_pages_.size()) grow();
+    set_sparse(entity_index, pos);
+    index(pos) = entity_index;
+    tick(pos) = tick_value;
+    ++size_;
+  }
   // Removes the component at `pos`: swap-and-pop, or a tombstone while `iterating`.
   // Returns true when a tombstone was left (the pool then needs compact()).
   bool erase(std::uint32_t pos, bool iterating);
@@ -207,7 +214,13 @@ class PoolBase {
   virtual void relocate(std::uint32_t from, std::uint32_t to) = 0;  // move-construct `to`, destroy `from`
 
  private:
-  void set_sparse(std::uint32_t index, std::uint32_t pos);
+  void set_sparse(std::uint32_t entity_index, std::uint32_t pos) {
+    const std::uint32_t page = entity_index >> kSparseShift;
+    if (page >= sparse_.size() || !sparse_[page]) add_sparse_page(page);
+    sparse_[page][entity_index & (kSparsePage - 1)] = pos;
+  }
+  void add_sparse_page(std::uint32_t page);
+  void grow();  // adds index and tick pages
 
   std::uint32_t size_ = 0;
   std::vector<std::uint32_t*> index_pages_;  // into index_blocks_
