@@ -169,6 +169,37 @@ TEST(World, RandomOperationsMatchAReferenceModel) {
   EXPECT_EQ(n, pos.size());
 }
 
+// Handles and iteration order depend only on the sequence of operations.
+TEST(World, SameOperationsGiveTheSameHandlesAndOrder) {
+  const auto run = [](std::uint64_t seed) {
+    World w;
+    std::vector<Entity> es;
+    Rng rng = Rng::stream(seed, 0);
+    for (int step = 0; step < 5000; ++step) {
+      const std::uint32_t r = rng.next_u32();
+      if (es.empty() || r % 4 == 0) {
+        es.push_back(w.create());
+      } else {
+        const Entity e = es[r / 4 % es.size()];
+        if (!w.alive(e)) continue;
+        if (r % 4 == 1) w.add<Position>(e, float(step), 0.0f);
+        if (r % 4 == 2) w.add<Velocity>(e, float(step), 0.0f);
+        if (r % 4 == 3 && step % 3 == 0) w.destroy(e);
+      }
+    }
+    std::vector<std::pair<Entity, float>> order;
+    w.each<Position, Velocity>([&](Entity e, Position& p, Velocity&) {
+      EXPECT_EQ(w.handle(e.index), e);
+      order.emplace_back(e, p.x);
+    });
+    return order;
+  };
+  const auto a = run(5);
+  EXPECT_GT(a.size(), 100u);
+  EXPECT_EQ(a, run(5));
+  EXPECT_NE(a, run(6));
+}
+
 TEST(World, EveryComponentIsDestroyedExactlyOnce) {
   Tracked::live = 0;
   {

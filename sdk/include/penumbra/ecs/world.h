@@ -2,8 +2,11 @@
 // sparse sets, views, systems run in phases, change ticks, add/remove events and resources.
 //
 // Storage. Each component type T has one pool, a sparse set: a paged sparse array (entity index ->
-// dense position), a dense array of entities, the components themselves in fixed pages of 1024
-// (adding a component never moves existing ones) and one change tick per component.
+// dense position) and, per dense position, the entity index, the component and its change tick,
+// all three in pages of 1024 carved from geometrically growing blocks (adding a component never
+// moves existing ones, and consecutive pages are mostly adjacent, so iteration streams). Views
+// walk the smallest pool and find the others' components at the same position when the pools
+// line up (entities given the same components in the same order), else through the sparse array.
 //
 // Change ticks. The world has a tick counter (tick()); add() and patch() stamp the component with
 // the current tick. The tick advances before each system runs and after each update(), so every
@@ -43,7 +46,8 @@ namespace penumbra {
 class World;
 
 // A generation-checked handle: when an entity is destroyed its index's generation is bumped, so an
-// old handle is detected as stale (alive() == false) and never aliases a later entity.
+// old handle is detected as stale (alive() == false) and never aliases a later entity. Generations
+// use 31 bits; an index whose generation is exhausted is retired rather than reused.
 struct Entity {
   std::uint32_t index = ~0u;
   std::uint32_t generation = 0;
@@ -295,6 +299,7 @@ class World {
   Entity create();
   // Removes every component (each on_remove fires while the entity is still alive), then bumps
   // the index's generation so every handle to it turns stale. A stale or null handle is ignored.
+  // Cost: O(number of component types this World has seen).
   void destroy(Entity e);
   // False for null and stale handles.
   bool alive(Entity e) const {
