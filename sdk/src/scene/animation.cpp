@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include <glm/gtc/matrix_inverse.hpp>
+#include <glm/gtc/quaternion.hpp>
 #include <glm/mat3x3.hpp>
 
 #include "penumbra/ecs/transform.h"
@@ -144,7 +145,8 @@ void skin_normals(const MeshData& mesh, const SkinPose& pose, std::vector<glm::v
 }
 
 void register_scene_systems(World& world) {
-  world.add_system({"animation", Phase::Animation, {component_id<Animator>()}, {component_id<Transform>()},
+  world.add_system({"animation", Phase::Animation, {component_id<Animator>()},
+                    {component_id<Animator>(), component_id<Transform>()},
                     [](World& w, const SystemContext& context) { update_animators(w, static_cast<float>(context.dt)); }});
   register_transform_systems(world);
   world.add_system({"skinning", Phase::Transform, {component_id<Skin>(), component_id<WorldTransform>()},

@@ -8,7 +8,6 @@
 
 #include <vector>
 
-#include <glm/gtc/quaternion.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
