@@ -65,7 +65,7 @@ ProgressCallback terminal_progress() {
     std::lock_guard lock(bar->mutex);
     const int width = 30;
     const int filled = static_cast<int>(p.fraction * width + 0.5);
-    std::fprintf(stderr, "\r  [%d/%d] %-28.*s [%s%s] %5.1f%%", p.stage_index + 1, p.stage_count,
+    std::fprintf(stderr, "\r  [%d/%d] %-28.*s [%s%s] %5.1f%%", p.stage_index, p.stage_count,
                  static_cast<int>(std::min<std::size_t>(p.stage.size(), 28)), p.stage.data(),
                  std::string(static_cast<std::size_t>(filled), '#').c_str(),
                  std::string(static_cast<std::size_t>(width - filled), '.').c_str(), 100.0 * p.fraction);

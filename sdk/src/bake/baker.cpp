@@ -5,14 +5,13 @@
 #include <chrono>
 
 #include "penumbra/bake/ray_scene.h"
+#include "penumbra/core/version.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra {
 
 namespace {
-
-constexpr const char* kSdkVersion = "0.1.0";
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -115,7 +114,7 @@ Result<std::vector<const Baker*>> select_bakers(const BakerRegistry& registry, c
 
 std::uint64_t bake_input_hash(World& world, const std::vector<std::string>& names, const BakeSettings& settings) {
   Hasher h;
-  h.add(std::string_view(kSdkVersion));
+  h.add(std::string_view(sdk_version()));
   hash_scene(world, h);
   h.add(settings.preset);
   h.add(settings.seed);
@@ -141,7 +140,7 @@ Result<BakeResult> bake_world(World& world, const std::vector<std::string>& name
 
   BakeResult result;
   result.file.input_hash = bake_input_hash(world, names, settings);
-  result.file.sdk_version = kSdkVersion;
+  result.file.sdk_version = std::string(sdk_version());
 
   // Build the ray scene once for every baker (static geometry; bakers bake what does not move).
   jobs.begin_stage("ray scene", 1);
