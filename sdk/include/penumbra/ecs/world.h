@@ -387,7 +387,8 @@ class World {
 
   // --- Systems ------------------------------------------------------------------------------
   // Registers a system after those of its phase. Not during update(). A system that writes a
-  // component it did not declare in `writes` (add/patch/remove) fails an assertion in debug builds.
+  // component it did not declare in `writes` (add/patch/remove) fails an assertion in debug builds;
+  // writes through get() are not seen (and not stamped): use patch() for writes others must notice.
   void add_system(SystemDesc desc);
   // Runs the systems of one phase, then advances the tick.
   void run_phase(Phase phase, double dt);
