@@ -1,12 +1,16 @@
 #include "penumbra/scene/gltf.h"
 
 #include <cmath>
+#include <cctype>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <set>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "penumbra/core/random.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
@@ -225,6 +229,83 @@ TEST(GltfImport, ImportIsDeterministic) {
   w1.each<Mesh>([&](Entity, Mesh& m) { pa.push_back(m.data->positions); });
   w2.each<Mesh>([&](Entity, Mesh& m) { pb.push_back(m.data->positions); });
   EXPECT_EQ(pa, pb);
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Hostile input: corrupted copies of the valid files must import cleanly or fail with an error,
+// never crash, and whatever imports must satisfy the MeshData invariants.
+// Returns whether the corrupted file imported.
+bool expect_survives(const std::string& bytes, const std::filesystem::path& path) {
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << bytes;
+  }
+  World world;
+  auto imported = import_gltf(world, path);
+  if (!imported.ok()) {
+    EXPECT_EQ(imported.error().message.rfind(path.filename().string(), 0), 0u) << imported.error().message;
+    return false;
+  }
+  world.each<Mesh>([&](Entity, Mesh& m) { EXPECT_TRUE(m.data->validate("fuzzed").ok()); });
+  return true;
+}
+
+TEST(GltfImport, CorruptedBinaryChunkNeverCrashes) {
+  const std::string glb = read_file(kCases / "valid.glb");
+  const std::filesystem::path out = std::filesystem::path(::testing::TempDir()) / "fuzzed_bin.glb";
+  // The BIN chunk is the tail of the file; flip bytes only there so tinygltf's container parse succeeds.
+  const std::size_t bin_start = glb.size() - 108;
+  int imported = 0, rejected = 0;
+  for (std::uint64_t seed = 0; seed < 200; ++seed) {
+    Rng rng = Rng::stream(42, seed);
+    std::string bytes = glb;
+    for (int flips = 0; flips < 4; ++flips)
+      bytes[bin_start + rng.next_u32() % 108] = static_cast<char>(rng.next_u32() & 0xff);
+    (expect_survives(bytes, out) ? imported : rejected) += 1;
+  }
+  // Both outcomes occur: corrupted indices and NaNs are caught, harmless flips import.
+  EXPECT_GT(imported, 0);
+  EXPECT_GT(rejected, 0);
+}
+
+TEST(GltfImport, CorruptedJsonNumbersNeverCrash) {
+  const std::string text = read_file(kCases / "valid.gltf");
+  const std::filesystem::path out = std::filesystem::path(::testing::TempDir()) / "fuzzed_json.gltf";
+  // Positions of the integer literals outside the base64 buffer.
+  std::vector<std::pair<std::size_t, std::size_t>> numbers;
+  for (std::size_t i = 0; i < text.size();) {
+    if (std::isdigit(static_cast<unsigned char>(text[i])) && i > 0 && !std::isalnum(static_cast<unsigned char>(text[i - 1])) &&
+        text[i - 1] != '+' && text[i - 1] != '/') {
+      std::size_t j = i;
+      while (j < text.size() && std::isdigit(static_cast<unsigned char>(text[j]))) ++j;
+      if (j < text.size() && (text[j] == ',' || text[j] == '\n' || text[j] == ']' || text[j] == '}')) numbers.emplace_back(i, j - i);
+      i = j;
+    } else {
+      ++i;
+    }
+  }
+  ASSERT_GT(numbers.size(), 30u);
+  const char* replacements[] = {"-1", "0", "1", "2", "3", "5", "7", "64", "100000", "4294967295", "99999999999"};
+  int imported = 0, rejected = 0;
+  for (std::uint64_t seed = 0; seed < 300; ++seed) {
+    Rng rng = Rng::stream(7, seed);
+    const auto [pos, len] = numbers[rng.next_u32() % numbers.size()];
+    std::string bytes = text;
+    bytes.replace(pos, len, replacements[rng.next_u32() % std::size(replacements)]);
+    (expect_survives(bytes, out) ? imported : rejected) += 1;
+  }
+  EXPECT_GT(imported, 0);
+  EXPECT_GT(rejected, 0);
 }
 
 }  // namespace
