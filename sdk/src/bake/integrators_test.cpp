@@ -14,6 +14,7 @@
 #include "penumbra/core/random.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
+#include "penumbra/scene/builtin.h"
 #include "penumbra/scene/mesh.h"
 
 namespace penumbra {
@@ -118,6 +119,25 @@ TEST(Integrators, FurnaceIrradiance) {
     EXPECT_GT(e.std_error[c], 0.0f);
     EXPECT_LT(e.std_error[c], 0.01f * expected[c]);
     EXPECT_NEAR(e.value[c], expected[c], 3.0f * e.std_error[c]) << "channel " << c;
+  }
+}
+
+// The built-in furnace scene states its own closed form.
+TEST(Integrators, BuiltinFurnaceReference) {
+  World world;
+  auto loaded = load_builtin(world, "furnace");
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  update_world_transforms(world);
+  auto scene = RayScene::build(world);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  IrradianceSettings ref;
+  ref.reference = true;
+  ref.samples = 8000;
+  Rng rng = Rng::stream(6, 0);
+  const Estimate e = irradiance(*scene, gather_lights(world), glm::vec3(0.1f, 0.2f, -0.3f), glm::vec3(0, 0, 1), ref, rng);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_LT(e.std_error[c], 0.02f * kFurnaceIrradiance);
+    EXPECT_NEAR(e.value[c], kFurnaceIrradiance, 3.0f * e.std_error[c]) << "channel " << c;
   }
 }
 

@@ -70,6 +70,24 @@ Result<std::vector<std::uint32_t>> valid_triangles(const std::vector<glm::vec3>&
   return kept;
 }
 
+// Skinned: a Skin and SkinPose, and a mesh with joints and weights for every vertex.
+bool is_skinned(World& world, Entity e) {
+  const MeshData* mesh = world.get<Mesh>(e).data.get();
+  return world.has<Skin>(e) && world.has<SkinPose>(e) && mesh != nullptr && !mesh->positions.empty() &&
+         mesh->joints.size() == mesh->positions.size() && mesh->weights.size() == mesh->positions.size();
+}
+
+// The largest joint index a vertex of `mesh` uses with a non-zero weight (-1 when none).
+int max_used_joint(const MeshData& mesh) {
+  int used = -1;
+  for (std::size_t i = 0; i < mesh.joints.size(); ++i) {
+    for (int k = 0; k < 4; ++k) {
+      if (mesh.weights[i][k] != 0.0f) used = std::max(used, int(mesh.joints[i][k]));
+    }
+  }
+  return used;
+}
+
 std::string entity_name(const World& world, Entity e) {
   std::string s = "entity " + std::to_string(e.index);
   if (const Name* name = world.try_get<Name>(e)) s += " '" + name->value + "'";
@@ -96,6 +114,7 @@ struct GeometryRecord {
   // Skinned: what update() needs to re-pose the geometry.
   std::shared_ptr<const MeshData> mesh;
   std::vector<std::uint32_t> kept;
+  int max_joint = -1;
   RTCGeometry geometry = nullptr;
 };
 
@@ -232,7 +251,7 @@ Result<RayScene> RayScene::build(World& world, const RaySceneOptions& options) {
   world.view<Mesh, WorldTransform>().each([&](Entity e, Mesh&, WorldTransform&) {
     if (world.has<Static>(e)) statics.push_back(e);
     else if (!options.include_dynamic) return;
-    else if (world.has<Skin>(e) && world.has<SkinPose>(e)) skinned.push_back(e);
+    else if (is_skinned(world, e)) skinned.push_back(e);
     else movables.push_back(e);
   });
   // Entity order from the ECS is not guaranteed to be stable across Worlds built the same way;
@@ -335,7 +354,6 @@ Result<RayScene> RayScene::build(World& world, const RaySceneOptions& options) {
   // Skinned entities: their own world-space triangle geometry, refitted by update().
   for (Entity e : skinned) {
     const std::shared_ptr<const MeshData>& mesh = world.get<Mesh>(e).data;
-    if (!mesh || mesh->joints.size() != mesh->positions.size()) continue;
     std::size_t dropped = 0;
     auto valid = valid_triangles(mesh->positions, mesh->indices, entity_name(world, e), dropped);
     if (!valid) return valid.error();
@@ -345,12 +363,12 @@ Result<RayScene> RayScene::build(World& world, const RaySceneOptions& options) {
     rec.entity = e;
     rec.material = flatten(world.try_get<Material>(e));
     rec.mesh = mesh;
+    rec.max_joint = max_used_joint(*mesh);
     rec.kept = std::move(*valid);
     RTCGeometry g = s.new_triangles(mesh->positions, mesh->indices, rec.kept);
     rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_REFIT);
     s.triangles += rec.kept.size();
-    const unsigned id = s.attach(g, std::move(rec));
-    s.geometries[id].source = &s.geometries[id].kept;
+    s.attach(g, std::move(rec));
     rtcReleaseGeometry(g);
   }
   // Sources of skinned records point into the records themselves: fix them after the vector settled.
@@ -384,6 +402,13 @@ Status RayScene::update(World& world) {
       if (pose == nullptr) {
         rtcDisableGeometry(rec.geometry);
         continue;
+      }
+      if (rec.max_joint >= 0 && std::size_t(rec.max_joint) >= pose->joint_matrices.size()) {
+        return make_error(ErrorCode::InvalidInput,
+                          "RayScene::update: " + entity_name(world, rec.entity) + ": the mesh uses joint " +
+                              std::to_string(rec.max_joint) + " but SkinPose has " +
+                              std::to_string(pose->joint_matrices.size()) +
+                              " joint matrices; run the skinning system (update_skin_poses) first");
       }
       // Re-pose on the CPU (linear blend skinning), then to world space.
       skin_positions(*rec.mesh, *pose, posed);

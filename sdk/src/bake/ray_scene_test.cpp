@@ -228,6 +228,11 @@ TEST(RayScene, SkinnedMeshIsRefittedFromThePose) {
   // A pose that produces NaN is refused with an error, not sent to Embree.
   world.get<SkinPose>(skinned).joint_matrices[0][0][0] = kNaN;
   EXPECT_FALSE(scene->update(world).ok());
+  // So is a pose with fewer matrices than the mesh's joints.
+  world.get<SkinPose>(skinned).joint_matrices = {glm::mat4(1.0f)};
+  const Status short_pose = scene->update(world);
+  ASSERT_FALSE(short_pose.ok());
+  EXPECT_NE(short_pose.error().message.find("joint 1"), std::string::npos) << short_pose.error().message;
 }
 
 TEST(RayScene, PacketQueriesMatchSingleRays) {
