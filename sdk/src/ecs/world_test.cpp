@@ -235,6 +235,11 @@ TEST(World, ViewsVisitTheIntersectionWithEitherCallbackForm) {
   w.each<Position>([&](Position& p) { sum += p.y; });
   EXPECT_EQ(sum, float(expected.size()));
   EXPECT_EQ((w.view<Position, Velocity>().count()), expected.size());
+  // Read-only views name const components.
+  std::size_t n = 0;
+  w.each<const Velocity, const Position>([&](const Velocity&, const Position& p) { n += p.y == 1.0f; });
+  w.each<const Position>([&](Entity, const Position&) { ++n; });
+  EXPECT_EQ(n, expected.size() + w.count<Position>());
 }
 
 TEST(World, RemovalDuringIterationSkipsUnreachedAndVisitsOthersOnce) {

@@ -425,22 +425,23 @@ class World {
   template <class... T>
   friend class View;
 
-  template <class T>
-  detail::Pool<T>& pool() {
-    const ComponentId id = component_id<T>();
+  // The pool of T (cv-qualifiers ignored, so views may name const components).
+  template <class T, class U = std::remove_cv_t<T>>
+  detail::Pool<U>& pool() {
+    const ComponentId id = component_id<U>();
     if (id >= pools_.size()) pools_.resize(id + 1);
-    if (!pools_[id]) pools_[id] = std::make_unique<detail::Pool<T>>();
-    return static_cast<detail::Pool<T>&>(*pools_[id]);
+    if (!pools_[id]) pools_[id] = std::make_unique<detail::Pool<U>>();
+    return static_cast<detail::Pool<U>&>(*pools_[id]);
   }
-  template <class T>
-  detail::Pool<T>* pool_if() {
-    const ComponentId id = component_id<T>();
-    return id < pools_.size() ? static_cast<detail::Pool<T>*>(pools_[id].get()) : nullptr;
+  template <class T, class U = std::remove_cv_t<T>>
+  detail::Pool<U>* pool_if() {
+    const ComponentId id = component_id<U>();
+    return id < pools_.size() ? static_cast<detail::Pool<U>*>(pools_[id].get()) : nullptr;
   }
-  template <class T>
-  const detail::Pool<T>* pool_if() const {
-    const ComponentId id = component_id<T>();
-    return id < pools_.size() ? static_cast<const detail::Pool<T>*>(pools_[id].get()) : nullptr;
+  template <class T, class U = std::remove_cv_t<T>>
+  const detail::Pool<U>* pool_if() const {
+    const ComponentId id = component_id<U>();
+    return id < pools_.size() ? static_cast<const detail::Pool<U>*>(pools_[id].get()) : nullptr;
   }
 
   // Removes e's component from `p` (firing on_remove); false when absent.
@@ -523,7 +524,7 @@ class View {
 
  private:
   using First = std::tuple_element_t<0, std::tuple<T...>>;
-  using Pools = std::tuple<detail::Pool<T>*...>;
+  using Pools = std::tuple<detail::Pool<std::remove_cv_t<T>>*...>;
   using Indices = std::index_sequence_for<T...>;
 
   // Which of the lead pool's slots to visit.
@@ -583,7 +584,7 @@ class View {
     std::uint32_t limit = 0;
   };
   template <class C>
-  static Cursor<C> cursor(detail::Pool<C>* p, std::uint32_t page) {
+  static Cursor<C> cursor(detail::Pool<std::remove_cv_t<C>>* p, std::uint32_t page) {
     const std::uint32_t base = page << detail::kPageShift;
     if (base >= p->size()) return {};
     const std::uint32_t left = p->size() - base;
@@ -604,7 +605,7 @@ class View {
     const std::uint32_t n = lead->size();
     for (std::uint32_t base = 0; base < n; base += detail::kPageSize) {
       const std::uint32_t page = base >> detail::kPageShift;
-      const std::tuple<Cursor<T>...> cursors{cursor(std::get<I>(pools), page)...};
+      const std::tuple<Cursor<T>...> cursors{cursor<T>(std::get<I>(pools), page)...};
       const std::uint32_t* indices = std::get<L>(cursors).indices;
       const std::uint32_t end = n - base < detail::kPageSize ? n - base : detail::kPageSize;
       std::uint32_t i = 0;
@@ -640,7 +641,7 @@ class View {
   }
 
   template <std::size_t I, std::size_t L, class C>
-  static C* component(detail::Pool<C>* p, const Cursor<C>& c, std::uint32_t index, std::uint32_t i) {
+  static C* component(detail::Pool<std::remove_cv_t<C>>* p, const Cursor<C>& c, std::uint32_t index, std::uint32_t i) {
     if constexpr (I == L) {
       return c.data + i;
     } else {
