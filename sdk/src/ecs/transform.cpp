@@ -98,6 +98,18 @@ bool set_parent(World& world, Entity child, Entity parent) {
   return true;
 }
 
+void destroy_hierarchy(World& world, Entity root) {
+  if (!world.alive(root)) return;
+  set_parent(world, root, Entity::null());
+  // Collect the subtree first (depth-first), then destroy it.
+  std::vector<Entity> subtree{root};
+  for (std::size_t i = 0; i < subtree.size(); ++i)
+    if (const Children* children = world.try_get<Children>(subtree[i]))
+      for (const Entity child : children->entities)
+        if (world.alive(child)) subtree.push_back(child);
+  for (const Entity e : subtree) world.destroy(e);
+}
+
 void update_world_transforms(World& world) {
   TransformClock& clock = world.resource<TransformClock>();
   const std::uint64_t since = clock.last_run;

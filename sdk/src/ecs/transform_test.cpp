@@ -151,6 +151,28 @@ TEST(Transform, ReparentingAndDetachingKeepTheHierarchyConsistent) {
   EXPECT_EQ(glm::vec3(w.get<WorldTransform>(c).matrix[3]), glm::vec3(0, 0, 3));
 }
 
+TEST(Transform, DestroyHierarchyRemovesTheSubtreeOnly) {
+  World w;
+  std::vector<Entity> nodes;
+  // A complete binary tree of 31 nodes: node i has children 2i+1 and 2i+2.
+  for (int i = 0; i < 31; ++i) {
+    nodes.push_back(w.create());
+    w.add<Transform>(nodes.back());
+    if (i > 0) set_parent(w, nodes.back(), nodes[static_cast<std::size_t>((i - 1) / 2)]);
+  }
+  destroy_hierarchy(w, nodes[1]);  // the left subtree: 15 nodes
+  std::size_t alive = 0;
+  for (const Entity e : nodes) alive += w.alive(e);
+  EXPECT_EQ(alive, 16u);
+  EXPECT_EQ(w.entity_count(), 16u);
+  EXPECT_FALSE(w.alive(nodes[3]));
+  EXPECT_FALSE(w.alive(nodes[15]));  // a leaf below node 1 (15 -> 7 -> 3 -> 1)
+  EXPECT_TRUE(w.alive(nodes[2]));
+  EXPECT_EQ(w.get<Children>(nodes[0]).entities, std::vector<Entity>{nodes[2]});
+  destroy_hierarchy(w, nodes[1]);  // stale: ignored
+  EXPECT_EQ(w.entity_count(), 16u);
+}
+
 TEST(Transform, RegisteredSystemRunsInTheTransformPhase) {
   World w;
   register_transform_systems(w);

@@ -44,6 +44,10 @@ struct Children {
 // parent below child). Cost: O(depth of parent + siblings).
 bool set_parent(World& world, Entity child, Entity parent);
 
+// Destroys `root` and every entity below it, and removes root from its parent's Children.
+// A stale handle is ignored. Cost: O(size of the subtree).
+void destroy_hierarchy(World& world, Entity root);
+
 // Recomputes WorldTransform = parent world * local for the entities whose Transform changed, or
 // whose parent's WorldTransform changed, since the previous call (adding WorldTransform where
 // missing); untouched subtrees keep their matrices and change ticks. Advances the world's tick.
