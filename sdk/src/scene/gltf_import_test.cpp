@@ -310,3 +310,34 @@ TEST(GltfImport, CorruptedJsonNumbersNeverCrash) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+TEST(GltfImport, BaseColourTextureDecodedWithLinearAverage) {
+  World world;
+  auto imported = import_gltf(world, kCases / "textured.gltf");
+  ASSERT_TRUE(imported.ok()) << imported.error().message;
+  EXPECT_EQ(imported->textures, 1u);
+  const Entity prim = world.get<Children>(imported->nodes[1]).entities[0];
+  const std::shared_ptr<const Texture>& texture = world.get<Material>(prim).base_color_texture;
+  ASSERT_TRUE(texture);
+  EXPECT_EQ(texture->width, 2);
+  EXPECT_EQ(texture->height, 2);
+  EXPECT_EQ(texture->rgba8, (std::vector<std::uint8_t>{255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 128, 128, 128, 255}));
+  // Mean of the linear values: (1 + 0 + 0 + srgb(128)) / 4 per channel, with the sRGB EOTF
+  // srgb(128) = ((128 / 255 + 0.055) / 1.055)^2.4.
+  const double grey = std::pow((128.0 / 255.0 + 0.055) / 1.055, 2.4);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(texture->average_linear[c], (1.0 + grey) / 4.0, 1e-6);
+
+  World plain;
+  ImportOptions options;
+  options.load_textures = false;
+  auto untextured = import_gltf(plain, kCases / "textured.gltf", options);
+  ASSERT_TRUE(untextured.ok()) << untextured.error().message;
+  EXPECT_EQ(untextured->textures, 0u);
+  EXPECT_FALSE(plain.get<Material>(plain.get<Children>(untextured->nodes[1]).entities[0]).base_color_texture);
+}
+
+}  // namespace
+}  // namespace penumbra

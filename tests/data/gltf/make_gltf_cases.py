@@ -11,6 +11,7 @@ import json
 import math
 import os
 import struct
+import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -68,6 +69,15 @@ def scene(data, views, accessors, primitives=None, **extra):
 QUAD_P = [[0, 0, 0], [1, 0, 0], [1, 0, -1], [0, 0, -1]]
 QUAD_N = [[0, 1, 0]] * 4
 QUAD_I = [0, 1, 2, 0, 2, 3]
+
+
+def png_rgb(width, height, pixels):
+    """A minimal 8-bit RGB PNG (filter type 0 on every row)."""
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF)
+    rows = b"".join(b"\0" + bytes(sum(pixels[y * width:(y + 1) * width], ())) for y in range(height))
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b"")
 
 
 def write(name, doc):
@@ -159,6 +169,14 @@ def main():
                         {"name": "bone0"}, {"name": "bone1", "translation": [0, 1, 0]}]
     skinned["skins"] = [{"joints": [2, 3], "inverseBindMatrices": 5}]
     write("joint_out_of_range.gltf", skinned)
+
+    # textured.gltf: a 2 x 2 base colour texture (red, green, blue, sRGB grey 128) as a data URI.
+    textured = copy.deepcopy(base)
+    png = png_rgb(2, 2, [(255, 0, 0), (0, 255, 0), (0, 0, 255), (128, 128, 128)])
+    textured["images"] = [{"uri": "data:image/png;base64," + base64.b64encode(png).decode()}]
+    textured["textures"] = [{"source": 0}]
+    textured["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+    write("textured.gltf", textured)
 
     # cycle.gltf: the child node lists its parent as a child.
     cycle = copy.deepcopy(base)
