@@ -41,10 +41,6 @@ glm::vec3 triangle_cross(const MeshData& mesh, std::size_t t) {
   return glm::cross(b - a, c - a);
 }
 
-void finish(MeshData& mesh) {
-  compute_bounds(mesh);
-}
-
 }  // namespace
 
 std::size_t MeshData::bytes() const {
@@ -142,7 +138,7 @@ MeshData make_box(glm::vec3 h, std::string name) {
     // cross(u, v) = n, so (u, v) order is counter-clockwise seen from outside.
     for (std::uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(base + i);
   }
-  finish(mesh);
+  compute_bounds(mesh);
   return mesh;
 }
 
@@ -154,7 +150,7 @@ MeshData make_quad(float width, float height, std::string name) {
   mesh.normals.assign(4, glm::vec3(0, 0, 1));
   mesh.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
   mesh.indices = {0, 1, 2, 0, 2, 3};
-  finish(mesh);
+  compute_bounds(mesh);
   return mesh;
 }
 
@@ -199,7 +195,7 @@ MeshData make_icosphere(float radius, int subdivisions, bool inward, std::string
   if (inward)
     for (std::size_t t = 0; t < tris.size(); t += 3) std::swap(tris[t + 1], tris[t + 2]);
   mesh.indices = std::move(tris);
-  finish(mesh);
+  compute_bounds(mesh);
   return mesh;
 }
 
@@ -250,7 +246,7 @@ MeshData make_cylinder(float radius, float height, int segments, std::string nam
       }
     }
   }
-  finish(mesh);
+  compute_bounds(mesh);
   return mesh;
 }
 
