@@ -4,8 +4,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <deque>
 #include <mutex>
+
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 
 namespace penumbra {
 
@@ -43,6 +48,21 @@ ComponentId register_component(std::string_view signature) {
   return static_cast<ComponentId>(r.names.size() - 1);
 }
 
+void* allocate_block(std::size_t bytes, std::size_t align) {
+  constexpr std::size_t kHugePage = std::size_t{2} << 20;
+  const bool huge = bytes >= kHugePage;
+  if (huge) align = std::max(align, kHugePage);
+  const std::size_t size = (bytes + align - 1) / align * align;  // aligned_alloc wants a multiple
+  void* block = std::aligned_alloc(align, size);
+  if (!block) throw std::bad_alloc();
+#ifdef __linux__
+  if (huge) madvise(block, size, MADV_HUGEPAGE);  // advice only: failure is harmless
+#endif
+  return block;
+}
+
+void BlockDeleter::operator()(void* block) const { std::free(block); }
+
 // --- PoolBase ----------------------------------------------------------------------------------
 
 void PoolBase::add_sparse_page(std::uint32_t page) {
@@ -54,11 +74,13 @@ void PoolBase::add_sparse_page(std::uint32_t page) {
 void PoolBase::grow() {
   // Blocks grow geometrically, as for the components (Pool::emplace).
   const std::size_t count = index_pages_.empty() ? 1 : index_pages_.size();
-  index_blocks_.push_back(std::make_unique_for_overwrite<std::uint32_t[]>(kPageSize * count));
-  tick_blocks_.push_back(std::make_unique_for_overwrite<std::uint64_t[]>(kPageSize * count));
+  auto* indices = static_cast<std::uint32_t*>(allocate_block(sizeof(std::uint32_t) * kPageSize * count, 64));
+  blocks_.emplace_back(indices);
+  auto* ticks = static_cast<std::uint64_t*>(allocate_block(sizeof(std::uint64_t) * kPageSize * count, 64));
+  blocks_.emplace_back(ticks);
   for (std::size_t i = 0; i < count; ++i) {
-    index_pages_.push_back(index_blocks_.back().get() + i * kPageSize);
-    tick_pages_.push_back(tick_blocks_.back().get() + i * kPageSize);
+    index_pages_.push_back(indices + i * kPageSize);
+    tick_pages_.push_back(ticks + i * kPageSize);
   }
 }
 

@@ -91,10 +91,14 @@ TEST(World, ReferencesStayValidAcrossAdds) {
   World w;
   const Entity first = w.create();
   Position& p = w.add<Position>(first, 1.0f, 2.0f);
-  for (int i = 0; i < 5000; ++i) w.add<Position>(w.create(), float(i), 0.0f);
+  // 300k components: the pool's blocks grow past 2 MiB (the huge-page path).
+  for (int i = 0; i < 300000; ++i) w.add<Position>(w.create(), float(i), 0.0f);
   EXPECT_EQ(&p, &w.get<Position>(first));
   EXPECT_EQ(p.x, 1.0f);
   EXPECT_EQ(p.y, 2.0f);
+  double sum = 0.0;
+  w.each<Position>([&](Position& q) { sum += q.x; });
+  EXPECT_EQ(sum, 1.0 + 299999.0 * 300000.0 / 2.0);
 }
 
 // Random operations checked against a std::map model: storage, views and handles agree.

@@ -154,6 +154,15 @@ inline constexpr std::uint32_t kPageSize = 1u << kPageShift;
 inline constexpr std::uint32_t kSparseShift = 12;        // 4096 sparse entries per page
 inline constexpr std::uint32_t kSparsePage = 1u << kSparseShift;
 
+// Raw storage for pool pages, aligned to `align` (a power of two). Blocks of 2 MiB or more ask
+// the OS for transparent huge pages (Linux), which cuts the first-touch page faults that dominate
+// filling a large new World. Throws std::bad_alloc like operator new.
+void* allocate_block(std::size_t bytes, std::size_t align);
+struct BlockDeleter {
+  void operator()(void* block) const;
+};
+using Block = std::unique_ptr<void, BlockDeleter>;
+
 // The type-independent half of a component pool (see the header comment for the layout). Dense
 // entities and ticks live in pages of kPageSize like the components, so nothing is ever copied
 // when a pool grows.
@@ -229,8 +238,7 @@ class PoolBase {
   std::uint32_t size_ = 0;
   std::vector<std::uint32_t*> index_pages_;  // into index_blocks_
   std::vector<std::uint64_t*> tick_pages_;   // into tick_blocks_
-  std::vector<std::unique_ptr<std::uint32_t[]>> index_blocks_;
-  std::vector<std::unique_ptr<std::uint64_t[]>> tick_blocks_;
+  std::vector<Block> blocks_;  // the allocations behind index_pages_ and tick_pages_
   std::vector<std::unique_ptr<std::uint32_t[]>> sparse_;
 };
 
@@ -241,7 +249,7 @@ class Pool final : public PoolBase {
   ~Pool() override {
     for (std::uint32_t i = 0; i < size(); ++i)
       if (index(i) != kNone) at(i).~T();
-    for (T* block : blocks_) ::operator delete(block, std::align_val_t{alignof(T)});
+
   }
 
   T& at(std::uint32_t pos) { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
@@ -256,8 +264,8 @@ class Pool final : public PoolBase {
       // A new block as large as all before it (one page at first): pages stay put, and
       // consecutive pages are mostly adjacent in memory, which keeps iteration streaming.
       const std::size_t count = pages_.empty() ? 1 : pages_.size();
-      T* block = static_cast<T*>(::operator new(sizeof(T) * kPageSize * count, std::align_val_t{alignof(T)}));
-      blocks_.push_back(block);
+      T* block = static_cast<T*>(allocate_block(sizeof(T) * kPageSize * count, alignof(T)));
+      blocks_.emplace_back(block);
       for (std::size_t i = 0; i < count; ++i) pages_.push_back(block + i * kPageSize);
     }
     T* slot = &at(pos);
@@ -274,7 +282,7 @@ class Pool final : public PoolBase {
   }
 
   std::vector<T*> pages_;   // kPageSize components each, inside blocks_
-  std::vector<T*> blocks_;  // the allocations
+  std::vector<Block> blocks_;  // the allocations
 };
 
 template <class Fn, class... T>
