@@ -645,7 +645,7 @@ class View {
                       std::index_sequence<I...>) {
     const std::uint32_t* first = std::get<0>(cursors).indices;
     return ((std::get<I>(pools)->tombstones_ == 0) && ...) && ((std::get<I>(cursors).limit >= end) && ...) &&
-           ((std::memcmp(first, std::get<I>(cursors).indices, end * sizeof(std::uint32_t)) == 0) && ...);
+           ((I == 0 || std::memcmp(first, std::get<I>(cursors).indices, end * sizeof(std::uint32_t)) == 0) && ...);
   }
 
   template <std::size_t I, std::size_t L, class C>
