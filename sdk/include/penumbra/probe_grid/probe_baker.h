@@ -1,0 +1,56 @@
+// The probe-grid baker: per node irradiance SH by point sampling or by the supersampling of
+// Kontkanen & Laine 2006 (section 3.2 of the thesis), with the domain of interest, validity and
+// fill of invalid nodes; the "PRBG" .pbake chunk.
+//
+// Incident radiance at a sample point y (the estimator, documented once here):
+//   - lights (directional, point, spot, rect) by next-event estimation from y: each unoccluded
+//     light adds its irradiance-at-normal-incidence times Y(l) (a delta in direction l; rect
+//     lights by a scrambled Sobol' net over the rect), so direct light is exact in direction;
+//   - every other direction by `rays_per_sample` stratified rays over the sphere: a ray hitting a
+//     surface brings its emission (front side, or both when double sided) plus albedo / pi times
+//     the surface's irradiance, estimated with `hit_samples` paths of the bake integrator
+//     (irradiance() with bounces - 1 bounces; none when bounces == 0); a ray leaving the scene
+//     brings nothing (the SDK has no sky).
+// The radiance expansion is the Monte Carlo projection of these samples; the node keeps its
+// cosine convolution (irradiance). Point mode does this once at the node with all the node's rays;
+// supersampled mode draws S points from the node's tent B_i (per axis y = x_i + h (xi1 + xi2 - 1),
+// xi from a scrambled Sobol' net), drops the points outside the domain of interest, and averages.
+// Nodes with no in-domain point are filled by iterative dilation from valid neighbours (they
+// cannot influence an in-domain receiver anyway).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string_view>
+
+#include "penumbra/bake/integrators.h"
+#include "penumbra/bake/pbake.h"
+#include "penumbra/bake/ray_scene.h"
+#include "penumbra/core/jobs.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/probe_grid/probe_grid.h"
+
+namespace penumbra {
+
+inline constexpr std::uint32_t kProbeGridChunkVersion = 1;
+
+// Bakes one grid. Validates it first (probe_grid_layout), reserves the node arrays in `budget`
+// before allocating (OutOfBudget names the grid and suggests a larger spacing), and reports two
+// progress stages, "probe samples" and "probe fill". Node n draws from Rng::stream(seed, n):
+// bit-identical results at any thread count. Fails with Cancelled when the host cancels, and with
+// InvalidInput when no node has an in-domain sample (every probe is inside geometry; the message
+// says to move or enlarge the grid). Cost: nodes x S x rays_per_sample x (1 + hit cost) rays.
+// Thread-safe for distinct `jobs`.
+Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
+                                      const RayScene& scene, std::span<const WorldLight> lights, std::uint64_t seed,
+                                      JobContext& jobs, MemoryBudget& budget, std::string_view context = "probe grid");
+
+// The "PRBG" chunk of one grid (label "probes:<entity index>") and its reader. read() checks the
+// version, sizes, resolution and that every value is finite, and names the chunk in its errors.
+BakeChunk write_probe_grid_chunk(const ProbeGridData& data);
+Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk);
+
+// Lines for `penumbra info`: grid size, order, mode, valid fraction, filled nodes, bytes.
+std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk);
+
+}  // namespace penumbra

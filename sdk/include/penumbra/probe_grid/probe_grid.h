@@ -1,0 +1,170 @@
+// Irradiance probe grid (P3): precomputed direct + indirect lighting for dynamic objects, after
+// Kontkanen & Laine 2006, "Sampling Precomputed Volumetric Lighting" (JGT 11(3); the thesis,
+// section 3.2).
+//
+// A grid of nodes x_i over a box stores per node the SH irradiance (RGB, L1 or L2). At runtime a
+// receiver at x with normal n gets E(x, n) = sum_i B_i(x) E_i(n), the plain trilinear
+// interpolation of the node expansions evaluated at n. The bake (probe_baker.h) chooses E_i by
+// point sampling (the classic irradiance volume) or by the paper's supersampling over each node's
+// tent B_i restricted to the domain of interest; the runtime is the same for both.
+//
+// This header holds the authoring component (IrradianceProbeGrid), the receiver component
+// (ProbeLit), the baked data (ProbeGridData), the grid's geometry (ProbeGridLayout), the CPU
+// evaluation and the GPU texture layout. Units: metres; irradiance in W/m^2 per RGB channel.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/core/result.h"
+#include "penumbra/core/sh.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+
+enum class ProbeShOrder : std::uint8_t { L1 = 1, L2 = 2 };     // 4 or 9 coefficients per channel
+enum class ProbeSampling : std::uint8_t { Point, Supersampled };
+const char* to_string(ProbeShOrder order);    // "L1", "L2"
+const char* to_string(ProbeSampling sampling);  // "point", "supersampled"
+
+// Number of SH coefficients per colour channel of an order (4 or 9).
+constexpr int sh_coefficients(ProbeShOrder order) {
+  return order == ProbeShOrder::L1 ? kSHCoefficientsL1 : kSHCoefficientsL2;
+}
+
+// `bounces` value meaning "every bounce" (Russian roulette at ray hits, as the reference).
+inline constexpr std::uint32_t kProbeAllBounces = ~0u;
+
+struct ProbeGridData;
+
+// Authoring component: a probe grid over a box. Zero/empty fields mean "derive" (see each).
+struct IrradianceProbeGrid {
+  // World-space box. Empty (the default): the unit cube [-0.5, 0.5]^3 through the entity's
+  // WorldTransform (so the Transform's scale is the box size, and the grid may be rotated).
+  Aabb box;
+  // Nodes per axis (each >= 2). (0, 0, 0): derived from `spacing` as ceil(size / spacing) + 1.
+  glm::uvec3 resolution{0u};
+  float spacing = 1.0f;  // metres between nodes when `resolution` is zero
+
+  ProbeShOrder sh_order = ProbeShOrder::L2;
+  ProbeSampling sampling = ProbeSampling::Supersampled;
+  // Supersampled: S points per node from the node's tent, `rays_per_sample` rays each. Point: all
+  // S x rays_per_sample rays at the node itself (the same ray budget).
+  std::uint32_t samples_per_node = 32;
+  std::uint32_t rays_per_sample = 16;
+  // Light bounces before reaching a node: 0 = direct light and emitters seen from the node; k =
+  // surfaces hit by the node's rays are lit with k - 1 bounces; kProbeAllBounces = all.
+  std::uint32_t bounces = 2;
+  std::uint32_t hit_samples = 2;  // irradiance paths at each ray hit (>= 2)
+  // Domain of interest: a sample point is outside when more than this fraction of its rays first
+  // hits a back face (0 for watertight scenes; 0.05-0.5 for open geometry).
+  float back_face_threshold = 0.1f;
+  // Deringing at bake: Lanczos window width applied to the stored expansion (0: none). Evaluation
+  // clamps at zero either way.
+  float deringing_window = 0.0f;
+
+  // Runtime blending: where grids overlap the higher priority wins, fading out over
+  // `blend_distance` metres (0: one node spacing) inside its border.
+  int priority = 0;
+  float blend_distance = 0.0f;
+
+  // The baked data (set by the baker or attach_probe_grids()); null until baked.
+  std::shared_ptr<const ProbeGridData> data;
+
+  // Quality presets: draft S=8, 16 rays, 1 bounce, spacing 2 m; medium S=32, 16 rays, 2 bounces,
+  // spacing 1 m; high S=64, 32 rays, 3 bounces, spacing 0.5 m.
+  static IrradianceProbeGrid preset(Preset preset);
+};
+
+// Receiver component: an entity (character, moving prop) lit by the probe grids. Written by the
+// probe-grid system when the entity moved or a grid changed.
+struct ProbeLit {
+  SH9rgb irradiance;            // irradiance SH at the entity's origin (zero when no grid covers it)
+  ProbeShOrder order = ProbeShOrder::L2;  // how many coefficients are meaningful
+  bool covered = false;         // some grid covers the entity's position
+  std::uint64_t updated_tick = 0;  // the World tick of the last update
+};
+
+// E(n) of a receiver, >= 0 per channel. Cost: ~40 flops.
+glm::vec3 probe_lit_irradiance(const ProbeLit& lit, glm::vec3 n);
+
+// The geometry of a grid: node (i, j, k) sits at grid_to_world * ((i, j, k) / (resolution - 1)).
+struct ProbeGridLayout {
+  glm::uvec3 resolution{2u};
+  glm::mat4 grid_to_world{1.0f};  // affine: [0, 1]^3 -> the box
+  glm::mat4 world_to_grid{1.0f};
+  glm::vec3 spacing{1.0f};        // metres between neighbouring nodes, per grid axis
+
+  std::size_t node_count() const {
+    return std::size_t{resolution.x} * resolution.y * resolution.z;
+  }
+  std::size_t node_index(glm::uvec3 ijk) const { return (std::size_t{ijk.z} * resolution.y + ijk.y) * resolution.x + ijk.x; }
+  glm::vec3 node_position(glm::uvec3 ijk) const;
+};
+
+// Limit on nodes per grid (about 2 GiB of L2 data): larger requests are refused before planning.
+inline constexpr std::uint64_t kMaxProbeNodes = std::uint64_t{1} << 24;
+
+// Validates `grid` and computes its layout. `world_matrix` is the entity's WorldTransform (used
+// when grid.box is empty). Errors (InvalidArgument) name `context` (e.g. "probe grid 'hall'"),
+// the field and the fix: a resolution below 2 on an axis ("a 1x1x1 grid"), a non-finite or
+// non-positive spacing, an empty/degenerate/non-finite box or transform, more than kMaxProbeNodes
+// nodes, zero samples or rays, hit_samples < 2, a threshold outside [0, 1], a negative window.
+// Cost: O(1). Thread-safe.
+Result<ProbeGridLayout> probe_grid_layout(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
+                                          std::string_view context);
+
+// Baked data of one grid: per node the irradiance SH (cosine-convolved, RGB) and the coverage.
+struct ProbeGridData {
+  std::uint32_t entity_index = 0;  // Entity::index of the grid at bake time
+  ProbeGridLayout layout;
+  ProbeShOrder sh_order = ProbeShOrder::L2;
+  ProbeSampling sampling = ProbeSampling::Supersampled;
+  // Node n's coefficient c is coefficients[n * sh_coefficients(sh_order) + c] (RGB).
+  std::vector<glm::vec3> coefficients;
+  // In-domain coverage per node in [0, 1]: the fraction of its samples in the domain of interest
+  // (point mode: 1 or 0 for the node itself).
+  std::vector<float> validity;
+  // 1 where the node had no in-domain sample and was filled from its neighbours.
+  std::vector<std::uint8_t> filled;
+
+  std::size_t node_count() const { return layout.node_count(); }
+  SH9rgb node(std::size_t n) const;  // coefficients beyond the order are zero
+  float valid_fraction() const;      // nodes with validity > 0 / all nodes
+  std::uint64_t bytes() const;       // memory held by the arrays
+  std::uint64_t bytes_per_node() const;  // runtime payload: coefficients only (12 x 4 or 9 B)
+};
+
+// Trilinear interpolation of the node expansions at world point x (clamped into the box).
+// Cost: 8 x coefficients multiply-adds. Thread-safe.
+SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x);
+// E(x, n) = the interpolated expansion evaluated at unit normal n, never negative. The same math as
+// the shader. Cost: about 50 ns. Thread-safe.
+glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n);
+
+// GPU layout for per-pixel lookups: `textures` 3D textures of resolution.x x .y x .z RGBA texels.
+// Texel value slot s (0..4 x textures - 1) of node n holds channel s % 3 of coefficient s / 3, so
+// L1 needs 3 textures (12 slots) and L2 7 (27 slots, the last padded with 0). data holds texture
+// 0 slice z = 0 row y = 0 first, x fastest, then rows, slices, textures. The shader computes
+// uvw = ((world_to_grid * x).xyz * (resolution - 1) + 0.5) / resolution and lets the sampler's
+// trilinear filter do the interpolation, then evaluates the SH as sh_evaluate and clamps at 0.
+enum class ProbeTexelFormat : std::uint8_t { RGBA32F, RGBA16F };
+struct ProbeGridTextures {
+  glm::uvec3 extent{0u};
+  std::uint32_t textures = 0;
+  ProbeTexelFormat format = ProbeTexelFormat::RGBA16F;
+  glm::mat4 world_to_grid{1.0f};
+  std::vector<std::byte> data;
+  std::size_t texel_bytes() const { return format == ProbeTexelFormat::RGBA32F ? 16 : 8; }
+};
+// Packs the data into that layout. Cost: O(nodes x coefficients). Thread-safe.
+ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexelFormat format);
+
+}  // namespace penumbra

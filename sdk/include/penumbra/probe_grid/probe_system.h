@@ -1,0 +1,45 @@
+// The runtime half of the probe grid: the system that lights ProbeLit entities, loading baked
+// grids into their components, the default grid for a scene without one, and the registration
+// the tool and games call.
+#pragma once
+
+#include <cstdint>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/bake/pbake.h"
+#include "penumbra/ecs/world.h"
+#include "penumbra/probe_grid/probe_grid.h"
+
+namespace penumbra {
+
+// Gives every ProbeLit entity with a WorldTransform its irradiance at its origin, but only the
+// entities whose WorldTransform or ProbeLit changed after tick `since`, or all of them when any
+// grid (IrradianceProbeGrid or its WorldTransform) changed or was removed after `since`. Where
+// grids overlap, the covering grids are taken by descending priority (then entity index); each
+// takes fade x (what is left) of the weight, fade = clamp(distance to its border / blend
+// distance, 1e-4, 1), and the last covering grid takes all that is left (weights sum to 1).
+// Grids without data are skipped. Writes ProbeLit with World::patch (outside a system, advance
+// the World's tick afterwards). Returns the number of receivers updated.
+// Cost: O(grids + updated receivers x covering grids x 8 nodes).
+std::size_t update_probe_lighting(World& world, std::uint64_t since);
+
+// Registers system "probe-grid" in Phase::Lighting (reads WorldTransform, IrradianceProbeGrid;
+// writes ProbeLit), calling update_probe_lighting with the system's last-run tick.
+void register_probe_grid_system(World& world);
+
+// Registers the "probes" baker (one PRBG chunk per IrradianceProbeGrid entity with a
+// WorldTransform, in entity order; the baked data is also attached to the components) and the
+// system above. The one call the tool and games make.
+void register_probe_grid(World& world);
+
+// Attaches the PRBG chunks of `file` to the IrradianceProbeGrid components of the same entity
+// index (patching them, so receivers update). Fails with InvalidInput for a corrupt chunk, and
+// with NotFound naming the index when a chunk's entity has no grid component (re-bake the scene).
+Status attach_probe_grids(World& world, const BakeFile& file);
+
+// Gives a scene without an IrradianceProbeGrid one: an entity whose box is the static geometry's
+// bounds inset by 2% (at least 1 cm) on every side, with the preset's settings. Returns the
+// existing grid entity when there is one, and InvalidInput when the World has no static geometry.
+Result<Entity> add_default_probe_grid(World& world, Preset preset);
+
+}  // namespace penumbra

@@ -1,0 +1,397 @@
+// Probe-grid bake (see probe_baker.h): Kontkanen & Laine 2006, "Sampling Precomputed Volumetric
+// Lighting", section 3 (supersampling over the trilinear basis functions, the domain of interest)
+// against the point-sampled irradiance volume of Greger et al. 1998.
+#include "penumbra/probe_grid/probe_baker.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+
+#include "penumbra/core/random.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/core/sh.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr std::uint32_t kChunkType = fourcc("PRBG");
+constexpr float kPi = 3.14159265358979323846f;
+constexpr float kInf = std::numeric_limits<float>::infinity();
+constexpr std::uint32_t kRectLightSamples = 16;
+constexpr std::uint32_t kRayBlock = 64;  // rays traced per packet call (four packets of 16)
+
+// Incident radiance from the lights at free point y, projected: each light is a delta (or, for a
+// rect, a set of deltas) in direction l carrying its irradiance at normal incidence. The light
+// models are those of integrators.cpp (KHR_lights_punctual range window and spot cone; one-sided
+// Lambertian rects).
+void add_lights(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 y, Rng& rng, SH9rgb& sh) {
+  for (const WorldLight& wl : lights) {
+    const Light& light = wl.light;
+    const glm::vec3 power = light.color * light.intensity;
+    switch (light.type) {
+      case Light::Type::Directional: {
+        const glm::vec3 l = -wl.direction;
+        if (!scene.occluded(Ray{y, 0.0f, l, kInf})) sh_add_sample(sh, l, power);
+        break;
+      }
+      case Light::Type::Point:
+      case Light::Type::Spot: {
+        const glm::vec3 d = wl.position - y;
+        const float dist2 = glm::dot(d, d);
+        if (!(dist2 > 0.0f)) break;
+        const float dist = std::sqrt(dist2);
+        const glm::vec3 l = d / dist;
+        float falloff = 1.0f / dist2;
+        if (light.range > 0.0f) {
+          const float r = dist / light.range;
+          const float w = glm::clamp(1.0f - r * r * r * r, 0.0f, 1.0f);
+          falloff *= w * w;
+        }
+        if (light.type == Light::Type::Spot) {
+          const float cos_outer = std::cos(light.outer_cone_angle);
+          const float scale = 1.0f / std::max(0.001f, std::cos(light.inner_cone_angle) - cos_outer);
+          const float a = glm::clamp((glm::dot(wl.direction, -l) - cos_outer) * scale, 0.0f, 1.0f);
+          falloff *= a * a;
+        }
+        if (falloff > 0.0f && !scene.occluded(Ray{y, 0.0f, d, 1.0f})) sh_add_sample(sh, l, power * falloff);
+        break;
+      }
+      case Light::Type::Rect: {
+        // L cos_l / d^2 dA per point of a scrambled Sobol' net over the rect.
+        const float area = 4.0f * glm::length(glm::cross(wl.half_x, wl.half_y));
+        const std::uint32_t scramble = rng.next_u32();
+        const glm::vec3 weight = power * (area / float(kRectLightSamples));
+        for (std::uint32_t k = 0; k < kRectLightSamples; ++k) {
+          const glm::vec2 u = sobol_2d(k, scramble);
+          const glm::vec3 q = wl.position + (2.0f * u.x - 1.0f) * wl.half_x + (2.0f * u.y - 1.0f) * wl.half_y;
+          const glm::vec3 d = q - y;
+          const float dist2 = glm::dot(d, d);
+          if (!(dist2 > 0.0f)) continue;
+          const glm::vec3 l = d / std::sqrt(dist2);
+          const float cl = -glm::dot(wl.direction, l);
+          if (!(cl > 0.0f)) continue;
+          if (!scene.occluded(Ray{y, 0.0f, d, 1.0f})) sh_add_sample(sh, l, weight * (cl / dist2));
+        }
+        break;
+      }
+    }
+  }
+}
+
+// What one sample point contributes: its radiance expansion and whether it is in the domain.
+struct PointSample {
+  SH9rgb radiance;
+  bool in_domain = false;
+};
+
+struct SampleSettings {
+  std::uint32_t rays = 0;
+  float back_face_threshold = 0.0f;
+  bool skip_outside = false;  // do not shade points outside the domain (supersampled mode)
+  IrradianceSettings hit;     // the integrator at ray hits
+  bool shade_hits = true;     // bounces > 0
+};
+
+// Radiance SH at y: stratified rays over the sphere (first pass: closest hits, which also decide
+// the domain), then emission + albedo / pi x irradiance at each hit, plus the lights.
+PointSample sample_point(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 y,
+                         const SampleSettings& s, Rng& rng) {
+  PointSample out;
+  const std::uint32_t scramble = rng.next_u32();
+  const float weight = 4.0f * kPi / float(s.rays);  // 1 / (pdf x count), uniform sphere
+  std::array<Ray, kRayBlock> rays;
+  std::array<Hit, kRayBlock> hits;
+  std::array<std::uint8_t, kRayBlock> mask{};
+  // Closest hits of every ray, block by block; hits are kept for shading.
+  std::vector<Hit> all_hits(s.rays);
+  std::vector<std::uint8_t> all_mask(s.rays, 0);
+  std::uint32_t back = 0;
+  for (std::uint32_t first = 0; first < s.rays; first += kRayBlock) {
+    const std::uint32_t count = std::min(kRayBlock, s.rays - first);
+    for (std::uint32_t i = 0; i < count; ++i)
+      rays[i] = Ray{y, 0.0f, uniform_sphere(sobol_2d(first + i, scramble)), kInf};
+    scene.intersect(std::span<const Ray>(rays.data(), count), std::span<Hit>(hits.data(), count),
+                    std::span<std::uint8_t>(mask.data(), count));
+    for (std::uint32_t i = 0; i < count; ++i) {
+      all_mask[first + i] = mask[i];
+      if (!mask[i]) continue;
+      all_hits[first + i] = hits[i];
+      if (hits[i].back_face && !hits[i].material.double_sided) ++back;
+    }
+  }
+  // Domain of interest: no more than the threshold's fraction of back-face hits.
+  out.in_domain = float(back) <= s.back_face_threshold * float(s.rays);
+  if (!out.in_domain && s.skip_outside) return out;
+
+  for (std::uint32_t i = 0; i < s.rays; ++i) {
+    if (!all_mask[i]) continue;  // no sky: an escaping ray brings nothing
+    const Hit& h = all_hits[i];
+    const glm::vec3 dir = uniform_sphere(sobol_2d(i, scramble));
+    glm::vec3 radiance(0.0f);
+    if (!h.back_face || h.material.double_sided) radiance += h.material.emissive;
+    if (s.shade_hits && h.material.albedo != glm::vec3(0.0f)) {
+      const glm::vec3 p = y + h.t * dir;
+      const glm::vec3 n = h.back_face ? -h.normal : h.normal;
+      const Estimate e = irradiance(scene, lights, p, n, s.hit, rng);
+      radiance += h.material.albedo * (e.value / kPi);
+    }
+    if (radiance != glm::vec3(0.0f)) sh_add_sample(out.radiance, dir, radiance * weight);
+  }
+  add_lights(scene, lights, y, rng, out.radiance);
+  return out;
+}
+
+// Per axis tent offset in cells: xi1 + xi2 - 1 has the density max(0, 1 - |t|) on [-1, 1]
+// (the node's trilinear basis B_i). xi from an Owen-scrambled (0,2)-net, one scramble per axis.
+glm::vec3 tent_offset(std::uint32_t k, const std::array<std::uint32_t, 3>& scrambles) {
+  glm::vec3 t;
+  for (int a = 0; a < 3; ++a) {
+    const glm::vec2 u = sobol_2d(k, scrambles[static_cast<std::size_t>(a)]);
+    t[a] = u.x + u.y - 1.0f;
+  }
+  return t;
+}
+
+// Fill nodes without an in-domain sample from valid neighbours, one 26-neighbourhood ring per
+// pass (Jacobi passes, so the result does not depend on visiting order). Weights: the coverage of
+// valid neighbours, 1/4 for neighbours filled in an earlier pass. Returns false if cancelled.
+bool dilate(const ProbeGridLayout& layout, std::vector<SH9rgb>& values, std::vector<float>& validity,
+            std::vector<std::uint8_t>& filled, JobContext& jobs) {
+  const glm::ivec3 res(layout.resolution);
+  std::vector<float> known(validity);  // weight of each node as a source (0: unknown)
+  std::size_t unknown = static_cast<std::size_t>(std::count(known.begin(), known.end(), 0.0f));
+  jobs.begin_stage("probe fill", unknown);
+  while (unknown > 0) {
+    if (jobs.cancelled()) return false;
+    std::vector<std::size_t> newly;
+    std::vector<SH9rgb> next_values;
+    for (int z = 0; z < res.z; ++z)
+      for (int y = 0; y < res.y; ++y)
+        for (int x = 0; x < res.x; ++x) {
+          const std::size_t n = layout.node_index(glm::uvec3(x, y, z));
+          if (known[n] > 0.0f) continue;
+          SH9rgb sum;
+          float wsum = 0.0f;
+          for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+              for (int dx = -1; dx <= 1; ++dx) {
+                const glm::ivec3 q(x + dx, y + dy, z + dz);
+                if (q.x < 0 || q.y < 0 || q.z < 0 || q.x >= res.x || q.y >= res.y || q.z >= res.z) continue;
+                const std::size_t m = layout.node_index(glm::uvec3(q));
+                if (known[m] > 0.0f) {
+                  sum += values[m] * known[m];
+                  wsum += known[m];
+                }
+              }
+          if (wsum > 0.0f) {
+            newly.push_back(n);
+            next_values.push_back(sum * (1.0f / wsum));
+          }
+        }
+    for (std::size_t i = 0; i < newly.size(); ++i) {
+      values[newly[i]] = next_values[i];
+      known[newly[i]] = 0.25f;
+      filled[newly[i]] = 1;
+    }
+    unknown -= newly.size();
+    jobs.advance(newly.size());
+  }
+  return true;
+}
+
+}  // namespace
+
+Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
+                                      const RayScene& scene, std::span<const WorldLight> lights, std::uint64_t seed,
+                                      JobContext& jobs, MemoryBudget& budget, std::string_view context) {
+  auto layout = probe_grid_layout(grid, world_matrix, context);
+  if (!layout) return layout.error();
+  const std::size_t nodes = layout->node_count();
+  const std::size_t count = static_cast<std::size_t>(sh_coefficients(grid.sh_order));
+
+  // Memory: the working expansions plus the stored arrays, checked before allocating.
+  const std::uint64_t need = std::uint64_t{nodes} * (sizeof(SH9rgb) + count * sizeof(glm::vec3) + sizeof(float) + 1);
+  if (auto st = budget.reserve(std::string(context) + " nodes", need); !st)
+    return make_error(ErrorCode::OutOfBudget, st.error().message + " (" + std::to_string(layout->resolution.x) + "x" +
+                                                  std::to_string(layout->resolution.y) + "x" +
+                                                  std::to_string(layout->resolution.z) +
+                                                  " nodes; use a larger spacing or a smaller box)");
+  struct Release {
+    MemoryBudget& b;
+    std::uint64_t n;
+    ~Release() { b.release(n); }
+  } release{budget, need};
+
+  ProbeGridData data;
+  data.layout = *layout;
+  data.sh_order = grid.sh_order;
+  data.sampling = grid.sampling;
+  std::vector<SH9rgb> radiance(nodes);
+  data.validity.assign(nodes, 0.0f);
+  data.filled.assign(nodes, 0);
+
+  const bool point = grid.sampling == ProbeSampling::Point;
+  SampleSettings s;
+  s.rays = point ? grid.samples_per_node * grid.rays_per_sample : grid.rays_per_sample;
+  s.back_face_threshold = grid.back_face_threshold;
+  s.skip_outside = !point;
+  s.shade_hits = grid.bounces > 0;
+  s.hit.samples = grid.hit_samples;
+  s.hit.reference = grid.bounces == kProbeAllBounces;
+  s.hit.bounces = grid.bounces > 0 ? grid.bounces - 1 : 0;
+  s.hit.rect_light_samples = kRectLightSamples;
+  const glm::uvec3 res = layout->resolution;
+  const glm::vec3 cell = 1.0f / glm::vec3(res - 1u);
+
+  // Step 1: per node, radiance SH from its sample points (node n from its own stream).
+  jobs.begin_stage("probe samples", nodes);
+  const Status traced = jobs.parallel_for(nodes, 4, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t n = begin; n < end; ++n) {
+      Rng rng = Rng::stream(seed, n);
+      const glm::uvec3 ijk(n % res.x, (n / res.x) % res.y, n / (std::size_t{res.x} * res.y));
+      const glm::vec3 u = glm::vec3(ijk) * cell;
+      if (point) {
+        // The classic irradiance volume: everything at the node.
+        const PointSample p = sample_point(scene, lights, layout->node_position(ijk), s, rng);
+        radiance[n] = p.radiance;
+        data.validity[n] = p.in_domain ? 1.0f : 0.0f;
+        continue;
+      }
+      // Supersampling: S points from the tent B_i, averaged over those in the domain.
+      const std::array<std::uint32_t, 3> scrambles{rng.next_u32(), rng.next_u32(), rng.next_u32()};
+      SH9rgb sum;
+      std::uint32_t inside = 0;
+      for (std::uint32_t k = 0; k < grid.samples_per_node; ++k) {
+        const glm::vec3 g = u + tent_offset(k, scrambles) * cell;
+        const glm::vec3 y(layout->grid_to_world * glm::vec4(g, 1.0f));
+        const PointSample p = sample_point(scene, lights, y, s, rng);
+        if (!p.in_domain) continue;
+        sum += p.radiance;
+        ++inside;
+      }
+      data.validity[n] = float(inside) / float(grid.samples_per_node);
+      if (inside > 0) radiance[n] = sum * (1.0f / float(inside));
+    }
+  });
+  if (!traced) return traced.error();
+
+  // Step 2: fill nodes with no in-domain sample (supersampled; point mode keeps the classic values).
+  if (!point) {
+    if (std::all_of(data.validity.begin(), data.validity.end(), [](float v) { return v == 0.0f; }))
+      return make_error(ErrorCode::InvalidInput,
+                        std::string(context) + ": no node has a sample in the domain of interest (every probe is "
+                                               "inside geometry or sees back faces); move or enlarge the grid, or "
+                                               "raise back_face_threshold for open geometry");
+    if (!dilate(*layout, radiance, data.validity, data.filled, jobs))
+      return make_error(ErrorCode::Cancelled, std::string(context) + ": the bake was cancelled");
+  } else {
+    jobs.begin_stage("probe fill", 1);
+    jobs.advance(1);
+  }
+
+  // Step 3: irradiance = radiance convolved with the clamped cosine (optionally windowed).
+  data.coefficients.resize(nodes * count);
+  for (std::size_t n = 0; n < nodes; ++n) {
+    SH9rgb e = sh_convolve_cosine(radiance[n]);
+    if (grid.deringing_window > 0.0f) e = sh_apply_window(e, sh_lanczos_window(grid.deringing_window));
+    for (std::size_t c = 0; c < count; ++c) data.coefficients[n * count + c] = e[static_cast<int>(c)];
+  }
+  return data;
+}
+
+BakeChunk write_probe_grid_chunk(const ProbeGridData& data) {
+  ByteWriter w;
+  w.write(data.entity_index);
+  w.write(data.layout.resolution);
+  w.write(data.layout.grid_to_world);
+  w.write(static_cast<std::uint32_t>(data.sh_order));
+  w.write(static_cast<std::uint32_t>(data.sampling));
+  w.write_vector(data.coefficients);
+  w.write_vector(data.validity);
+  w.write_vector(data.filled);
+  return BakeChunk{kChunkType, kProbeGridChunkVersion, "probes:" + std::to_string(data.entity_index), w.take()};
+}
+
+Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
+  const std::string context = "chunk 'PRBG' (" + chunk.label + ")";
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the probe grid");
+  };
+  if (chunk.type != kChunkType)
+    return make_error(ErrorCode::InvalidArgument, context + ": this chunk is '" + fourcc_to_string(chunk.type) + "'");
+  if (chunk.version != kProbeGridChunkVersion)
+    return make_error(ErrorCode::Unsupported, context + ": version " + std::to_string(chunk.version) +
+                                                  ", this SDK reads version " +
+                                                  std::to_string(kProbeGridChunkVersion) + "; re-bake with this SDK");
+  ProbeGridData data;
+  ByteReader r(chunk.payload, context);
+  std::uint32_t order = 0, sampling = 0;
+  PENUMBRA_TRY(r.read(data.entity_index));
+  PENUMBRA_TRY(r.read(data.layout.resolution));
+  PENUMBRA_TRY(r.read(data.layout.grid_to_world));
+  PENUMBRA_TRY(r.read(order));
+  PENUMBRA_TRY(r.read(sampling));
+  const glm::uvec3 res = data.layout.resolution;
+  if (res.x < 2 || res.y < 2 || res.z < 2 || std::uint64_t{res.x} * res.y * res.z > kMaxProbeNodes)
+    return bad("resolution " + std::to_string(res.x) + "x" + std::to_string(res.y) + "x" + std::to_string(res.z) +
+               " is outside 2.." + std::to_string(kMaxProbeNodes) + " nodes");
+  if (order != 1 && order != 2) return bad("SH order " + std::to_string(order) + " is not L1 or L2");
+  if (sampling > 1) return bad("sampling mode " + std::to_string(sampling) + " is unknown");
+  data.sh_order = static_cast<ProbeShOrder>(order);
+  data.sampling = static_cast<ProbeSampling>(sampling);
+  const glm::mat4& m = data.layout.grid_to_world;
+  const glm::mat3 axes(m);
+  const float det = glm::determinant(axes);
+  bool finite_matrix = std::isfinite(det) && det != 0.0f;
+  for (int c = 0; c < 4; ++c)
+    for (int k = 0; k < 4; ++k) finite_matrix = finite_matrix && std::isfinite(m[c][k]);
+  if (!finite_matrix) return bad("the grid transform is singular or not finite");
+  data.layout.world_to_grid = glm::inverse(m);
+  data.layout.spacing =
+      glm::vec3(glm::length(axes[0]), glm::length(axes[1]), glm::length(axes[2])) / glm::vec3(res - 1u);
+  const std::size_t nodes = data.node_count();
+  const std::size_t count = static_cast<std::size_t>(sh_coefficients(data.sh_order));
+  PENUMBRA_TRY(r.read_vector(data.coefficients, nodes * count));
+  PENUMBRA_TRY(r.read_vector(data.validity, nodes));
+  PENUMBRA_TRY(r.read_vector(data.filled, nodes));
+  PENUMBRA_TRY(r.finish());
+  if (data.coefficients.size() != nodes * count || data.validity.size() != nodes || data.filled.size() != nodes)
+    return bad("array sizes do not match " + std::to_string(nodes) + " nodes");
+  for (std::size_t i = 0; i < data.coefficients.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(data.coefficients[i][c]))
+        return bad("node " + std::to_string(i / count) + " has a non-finite coefficient");
+  for (std::size_t n = 0; n < nodes; ++n)
+    if (!(data.validity[n] >= 0.0f && data.validity[n] <= 1.0f) || data.filled[n] > 1)
+      return bad("node " + std::to_string(n) + " has validity or fill flag out of range");
+  return data;
+}
+
+std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk) {
+  if (chunk.type != kChunkType) return {};
+  auto data = read_probe_grid_chunk(chunk);
+  if (!data) return {data.error().message};
+  const glm::uvec3 r = data->layout.resolution;
+  const auto filled = std::count(data->filled.begin(), data->filled.end(), std::uint8_t{1});
+  char line[240];
+  std::snprintf(line, sizeof line, "grid %ux%ux%u (%zu nodes), spacing %.3g x %.3g x %.3g m, %s, %s", r.x, r.y, r.z,
+                data->node_count(), static_cast<double>(data->layout.spacing.x),
+                static_cast<double>(data->layout.spacing.y), static_cast<double>(data->layout.spacing.z),
+                to_string(data->sh_order), to_string(data->sampling));
+  std::vector<std::string> out{line};
+  std::snprintf(line, sizeof line, "valid %.1f%% of nodes, %ld filled from neighbours, %s (%llu B per node)",
+                100.0 * static_cast<double>(data->valid_fraction()), static_cast<long>(filled),
+                format_bytes(data->node_count() * data->bytes_per_node()).c_str(),
+                static_cast<unsigned long long>(data->bytes_per_node()));
+  out.emplace_back(line);
+  return out;
+}
+
+}  // namespace penumbra

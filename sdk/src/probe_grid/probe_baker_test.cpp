@@ -1,0 +1,332 @@
+// Probe-grid bake against closed forms: the furnace, an infinite lit floor (at any scale and
+// light intensity), geometry that swallows the grid; determinism, budget, cancellation, and the
+// baker / system round trip through bake_world.
+#include "penumbra/probe_grid/probe_baker.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <numbers>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include "penumbra/core/random.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/scene/builtin.h"
+#include "penumbra/scene/mesh.h"
+
+namespace penumbra {
+namespace {
+
+constexpr float kPi = std::numbers::pi_v<float>;
+
+Entity add_static(World& w, MeshData mesh, const glm::mat4& m, glm::vec3 albedo) {
+  const Entity e = w.create();
+  w.add<Mesh>(e, Mesh{std::make_shared<const MeshData>(std::move(mesh))});
+  w.add<WorldTransform>(e, WorldTransform{m});
+  Material mat;
+  mat.base_color = glm::vec4(albedo, 1.0f);
+  w.add<Material>(e, mat);
+  w.add<Static>(e);
+  return e;
+}
+
+Entity add_sun(World& w, float illuminance, glm::vec3 towards) {
+  Light sun;
+  sun.type = Light::Type::Directional;
+  sun.intensity = illuminance;
+  const Entity e = w.create();
+  w.add<Light>(e, sun);
+  // Shines along local -Z: rotate -Z onto `towards`.
+  w.add<WorldTransform>(e, WorldTransform{glm::mat4_cast(glm::quatLookAt(glm::normalize(towards), {0, 0, 1}))});
+  return e;
+}
+
+IrradianceProbeGrid small_grid(glm::vec3 lo, glm::vec3 hi, glm::uvec3 res, ProbeSampling mode) {
+  IrradianceProbeGrid g;
+  g.box.min = lo;
+  g.box.max = hi;
+  g.resolution = res;
+  g.sampling = mode;
+  g.samples_per_node = 8;
+  g.rays_per_sample = 32;
+  return g;
+}
+
+Result<ProbeGridData> bake(const IrradianceProbeGrid& g, World& w, const RayScene& scene, unsigned threads = 1,
+                           std::uint64_t seed = 1) {
+  ThreadPool pool(threads);
+  JobContext jobs(&pool);
+  MemoryBudget budget;
+  const auto lights = gather_lights(w);
+  return bake_probe_grid(g, glm::mat4(1.0f), scene, lights, seed, jobs, budget);
+}
+
+// --- Furnace: E = pi Le / (1 - rho) everywhere, for every normal --------------------------------
+
+TEST(ProbeBaker, FurnaceEveryNodeAndNormal) {
+  World w;
+  ASSERT_TRUE(load_builtin(w, "furnace").ok());
+  update_world_transforms(w);
+  auto scene = RayScene::build(w);
+  ASSERT_TRUE(scene.ok());
+  for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled}) {
+    IrradianceProbeGrid g = small_grid(glm::vec3(-0.25f), glm::vec3(0.25f), {3, 3, 3}, mode);
+    // Tents reach 0.5 m from the centre per axis: every sample is inside the unit sphere.
+    g.bounces = kProbeAllBounces;
+    auto d = bake(g, w, *scene, 2);
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    EXPECT_EQ(d->valid_fraction(), 1.0f);
+    Rng rng = Rng::stream(5, 0);
+    for (std::size_t n = 0; n < d->node_count(); ++n) {
+      EXPECT_EQ(d->validity[n], 1.0f);
+      for (int k = 0; k < 8; ++k) {
+        const glm::vec3 normal = uniform_sphere({rng.next_float(), rng.next_float()});
+        const glm::vec3 e = sh_evaluate(d->node(n), normal);
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(e[c], kFurnaceIrradiance, 0.06f * kFurnaceIrradiance) << to_string(mode);
+      }
+    }
+  }
+}
+
+// --- Infinite floor under a sun: a closed form for the expansion ---------------------------------
+// Sun from straight above (illuminance E0) over a floor of albedo rho: incident radiance is the
+// delta E0 at +Y plus rho E0 / pi from the whole lower hemisphere (one bounce; the floor cannot
+// see itself). Its L2 irradiance expansion follows from the core SH functions exactly.
+
+struct FloorScene {
+  World world;
+  std::unique_ptr<RayScene> rays;
+};
+constexpr float kRho = 0.5f;
+
+void build_floor(FloorScene& s, float scale, float sun) {
+  const glm::mat4 floor = glm::rotate(glm::scale(glm::mat4(1.0f), glm::vec3(scale)), -kPi / 2, {1, 0, 0});
+  add_static(s.world, make_quad(2000.0f, 2000.0f), floor, glm::vec3(kRho));
+  add_sun(s.world, sun, {0, -1, 0});
+  auto r = RayScene::build(s.world);
+  ASSERT_TRUE(r.ok());
+  s.rays = std::make_unique<RayScene>(std::move(*r));
+}
+
+SH9rgb floor_expansion(float e0) {
+  SH9rgb radiance;
+  sh_add_sample(radiance, {0, 1, 0}, glm::vec3(e0));
+  // Lower hemisphere of radiance rho E0 / pi: projection by a fine midpoint rule in (cos, phi).
+  const int n = 400;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const float y = -(float(i) + 0.5f) / float(n);
+      const float phi = 2.0f * kPi * (float(j) + 0.5f) / float(n);
+      const float r = std::sqrt(1.0f - y * y);
+      sh_add_sample(radiance, {r * std::cos(phi), y, r * std::sin(phi)},
+                    glm::vec3(kRho * e0 / kPi * 2.0f * kPi / float(n * n)));
+    }
+  return sh_convolve_cosine(radiance);
+}
+
+// The largest error of the grid against the closed form over receivers in the box, relative to
+// E0, for normals +-Y and four sideways.
+float floor_error(const ProbeGridData& d, float scale, float e0) {
+  const SH9rgb exact = floor_expansion(e0);
+  float worst = 0.0f;
+  Rng rng = Rng::stream(9, 0);
+  for (int i = 0; i < 50; ++i) {
+    const glm::vec3 x = scale * glm::vec3(-1.0f + 2.0f * rng.next_float(), 0.05f + rng.next_float(),
+                                          -1.0f + 2.0f * rng.next_float());
+    for (glm::vec3 n : {glm::vec3(0, 1, 0), glm::vec3(0, -1, 0), glm::vec3(1, 0, 0), glm::vec3(0, 0, -1)}) {
+      const float got = evaluate(d, x, n).x, want = std::max(0.0f, sh_evaluate(exact, n).x);
+      worst = std::max(worst, std::abs(got - want) / e0);
+    }
+  }
+  return worst;
+}
+
+IrradianceProbeGrid floor_grid(float scale, ProbeSampling mode) {
+  IrradianceProbeGrid g = small_grid(scale * glm::vec3(-1.0f, 0.05f, -1.0f), scale * glm::vec3(1.0f, 1.05f, 1.0f),
+                                     {3, 3, 3}, mode);
+  g.bounces = 1;
+  return g;
+}
+
+TEST(ProbeBaker, FloorUnderSunMatchesTheClosedFormInBothModes) {
+  FloorScene s;
+  build_floor(s, 1.0f, 3.0f);
+  for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled}) {
+    auto d = bake(floor_grid(1.0f, mode), s.world, *s.rays);
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    EXPECT_LT(floor_error(*d, 1.0f, 3.0f), 0.02f) << to_string(mode);
+    // Supersampled: the tent reaches 0.45 m below the floor for the bottom nodes; those samples
+    // see the floor's back face and are dropped, so bottom nodes have partial coverage.
+    if (mode == ProbeSampling::Supersampled) {
+      EXPECT_LT(d->validity[0], 1.0f);
+      EXPECT_GT(d->validity[0], 0.0f);
+      EXPECT_EQ(d->validity[d->node_count() - 1], 1.0f);
+    }
+  }
+}
+
+// Scaling the scene by 1e-3 or 1e4 leaves the relative error unchanged (ray offsets scale).
+TEST(ProbeBaker, ScaleInvariance) {
+  float reference = 0.0f;
+  for (float scale : {1.0f, 1e-3f, 1e4f}) {
+    FloorScene s;
+    build_floor(s, scale, 3.0f);
+    auto d = bake(floor_grid(scale, ProbeSampling::Supersampled), s.world, *s.rays);
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    const float err = floor_error(*d, scale, 3.0f);
+    if (scale == 1.0f) reference = err;
+    EXPECT_NEAR(err, reference, 0.005f) << "scale " << scale;
+    EXPECT_LT(err, 0.02f) << "scale " << scale;
+  }
+}
+
+// A dark light gives exactly zero; a 1e6 light gives the same relative error, all finite.
+TEST(ProbeBaker, LightsOfZeroAndHugeIntensity) {
+  FloorScene dark;
+  build_floor(dark, 1.0f, 0.0f);
+  auto zero = bake(floor_grid(1.0f, ProbeSampling::Supersampled), dark.world, *dark.rays);
+  ASSERT_TRUE(zero.ok());
+  for (const glm::vec3& c : zero->coefficients) EXPECT_EQ(c, glm::vec3(0.0f));
+  FloorScene bright;
+  build_floor(bright, 1.0f, 1e6f);
+  auto huge = bake(floor_grid(1.0f, ProbeSampling::Supersampled), bright.world, *bright.rays);
+  ASSERT_TRUE(huge.ok());
+  for (const glm::vec3& c : huge->coefficients) EXPECT_TRUE(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z));
+  EXPECT_LT(floor_error(*huge, 1.0f, 1e6f), 0.02f);
+}
+
+// --- Determinism ---------------------------------------------------------------------------------
+
+TEST(ProbeBaker, BitIdenticalAtOneAndTwoThreads) {
+  World w;
+  ASSERT_TRUE(load_builtin(w, "cornell").ok());
+  update_world_transforms(w);
+  auto scene = RayScene::build(w);
+  ASSERT_TRUE(scene.ok());
+  IrradianceProbeGrid g = small_grid({0.1f, 0.1f, 0.1f}, {0.5f, 0.5f, 0.5f}, {3, 3, 3}, ProbeSampling::Supersampled);
+  // The Cornell box is about 0.55 m wide, from the origin: the grid sits inside it.
+  auto one = bake(g, w, *scene, 1, 77);
+  auto two = bake(g, w, *scene, 2, 77);
+  auto other_seed = bake(g, w, *scene, 2, 78);
+  ASSERT_TRUE(one.ok() && two.ok() && other_seed.ok());
+  EXPECT_EQ(one->coefficients, two->coefficients);
+  EXPECT_EQ(one->validity, two->validity);
+  EXPECT_NE(one->coefficients, other_seed->coefficients);
+}
+
+// --- Geometry swallowing the grid ----------------------------------------------------------------
+
+TEST(ProbeBaker, EveryProbeInsideGeometryIsAClearErrorAndPartlyInsideIsFilled) {
+  World w;
+  add_static(w, make_box(glm::vec3(2.0f)), glm::mat4(1.0f), glm::vec3(0.5f));  // closed, outward faces
+  add_sun(w, 3.0f, {0.0f, -1.0f, 0.0f});
+  auto scene = RayScene::build(w);
+  ASSERT_TRUE(scene.ok());
+  // Entirely inside (tents included): every sample sees back faces.
+  auto inside = bake(small_grid(glm::vec3(-1.0f), glm::vec3(1.0f), {3, 3, 3}, ProbeSampling::Supersampled), w, *scene);
+  ASSERT_FALSE(inside.ok());
+  EXPECT_EQ(inside.error().code, ErrorCode::InvalidInput);
+  EXPECT_NE(inside.error().message.find("inside geometry"), std::string::npos) << inside.error().message;
+  // Point mode keeps the classic behaviour: values at the nodes, validity 0, no error.
+  auto classic = bake(small_grid(glm::vec3(-1.0f), glm::vec3(1.0f), {3, 3, 3}, ProbeSampling::Point), w, *scene);
+  ASSERT_TRUE(classic.ok());
+  EXPECT_EQ(classic->valid_fraction(), 0.0f);
+  // Partly inside: 1 m spacing; the nodes at x = -1, 0, 1 have their whole tent inside the box
+  // (x in [-2, 2]) and are filled from valid neighbours, and lit like them.
+  IrradianceProbeGrid half =
+      small_grid({-1.0f, -0.5f, -0.5f}, {7.0f, 0.5f, 0.5f}, {9, 2, 2}, ProbeSampling::Supersampled);
+  auto d = bake(half, w, *scene);
+  ASSERT_TRUE(d.ok()) << d.error().message;
+  EXPECT_EQ(d->validity[0], 0.0f);  // x = -1: deep inside the box
+  EXPECT_EQ(d->filled[0], 1);
+  EXPECT_EQ(d->filled[4], 0);
+  EXPECT_GT(d->validity[4], 0.0f);
+  EXPECT_GT(sh_evaluate(d->node(0), {0, 1, 0}).x, 0.5f);  // sunlit value, not the dark inside
+  EXPECT_EQ(d->filled[2], 1);
+  EXPECT_NEAR(d->valid_fraction(), 24.0f / 36.0f, 1e-6f);
+}
+
+// --- Budget and cancellation ----------------------------------------------------------------------
+
+TEST(ProbeBaker, OverBudgetFailsBeforeAllocatingAndCancelStops) {
+  World w;
+  add_static(w, make_quad(10.0f, 10.0f), glm::mat4(1.0f), glm::vec3(0.5f));
+  auto scene = RayScene::build(w);
+  ASSERT_TRUE(scene.ok());
+  IrradianceProbeGrid g = small_grid(glm::vec3(0.0f), glm::vec3(100.0f), {200, 200, 200}, ProbeSampling::Point);
+  JobContext serial;
+  MemoryBudget budget(64ull << 20);
+  auto r = bake_probe_grid(g, glm::mat4(1.0f), *scene, {}, 1, serial, budget, "probe grid 'big'");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::OutOfBudget);
+  EXPECT_NE(r.error().message.find("probe grid 'big'"), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find("larger spacing"), std::string::npos) << r.error().message;
+  EXPECT_EQ(budget.reserved(), 0u);
+
+  CancelToken cancel;
+  cancel.cancel();
+  JobContext cancelled(nullptr, {}, &cancel);
+  MemoryBudget unlimited;
+  auto c = bake_probe_grid(small_grid(glm::vec3(0.0f), glm::vec3(1.0f), {4, 4, 4}, ProbeSampling::Point),
+                           glm::mat4(1.0f), *scene, {}, 1, cancelled, unlimited);
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.error().code, ErrorCode::Cancelled);
+  EXPECT_EQ(unlimited.reserved(), 0u);
+}
+
+// --- Baker, file and system ------------------------------------------------------------------------
+
+TEST(ProbeBaker, BakeWorldAttachAndLightAReceiver) {
+  World w;
+  register_transform_systems(w);
+  register_probe_grid(w);
+  ASSERT_TRUE(load_builtin(w, "cornell").ok());
+  w.update(0.0);
+  auto grid = add_default_probe_grid(w, Preset::Draft);
+  ASSERT_TRUE(grid.ok()) << grid.error().message;
+  w.patch<IrradianceProbeGrid>(*grid).resolution = {3, 3, 3};
+  w.patch<IrradianceProbeGrid>(*grid).samples_per_node = 4;
+  const Entity receiver = w.create();
+  w.add<Transform>(receiver, Transform{{0.28f, 0.45f, 0.28f}});
+  w.add<ProbeLit>(receiver);
+  w.update(0.0);
+  EXPECT_FALSE(w.get<ProbeLit>(receiver).covered);  // not baked yet
+
+  BakeSettings settings;
+  JobContext jobs;
+  auto result = bake_world(w, {"probes"}, settings, jobs);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const BakeChunk* chunk = result->file.find(fourcc("PRBG"));
+  ASSERT_NE(chunk, nullptr);
+  ASSERT_EQ(result->report.items.size(), 1u);
+  ASSERT_EQ(result->report.items[0].lines.size(), 2u);
+  EXPECT_NE(result->report.items[0].lines[0].find("3x3x3"), std::string::npos);
+  w.update(0.0);
+  const ProbeLit& lit = w.get<ProbeLit>(receiver);
+  ASSERT_TRUE(lit.covered);
+  const auto& data = *w.get<IrradianceProbeGrid>(*grid).data;
+  const glm::vec3 up(0, 1, 0);
+  EXPECT_EQ(probe_lit_irradiance(lit, up), evaluate(data, {0.28f, 0.45f, 0.28f}, up));
+  EXPECT_GT(probe_lit_irradiance(lit, up).x, 0.0f);
+
+  // The same chunk attached to a fresh load of the scene gives the same data.
+  World again;
+  ASSERT_TRUE(load_builtin(again, "cornell").ok());
+  update_world_transforms(again);
+  auto grid2 = add_default_probe_grid(again, Preset::Draft);
+  ASSERT_TRUE(grid2.ok());
+  ASSERT_EQ(grid2->index, grid->index);
+  ASSERT_TRUE(attach_probe_grids(again, result->file).ok());
+  EXPECT_EQ(again.get<IrradianceProbeGrid>(*grid2).data->coefficients, data.coefficients);
+  World empty;
+  EXPECT_EQ(attach_probe_grids(empty, result->file).error().code, ErrorCode::NotFound);
+}
+
+}  // namespace
+}  // namespace penumbra

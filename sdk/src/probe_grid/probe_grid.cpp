@@ -1,0 +1,227 @@
+// Probe grid component, layout validation, CPU evaluation and GPU packing (see probe_grid.h).
+// Evaluation is the irradiance-volume lookup of Greger et al. 1998 with the trilinear basis that
+// Kontkanen & Laine 2006 assume for their supersampling: E(x, n) = sum_i B_i(x) E_i(n).
+#include "penumbra/probe_grid/probe_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/packing.hpp>
+#include <glm/matrix.hpp>
+
+namespace penumbra {
+
+const char* to_string(ProbeShOrder order) { return order == ProbeShOrder::L1 ? "L1" : "L2"; }
+const char* to_string(ProbeSampling sampling) { return sampling == ProbeSampling::Point ? "point" : "supersampled"; }
+
+IrradianceProbeGrid IrradianceProbeGrid::preset(Preset preset) {
+  IrradianceProbeGrid g;
+  switch (preset) {
+    case Preset::Draft:
+      g.samples_per_node = 8;
+      g.rays_per_sample = 16;
+      g.bounces = 1;
+      g.spacing = 2.0f;
+      break;
+    case Preset::Medium:
+      g.samples_per_node = 32;
+      g.rays_per_sample = 16;
+      g.bounces = 2;
+      g.spacing = 1.0f;
+      break;
+    case Preset::High:
+      g.samples_per_node = 64;
+      g.rays_per_sample = 32;
+      g.bounces = 3;
+      g.spacing = 0.5f;
+      break;
+  }
+  return g;
+}
+
+glm::vec3 probe_lit_irradiance(const ProbeLit& lit, glm::vec3 n) {
+  return sh_evaluate_non_negative(lit.irradiance, n, lit.order == ProbeShOrder::L1 ? 2 : 3);
+}
+
+glm::vec3 ProbeGridLayout::node_position(glm::uvec3 ijk) const {
+  const glm::vec3 u = glm::vec3(ijk) / glm::vec3(resolution - 1u);
+  return glm::vec3(grid_to_world * glm::vec4(u, 1.0f));
+}
+
+namespace {
+
+bool finite(const glm::mat4& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(m[c][r])) return false;
+  return true;
+}
+
+Error invalid(std::string_view context, const std::string& what) {
+  return make_error(ErrorCode::InvalidArgument, std::string(context) + ": " + what);
+}
+
+std::string vec_text(glm::vec3 v) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%g, %g, %g)", static_cast<double>(v.x), static_cast<double>(v.y),
+                static_cast<double>(v.z));
+  return text;
+}
+
+}  // namespace
+
+Result<ProbeGridLayout> probe_grid_layout(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
+                                          std::string_view context) {
+  // Sampling knobs.
+  if (grid.samples_per_node == 0 || grid.rays_per_sample == 0)
+    return invalid(context, "samples_per_node and rays_per_sample must be at least 1 (got " +
+                                std::to_string(grid.samples_per_node) + " and " +
+                                std::to_string(grid.rays_per_sample) + "); use a preset");
+  if (grid.hit_samples < 2)
+    return invalid(context, "hit_samples is " + std::to_string(grid.hit_samples) + "; use at least 2");
+  if (!(grid.back_face_threshold >= 0.0f && grid.back_face_threshold <= 1.0f))
+    return invalid(context, "back_face_threshold " + std::to_string(grid.back_face_threshold) +
+                                " is outside [0, 1]; use 0 for watertight scenes, 0.1 otherwise");
+  if (!(grid.deringing_window >= 0.0f) || !std::isfinite(grid.deringing_window))
+    return invalid(context, "deringing_window must be 0 (off) or a positive width");
+  if (!(grid.blend_distance >= 0.0f) || !std::isfinite(grid.blend_distance))
+    return invalid(context, "blend_distance must be 0 (one spacing) or a positive distance in metres");
+
+  // The box: explicit world-space AABB, or the unit cube through the world matrix.
+  glm::mat4 grid_to_world;
+  if (!grid.box.empty() || grid.box.min != Aabb{}.min) {
+    const glm::vec3 size = grid.box.extent();
+    if (!std::isfinite(size.x) || !std::isfinite(size.y) || !std::isfinite(size.z) ||
+        !std::isfinite(grid.box.min.x) || !std::isfinite(grid.box.min.y) || !std::isfinite(grid.box.min.z))
+      return invalid(context, "the box " + vec_text(grid.box.min) + " - " + vec_text(grid.box.max) +
+                                  " is not finite; give finite corners");
+    if (!(size.x > 0.0f && size.y > 0.0f && size.z > 0.0f))
+      return invalid(context, "the box " + vec_text(grid.box.min) + " - " + vec_text(grid.box.max) +
+                                  " is degenerate (size " + vec_text(size) +
+                                  "); give it a positive size on every axis");
+    grid_to_world = glm::scale(glm::translate(glm::mat4(1.0f), grid.box.min), size);
+  } else {
+    if (!finite(world_matrix))
+      return invalid(context, "the entity's world transform has NaN or infinite entries; fix its Transform");
+    grid_to_world = world_matrix * glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f));
+  }
+  const glm::mat3 axes(grid_to_world);
+  const glm::vec3 size(glm::length(axes[0]), glm::length(axes[1]), glm::length(axes[2]));
+  const float volume = std::abs(glm::determinant(axes));
+  if (!(volume > 0.0f) || !std::isfinite(volume) || !(std::min({size.x, size.y, size.z}) > 0.0f) ||
+      !(volume > 1e-6f * size.x * size.y * size.z))
+    return invalid(context, "the grid's box is degenerate (its transform has a zero scale or collapses an "
+                            "axis; size " + vec_text(size) + "); give it a positive scale on every axis");
+
+  // Resolution: explicit, or from the spacing.
+  glm::uvec3 res = grid.resolution;
+  if (res == glm::uvec3(0u)) {
+    if (!(grid.spacing > 0.0f) || !std::isfinite(grid.spacing))
+      return invalid(context, "spacing " + std::to_string(grid.spacing) + " must be a positive number of metres");
+    const glm::vec3 cells = glm::ceil(size / grid.spacing);
+    if (!(std::max({cells.x, cells.y, cells.z}) < 1e6f))
+      return invalid(context, "spacing " + std::to_string(grid.spacing) + " m gives over a million nodes per axis "
+                              "over a box of size " + vec_text(size) + "; use a larger spacing");
+    res = glm::uvec3(glm::max(cells, glm::vec3(1.0f))) + 1u;
+  } else if (res.x < 2 || res.y < 2 || res.z < 2) {
+    return invalid(context, "resolution " + std::to_string(res.x) + "x" + std::to_string(res.y) + "x" +
+                                std::to_string(res.z) + " has fewer than 2 nodes on an axis (a grid needs two "
+                                "nodes per axis to interpolate); use at least 2x2x2, or resolution 0 with a spacing");
+  }
+  const std::uint64_t nodes = std::uint64_t{res.x} * res.y * res.z;
+  if (nodes > kMaxProbeNodes)
+    return invalid(context, std::to_string(res.x) + "x" + std::to_string(res.y) + "x" + std::to_string(res.z) +
+                                " = " + std::to_string(nodes) + " nodes exceeds the limit of " +
+                                std::to_string(kMaxProbeNodes) + "; use a larger spacing or a smaller box");
+
+  ProbeGridLayout layout;
+  layout.resolution = res;
+  layout.grid_to_world = grid_to_world;
+  layout.world_to_grid = glm::inverse(grid_to_world);
+  layout.spacing = size / glm::vec3(res - 1u);
+  return layout;
+}
+
+SH9rgb ProbeGridData::node(std::size_t n) const {
+  SH9rgb sh;
+  const int count = sh_coefficients(sh_order);
+  for (int c = 0; c < count; ++c) sh[c] = coefficients[n * static_cast<std::size_t>(count) + static_cast<std::size_t>(c)];
+  return sh;
+}
+
+float ProbeGridData::valid_fraction() const {
+  if (validity.empty()) return 0.0f;
+  const auto valid = std::count_if(validity.begin(), validity.end(), [](float v) { return v > 0.0f; });
+  return static_cast<float>(valid) / static_cast<float>(validity.size());
+}
+
+std::uint64_t ProbeGridData::bytes() const {
+  return sizeof(*this) + coefficients.capacity() * sizeof(glm::vec3) + validity.capacity() * sizeof(float) +
+         filled.capacity();
+}
+
+std::uint64_t ProbeGridData::bytes_per_node() const {
+  return static_cast<std::uint64_t>(sh_coefficients(sh_order)) * sizeof(glm::vec3);
+}
+
+SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x) {
+  const ProbeGridLayout& g = data.layout;
+  // Grid coordinates of x in node units, clamped into the box.
+  const glm::vec3 cells(g.resolution - 1u);
+  const glm::vec3 u = glm::clamp(glm::vec3(g.world_to_grid * glm::vec4(x, 1.0f)), 0.0f, 1.0f) * cells;
+  SH9rgb out;
+  if (!std::isfinite(u.x) || !std::isfinite(u.y) || !std::isfinite(u.z)) return out;
+  const glm::uvec3 base = glm::min(glm::uvec3(u), g.resolution - 2u);
+  const glm::vec3 f = u - glm::vec3(base);
+  const int count = sh_coefficients(data.sh_order);
+  // Trilinear weights B_i(x) of the eight surrounding nodes.
+  for (std::uint32_t corner = 0; corner < 8; ++corner) {
+    const glm::uvec3 o(corner & 1u, (corner >> 1) & 1u, (corner >> 2) & 1u);
+    const float w = (o.x ? f.x : 1.0f - f.x) * (o.y ? f.y : 1.0f - f.y) * (o.z ? f.z : 1.0f - f.z);
+    const glm::vec3* node = &data.coefficients[g.node_index(base + o) * static_cast<std::size_t>(count)];
+    for (int c = 0; c < count; ++c) out[c] += w * node[c];
+  }
+  return out;
+}
+
+glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {
+  return sh_evaluate_non_negative(interpolate(data, x), n, data.sh_order == ProbeShOrder::L1 ? 2 : 3);
+}
+
+ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexelFormat format) {
+  ProbeGridTextures t;
+  t.extent = data.layout.resolution;
+  t.format = format;
+  t.world_to_grid = data.layout.world_to_grid;
+  const std::size_t count = static_cast<std::size_t>(sh_coefficients(data.sh_order));
+  const std::size_t slots = count * 3;
+  t.textures = static_cast<std::uint32_t>((slots + 3) / 4);
+  const std::size_t nodes = data.node_count();
+  t.data.resize(t.textures * nodes * t.texel_bytes());
+  for (std::size_t tex = 0; tex < t.textures; ++tex) {
+    for (std::size_t n = 0; n < nodes; ++n) {
+      float texel[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+      for (std::size_t k = 0; k < 4; ++k) {
+        const std::size_t s = tex * 4 + k;  // slot: coefficient s / 3, channel s % 3
+        if (s < slots) texel[k] = data.coefficients[n * count + s / 3][static_cast<int>(s % 3)];
+      }
+      std::byte* dst = t.data.data() + (tex * nodes + n) * t.texel_bytes();
+      if (format == ProbeTexelFormat::RGBA32F) {
+        std::memcpy(dst, texel, sizeof texel);
+      } else {
+        const std::uint16_t half[4] = {glm::packHalf1x16(texel[0]), glm::packHalf1x16(texel[1]),
+                                       glm::packHalf1x16(texel[2]), glm::packHalf1x16(texel[3])};
+        std::memcpy(dst, half, sizeof half);
+      }
+    }
+  }
+  return t;
+}
+
+}  // namespace penumbra

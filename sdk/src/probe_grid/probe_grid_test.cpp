@@ -1,0 +1,366 @@
+// Probe grid without ray tracing: validation, interpolation, evaluation, GPU packing, the chunk,
+// the runtime system and the default grid.
+#include "penumbra/probe_grid/probe_grid.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/packing.hpp>
+
+#include "penumbra/core/random.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_baker.h"
+#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/scene/mesh.h"
+
+namespace penumbra {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+IrradianceProbeGrid box_grid(glm::vec3 lo, glm::vec3 hi, glm::uvec3 res) {
+  IrradianceProbeGrid g;
+  g.box.min = lo;
+  g.box.max = hi;
+  g.resolution = res;
+  return g;
+}
+
+// Data whose node expansions are f(node position) (RGB, every coefficient) for a given f.
+template <class F>
+ProbeGridData synthetic(const IrradianceProbeGrid& grid, ProbeShOrder order, F f) {
+  auto layout = probe_grid_layout(grid, glm::mat4(1.0f), "test grid");
+  EXPECT_TRUE(layout.ok());
+  ProbeGridData d;
+  d.layout = *layout;
+  d.sh_order = order;
+  const int count = sh_coefficients(order);
+  const glm::uvec3 r = d.layout.resolution;
+  for (std::uint32_t z = 0; z < r.z; ++z)
+    for (std::uint32_t y = 0; y < r.y; ++y)
+      for (std::uint32_t x = 0; x < r.x; ++x)
+        for (int c = 0; c < count; ++c) d.coefficients.push_back(f(d.layout.node_position({x, y, z}), c));
+  d.validity.assign(d.node_count(), 1.0f);
+  d.filled.assign(d.node_count(), 0);
+  return d;
+}
+
+// --- Validation ----------------------------------------------------------------------------------
+
+TEST(ProbeGridLayout, RejectsGridsWithFewerThanTwoNodesPerAxis) {
+  auto one = probe_grid_layout(box_grid({0, 0, 0}, {1, 1, 1}, {1, 1, 1}), glm::mat4(1.0f), "grid 'hall'");
+  ASSERT_FALSE(one.ok());
+  EXPECT_EQ(one.error().code, ErrorCode::InvalidArgument);
+  EXPECT_NE(one.error().message.find("grid 'hall'"), std::string::npos) << one.error().message;
+  EXPECT_NE(one.error().message.find("1x1x1"), std::string::npos) << one.error().message;
+  EXPECT_FALSE(probe_grid_layout(box_grid({0, 0, 0}, {1, 1, 1}, {4, 1, 4}), glm::mat4(1.0f), "g").ok());
+  EXPECT_TRUE(probe_grid_layout(box_grid({0, 0, 0}, {1, 1, 1}, {2, 2, 2}), glm::mat4(1.0f), "g").ok());
+}
+
+TEST(ProbeGridLayout, RejectsDegenerateAndNonFiniteBoxes) {
+  for (const auto& [lo, hi] : {std::pair{glm::vec3(0, 0, 0), glm::vec3(1, 0, 1)},     // flat
+                               std::pair{glm::vec3(0, 0, 0), glm::vec3(0, 0, 0)},     // a point
+                               std::pair{glm::vec3(1, 1, 1), glm::vec3(0, 2, 2)},     // inverted
+                               std::pair{glm::vec3(0, kNaN, 0), glm::vec3(1, 1, 1)},  // NaN
+                               std::pair{glm::vec3(0, 0, 0), glm::vec3(std::numeric_limits<float>::infinity())}}) {
+    auto r = probe_grid_layout(box_grid(lo, hi, {0, 0, 0}), glm::mat4(1.0f), "g");
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::InvalidArgument);
+    EXPECT_NE(r.error().message.find("box"), std::string::npos) << r.error().message;
+  }
+}
+
+TEST(ProbeGridLayout, RejectsNaNAndCollapsedTransforms) {
+  IrradianceProbeGrid g;  // box from the transform
+  glm::mat4 m(1.0f);
+  m[3][1] = kNaN;
+  auto nan = probe_grid_layout(g, m, "g");
+  ASSERT_FALSE(nan.ok());
+  EXPECT_NE(nan.error().message.find("NaN"), std::string::npos) << nan.error().message;
+  auto flat = probe_grid_layout(g, glm::scale(glm::mat4(1.0f), {2.0f, 0.0f, 2.0f}), "g");
+  ASSERT_FALSE(flat.ok());
+  EXPECT_NE(flat.error().message.find("degenerate"), std::string::npos) << flat.error().message;
+}
+
+TEST(ProbeGridLayout, RejectsBadSettings) {
+  const auto check = [](IrradianceProbeGrid g, const char* word) {
+    g.box.min = glm::vec3(0.0f);
+    g.box.max = glm::vec3(4.0f);
+    auto r = probe_grid_layout(g, glm::mat4(1.0f), "g");
+    ASSERT_FALSE(r.ok()) << word;
+    EXPECT_NE(r.error().message.find(word), std::string::npos) << r.error().message;
+  };
+  IrradianceProbeGrid g;
+  g.spacing = kNaN;
+  check(g, "spacing");
+  g = {};
+  g.spacing = 1e-9f;
+  check(g, "spacing");
+  g = {};
+  g.back_face_threshold = 1.5f;
+  check(g, "back_face_threshold");
+  g = {};
+  g.rays_per_sample = 0;
+  check(g, "rays_per_sample");
+  g = {};
+  g.hit_samples = 1;
+  check(g, "hit_samples");
+  g = {};
+  g.resolution = {1024, 1024, 1024};
+  check(g, "exceeds the limit");
+}
+
+TEST(ProbeGridLayout, NodesSpanTheBoxAndTheTransformedUnitCube) {
+  auto a = probe_grid_layout(box_grid({-1, 0, 2}, {3, 2, 4}, {0, 0, 0}), glm::mat4(1.0f), "g");
+  ASSERT_TRUE(a.ok());
+  EXPECT_EQ(a->resolution, glm::uvec3(5, 3, 3));  // ceil(size / 1 m) + 1
+  EXPECT_EQ(a->node_position({0, 0, 0}), glm::vec3(-1, 0, 2));
+  EXPECT_EQ(a->node_position({4, 2, 2}), glm::vec3(3, 2, 4));
+  EXPECT_EQ(a->spacing, glm::vec3(1.0f));
+  // Unit cube through a rotated, scaled transform: the corners follow the matrix.
+  IrradianceProbeGrid g;
+  g.resolution = {3, 3, 3};
+  const glm::mat4 m = glm::scale(glm::rotate(glm::translate(glm::mat4(1.0f), {5, 1, 0}), 0.7f, {0, 1, 0}), {4, 2, 6});
+  auto b = probe_grid_layout(g, m, "g");
+  ASSERT_TRUE(b.ok());
+  const glm::vec3 corner = glm::vec3(m * glm::vec4(0.5f, 0.5f, 0.5f, 1.0f));
+  EXPECT_LT(glm::length(b->node_position({2, 2, 2}) - corner), 1e-5f);
+  EXPECT_LT(glm::length(b->spacing - glm::vec3(2, 1, 3)), 1e-5f);
+}
+
+TEST(ProbeGridPreset, QualityGrowsWithThePreset) {
+  const auto d = IrradianceProbeGrid::preset(Preset::Draft), m = IrradianceProbeGrid::preset(Preset::Medium),
+             h = IrradianceProbeGrid::preset(Preset::High);
+  EXPECT_LT(d.samples_per_node * d.rays_per_sample, m.samples_per_node * m.rays_per_sample);
+  EXPECT_LT(m.samples_per_node * m.rays_per_sample, h.samples_per_node * h.rays_per_sample);
+  EXPECT_GT(d.spacing, m.spacing);
+  EXPECT_GT(m.spacing, h.spacing);
+}
+
+// --- Evaluation ----------------------------------------------------------------------------------
+
+// Trilinear interpolation reproduces functions that are linear in each coordinate exactly.
+TEST(ProbeGridEvaluate, InterpolationIsExactForTrilinearFields) {
+  const auto f = [](glm::vec3 p, int c) {
+    return glm::vec3(1.0f + 0.5f * p.x - 0.25f * p.y + 0.1f * p.z + 0.05f * p.x * p.y * p.z, float(c), -p.z);
+  };
+  const ProbeGridData d = synthetic(box_grid({-2, 0, -1}, {2, 3, 1}, {5, 4, 3}), ProbeShOrder::L2, f);
+  Rng rng = Rng::stream(3, 0);
+  for (int i = 0; i < 200; ++i) {
+    const glm::vec3 x(-2.0f + 4.0f * rng.next_float(), 3.0f * rng.next_float(), -1.0f + 2.0f * rng.next_float());
+    const SH9rgb sh = interpolate(d, x);
+    for (int c = 0; c < 9; ++c) EXPECT_LT(glm::length(sh[c] - f(x, c)), 2e-5f) << "c " << c;
+  }
+  // Outside the box: the value at the nearest point of the box.
+  EXPECT_LT(glm::length(interpolate(d, {10.0f, 1.0f, 0.0f})[0] - f({2.0f, 1.0f, 0.0f}, 0)), 2e-5f);
+}
+
+// A bright directional light rings below zero in L2 (and L1) opposite the light; evaluate never
+// returns negative irradiance, and matches the expansion where it is positive.
+TEST(ProbeGridEvaluate, NeverNegative) {
+  const glm::vec3 l = glm::normalize(glm::vec3(0.3f, 1.0f, -0.2f));
+  SH9rgb radiance;
+  sh_add_sample(radiance, l, glm::vec3(1e4f, 5e3f, 1.0f));
+  const SH9rgb e = sh_convolve_cosine(radiance);
+  for (ProbeShOrder order : {ProbeShOrder::L1, ProbeShOrder::L2}) {
+    const ProbeGridData d = synthetic(box_grid({0, 0, 0}, {1, 1, 1}, {2, 2, 2}), order,
+                                      [&](glm::vec3, int c) { return e[c]; });
+    bool rang = false;
+    for (std::uint32_t i = 0; i < 1024; ++i) {
+      const glm::vec3 n = uniform_sphere(sobol_2d(i, 7));
+      const glm::vec3 raw = sh_evaluate(d.node(0), n, order == ProbeShOrder::L1 ? 2 : 3);
+      const glm::vec3 v = evaluate(d, {0.5f, 0.5f, 0.5f}, n);
+      for (int c = 0; c < 3; ++c) {
+        rang = rang || raw[c] < 0.0f;
+        EXPECT_GE(v[c], 0.0f);
+        if (raw[c] > 0.0f) {
+          EXPECT_NEAR(v[c], raw[c], 1e-3f * std::abs(raw[c]) + 1e-3f);
+        }
+      }
+    }
+    EXPECT_TRUE(rang) << "the test needs an expansion that rings negative";
+  }
+}
+
+// --- GPU layout ----------------------------------------------------------------------------------
+
+TEST(ProbeGridTextures, SlotsHoldCoefficientChannelsAndFilterLikeTheCpu) {
+  const auto f = [](glm::vec3 p, int c) { return glm::vec3(p.x + float(c), p.y * float(c), 0.25f * p.z - 1.0f); };
+  for (ProbeShOrder order : {ProbeShOrder::L1, ProbeShOrder::L2}) {
+    const ProbeGridData d = synthetic(box_grid({0, 0, 0}, {3, 2, 1}, {4, 3, 2}), order, f);
+    const ProbeGridTextures t = pack_probe_grid_textures(d, ProbeTexelFormat::RGBA32F);
+    const std::size_t count = static_cast<std::size_t>(sh_coefficients(order));
+    EXPECT_EQ(t.textures, order == ProbeShOrder::L1 ? 3u : 7u);
+    ASSERT_EQ(t.data.size(), t.textures * d.node_count() * 16);
+    const auto slot = [&](std::size_t node, std::size_t s) {
+      float v;
+      std::memcpy(&v, t.data.data() + ((s / 4) * d.node_count() + node) * 16 + (s % 4) * 4, sizeof v);
+      return v;
+    };
+    for (std::size_t n = 0; n < d.node_count(); ++n)
+      for (std::size_t s = 0; s < 4 * t.textures; ++s)
+        EXPECT_EQ(slot(n, s), s < 3 * count ? d.coefficients[n * count + s / 3][static_cast<int>(s % 3)] : 0.0f);
+    // A software trilinear fetch at the shader's uvw gives interpolate()'s coefficients.
+    const glm::vec3 x(1.3f, 0.7f, 0.4f);
+    const glm::vec3 u = glm::vec3(t.world_to_grid * glm::vec4(x, 1.0f)) * glm::vec3(t.extent - 1u);
+    const glm::uvec3 b(u);
+    const glm::vec3 fr = u - glm::vec3(b);
+    const SH9rgb ref = interpolate(d, x);
+    for (std::size_t s = 0; s < 3 * count; ++s) {
+      float v = 0.0f;
+      for (std::uint32_t k = 0; k < 8; ++k) {
+        const glm::uvec3 o(k & 1u, (k >> 1) & 1u, (k >> 2) & 1u);
+        const float w = (o.x ? fr.x : 1 - fr.x) * (o.y ? fr.y : 1 - fr.y) * (o.z ? fr.z : 1 - fr.z);
+        v += w * slot(d.layout.node_index(b + o), s);
+      }
+      EXPECT_NEAR(v, ref[static_cast<int>(s / 3)][static_cast<int>(s % 3)], 1e-5f);
+    }
+    // Half precision: within its relative precision (2^-11).
+    const ProbeGridTextures h = pack_probe_grid_textures(d, ProbeTexelFormat::RGBA16F);
+    ASSERT_EQ(h.data.size(), h.textures * d.node_count() * 8);
+    std::uint16_t half;
+    std::memcpy(&half, h.data.data() + 8 * 5, sizeof half);  // texture 0, node 5, slot 0
+    EXPECT_NEAR(glm::unpackHalf1x16(half), d.coefficients[5 * count][0], 1e-3f * std::abs(d.coefficients[5 * count][0]));
+  }
+}
+
+// --- Chunk ---------------------------------------------------------------------------------------
+
+TEST(ProbeGridChunk, RoundTripsAndRejectsDamage) {
+  ProbeGridData d = synthetic(box_grid({0, 0, 0}, {2, 1, 1}, {3, 2, 2}), ProbeShOrder::L1,
+                              [](glm::vec3 p, int c) { return p * float(c + 1); });
+  d.entity_index = 42;
+  d.validity[3] = 0.0f;
+  d.filled[3] = 1;
+  const BakeChunk chunk = write_probe_grid_chunk(d);
+  EXPECT_EQ(chunk.label, "probes:42");
+  auto back = read_probe_grid_chunk(chunk);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->coefficients, d.coefficients);
+  EXPECT_EQ(back->validity, d.validity);
+  EXPECT_EQ(back->filled, d.filled);
+  EXPECT_EQ(back->layout.resolution, d.layout.resolution);
+  EXPECT_EQ(back->entity_index, 42u);
+  EXPECT_EQ(back->sh_order, ProbeShOrder::L1);
+  const auto lines = describe_probe_grid_chunk(chunk);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_NE(lines[0].find("3x2x2"), std::string::npos) << lines[0];
+  EXPECT_NE(lines[1].find("valid 91.7%"), std::string::npos) << lines[1];
+
+  BakeChunk truncated = chunk;
+  truncated.payload.resize(truncated.payload.size() - 5);
+  EXPECT_FALSE(read_probe_grid_chunk(truncated).ok());
+  BakeChunk versioned = chunk;
+  versioned.version = 99;
+  auto v = read_probe_grid_chunk(versioned);
+  ASSERT_FALSE(v.ok());
+  EXPECT_EQ(v.error().code, ErrorCode::Unsupported);
+  ProbeGridData nan = d;
+  nan.coefficients[4].y = kNaN;
+  auto n = read_probe_grid_chunk(write_probe_grid_chunk(nan));
+  ASSERT_FALSE(n.ok());
+  EXPECT_NE(n.error().message.find("node 1"), std::string::npos) << n.error().message;
+  ProbeGridData one = d;
+  one.layout.resolution = {1, 1, 1};
+  EXPECT_FALSE(read_probe_grid_chunk(write_probe_grid_chunk(one)).ok());
+}
+
+// --- System --------------------------------------------------------------------------------------
+
+// Grids with constant expansions (irradiance `value` for every normal: only coefficient 0).
+Entity add_constant_grid(World& w, glm::vec3 lo, glm::vec3 hi, glm::vec3 value, int priority) {
+  IrradianceProbeGrid g = box_grid(lo, hi, {3, 3, 3});
+  g.priority = priority;
+  g.data = std::make_shared<const ProbeGridData>(synthetic(g, ProbeShOrder::L1, [&](glm::vec3, int c) {
+    return c == 0 ? value / 0.28209479f : glm::vec3(0.0f);
+  }));
+  const Entity e = w.create();
+  w.add<IrradianceProbeGrid>(e, g);
+  w.add<Transform>(e);
+  return e;
+}
+
+Entity add_receiver(World& w, glm::vec3 at) {
+  const Entity e = w.create();
+  w.add<Transform>(e, Transform{at});
+  w.add<ProbeLit>(e);
+  return e;
+}
+
+TEST(ProbeGridSystem, BlendsByPriorityAndBorderDistanceAndUpdatesOnlyWhatChanged) {
+  World w;
+  register_transform_systems(w);
+  register_probe_grid_system(w);
+  const Entity low = add_constant_grid(w, {-10, -10, -10}, {10, 10, 10}, glm::vec3(1.0f), 0);
+  add_constant_grid(w, {0, 0, 0}, {4, 4, 4}, glm::vec3(5.0f), 1);  // spacing 2 m: blends over 2 m
+  const Entity deep = add_receiver(w, {2, 2, 2});      // 2 m inside the high grid: all high
+  const Entity outside = add_receiver(w, {-5, 0, 0});  // only the low grid
+  const Entity edge = add_receiver(w, {2, 2, 0.5f});   // 0.5 m inside: a quarter high
+  const Entity nowhere = add_receiver(w, {50, 0, 0});
+  w.update(0.016);
+  const glm::vec3 up(0, 1, 0);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(deep), up).x, 5.0f, 1e-4f);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(outside), up).x, 1.0f, 1e-4f);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(edge), up).x, 0.25f * 5.0f + 0.75f * 1.0f, 1e-4f);
+  EXPECT_FALSE(w.get<ProbeLit>(nowhere).covered);
+  EXPECT_TRUE(w.get<ProbeLit>(deep).covered);
+  EXPECT_EQ(probe_lit_irradiance(w.get<ProbeLit>(nowhere), up), glm::vec3(0.0f));
+
+  // Nothing moved: nothing is updated.
+  const std::uint64_t first = w.get<ProbeLit>(deep).updated_tick;
+  EXPECT_GT(first, 0u);
+  w.update(0.016);
+  EXPECT_EQ(w.get<ProbeLit>(deep).updated_tick, first);
+  EXPECT_EQ(w.get<ProbeLit>(outside).updated_tick, first);
+  // One receiver moves: only it is updated, to its new value.
+  w.patch<Transform>(outside).translation = {1, 1, 1};
+  w.update(0.016);
+  EXPECT_GT(w.get<ProbeLit>(outside).updated_tick, first);
+  EXPECT_EQ(w.get<ProbeLit>(deep).updated_tick, first);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(outside), up).x, 5.0f * 0.5f + 1.0f * 0.5f, 1e-4f);
+  // A grid changes: everyone is updated.
+  w.patch<IrradianceProbeGrid>(low).priority = 2;
+  w.update(0.016);
+  EXPECT_GT(w.get<ProbeLit>(deep).updated_tick, first);
+  // low now comes first: 8 m from its border over a 10 m blend, then the rest from the other.
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(deep), up).x, 0.8f * 1.0f + 0.2f * 5.0f, 1e-4f);
+  // A grid is removed: everyone is updated again.
+  const std::uint64_t before = w.get<ProbeLit>(deep).updated_tick;
+  w.destroy(low);
+  w.update(0.016);
+  EXPECT_GT(w.get<ProbeLit>(deep).updated_tick, before);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(deep), up).x, 5.0f, 1e-4f);
+  EXPECT_TRUE(w.get<ProbeLit>(outside).covered);
+}
+
+TEST(ProbeGridDefault, CoversTheStaticGeometryInsetAndIsAddedOnce) {
+  World w;
+  EXPECT_FALSE(add_default_probe_grid(w, Preset::Draft).ok());
+  const Entity box = w.create();
+  w.add<Mesh>(box, Mesh{std::make_shared<const MeshData>(make_box({5.0f, 1.0f, 2.0f}))});
+  w.add<Static>(box);
+  w.add<Transform>(box, Transform{{1.0f, 1.0f, 0.0f}});
+  update_world_transforms(w);
+  auto e = add_default_probe_grid(w, Preset::Draft);
+  ASSERT_TRUE(e.ok()) << e.error().message;
+  const IrradianceProbeGrid& g = w.get<IrradianceProbeGrid>(*e);
+  EXPECT_GT(g.box.min.x, -4.0f);
+  EXPECT_LT(g.box.min.x, -3.7f);
+  EXPECT_LT(g.box.max.y, 2.0f);
+  EXPECT_GT(g.box.max.y, 1.9f);
+  EXPECT_EQ(g.spacing, IrradianceProbeGrid::preset(Preset::Draft).spacing);
+  EXPECT_TRUE(probe_grid_layout(g, glm::mat4(1.0f), "g").ok());
+  auto again = add_default_probe_grid(w, Preset::High);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(*again, *e);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,228 @@
+// Probe-grid runtime: the lighting system for ProbeLit receivers, loading baked grids, the default
+// grid and the registration of the "probes" baker (see probe_system.h).
+#include "penumbra/probe_grid/probe_system.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include <glm/common.hpp>
+
+#include "penumbra/bake/integrators.h"
+#include "penumbra/bake/ray_scene.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_baker.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr std::uint32_t kChunkType = fourcc("PRBG");
+
+// A baked grid as the system uses it this update.
+struct ActiveGrid {
+  const ProbeGridData* data;
+  int priority;
+  std::uint32_t index;
+  float blend;  // metres
+};
+
+// The system's memory between runs: how many grids were active (a removal changes it).
+struct ProbeGridSystemState {
+  std::size_t grids = 0;
+};
+
+// Fade of a grid at x: 0 outside its box; inside, the distance to its border over the blend
+// distance, clamped to [1e-4, 1] (so a point on the border still counts as covered).
+float coverage(const ActiveGrid& g, glm::vec3 x) {
+  const glm::vec3 u(g.data->layout.world_to_grid * glm::vec4(x, 1.0f));
+  if (!(u.x >= 0.0f && u.y >= 0.0f && u.z >= 0.0f && u.x <= 1.0f && u.y <= 1.0f && u.z <= 1.0f)) return 0.0f;
+  const glm::vec3 size = g.data->layout.spacing * glm::vec3(g.data->layout.resolution - 1u);
+  const glm::vec3 border = glm::min(u, 1.0f - u) * size;
+  const float d = std::min({border.x, border.y, border.z});
+  return glm::clamp(d / g.blend, 1e-4f, 1.0f);
+}
+
+}  // namespace
+
+std::size_t update_probe_lighting(World& world, std::uint64_t since) {
+  // The grids with data, by descending priority then entity index (a deterministic order).
+  std::vector<ActiveGrid> grids;
+  bool grids_changed = false;
+  world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid& g) {
+    if (world.changed_tick<IrradianceProbeGrid>(e) > since || world.changed_tick<WorldTransform>(e) > since)
+      grids_changed = true;
+    if (!g.data) return;
+    const float spacing = std::min({g.data->layout.spacing.x, g.data->layout.spacing.y, g.data->layout.spacing.z});
+    grids.push_back({g.data.get(), g.priority, e.index, g.blend_distance > 0.0f ? g.blend_distance : spacing});
+  });
+  std::sort(grids.begin(), grids.end(), [](const ActiveGrid& a, const ActiveGrid& b) {
+    return a.priority != b.priority ? a.priority > b.priority : a.index < b.index;
+  });
+  auto& state = world.resource<ProbeGridSystemState>();
+  if (state.grids != grids.size()) grids_changed = true;
+  state.grids = grids.size();
+
+  // The receivers to update: all when a grid changed, else those that moved or are new.
+  std::vector<Entity> receivers;
+  world.view<ProbeLit, WorldTransform>().each([&](Entity e, ProbeLit&, WorldTransform&) {
+    if (grids_changed || world.changed_tick<WorldTransform>(e) > since || world.changed_tick<ProbeLit>(e) > since)
+      receivers.push_back(e);
+  });
+
+  std::vector<std::pair<const ActiveGrid*, float>> covering;
+  for (Entity e : receivers) {
+    const glm::vec3 x(world.get<WorldTransform>(e).matrix[3]);
+    // Blend: each covering grid takes its fade of the weight the higher-priority grids left; the
+    // last (lowest-priority) covering grid takes all that is left.
+    covering.clear();
+    for (const ActiveGrid& g : grids)
+      if (const float f = coverage(g, x); f > 0.0f) covering.push_back({&g, f});
+    SH9rgb sum;
+    float left = 1.0f;
+    bool l2 = false;
+    for (std::size_t i = 0; i < covering.size() && left > 0.0f; ++i) {
+      const float w = i + 1 == covering.size() ? left : left * covering[i].second;
+      sum += interpolate(*covering[i].first->data, x) * w;
+      left -= w;
+      l2 = l2 || covering[i].first->data->sh_order == ProbeShOrder::L2;
+    }
+    ProbeLit& lit = world.patch<ProbeLit>(e);
+    lit.covered = !covering.empty();
+    lit.irradiance = sum;
+    lit.order = l2 ? ProbeShOrder::L2 : ProbeShOrder::L1;
+    lit.updated_tick = world.tick();
+  }
+  return receivers.size();
+}
+
+void register_probe_grid_system(World& world) {
+  SystemDesc desc;
+  desc.name = "probe-grid";
+  desc.phase = Phase::Lighting;
+  desc.reads = {component_id<WorldTransform>(), component_id<IrradianceProbeGrid>()};
+  desc.writes = {component_id<ProbeLit>()};
+  desc.run = [](World& w, const SystemContext& ctx) { update_probe_lighting(w, ctx.last_run); };
+  world.add_system(std::move(desc));
+}
+
+Status attach_probe_grids(World& world, const BakeFile& file) {
+  for (const BakeChunk& chunk : file.chunks) {
+    if (chunk.type != kChunkType) continue;
+    auto data = read_probe_grid_chunk(chunk);
+    if (!data) return data.error();
+    // The grid entity with the chunk's index (a look-up that is safe for any stored index).
+    Entity e;
+    world.each<IrradianceProbeGrid>([&](Entity g, IrradianceProbeGrid&) {
+      if (g.index == data->entity_index) e = g;
+    });
+    if (!e)
+      return make_error(ErrorCode::NotFound, "chunk 'PRBG' (" + chunk.label + "): entity " +
+                                                 std::to_string(data->entity_index) +
+                                                 " has no IrradianceProbeGrid in this World; re-bake the scene");
+    world.patch<IrradianceProbeGrid>(e).data = std::make_shared<const ProbeGridData>(std::move(*data));
+  }
+  return {};
+}
+
+Result<Entity> add_default_probe_grid(World& world, Preset preset) {
+  Entity existing;
+  world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid&) {
+    if (!existing || e.index < existing.index) existing = e;
+  });
+  if (existing) return existing;
+  // The static geometry's bounds, from the world-space corners of each mesh's local bounds.
+  Aabb bounds;
+  world.each<Static, Mesh, WorldTransform>([&](Static&, Mesh& m, WorldTransform& wt) {
+    if (!m.data || m.data->bounds.empty()) return;
+    for (int c = 0; c < 8; ++c) {
+      const glm::vec3 corner((c & 1) ? m.data->bounds.max.x : m.data->bounds.min.x,
+                             (c & 2) ? m.data->bounds.max.y : m.data->bounds.min.y,
+                             (c & 4) ? m.data->bounds.max.z : m.data->bounds.min.z);
+      bounds.extend(glm::vec3(wt.matrix * glm::vec4(corner, 1.0f)));
+    }
+  });
+  if (bounds.empty())
+    return make_error(ErrorCode::InvalidInput, "add_default_probe_grid: the scene has no static geometry to cover; "
+                                               "add a Static mesh or an IrradianceProbeGrid with an explicit box");
+  const glm::vec3 inset = glm::max(0.02f * bounds.extent(), glm::vec3(0.01f));
+  IrradianceProbeGrid grid = IrradianceProbeGrid::preset(preset);
+  grid.box.min = bounds.min + inset;
+  grid.box.max = glm::max(bounds.max - inset, grid.box.min + 0.01f);
+  const Entity e = world.create();
+  world.add<IrradianceProbeGrid>(e, std::move(grid));
+  world.add<Transform>(e);
+  world.add<WorldTransform>(e);
+  return e;
+}
+
+namespace {
+
+// The grids to bake, in entity-index order.
+std::vector<Entity> grid_entities(World& world) {
+  std::vector<Entity> out;
+  world.each<IrradianceProbeGrid, WorldTransform>(
+      [&](Entity e, IrradianceProbeGrid&, WorldTransform&) { out.push_back(e); });
+  std::sort(out.begin(), out.end(), [](Entity a, Entity b) { return a.index < b.index; });
+  return out;
+}
+
+std::string grid_context(World& world, Entity e) {
+  const Name* name = world.try_get<Name>(e);
+  return "probe grid " + (name ? "'" + name->value + "' " : std::string()) + "(entity " + std::to_string(e.index) +
+         ")";
+}
+
+Result<std::vector<BakeChunk>> bake_probes(BakeInputs& in) {
+  const std::vector<Entity> entities = grid_entities(in.world);
+  const std::vector<WorldLight> lights = gather_lights(in.world);
+  std::vector<BakeChunk> chunks;
+  for (Entity e : entities) {
+    const IrradianceProbeGrid grid = in.world.get<IrradianceProbeGrid>(e);
+    auto data = bake_probe_grid(grid, in.world.get<WorldTransform>(e).matrix, in.rays, lights, in.settings.seed,
+                                in.jobs, in.budget, grid_context(in.world, e));
+    if (!data) return data.error();
+    data->entity_index = e.index;
+    chunks.push_back(write_probe_grid_chunk(*data));
+    in.world.patch<IrradianceProbeGrid>(e).data = std::make_shared<const ProbeGridData>(std::move(*data));
+  }
+  return chunks;
+}
+
+void hash_probe_inputs(World& world, const BakeSettings&, Hasher& h) {
+  h.add(kProbeGridChunkVersion);
+  for (Entity e : grid_entities(world)) {
+    const IrradianceProbeGrid& g = world.get<IrradianceProbeGrid>(e);
+    h.add(e.index);
+    h.add(g.box.min);
+    h.add(g.box.max);
+    h.add(g.resolution);
+    h.add(g.spacing);
+    h.add(g.sh_order);
+    h.add(g.sampling);
+    h.add(g.samples_per_node);
+    h.add(g.rays_per_sample);
+    h.add(g.bounces);
+    h.add(g.hit_samples);
+    h.add(g.back_face_threshold);
+    h.add(g.deringing_window);
+    h.add(world.get<WorldTransform>(e).matrix);
+  }
+}
+
+}  // namespace
+
+void register_probe_grid(World& world) {
+  Baker b;
+  b.name = "probes";
+  b.description = "irradiance probe grids (SH per node, point or supersampled, Kontkanen & Laine 2006)";
+  b.stages = 2;  // per grid; a scene usually has one
+  b.hash_inputs = hash_probe_inputs;
+  b.bake = bake_probes;
+  b.describe = describe_probe_grid_chunk;
+  world.resource<BakerRegistry>().add(std::move(b));
+  register_probe_grid_system(world);
+}
+
+}  // namespace penumbra
