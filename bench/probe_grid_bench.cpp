@@ -1,0 +1,259 @@
+// `penumbra bench probe-grid`: the irradiance probe grid's error against the brute-force reference,
+// point sampling against the supersampling of Kontkanen & Laine 2006, over spacings, samples per
+// node and SH orders, on builtin:courtyard and builtin:cornell.
+//
+// Receivers: random points of the grid's box in the domain of interest (at most 10% of 64 rays
+// from the point hit back faces) with random normals; reference E(x, n) = irradiance() in
+// reference mode (all bounces). Leak receivers: courtyard points within one spacing of the thin
+// wall, on either side. Errors are relative to the mean reference irradiance. An L1 row reuses the
+// L2 bake truncated to its first four coefficients (same bake time; only the stored bytes differ).
+// Goals (issue 3): at the same spacing, supersampled leak RMSE <= 0.5 x point, bake time <= 1.5 x.
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include "bench/bench.h"
+#include "penumbra/bake/integrators.h"
+#include "penumbra/bake/ray_scene.h"
+#include "penumbra/core/jobs.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/random.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_baker.h"
+#include "penumbra/scene/builtin.h"
+
+namespace penumbra::bench {
+namespace {
+
+struct SceneCase {
+  const char* name;
+  Aabb box;                     // the grid's box (the domain the receivers are drawn from)
+  std::vector<float> spacings;  // full sweep; quick uses the first
+  bool thin_wall;               // courtyard: leak receivers near the thin wall
+};
+
+// The courtyard's free-standing thin wall (builtin_scenes.cpp): x in [1, 5], y in [0, 2.5], z = -2 +- 0.025.
+constexpr float kWallX0 = 1.0f, kWallX1 = 5.0f, kWallTop = 2.5f, kWallZ = -2.0f, kWallHalf = 0.025f;
+
+struct Receivers {
+  std::vector<SurfacePoint> points;
+  std::vector<Estimate> reference;
+  double mean = 0.0;        // mean reference irradiance (channel average)
+  double mean_stderr = 0.0; // mean reference standard error (channel average)
+};
+
+bool in_domain(const RayScene& scene, glm::vec3 x, Rng& rng) {
+  int back = 0;
+  const int rays = 64;
+  for (int i = 0; i < rays; ++i) {
+    Hit h;
+    if (scene.intersect(Ray{x, 0.0f, uniform_sphere({rng.next_float(), rng.next_float()}), 1e30f}, h) &&
+        h.back_face && !h.material.double_sided)
+      ++back;
+  }
+  return back <= rays / 10;
+}
+
+// Random in-domain receivers drawn by `draw`, with random normals, and their reference irradiance.
+template <class Draw>
+Result<Receivers> make_receivers(const RayScene& scene, std::span<const WorldLight> lights, std::size_t count,
+                                 std::uint32_t ref_samples, std::uint64_t seed, Draw draw, JobContext& jobs) {
+  Receivers r;
+  Rng rng = Rng::stream(seed, 0);
+  for (std::size_t tries = 0; r.points.size() < count && tries < 50 * count; ++tries) {
+    const glm::vec3 x = draw(rng);
+    if (!in_domain(scene, x, rng)) continue;
+    r.points.push_back({x, uniform_sphere({rng.next_float(), rng.next_float()})});
+  }
+  IrradianceSettings s;
+  s.reference = true;
+  s.samples = ref_samples;
+  s.seed = seed;
+  r.reference.resize(r.points.size());
+  PENUMBRA_TRY(irradiance(scene, lights, r.points, s, r.reference, jobs));
+  for (const Estimate& e : r.reference) {
+    r.mean += (e.value.x + e.value.y + e.value.z) / 3.0;
+    r.mean_stderr += (e.std_error.x + e.std_error.y + e.std_error.z) / 3.0;
+  }
+  r.mean /= double(std::max<std::size_t>(1, r.points.size()));
+  r.mean_stderr /= double(std::max<std::size_t>(1, r.points.size()));
+  return r;
+}
+
+struct Errors {
+  double rmse = 0.0, mae = 0.0, max = 0.0;  // relative to the mean reference
+};
+
+Errors errors(const ProbeGridData& d, const Receivers& r) {
+  Errors e;
+  double sq = 0.0, abs_sum = 0.0;
+  for (std::size_t i = 0; i < r.points.size(); ++i) {
+    const glm::vec3 diff = evaluate(d, r.points[i].position, r.points[i].normal) - r.reference[i].value;
+    for (int c = 0; c < 3; ++c) {
+      const double v = std::abs(double(diff[c]));
+      sq += v * v;
+      abs_sum += v;
+      e.max = std::max(e.max, v);
+    }
+  }
+  const double n = 3.0 * double(std::max<std::size_t>(1, r.points.size()));
+  const double mean = r.mean > 0.0 ? r.mean : 1.0;
+  e.rmse = std::sqrt(sq / n) / mean;
+  e.mae = abs_sum / n / mean;
+  e.max /= mean;
+  return e;
+}
+
+// The L1 view of an L2 bake: the first four coefficients of every node.
+ProbeGridData truncate_to_l1(const ProbeGridData& d) {
+  ProbeGridData out = d;
+  out.sh_order = ProbeShOrder::L1;
+  out.coefficients.clear();
+  for (std::size_t n = 0; n < d.node_count(); ++n)
+    for (int c = 0; c < kSHCoefficientsL1; ++c) out.coefficients.push_back(d.coefficients[n * kSHCoefficientsL2 + static_cast<std::size_t>(c)]);
+  return out;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+Result<Report> run_probe_grid_bench(const Options& options) {
+  ThreadPool pool(options.threads);
+  JobContext jobs(&pool);
+  const bool quick = options.quick;
+  const std::size_t receiver_count = quick ? 2000 : 4000;
+  const std::size_t leak_count = quick ? 500 : 2000;
+  const std::uint32_t ref_samples = quick ? 64 : 256;
+  const std::vector<std::uint32_t> sample_counts = quick ? std::vector<std::uint32_t>{16} : std::vector<std::uint32_t>{8, 32};
+
+  std::vector<SceneCase> scenes = {
+      {"courtyard", Aabb{{-1.0f, 0.05f, -6.0f}, {7.0f, 3.05f, 2.0f}}, {1.0f, 0.5f}, true},
+      {"cornell", Aabb{{0.02f, 0.02f, 0.02f}, {0.54f, 0.45f, 0.54f}}, {0.13f, 0.065f}, false},
+  };
+
+  Report report;
+  report.columns = {"scene", "mode", "spacing", "samples", "sh_order", "bake_s", "bytes",
+                    "rmse", "mae", "max_err", "leak_rmse", "ref_stderr"};
+  // Per (scene, spacing, samples): point vs supersampled leak RMSE and bake time, for the notes.
+  std::map<std::string, std::pair<double, double>> point_leak, point_time;
+  double eval_ns = 0.0;
+  std::uint64_t bytes_per_node_l1 = 0, bytes_per_node_l2 = 0;
+
+  for (const SceneCase& sc : scenes) {
+    World world;
+    auto loaded = load_builtin(world, sc.name);
+    if (!loaded) return loaded.error();
+    update_world_transforms(world);
+    RaySceneOptions ro;
+    ro.include_dynamic = false;
+    auto scene = RayScene::build(world, ro);
+    if (!scene) return scene.error();
+    const std::vector<WorldLight> lights = gather_lights(world);
+
+    const Aabb box = sc.box;
+    auto receivers = make_receivers(*scene, lights, receiver_count, ref_samples, 101, [&](Rng& rng) {
+      return box.min + box.extent() * glm::vec3(rng.next_float(), rng.next_float(), rng.next_float());
+    }, jobs);
+    if (!receivers) return receivers.error();
+
+    const std::size_t spacing_count = quick ? 1 : sc.spacings.size();
+    for (std::size_t si = 0; si < spacing_count; ++si) {
+      const float h = sc.spacings[si];
+      Receivers leak;
+      if (sc.thin_wall) {
+        auto l = make_receivers(*scene, lights, leak_count, ref_samples, 202 + si, [&](Rng& rng) {
+          const float side = rng.next_float() < 0.5f ? -1.0f : 1.0f;
+          const float d = kWallHalf + 0.01f + (h - kWallHalf - 0.01f) * rng.next_float();
+          return glm::vec3(kWallX0 + (kWallX1 - kWallX0) * rng.next_float(), 0.05f + (kWallTop - 0.05f) * rng.next_float(),
+                           kWallZ + side * d);
+        }, jobs);
+        if (!l) return l.error();
+        leak = std::move(*l);
+      }
+      for (std::uint32_t samples : sample_counts) {
+        for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled}) {
+          IrradianceProbeGrid grid;
+          grid.box = sc.box;
+          grid.spacing = h;
+          grid.sampling = mode;
+          grid.samples_per_node = samples;
+          grid.rays_per_sample = 16;
+          grid.bounces = kProbeAllBounces;
+          MemoryBudget budget;
+          const auto t0 = std::chrono::steady_clock::now();
+          auto data = bake_probe_grid(grid, glm::mat4(1.0f), *scene, lights, 7, jobs, budget,
+                                      std::string("bench grid ") + sc.name);
+          if (!data) return data.error();
+          const double bake_s = seconds_since(t0);
+          const std::string key = std::string(sc.name) + "/" + fmt(h) + "/" + std::to_string(samples);
+          for (ProbeShOrder order : {ProbeShOrder::L2, ProbeShOrder::L1}) {
+            const ProbeGridData d = order == ProbeShOrder::L2 ? *data : truncate_to_l1(*data);
+            const Errors e = errors(d, *receivers);
+            const Errors le = sc.thin_wall ? errors(d, leak) : Errors{};
+            (order == ProbeShOrder::L1 ? bytes_per_node_l1 : bytes_per_node_l2) = d.bytes_per_node();
+            report.rows.push_back({sc.name, to_string(mode), fmt(h), std::to_string(samples), to_string(order),
+                                   fmt(bake_s), std::to_string(d.node_count() * d.bytes_per_node()), fmt(e.rmse),
+                                   fmt(e.mae), fmt(e.max), sc.thin_wall ? fmt(le.rmse) : "",
+                                   fmt(receivers->mean_stderr / receivers->mean)});
+            if (order != ProbeShOrder::L2 || !sc.thin_wall) continue;
+            if (mode == ProbeSampling::Point) {
+              point_leak[key] = {le.rmse, 0.0};
+              point_time[key] = {bake_s, 0.0};
+            } else {
+              point_leak[key].second = le.rmse;
+              point_time[key].second = bake_s;
+            }
+          }
+          // Runtime cost per receiver: evaluate() over the receivers, best of three passes.
+          if (eval_ns == 0.0) {
+            double best = 1e30;
+            volatile float sink = 0.0f;
+            for (int pass = 0; pass < 3; ++pass) {
+              const auto t = std::chrono::steady_clock::now();
+              for (int rep = 0; rep < 20; ++rep)
+                for (const SurfacePoint& p : receivers->points) sink = sink + evaluate(*data, p.position, p.normal).x;
+              best = std::min(best, seconds_since(t) * 1e9 / (20.0 * double(receivers->points.size())));
+            }
+            eval_ns = best;
+          }
+        }
+      }
+    }
+    report.notes.push_back(std::string(sc.name) + ": " + std::to_string(receivers->points.size()) +
+                           " receivers in the domain of interest, reference " + std::to_string(ref_samples) +
+                           " paths each (mean E " + fmt(receivers->mean) + " W/m^2, mean std error " +
+                           fmt(100.0 * receivers->mean_stderr / receivers->mean, 3) + "%)");
+  }
+
+  for (const auto& [key, leak] : point_leak) {
+    const double leak_ratio = leak.first > 0.0 ? leak.second / leak.first : 0.0;
+    const double time_ratio = point_time[key].first > 0.0 ? point_time[key].second / point_time[key].first : 0.0;
+    report.notes.push_back("leak " + key + " (scene/spacing/samples): supersampled/point RMSE " + fmt(leak_ratio, 3) +
+                           " (goal <= 0.5: " + (leak_ratio <= 0.5 ? "PASS" : "FAIL") + "), bake time " +
+                           fmt(time_ratio, 3) + "x (goal <= 1.5: " + (time_ratio <= 1.5 ? "PASS" : "FAIL") + ")");
+  }
+  report.notes.push_back("runtime: " + fmt(eval_ns, 3) + " ns per receiver evaluation (CPU evaluate, L2); " +
+                         std::to_string(bytes_per_node_l1) + " B per node L1, " + std::to_string(bytes_per_node_l2) +
+                         " B per node L2 (float RGB)");
+  report.plot.title = "probe grid: irradiance RMSE against bake time";
+  report.plot.x_label = "bake seconds";
+  report.plot.y_label = "RMSE / mean irradiance";
+  report.plot.x_column = 5;
+  report.plot.y_column = 7;
+  report.plot.series_column = 1;
+  report.plot.log_x = true;
+  return report;
+}
+
+}  // namespace
+
+PENUMBRA_BENCH("probe-grid", "irradiance probe grid: point vs supersampled error, leaks, bake time, bytes",
+               run_probe_grid_bench);
+
+}  // namespace penumbra::bench
