@@ -16,7 +16,7 @@
 
 #include <glm/geometric.hpp>
 
-#include "bench/bench.h"
+#include "bench.h"
 #include "penumbra/bake/integrators.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/core/jobs.h"

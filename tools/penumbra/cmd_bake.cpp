@@ -78,7 +78,7 @@ int cmd_bake(Args args) {
   const std::string& scene = args.rest()[0];
   const auto t0 = std::chrono::steady_clock::now();
   World world;
-  if (Status s = load_world(world, scene); !s) return fail(kFailure, s.error().message);
+  if (Status s = load_world(world, scene, settings.preset); !s) return fail(kFailure, s.error().message);
 
   // Skip the bake when the file on disk was made from the same inputs.
   const std::uint64_t input_hash = bake_input_hash(world, names, settings);

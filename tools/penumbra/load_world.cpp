@@ -1,18 +1,27 @@
 #include "cli.h"
 #include "penumbra/bake/vertex_ao.h"
+#include "penumbra/probe_grid/probe_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 
 namespace penumbra::cli {
 
-Status load_world(World& world, std::string_view scene) {
+Status load_world(World& world, std::string_view scene, Preset preset) {
   // Every module the tool links registers its systems and bakers.
   register_scene_systems(world);
   register_vertex_ao(world);
+  register_probe_grid(world);
 
   auto loaded = load_scene(world, scene);
   if (!loaded) return loaded.error();
   world.update(0.0);
+  // The built-in scenes (made by the scene layer, below the lighting modules) get a probe grid over
+  // their static geometry; glTF scenes bring their own lighting components.
+  if (scene.starts_with("builtin:")) {
+    auto grid = add_default_probe_grid(world, preset);
+    if (!grid) return grid.error();
+    world.update(0.0);
+  }
   return {};
 }
 

@@ -3,6 +3,7 @@
 // Equation"; Veach 1997, ch. 10 for light sampling; Arvo & Kirk 1990 for Russian roulette).
 // Light models follow KHR_lights_punctual; rect lights are one-sided Lambertian emitters.
 #include "penumbra/bake/integrators.h"
+#include "penumbra/bake/light_sampling.h"
 
 #include <algorithm>
 #include <array>
@@ -52,72 +53,9 @@ struct Accumulator {
 // Direct irradiance at p (unit normal n) from every light, with shadow rays from p + eps n.
 glm::vec3 direct_light(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 p, glm::vec3 n,
                        std::uint32_t rect_samples, Rng& rng) {
-  const glm::vec3 origin = p + scene.ray_epsilon(p) * n;
   glm::vec3 e(0.0f);
-  for (const WorldLight& wl : lights) {
-    const Light& light = wl.light;
-    const glm::vec3 power = light.color * light.intensity;
-    switch (light.type) {
-      case Light::Type::Directional: {
-        // Illuminance times cos, if the way towards the light is free.
-        const glm::vec3 l = -wl.direction;
-        const float c = glm::dot(n, l);
-        if (c > 0.0f && !scene.occluded(Ray{origin, 0.0f, l, kInf})) e += power * c;
-        break;
-      }
-      case Light::Type::Point:
-      case Light::Type::Spot: {
-        // Intensity x cos / d^2, windowed by range (KHR_lights_punctual's recommended falloff).
-        const glm::vec3 d = wl.position - p;
-        const float dist2 = glm::dot(d, d);
-        if (!(dist2 > 0.0f)) break;
-        const float dist = std::sqrt(dist2);
-        const glm::vec3 l = d / dist;
-        const float c = glm::dot(n, l);
-        if (!(c > 0.0f)) break;
-        float falloff = 1.0f / dist2;
-        if (light.range > 0.0f) {
-          const float r = dist / light.range;
-          const float w = glm::clamp(1.0f - r * r * r * r, 0.0f, 1.0f);
-          falloff *= w * w;
-        }
-        if (light.type == Light::Type::Spot) {
-          // Smooth cone: squared linear ramp in cos between the outer and inner angles.
-          const float cos_outer = std::cos(light.outer_cone_angle);
-          const float scale = 1.0f / std::max(0.001f, std::cos(light.inner_cone_angle) - cos_outer);
-          const float a = glm::clamp((glm::dot(wl.direction, -l) - cos_outer) * scale, 0.0f, 1.0f);
-          falloff *= a * a;
-        }
-        // The shadow ray's direction is the segment itself: t = 1 reaches the light.
-        if (falloff > 0.0f && !scene.occluded(Ray{origin, 0.0f, wl.position - origin, 1.0f})) {
-          e += power * (c * falloff);
-        }
-        break;
-      }
-      case Light::Type::Rect: {
-        // Area sampling: E = L \int cos_x cos_l / d^2 dA, over a scrambled Sobol' net on the rect.
-        const glm::vec3 axis = glm::cross(wl.half_x, wl.half_y);
-        const float area = 4.0f * glm::length(axis);
-        const std::uint32_t scramble = rng.next_u32();
-        float sum = 0.0f;
-        for (std::uint32_t k = 0; k < rect_samples; ++k) {
-          const glm::vec2 u = sobol_2d(k, scramble);
-          const glm::vec3 q = wl.position + (2.0f * u.x - 1.0f) * wl.half_x + (2.0f * u.y - 1.0f) * wl.half_y;
-          const glm::vec3 d = q - p;
-          const float dist2 = glm::dot(d, d);
-          if (!(dist2 > 0.0f)) continue;
-          const float dist = std::sqrt(dist2);
-          const glm::vec3 l = d / dist;
-          const float cx = glm::dot(n, l);
-          const float cl = -glm::dot(wl.direction, l);  // one-sided: emits towards `direction`
-          if (!(cx > 0.0f) || !(cl > 0.0f)) continue;  // also skips NaN
-          if (!scene.occluded(Ray{origin, 0.0f, q - origin, 1.0f})) sum += cx * cl / dist2;
-        }
-        e += power * (sum * area / float(rect_samples));
-        break;
-      }
-    }
-  }
+  for_each_light_sample(scene, lights, p, p + scene.ray_epsilon(p) * n, n, rect_samples, rng,
+                        [&](glm::vec3 l, glm::vec3 e_normal) { e += e_normal * glm::dot(n, l); });
   return e;
 }
 

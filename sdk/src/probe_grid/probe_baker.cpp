@@ -3,6 +3,8 @@
 // against the point-sampled irradiance volume of Greger et al. 1998.
 #include "penumbra/probe_grid/probe_baker.h"
 
+#include "penumbra/bake/light_sampling.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -27,62 +29,11 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::uint32_t kRectLightSamples = 16;
 constexpr std::uint32_t kRayBlock = 64;  // rays traced per packet call (four packets of 16)
 
-// Incident radiance from the lights at free point y, projected: each light is a delta (or, for a
-// rect, a set of deltas) in direction l carrying its irradiance at normal incidence. The light
-// models are those of integrators.cpp (KHR_lights_punctual range window and spot cone; one-sided
-// Lambertian rects).
+// Incident radiance from the lights at free point y, projected: each light sample is a delta in
+// direction l carrying its irradiance at normal incidence (light models: light_sampling.h).
 void add_lights(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 y, Rng& rng, SH9rgb& sh) {
-  for (const WorldLight& wl : lights) {
-    const Light& light = wl.light;
-    const glm::vec3 power = light.color * light.intensity;
-    switch (light.type) {
-      case Light::Type::Directional: {
-        const glm::vec3 l = -wl.direction;
-        if (!scene.occluded(Ray{y, 0.0f, l, kInf})) sh_add_sample(sh, l, power);
-        break;
-      }
-      case Light::Type::Point:
-      case Light::Type::Spot: {
-        const glm::vec3 d = wl.position - y;
-        const float dist2 = glm::dot(d, d);
-        if (!(dist2 > 0.0f)) break;
-        const float dist = std::sqrt(dist2);
-        const glm::vec3 l = d / dist;
-        float falloff = 1.0f / dist2;
-        if (light.range > 0.0f) {
-          const float r = dist / light.range;
-          const float w = glm::clamp(1.0f - r * r * r * r, 0.0f, 1.0f);
-          falloff *= w * w;
-        }
-        if (light.type == Light::Type::Spot) {
-          const float cos_outer = std::cos(light.outer_cone_angle);
-          const float scale = 1.0f / std::max(0.001f, std::cos(light.inner_cone_angle) - cos_outer);
-          const float a = glm::clamp((glm::dot(wl.direction, -l) - cos_outer) * scale, 0.0f, 1.0f);
-          falloff *= a * a;
-        }
-        if (falloff > 0.0f && !scene.occluded(Ray{y, 0.0f, d, 1.0f})) sh_add_sample(sh, l, power * falloff);
-        break;
-      }
-      case Light::Type::Rect: {
-        // L cos_l / d^2 dA per point of a scrambled Sobol' net over the rect.
-        const float area = 4.0f * glm::length(glm::cross(wl.half_x, wl.half_y));
-        const std::uint32_t scramble = rng.next_u32();
-        const glm::vec3 weight = power * (area / float(kRectLightSamples));
-        for (std::uint32_t k = 0; k < kRectLightSamples; ++k) {
-          const glm::vec2 u = sobol_2d(k, scramble);
-          const glm::vec3 q = wl.position + (2.0f * u.x - 1.0f) * wl.half_x + (2.0f * u.y - 1.0f) * wl.half_y;
-          const glm::vec3 d = q - y;
-          const float dist2 = glm::dot(d, d);
-          if (!(dist2 > 0.0f)) continue;
-          const glm::vec3 l = d / std::sqrt(dist2);
-          const float cl = -glm::dot(wl.direction, l);
-          if (!(cl > 0.0f)) continue;
-          if (!scene.occluded(Ray{y, 0.0f, d, 1.0f})) sh_add_sample(sh, l, weight * (cl / dist2));
-        }
-        break;
-      }
-    }
-  }
+  for_each_light_sample(scene, lights, y, y, glm::vec3(0.0f), kRectLightSamples, rng,
+                        [&](glm::vec3 l, glm::vec3 e) { sh_add_sample(sh, l, e); });
 }
 
 // What one sample point contributes: its radiance expansion and whether it is in the domain.
