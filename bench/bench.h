@@ -28,6 +28,7 @@ struct Plot {
   int series_column = -1;
   bool log_x = false;
   bool log_y = false;
+  bool points_only = false;  // a scatter (e.g. error against cost) rather than lines through the rows
 };
 
 struct Report {

@@ -105,7 +105,7 @@ Status write_plot(const std::string& png_path, const std::string& csv_path, cons
     script << "$d" << i << " << EOD\n" << blocks[series_names[i]] << "EOD\n";
   script << "plot ";
   for (std::size_t i = 0; i < series_names.size(); ++i)
-    script << (i ? ", " : "") << "$d" << i << " using 1:2 with linespoints title \"" << series_names[i] << "\"";
+    script << (i ? ", " : "") << "$d" << i << " using 1:2 with " << (p.points_only ? "points" : "linespoints") << " title \"" << series_names[i] << "\"";
   script << "\n";
 
   FILE* gp = ::popen("gnuplot 2>&1", "w");

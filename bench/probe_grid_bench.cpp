@@ -248,6 +248,7 @@ Result<Report> run_probe_grid_bench(const Options& options) {
   report.plot.y_column = 7;
   report.plot.series_column = 1;
   report.plot.log_x = true;
+  report.plot.points_only = true;
   return report;
 }
 
