@@ -1,0 +1,144 @@
+// The vertex-AO baker and the bake driver: closed form inside the furnace, determinism, input
+// hashing, chunk round trip and damage, errors for unknown bakers and budgets.
+#include "penumbra/bake/vertex_ao.h"
+
+#include <gtest/gtest.h>
+
+#include "penumbra/core/jobs.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/scene/animation.h"
+#include "penumbra/scene/builtin.h"
+
+namespace penumbra {
+namespace {
+
+// A World holding a built-in scene, with the vertex-AO baker registered and transforms current.
+World scene_world(std::string_view name) {
+  World world;
+  register_scene_systems(world);
+  register_vertex_ao(world);
+  EXPECT_TRUE(load_builtin(world, name).ok());
+  world.update(0.0);
+  return world;
+}
+
+Result<BakeResult> bake(World& world, const BakeSettings& settings, unsigned threads) {
+  ThreadPool pool(threads);
+  JobContext jobs(&pool);
+  return bake_world(world, {"vertex-ao"}, settings, jobs);
+}
+
+TEST(VertexAo, FurnaceMatchesTheChordClosedForm) {
+  // Inside a sphere of radius R a ray leaving the wall at angle theta to the normal travels the
+  // chord 2 R cos(theta). It is unoccluded within D when cos(theta) > D / (2R), so for cosine-
+  // distributed rays A = 1 - (D / 2R)^2 = 0.75 with D = R = 1.
+  World world = scene_world("furnace");
+  BakeSettings settings;
+  settings.preset = Preset::High;
+  auto result = bake(world, settings, 2);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  ASSERT_EQ(result->file.chunks.size(), 1u);
+  auto data = read_vertex_ao_chunk(result->file.chunks[0]);
+  ASSERT_TRUE(data.ok()) << data.error().message;
+  ASSERT_EQ(data->entries.size(), 1u);
+  const float d = data->max_distance, r = kFurnaceRadius;
+  const double expected = 1.0 - double(d / (2.0f * r)) * double(d / (2.0f * r));
+  double sum = 0.0;
+  for (float a : data->entries[0].ao) sum += a;
+  const double n = double(data->entries[0].ao.size());
+  // Per vertex the binomial std error is sqrt(0.75 * 0.25 / rays); the mean over n vertices has
+  // that / sqrt(n). The tessellation (5,120 flat faces) shortens chords by well under 1%.
+  const double std_error = std::sqrt(expected * (1.0 - expected) / double(data->rays) / n);
+  EXPECT_NEAR(sum / n, expected, 3.0 * std_error + 0.005);
+}
+
+TEST(VertexAo, BitIdenticalAtOneAndTwoThreadsAndSeedMatters) {
+  World world = scene_world("courtyard");
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  settings.seed = 11;
+  auto one = bake(world, settings, 1);
+  auto two = bake(world, settings, 2);
+  ASSERT_TRUE(one.ok() && two.ok());
+  EXPECT_EQ(one->file.chunks[0].payload, two->file.chunks[0].payload);
+  EXPECT_EQ(one->file.input_hash, two->file.input_hash);
+  settings.seed = 12;
+  auto other = bake(world, settings, 2);
+  ASSERT_TRUE(other.ok());
+  EXPECT_NE(one->file.chunks[0].payload, other->file.chunks[0].payload);
+  EXPECT_NE(one->file.input_hash, other->file.input_hash);
+}
+
+TEST(VertexAo, InputHashFollowsTheSceneAndTheSettings) {
+  World world = scene_world("cornell");
+  BakeSettings settings;
+  const std::uint64_t base = bake_input_hash(world, {}, settings);
+  EXPECT_EQ(base, bake_input_hash(world, {}, settings));
+  settings.preset = Preset::High;
+  EXPECT_NE(base, bake_input_hash(world, {}, settings));
+  settings.preset = Preset::Medium;
+  // Moving a light changes the inputs.
+  world.each<Light, Transform>([&](Entity e, Light&, Transform&) { world.patch<Transform>(e).translation.x += 0.01f; });
+  world.update(0.0);
+  EXPECT_NE(base, bake_input_hash(world, {}, settings));
+}
+
+TEST(VertexAo, ChunkRoundTripsAndRejectsDamage) {
+  VertexAoData data;
+  data.max_distance = 2.0f;
+  data.rays = 64;
+  data.entries.push_back({7u, {0.0f, 0.5f, 1.0f}});
+  const BakeChunk chunk = write_vertex_ao_chunk(data);
+  auto back = read_vertex_ao_chunk(chunk);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->entries[0].entity_index, 7u);
+  EXPECT_EQ(back->entries[0].ao, data.entries[0].ao);
+
+  BakeChunk short_chunk = chunk;
+  short_chunk.payload.resize(chunk.payload.size() - 2);
+  auto truncated = read_vertex_ao_chunk(short_chunk);
+  ASSERT_FALSE(truncated.ok());
+  EXPECT_NE(truncated.error().message.find("VXAO"), std::string::npos);
+
+  VertexAoData bad = data;
+  bad.entries[0].ao[1] = 1.5f;
+  auto out_of_range = read_vertex_ao_chunk(write_vertex_ao_chunk(bad));
+  ASSERT_FALSE(out_of_range.ok());
+  EXPECT_NE(out_of_range.error().message.find("vertex 1"), std::string::npos);
+
+  BakeChunk newer = chunk;
+  newer.version = kVertexAoChunkVersion + 1;
+  auto unsupported = read_vertex_ao_chunk(newer);
+  ASSERT_FALSE(unsupported.ok());
+  EXPECT_EQ(unsupported.error().code, ErrorCode::Unsupported);
+}
+
+TEST(BakeWorld, UnknownBakerAndBudgetAreClearErrors) {
+  World world = scene_world("cornell");
+  ThreadPool pool(1);
+  JobContext jobs(&pool);
+  auto unknown = bake_world(world, {"nosuch"}, BakeSettings{}, jobs);
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_EQ(unknown.error().code, ErrorCode::NotFound);
+  EXPECT_NE(unknown.error().message.find("vertex-ao"), std::string::npos) << "lists the known bakers";
+
+  BakeSettings tiny;
+  tiny.memory_limit_bytes = 64;
+  auto over = bake_world(world, {"vertex-ao"}, tiny, jobs);
+  ASSERT_FALSE(over.ok());
+  EXPECT_EQ(over.error().code, ErrorCode::OutOfBudget);
+}
+
+TEST(BakeWorld, CancelledBakeReportsCancelled) {
+  World world = scene_world("courtyard");
+  ThreadPool pool(2);
+  CancelToken cancel;
+  cancel.cancel();
+  JobContext jobs(&pool, {}, &cancel);
+  auto result = bake_world(world, {"vertex-ao"}, BakeSettings{}, jobs);
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.error().code, ErrorCode::Cancelled);
+}
+
+}  // namespace
+}  // namespace penumbra
