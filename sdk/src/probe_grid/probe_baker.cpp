@@ -18,6 +18,7 @@
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/core/sh.h"
+#include "probe_fit.h"
 
 namespace penumbra {
 
@@ -167,8 +168,17 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   const std::size_t nodes = layout->node_count();
   const std::size_t count = static_cast<std::size_t>(sh_coefficients(grid.sh_order));
 
-  // Memory: the working expansions plus the stored arrays, checked before allocating.
-  const std::uint64_t need = std::uint64_t{nodes} * (sizeof(SH9rgb) + count * sizeof(glm::vec3) + sizeof(float) + 1);
+  const bool point = grid.sampling == ProbeSampling::Point;
+  const bool fitted = grid.sampling == ProbeSampling::Fitted;
+  const std::size_t S = grid.samples_per_node;
+  const std::size_t columns = count * 3;  // fitted: one least-squares column per coefficient and channel
+
+  // Memory: the working expansions plus the stored arrays, checked before allocating; fitted mode
+  // also keeps every sample (position, domain flag, coefficients) and the solver's arrays.
+  std::uint64_t need = std::uint64_t{nodes} * (sizeof(SH9rgb) + count * sizeof(glm::vec3) + sizeof(float) + 1);
+  if (fitted)
+    need += std::uint64_t{nodes} * S * (sizeof(glm::vec3) + 1 + columns * sizeof(float)) +
+            std::uint64_t{nodes} * columns * sizeof(float) + probe_fit_bytes(nodes, columns);
   if (auto st = budget.reserve(std::string(context) + " nodes", need); !st)
     return make_error(ErrorCode::OutOfBudget, st.error().message + " (" + std::to_string(layout->resolution.x) + "x" +
                                                   std::to_string(layout->resolution.y) + "x" +
@@ -187,8 +197,10 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   std::vector<SH9rgb> radiance(nodes);
   data.validity.assign(nodes, 0.0f);
   data.filled.assign(nodes, 0);
+  std::vector<glm::vec3> sample_position(fitted ? nodes * S : 0);
+  std::vector<std::uint8_t> sample_in_domain(fitted ? nodes * S : 0);
+  std::vector<float> sample_values(fitted ? nodes * S * columns : 0);
 
-  const bool point = grid.sampling == ProbeSampling::Point;
   SampleSettings s;
   s.rays = point ? grid.samples_per_node * grid.rays_per_sample : grid.rays_per_sample;
   s.back_face_threshold = grid.back_face_threshold;
@@ -215,14 +227,22 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
         data.validity[n] = p.in_domain ? 1.0f : 0.0f;
         continue;
       }
-      // Supersampling: S points from the tent B_i, averaged over those in the domain.
+      // Supersampling: S points from the tent B_i, averaged over those in the domain (fitted
+      // mode keeps each one for the least-squares step).
       const std::array<std::uint32_t, 3> scrambles{rng.next_u32(), rng.next_u32(), rng.next_u32()};
       SH9rgb sum;
       std::uint32_t inside = 0;
       for (std::uint32_t k = 0; k < grid.samples_per_node; ++k) {
-        const glm::vec3 g = u + tent_offset(k, scrambles) * cell;
-        const glm::vec3 y(layout->grid_to_world * glm::vec4(g, 1.0f));
+        const glm::vec3 t = tent_offset(k, scrambles);
+        const glm::vec3 y(layout->grid_to_world * glm::vec4(u + t * cell, 1.0f));
         const PointSample p = sample_point(scene, lights, y, s, rng);
+        if (fitted) {
+          const std::size_t i = n * S + k;
+          sample_position[i] = glm::vec3(ijk) + t;
+          sample_in_domain[i] = p.in_domain ? 1 : 0;
+          for (std::size_t c = 0; c < columns; ++c)
+            sample_values[i * columns + c] = p.radiance[static_cast<int>(c / 3)][static_cast<int>(c % 3)];
+        }
         if (!p.in_domain) continue;
         sum += p.radiance;
         ++inside;
@@ -233,7 +253,8 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   });
   if (!traced) return traced.error();
 
-  // Step 2: fill nodes with no in-domain sample (supersampled; point mode keeps the classic values).
+  // Step 2: fill nodes with no in-domain sample (supersampled and fitted; point mode keeps the
+  // classic values).
   if (!point) {
     if (std::all_of(data.validity.begin(), data.validity.end(), [](float v) { return v == 0.0f; }))
       return make_error(ErrorCode::InvalidInput,
@@ -247,7 +268,30 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
     jobs.advance(1);
   }
 
-  // Step 3: irradiance = radiance convolved with the clamped cosine (optionally windowed).
+  // Step 3 (fitted): the node values that minimise the reconstruction error over the in-domain
+  // samples, pulled towards the averages of steps 1-2 where support is thin (probe_fit.h).
+  if (fitted) {
+    std::vector<float> values(nodes * columns);
+    for (std::size_t n = 0; n < nodes; ++n)
+      for (std::size_t c = 0; c < columns; ++c)
+        values[n * columns + c] = radiance[n][static_cast<int>(c / 3)][static_cast<int>(c % 3)];
+    ProbeFitInput input;
+    input.resolution = layout->resolution;
+    input.samples_per_node = grid.samples_per_node;
+    input.columns = columns;
+    input.positions = sample_position;
+    input.in_domain = sample_in_domain;
+    input.values = sample_values;
+    auto fit = fit_probe_nodes(input, values, ProbeFitSettings{}, jobs);
+    if (!fit) return make_error(fit.error().code, std::string(context) + ": " + fit.error().message);
+    for (std::size_t n = 0; n < nodes; ++n)
+      for (std::size_t c = 0; c < columns; ++c)
+        radiance[n][static_cast<int>(c / 3)][static_cast<int>(c % 3)] = values[n * columns + c];
+  } else {
+    jobs.begin_stage("probe fit", 0);
+  }
+
+  // Step 4: irradiance = radiance convolved with the clamped cosine (optionally windowed).
   data.coefficients.resize(nodes * count);
   for (std::size_t n = 0; n < nodes; ++n) {
     SH9rgb e = sh_convolve_cosine(radiance[n]);
@@ -294,7 +338,7 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
     return bad("resolution " + std::to_string(res.x) + "x" + std::to_string(res.y) + "x" + std::to_string(res.z) +
                " is outside 2.." + std::to_string(kMaxProbeNodes) + " nodes");
   if (order != 1 && order != 2) return bad("SH order " + std::to_string(order) + " is not L1 or L2");
-  if (sampling > 1) return bad("sampling mode " + std::to_string(sampling) + " is unknown");
+  if (sampling > 2) return bad("sampling mode " + std::to_string(sampling) + " is unknown");
   data.sh_order = static_cast<ProbeShOrder>(order);
   data.sampling = static_cast<ProbeSampling>(sampling);
   const glm::mat4& m = data.layout.grid_to_world;

@@ -75,10 +75,13 @@ TEST(ProbeBaker, FurnaceEveryNodeAndNormal) {
   update_world_transforms(w);
   auto scene = RayScene::build(w);
   ASSERT_TRUE(scene.ok());
-  for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled}) {
+  for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
     IrradianceProbeGrid g = small_grid(glm::vec3(-0.25f), glm::vec3(0.25f), {3, 3, 3}, mode);
     // Tents reach 0.5 m from the centre per axis: every sample is inside the unit sphere.
     g.bounces = kProbeAllBounces;
+    // The fit trades the averages' blur for Monte Carlo variance (a corner node sees an octant of
+    // its tent): give it more samples so that the test checks the closed form, not the noise.
+    if (mode == ProbeSampling::Fitted) g.samples_per_node = 32;
     auto d = bake(g, w, *scene, 2);
     ASSERT_TRUE(d.ok()) << d.error().message;
     EXPECT_EQ(d->valid_fraction(), 1.0f);
@@ -154,16 +157,16 @@ IrradianceProbeGrid floor_grid(float scale, ProbeSampling mode) {
   return g;
 }
 
-TEST(ProbeBaker, FloorUnderSunMatchesTheClosedFormInBothModes) {
+TEST(ProbeBaker, FloorUnderSunMatchesTheClosedFormInEveryMode) {
   FloorScene s;
   build_floor(s, 1.0f, 3.0f);
-  for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled}) {
+  for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
     auto d = bake(floor_grid(1.0f, mode), s.world, *s.rays);
     ASSERT_TRUE(d.ok()) << d.error().message;
     EXPECT_LT(floor_error(*d, 1.0f, 3.0f), 0.02f) << to_string(mode);
     // Supersampled: the tent reaches 0.45 m below the floor for the bottom nodes; those samples
     // see the floor's back face and are dropped, so bottom nodes have partial coverage.
-    if (mode == ProbeSampling::Supersampled) {
+    if (mode != ProbeSampling::Point) {
       EXPECT_LT(d->validity[0], 1.0f);
       EXPECT_GT(d->validity[0], 0.0f);
       EXPECT_EQ(d->validity[d->node_count() - 1], 1.0f);
@@ -209,15 +212,17 @@ TEST(ProbeBaker, BitIdenticalAtOneAndTwoThreads) {
   update_world_transforms(w);
   auto scene = RayScene::build(w);
   ASSERT_TRUE(scene.ok());
-  IrradianceProbeGrid g = small_grid({0.1f, 0.1f, 0.1f}, {0.5f, 0.5f, 0.5f}, {3, 3, 3}, ProbeSampling::Supersampled);
-  // The Cornell box is about 0.55 m wide, from the origin: the grid sits inside it.
-  auto one = bake(g, w, *scene, 1, 77);
-  auto two = bake(g, w, *scene, 2, 77);
-  auto other_seed = bake(g, w, *scene, 2, 78);
-  ASSERT_TRUE(one.ok() && two.ok() && other_seed.ok());
-  EXPECT_EQ(one->coefficients, two->coefficients);
-  EXPECT_EQ(one->validity, two->validity);
-  EXPECT_NE(one->coefficients, other_seed->coefficients);
+  for (ProbeSampling mode : {ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
+    IrradianceProbeGrid g = small_grid({0.1f, 0.1f, 0.1f}, {0.5f, 0.5f, 0.5f}, {3, 3, 3}, mode);
+    // The Cornell box is about 0.55 m wide, from the origin: the grid sits inside it.
+    auto one = bake(g, w, *scene, 1, 77);
+    auto two = bake(g, w, *scene, 2, 77);
+    auto other_seed = bake(g, w, *scene, 2, 78);
+    ASSERT_TRUE(one.ok() && two.ok() && other_seed.ok());
+    EXPECT_EQ(one->coefficients, two->coefficients) << to_string(mode);
+    EXPECT_EQ(one->validity, two->validity) << to_string(mode);
+    EXPECT_NE(one->coefficients, other_seed->coefficients) << to_string(mode);
+  }
 }
 
 // --- Geometry swallowing the grid ----------------------------------------------------------------
@@ -250,6 +255,21 @@ TEST(ProbeBaker, EveryProbeInsideGeometryIsAClearErrorAndPartlyInsideIsFilled) {
   EXPECT_GT(sh_evaluate(d->node(0), {0, 1, 0}).x, 0.5f);  // sunlit value, not the dark inside
   EXPECT_EQ(d->filled[2], 1);
   EXPECT_NEAR(d->valid_fraction(), 24.0f / 36.0f, 1e-6f);
+  // Fitted: the nodes at x = -1, 0, 1 have no in-domain point in their support and keep their
+  // filled values exactly; the one on the box's face (x = 2) is fitted from the points outside
+  // it, where it weighs little; all stay finite and sunlit.
+  half.sampling = ProbeSampling::Fitted;
+  auto f = bake(half, w, *scene);
+  ASSERT_TRUE(f.ok()) << f.error().message;
+  EXPECT_EQ(f->filled, d->filled);
+  for (const glm::vec3& c : f->coefficients) EXPECT_TRUE(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z));
+  for (std::size_t n = 0; n < f->node_count(); ++n)
+    if (n % 9 <= 2) {
+      EXPECT_EQ(f->node(n), d->node(n)) << "node " << n;
+    }
+  const float face = sh_evaluate(f->node(3), {0, 1, 0}).x, far = sh_evaluate(f->node(8), {0, 1, 0}).x;
+  EXPECT_GT(face, 0.5f * far);
+  EXPECT_LT(face, 2.0f * far);
 }
 
 // --- Budget and cancellation ----------------------------------------------------------------------

@@ -18,7 +18,14 @@
 namespace penumbra {
 
 const char* to_string(ProbeShOrder order) { return order == ProbeShOrder::L1 ? "L1" : "L2"; }
-const char* to_string(ProbeSampling sampling) { return sampling == ProbeSampling::Point ? "point" : "supersampled"; }
+const char* to_string(ProbeSampling sampling) {
+  switch (sampling) {
+    case ProbeSampling::Point: return "point";
+    case ProbeSampling::Supersampled: return "supersampled";
+    case ProbeSampling::Fitted: return "fitted";
+  }
+  return "unknown";
+}
 
 IrradianceProbeGrid IrradianceProbeGrid::preset(Preset preset) {
   IrradianceProbeGrid g;

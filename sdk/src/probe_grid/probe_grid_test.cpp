@@ -270,6 +270,22 @@ TEST(ProbeGridChunk, RoundTripsAndRejectsDamage) {
   ProbeGridData one = d;
   one.layout.resolution = {1, 1, 1};
   EXPECT_FALSE(read_probe_grid_chunk(write_probe_grid_chunk(one)).ok());
+
+  // Every sampling mode round-trips and is named by describe; an unknown one is rejected.
+  for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
+    ProbeGridData m = d;
+    m.sampling = mode;
+    const BakeChunk c = write_probe_grid_chunk(m);
+    auto r = read_probe_grid_chunk(c);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->sampling, mode);
+    EXPECT_NE(describe_probe_grid_chunk(c)[0].find(to_string(mode)), std::string::npos) << to_string(mode);
+  }
+  ProbeGridData unknown = d;
+  unknown.sampling = static_cast<ProbeSampling>(3);
+  auto u = read_probe_grid_chunk(write_probe_grid_chunk(unknown));
+  ASSERT_FALSE(u.ok());
+  EXPECT_NE(u.error().message.find("sampling mode 3"), std::string::npos) << u.error().message;
 }
 
 // --- System --------------------------------------------------------------------------------------

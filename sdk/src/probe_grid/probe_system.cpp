@@ -216,8 +216,8 @@ void hash_probe_inputs(World& world, const BakeSettings&, Hasher& h) {
 void register_probe_grid(World& world) {
   Baker b;
   b.name = "probes";
-  b.description = "irradiance probe grids (SH per node, point or supersampled, Kontkanen & Laine 2006)";
-  b.stages = 2;  // per grid; a scene usually has one
+  b.description = "irradiance probe grids (SH per node, point, supersampled (Kontkanen & Laine 2006) or fitted)";
+  b.stages = 3;  // per grid (samples, fill, fit); a scene usually has one
   b.hash_inputs = hash_probe_inputs;
   b.bake = bake_probes;
   b.describe = describe_probe_grid_chunk;

@@ -16,7 +16,9 @@
 // supersampled mode draws S points from the node's tent B_i (per axis y = x_i + h (xi1 + xi2 - 1),
 // xi from a scrambled Sobol' net), drops the points outside the domain of interest, and averages.
 // Nodes with no in-domain point are filled by iterative dilation from valid neighbours (they
-// cannot influence an in-domain receiver anyway).
+// cannot influence an in-domain receiver anyway). Fitted mode keeps every in-domain point of every
+// node and solves for the node values that minimise the squared reconstruction error over them
+// (least squares, pulled towards the supersampled averages where support is thin; probe_fit.h).
 #pragma once
 
 #include <cstdint>
@@ -35,11 +37,14 @@ namespace penumbra {
 inline constexpr std::uint32_t kProbeGridChunkVersion = 1;
 
 // Bakes one grid. Validates it first (probe_grid_layout), reserves the node arrays in `budget`
-// before allocating (OutOfBudget names the grid and suggests a larger spacing), and reports two
-// progress stages, "probe samples" and "probe fill". Node n draws from Rng::stream(seed, n):
-// bit-identical results at any thread count. Fails with Cancelled when the host cancels, and with
+// before allocating (OutOfBudget names the grid and suggests a larger spacing), and reports three
+// progress stages, "probe samples", "probe fill" and "probe fit" (empty unless Fitted). Node n
+// draws from Rng::stream(seed, n) and the fit sums in a fixed order: bit-identical results at any
+// thread count. Fails with Cancelled when the host cancels, and with
 // InvalidInput when no node has an in-domain sample (every probe is inside geometry; the message
-// says to move or enlarge the grid). Cost: nodes x S x rays_per_sample x (1 + hit cost) rays.
+// says to move or enlarge the grid). Cost: nodes x S x rays_per_sample x (1 + hit cost) rays;
+// Fitted adds at most 100 sparse iterations (27 x nodes x coefficients x 3 each) and keeps
+// nodes x S x (coefficients x 12 + 13) bytes of samples.
 // Thread-safe for distinct `jobs`.
 Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
                                       const RayScene& scene, std::span<const WorldLight> lights, std::uint64_t seed,

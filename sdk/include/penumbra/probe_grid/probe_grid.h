@@ -30,9 +30,16 @@
 namespace penumbra {
 
 enum class ProbeShOrder : std::uint8_t { L1 = 1, L2 = 2 };     // 4 or 9 coefficients per channel
-enum class ProbeSampling : std::uint8_t { Point, Supersampled };
+// How the bake chooses node values (the runtime is the same for all three):
+//   Point: the lighting at the node (the classic irradiance volume).
+//   Supersampled: the tent-weighted average over the node's support in the domain of interest
+//     (Kontkanen & Laine 2006).
+//   Fitted: the least-squares values that minimise the trilinear reconstruction error over the
+//     domain of interest, from the same samples as Supersampled (a sharper reconstruction at thin
+//     walls; see sdk/src/probe_grid/probe_fit.h).
+enum class ProbeSampling : std::uint8_t { Point, Supersampled, Fitted };
 const char* to_string(ProbeShOrder order);    // "L1", "L2"
-const char* to_string(ProbeSampling sampling);  // "point", "supersampled"
+const char* to_string(ProbeSampling sampling);  // "point", "supersampled", "fitted"
 
 // Number of SH coefficients per colour channel of an order (4 or 9).
 constexpr int sh_coefficients(ProbeShOrder order) {
@@ -55,8 +62,8 @@ struct IrradianceProbeGrid {
 
   ProbeShOrder sh_order = ProbeShOrder::L2;
   ProbeSampling sampling = ProbeSampling::Supersampled;
-  // Supersampled: S points per node from the node's tent, `rays_per_sample` rays each. Point: all
-  // S x rays_per_sample rays at the node itself (the same ray budget).
+  // Supersampled and Fitted: S points per node from the node's tent, `rays_per_sample` rays each.
+  // Point: all S x rays_per_sample rays at the node itself (the same ray budget).
   std::uint32_t samples_per_node = 32;
   std::uint32_t rays_per_sample = 16;
   // Light bounces before reaching a node: 0 = direct light and emitters seen from the node; k =
