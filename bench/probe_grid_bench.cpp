@@ -262,7 +262,7 @@ Result<Report> run_probe_grid_bench(const Options& options) {
 
 }  // namespace
 
-PENUMBRA_BENCH("probe-grid", "irradiance probe grid: point vs supersampled error, leaks, bake time, bytes",
+PENUMBRA_BENCH("probe-grid", "irradiance probe grid: point vs supersampled vs fitted error, leaks, bake time, bytes",
                run_probe_grid_bench);
 
 }  // namespace penumbra::bench

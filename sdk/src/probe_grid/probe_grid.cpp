@@ -41,12 +41,14 @@ IrradianceProbeGrid IrradianceProbeGrid::preset(Preset preset) {
       g.rays_per_sample = 16;
       g.bounces = 2;
       g.spacing = 1.0f;
+      g.sampling = ProbeSampling::Fitted;  // the probe-grid bench: lower RMSE and leak at ~1.1x the time
       break;
     case Preset::High:
       g.samples_per_node = 64;
       g.rays_per_sample = 32;
       g.bounces = 3;
       g.spacing = 0.5f;
+      g.sampling = ProbeSampling::Fitted;
       break;
   }
   return g;

@@ -142,6 +142,9 @@ TEST(ProbeGridPreset, QualityGrowsWithThePreset) {
   EXPECT_LT(m.samples_per_node * m.rays_per_sample, h.samples_per_node * h.rays_per_sample);
   EXPECT_GT(d.spacing, m.spacing);
   EXPECT_GT(m.spacing, h.spacing);
+  EXPECT_EQ(d.sampling, ProbeSampling::Supersampled);
+  EXPECT_EQ(m.sampling, ProbeSampling::Fitted);
+  EXPECT_EQ(h.sampling, ProbeSampling::Fitted);
 }
 
 // --- Evaluation ----------------------------------------------------------------------------------
