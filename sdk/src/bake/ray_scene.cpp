@@ -434,6 +434,21 @@ Status RayScene::update(World& world) {
   return s.take_error("updating the BVH");
 }
 
+namespace {
+
+// A validated Ray as Embree's single ray (every mask bit set: Debian's Embree has masks compiled in).
+RTCRay to_rtc(const Ray& ray) {
+  RTCRay r{};
+  r.org_x = ray.origin.x; r.org_y = ray.origin.y; r.org_z = ray.origin.z;
+  r.dir_x = ray.direction.x; r.dir_y = ray.direction.y; r.dir_z = ray.direction.z;
+  r.tnear = ray.tnear;
+  r.tfar = ray.tfar;
+  r.mask = 0xFFFFFFFFu;
+  return r;
+}
+
+}  // namespace
+
 bool RayScene::intersect(const Ray& ray, Hit& hit) const {
   if (!ray_is_valid(ray)) {
     impl_->invalid_rays.fetch_add(1, std::memory_order_relaxed);
@@ -442,11 +457,7 @@ bool RayScene::intersect(const Ray& ray, Hit& hit) const {
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh{};
-  rh.ray.org_x = ray.origin.x; rh.ray.org_y = ray.origin.y; rh.ray.org_z = ray.origin.z;
-  rh.ray.dir_x = ray.direction.x; rh.ray.dir_y = ray.direction.y; rh.ray.dir_z = ray.direction.z;
-  rh.ray.tnear = ray.tnear;
-  rh.ray.tfar = ray.tfar;
-  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray = to_rtc(ray);
   rh.hit.geomID = kInvalidId;
   rh.hit.instID[0] = kInvalidId;
   rtcIntersect1(impl_->scene, &context, &rh);
@@ -463,12 +474,7 @@ bool RayScene::occluded(const Ray& ray) const {
   }
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  RTCRay r{};
-  r.org_x = ray.origin.x; r.org_y = ray.origin.y; r.org_z = ray.origin.z;
-  r.dir_x = ray.direction.x; r.dir_y = ray.direction.y; r.dir_z = ray.direction.z;
-  r.tnear = ray.tnear;
-  r.tfar = ray.tfar;
-  r.mask = 0xFFFFFFFFu;
+  RTCRay r = to_rtc(ray);
   rtcOccluded1(impl_->scene, &context, &r);
   return r.tfar == -std::numeric_limits<float>::infinity();
 }
