@@ -86,6 +86,7 @@ void PoolBase::grow() {
 
 bool PoolBase::erase(std::uint32_t pos, bool iterating) {
   const std::uint32_t removed = index(pos);
+  ++layout_version_;
   sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
   destroy_at(pos);
   if (iterating) {
@@ -107,6 +108,7 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
 }
 
 void PoolBase::compact() {
+  ++layout_version_;
   std::uint32_t out = 0;
   for (std::uint32_t i = 0; i < size_; ++i) {
     if (index(i) == kNone) continue;

@@ -499,3 +499,51 @@ TEST(WorldDeathTest, UndeclaredWriteFromASystemAsserts) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// Multi-component views remember that pools filled in the same order line up; the memory must
+// follow every change of order (removals, swaps, compaction, appends in another order).
+TEST(World, AlignedViewMemoFollowsLayoutChanges) {
+  World w;
+  std::vector<Entity> es;
+  for (int i = 0; i < 3000; ++i) {
+    const Entity e = w.create();
+    w.add<Position>(e, float(e.index));
+    w.add<Velocity>(e, float(e.index));
+    es.push_back(e);
+  }
+  auto check = [&](std::size_t expected) {
+    std::size_t n = 0;
+    w.each<Position, Velocity>([&](Entity e, Position& p, Velocity& v) {
+      EXPECT_EQ(p.x, float(e.index));
+      EXPECT_EQ(v.x, float(e.index));
+      ++n;
+    });
+    EXPECT_EQ(n, expected);
+  };
+  check(3000);  // memo established
+  w.remove<Velocity>(es[5]);  // Velocity's last slot moves into slot 5: pools no longer line up
+  check(2999);
+  w.add<Velocity>(es[5], float(es[5].index));  // appended at the end of Velocity only
+  check(3000);
+  // Appends in opposite orders past the aligned prefix.
+  const Entity a = w.create(), b = w.create();
+  w.add<Position>(a, float(a.index));
+  w.add<Position>(b, float(b.index));
+  w.add<Velocity>(b, float(b.index));
+  w.add<Velocity>(a, float(a.index));
+  check(3002);
+  // Removal during iteration leaves tombstones; compaction reorders.
+  w.each<Position, Velocity>([&](Entity e, Position&, Velocity&) {
+    if (e.index % 7 == 0) w.remove<Position>(e);
+  });
+  std::size_t kept = 0;
+  for (Entity e : es) kept += e.index % 7 != 0;
+  kept += (a.index % 7 != 0) + (b.index % 7 != 0);
+  check(kept);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -219,6 +219,14 @@ class PoolBase {
 
   std::uint32_t tombstones_ = 0;
   bool compact_pending_ = false;
+  // Bumped whenever an existing slot may change its entity (erase, compact); appends keep it.
+  std::uint64_t layout_version_ = 0;
+  // A view's memo: this pool's first aligned_count_ slots hold the same entities as
+  // aligned_with_'s, valid while both layout versions equal aligned_versions_. It spares
+  // multi-component views re-comparing the entity arrays of pools filled in the same order.
+  const PoolBase* aligned_with_ = nullptr;
+  std::uint64_t aligned_versions_[2] = {0, 0};
+  std::uint32_t aligned_count_ = 0;
   std::vector<std::shared_ptr<Listener>> on_add_, on_remove_;
   int firing_ = 0;
 
@@ -619,7 +627,7 @@ class View {
       std::uint32_t i = 0;
       // Fast path: every pool holds this page's entities in the same slots and has no
       // tombstones, so the loop needs no look-up; it stops where a callback leaves a tombstone.
-      if (Filter::kAll && aligned(pools, cursors, end, std::index_sequence<I...>{})) {
+      if (Filter::kAll && aligned(pools, cursors, base, end, std::index_sequence<I...>{})) {
         for (; i < end && !(std::get<I>(pools)->tombstones_ || ...); ++i) {
           if constexpr (detail::kTakesEntity<Fn, T...>)
             fn(world_->handle(indices[i]), std::get<I>(cursors).data[i]...);
@@ -641,11 +649,33 @@ class View {
   }
 
   template <std::size_t... I>
-  static bool aligned(const Pools& pools, const std::tuple<Cursor<T>...>& cursors, std::uint32_t end,
-                      std::index_sequence<I...>) {
-    const std::uint32_t* first = std::get<0>(cursors).indices;
-    return ((std::get<I>(pools)->tombstones_ == 0) && ...) && ((std::get<I>(cursors).limit >= end) && ...) &&
-           ((I == 0 || std::memcmp(first, std::get<I>(cursors).indices, end * sizeof(std::uint32_t)) == 0) && ...);
+  static bool aligned(const Pools& pools, const std::tuple<Cursor<T>...>& cursors, std::uint32_t base,
+                      std::uint32_t end, std::index_sequence<I...>) {
+    if (!(((std::get<I>(pools)->tombstones_ == 0) && ...) && ((std::get<I>(cursors).limit >= end) && ...)))
+      return false;
+    const detail::PoolBase& first = *std::get<0>(pools);
+    const std::uint32_t* first_indices = std::get<0>(cursors).indices;
+    return ((I == 0 || same_slots(first, *std::get<I>(pools), first_indices, std::get<I>(cursors).indices, base, end)) &&
+            ...);
+  }
+
+  // Whether slots [base, base + end) of `b` hold the same entities as those of `a`: from b's memo
+  // when it covers them, else by comparing the entity arrays (and extending the memo).
+  static bool same_slots(const detail::PoolBase& a, detail::PoolBase& b, const std::uint32_t* a_indices,
+                         const std::uint32_t* b_indices, std::uint32_t base, std::uint32_t end) {
+    const bool memo = b.aligned_with_ == &a && b.aligned_versions_[0] == a.layout_version_ &&
+                      b.aligned_versions_[1] == b.layout_version_;
+    if (memo && base + end <= b.aligned_count_) return true;
+    if (std::memcmp(a_indices, b_indices, end * sizeof(std::uint32_t)) != 0) return false;
+    if (memo && b.aligned_count_ >= base) {
+      b.aligned_count_ = base + end;
+    } else if (!memo && base == 0) {
+      b.aligned_with_ = &a;
+      b.aligned_versions_[0] = a.layout_version_;
+      b.aligned_versions_[1] = b.layout_version_;
+      b.aligned_count_ = end;
+    }
+    return true;
   }
 
   template <std::size_t I, std::size_t L, class C>
