@@ -93,10 +93,9 @@ struct AOFieldData {
   // Texel (face f, row v, column u) is texels[(f * resolution + v) * resolution + u]; faces in
   // the order +X, -X, +Y, -Y, +Z, -Z (cube_direction()).
   std::vector<AOFieldTexel> texels;
-  // Bake diagnostics: texels whose Gauss-Newton fit could not keep its denominator positive and
-  // fell back to the linear fit or to the inverse-square clamp.
-  std::uint32_t linear_fallbacks = 0;
-  std::uint32_t clamp_fallbacks = 0;
+  // Bake diagnostic: texels whose linear fit of the denominator was not positive over [r0, r_far]
+  // and that were fitted instead with non-negative inverse-square and constant terms (the clamp).
+  std::uint32_t clamped_fits = 0;
 
   std::uint64_t bytes() const;  // runtime payload: 7 floats per texel
 };

@@ -1,0 +1,67 @@
+// The ambient-occlusion field baker (P2, Kontkanen & Laine 2005, section 3.1): per cube-map texel
+// the convex-hull distance r0, the caster's true solid angle and average occluded direction at
+// log-spaced radii from the hull to the falloff distance (ray traced against the caster alone),
+// the fit of Omega(r) = 1 / (a r^2 + b r + c) with a positive denominator, and the fit of C0; the
+// "AOFC" .pbake chunk; the baker registration.
+//
+// Steps, per texel direction w (field origin: the area-weighted centroid of the surface, which
+// lies inside the convex hull):
+//   1. r0(w) = min over support directions u with u.w > 0 of h(u) / (u.w), h the support function
+//      of the vertices; u runs over 1024 Fibonacci directions plus every triangle normal (exact
+//      for convex meshes; slightly outside the hull otherwise, so r >= r0 is always outside).
+//   2. At radii r_k = r_lo (r_far / r_lo)^(k / (K - 1)) (denser near the hull; r_lo = r0 just
+//      outside the hull, at least 1% of the bounding radius), `rays_per_sample` scrambled Sobol'
+//      rays over the sphere give Omega_k = 4 pi hits / rays and Upsilon_k = normalize(sum of hit
+//      directions).
+//   3. a, b, c by linear least squares on (a r^2 + b r + c) Omega_k = 1, then Levenberg-Marquardt
+//      steps on sum (1 / D(r_k) - Omega_k)^2 that are accepted only when D stays positive on
+//      [r0, r_far]. A linear fit that is not positive there is replaced by the best fit with
+//      non-negative a and c and b = 0 (counted in AOFieldData::clamped_fits).
+//   4. C0: the point nearest (in least squares, weighted by Omega_k) to the lines through r_k w
+//      along Upsilon_k, with a small pull towards the origin for parallel lines.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "penumbra/ao_field/ao_field.h"
+#include "penumbra/bake/pbake.h"
+#include "penumbra/core/jobs.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/ecs/world.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+
+inline constexpr std::uint32_t kAOFieldChunkVersion = 1;
+
+// Bakes the field of `mesh` (in its local frame) with `caster`'s settings. Validates the
+// settings (validate_ao_field_caster with an identity matrix) and the mesh (InvalidInput when it
+// has no triangle or no extent), reserves the texel arrays in `budget`, builds a RayScene of the
+// mesh alone, and reports one progress stage, "ao field". Texel i draws from
+// Rng::stream(seed, i): bit-identical results at any thread count. Fails with Cancelled when the
+// host cancels. Cost: 6 x resolution^2 x radial_samples x rays_per_sample occlusion rays plus
+// 6 x resolution^2 x (1024 + triangles) support look-ups. Thread-safe for distinct `jobs`.
+Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& mesh, std::uint64_t seed,
+                                  JobContext& jobs, MemoryBudget& budget, std::string_view context = "ao field");
+
+// The "AOFC" chunk of one field (label "aofield:<entity index>") and its reader; read() checks the
+// version, sizes and that every value is finite and in range, naming the chunk in its errors.
+BakeChunk write_ao_field_chunk(const AOFieldData& data);
+Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk);
+// Lines for `penumbra info`: resolution, radii, bytes, clamped fits.
+std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk);
+
+// Registers the "aofields" baker: one AOFC chunk per entity with AOFieldCaster, Mesh and
+// WorldTransform (entity order), each baked in its mesh frame after validating the entity's world
+// matrix (non-uniform scale is rejected naming the entity); the data is also attached to the
+// components.
+void register_ao_field(World& world);
+
+// Attaches the AOFC chunks of `file` to the AOFieldCaster components of the same entity index.
+// Fails with InvalidInput for a corrupt chunk and NotFound when the entity has no caster.
+Status attach_ao_fields(World& world, const BakeFile& file);
+
+}  // namespace penumbra

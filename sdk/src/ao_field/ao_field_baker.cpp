@@ -1,0 +1,515 @@
+// Ambient-occlusion field bake (see ao_field_baker.h): Kontkanen & Laine 2005, "Ambient
+// Occlusion Fields", section 3.1 (hull distance, sampled Omega and Upsilon, the fit of
+// 1 / (a r^2 + b r + c) and of C0).
+#include "penumbra/ao_field/ao_field_baker.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+
+#include <glm/geometric.hpp>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/bake/ray_scene.h"
+#include "penumbra/core/random.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/ecs/transform.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr std::uint32_t kChunkType = fourcc("AOFC");
+constexpr double kPi = std::numbers::pi;
+constexpr std::uint32_t kSupportDirections = 1024;
+constexpr std::size_t kMaxNormalSupports = 65536;  // triangle normals used as extra support directions
+constexpr std::uint32_t kRayBlock = 64;
+constexpr int kFitIterations = 30;
+constexpr double kC0Pull = 0.05;       // relative weight of the pull of C0 towards the origin
+constexpr double kC0MaxAlong = 0.5;    // C0 . w at most this fraction of r0
+constexpr float kEmptyDenominator = 1e30f;  // c of a direction that never sees the caster
+
+// Solves the 3x3 system m x = rhs by Gaussian elimination with partial pivoting; false when singular.
+bool solve3(std::array<std::array<double, 3>, 3> m, std::array<double, 3> rhs, std::array<double, 3>& x) {
+  for (int col = 0; col < 3; ++col) {
+    int pivot = col;
+    for (int r = col + 1; r < 3; ++r)
+      if (std::abs(m[static_cast<std::size_t>(r)][static_cast<std::size_t>(col)]) >
+          std::abs(m[static_cast<std::size_t>(pivot)][static_cast<std::size_t>(col)]))
+        pivot = r;
+    const auto c = static_cast<std::size_t>(col), p = static_cast<std::size_t>(pivot);
+    if (!(std::abs(m[p][c]) > 1e-300)) return false;
+    std::swap(m[c], m[p]);
+    std::swap(rhs[c], rhs[p]);
+    for (std::size_t r = c + 1; r < 3; ++r) {
+      const double f = m[r][c] / m[c][c];
+      for (std::size_t k = c; k < 3; ++k) m[r][k] -= f * m[c][k];
+      rhs[r] -= f * rhs[c];
+    }
+  }
+  for (int r = 2; r >= 0; --r) {
+    const auto i = static_cast<std::size_t>(r);
+    double v = rhs[i];
+    for (std::size_t k = i + 1; k < 3; ++k) v -= m[i][k] * x[k];
+    x[i] = v / m[i][i];
+    if (!std::isfinite(x[i])) return false;
+  }
+  return true;
+}
+
+// One sampled radius of a texel, in units of the bounding radius.
+struct RadialSample {
+  double rho = 0.0;
+  double omega = 0.0;
+  glm::dvec3 upsilon{0.0};
+};
+
+using Coeffs = std::array<double, 3>;  // a, b, c of D(rho) = a rho^2 + b rho + c
+
+double denominator(const Coeffs& p, double rho) { return (p[0] * rho + p[1]) * rho + p[2]; }
+
+// D > 0 everywhere on [lo, hi]: at both ends and at the vertex of the parabola when it is inside.
+bool positive_on(const Coeffs& p, double lo, double hi) {
+  if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) return false;
+  if (!(denominator(p, lo) > 0.0) || !(denominator(p, hi) > 0.0)) return false;
+  if (p[0] > 0.0) {
+    const double v = -p[1] / (2.0 * p[0]);
+    if (v > lo && v < hi && !(denominator(p, v) > 0.0)) return false;
+  }
+  return true;
+}
+
+double squared_error(const Coeffs& p, const std::vector<RadialSample>& samples) {
+  double e = 0.0;
+  for (const RadialSample& s : samples) {
+    const double d = 1.0 / denominator(p, s.rho) - s.omega;
+    e += d * d;
+  }
+  return e;
+}
+
+// Step 3 of the bake: the fit of Omega(rho) = 1 / D(rho). Returns true when the clamp was needed.
+bool fit_omega(const std::vector<RadialSample>& samples, double lo, double hi, Coeffs& p) {
+  // Linear least squares on D(rho_k) Omega_k = 1 (samples that see the caster).
+  std::array<std::array<double, 3>, 3> m{};
+  Coeffs rhs{};
+  int seen = 0;
+  for (const RadialSample& s : samples) {
+    if (!(s.omega > 0.0)) continue;
+    ++seen;
+    const Coeffs x{s.omega * s.rho * s.rho, s.omega * s.rho, s.omega};
+    for (std::size_t i = 0; i < 3; ++i) {
+      rhs[i] += x[i];
+      for (std::size_t j = 0; j < 3; ++j) m[i][j] += x[i] * x[j];
+    }
+  }
+  if (seen == 0) {
+    p = {0.0, 0.0, kEmptyDenominator};
+    return true;
+  }
+  bool clamped = false;
+  if (seen < 3 || !solve3(m, rhs, p) || !positive_on(p, lo, hi)) {
+    // The clamp: D = a rho^2 + c with a, c >= 0 (positive wherever one of them is), from the
+    // same linear equations: the 2x2 solve when both come out non-negative, else the better of
+    // a alone and c alone.
+    clamped = true;
+    const double saa = m[0][0], sac = m[0][2], scc = m[2][2], ra = rhs[0], rc = rhs[2];
+    const double det = saa * scc - sac * sac;
+    double a = det > 0.0 ? (ra * scc - rc * sac) / det : -1.0;
+    double c = det > 0.0 ? (saa * rc - sac * ra) / det : -1.0;
+    if (!(a >= 0.0 && c >= 0.0 && a + c > 0.0)) {
+      const double a_only = saa > 0.0 ? ra / saa : 0.0, c_only = scc > 0.0 ? rc / scc : 0.0;
+      // Residual sum of (D Omega - 1)^2 of each one-term fit: n - r^2 / s.
+      const double err_a = saa > 0.0 ? -ra * ra / saa : 0.0, err_c = scc > 0.0 ? -rc * rc / scc : 0.0;
+      a = err_a < err_c ? a_only : 0.0;
+      c = err_a < err_c ? 0.0 : c_only;
+    }
+    p = {a, 0.0, c};
+    if (!positive_on(p, lo, hi)) {
+      p = {0.0, 0.0, kEmptyDenominator};
+      return true;
+    }
+  }
+  // Levenberg-Marquardt on sum (1 / D - Omega)^2, accepting only steps that keep D positive.
+  double error = squared_error(p, samples);
+  double lambda = 1e-3;
+  for (int it = 0; it < kFitIterations; ++it) {
+    std::array<std::array<double, 3>, 3> jtj{};
+    Coeffs jte{};
+    for (const RadialSample& s : samples) {
+      const double d = denominator(p, s.rho);
+      const double e = 1.0 / d - s.omega;
+      const double g = -1.0 / (d * d);
+      const Coeffs grad{g * s.rho * s.rho, g * s.rho, g};
+      for (std::size_t i = 0; i < 3; ++i) {
+        jte[i] += grad[i] * e;
+        for (std::size_t j = 0; j < 3; ++j) jtj[i][j] += grad[i] * grad[j];
+      }
+    }
+    bool accepted = false;
+    for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
+      auto damped = jtj;
+      for (std::size_t i = 0; i < 3; ++i) damped[i][i] += lambda * std::max(jtj[i][i], 1e-300);
+      Coeffs step{};
+      if (solve3(damped, {-jte[0], -jte[1], -jte[2]}, step)) {
+        const Coeffs next{p[0] + step[0], p[1] + step[1], p[2] + step[2]};
+        if (positive_on(next, lo, hi)) {
+          const double next_error = squared_error(next, samples);
+          if (next_error < error) {
+            accepted = true;
+            p = next;
+            lambda = std::max(lambda * 0.3, 1e-9);
+            if (error - next_error < 1e-12 * error) it = kFitIterations;  // converged
+            error = next_error;
+            continue;
+          }
+        }
+      }
+      lambda *= 10.0;
+    }
+    if (!accepted) break;
+  }
+  return clamped;
+}
+
+// Step 4: C0 = argmin sum_k Omega_k |(I - u_k u_k^T)(C0 - p_k)|^2 + kC0Pull sum_k Omega_k |C0|^2
+// (rho units: the origin lies inside the hull, so the pull only settles what the lines leave open).
+glm::dvec3 fit_c0(const std::vector<RadialSample>& samples, glm::dvec3 w, double rho0) {
+  std::array<std::array<double, 3>, 3> m{};
+  Coeffs rhs{};
+  double total = 0.0;
+  for (const RadialSample& s : samples) {
+    if (!(s.omega > 0.0)) continue;
+    total += s.omega;
+    const glm::dvec3 pk = s.rho * w;
+    for (std::size_t i = 0; i < 3; ++i) {
+      for (std::size_t j = 0; j < 3; ++j) {
+        const double proj = (i == j ? 1.0 : 0.0) - s.upsilon[static_cast<int>(i)] * s.upsilon[static_cast<int>(j)];
+        m[i][j] += s.omega * proj;
+        rhs[i] += s.omega * proj * pk[static_cast<int>(j)];
+      }
+    }
+  }
+  if (total == 0.0) return glm::dvec3(0.0);
+  for (std::size_t i = 0; i < 3; ++i) m[i][i] += kC0Pull * total;
+  Coeffs x{};
+  if (!solve3(m, rhs, x)) return glm::dvec3(0.0);
+  glm::dvec3 c0(x[0], x[1], x[2]);
+  // Keep C0 behind the hull as seen along w, so that C0 - r w points towards the caster for every
+  // r >= r0 (nearly parallel lines leave the position along w to the noise).
+  const double along = glm::dot(c0, w);
+  if (along > kC0MaxAlong * rho0) c0 -= (along - kC0MaxAlong * rho0) * w;
+  return c0;
+}
+
+// Step 1's support directions: a Fibonacci sphere plus the triangle normals.
+std::vector<glm::dvec3> support_directions(const MeshData& mesh) {
+  std::vector<glm::dvec3> dirs;
+  dirs.reserve(kSupportDirections + std::min(mesh.triangle_count(), kMaxNormalSupports));
+  const double golden = kPi * (3.0 - std::sqrt(5.0));
+  for (std::uint32_t i = 0; i < kSupportDirections; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / kSupportDirections;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    dirs.emplace_back(r * std::cos(golden * i), r * std::sin(golden * i), z);
+  }
+  for (std::size_t t = 0; t < std::min(mesh.triangle_count(), kMaxNormalSupports); ++t) {
+    const glm::dvec3 p0(mesh.positions[mesh.indices[3 * t]]), p1(mesh.positions[mesh.indices[3 * t + 1]]),
+        p2(mesh.positions[mesh.indices[3 * t + 2]]);
+    const glm::dvec3 n = glm::cross(p1 - p0, p2 - p0);
+    const double len = glm::length(n);
+    if (len > 0.0) dirs.push_back(n / len);
+  }
+  return dirs;
+}
+
+std::string caster_context(World& world, Entity e) {
+  const Name* name = world.try_get<Name>(e);
+  return "ao field " + (name ? "'" + name->value + "' " : std::string()) + "(entity " + std::to_string(e.index) + ")";
+}
+
+std::vector<Entity> caster_entities(World& world) {
+  std::vector<Entity> out;
+  world.each<AOFieldCaster, Mesh, WorldTransform>(
+      [&](Entity e, AOFieldCaster&, Mesh& m, WorldTransform&) {
+        if (m.data) out.push_back(e);
+      });
+  std::sort(out.begin(), out.end(), [](Entity a, Entity b) { return a.index < b.index; });
+  return out;
+}
+
+Result<std::vector<BakeChunk>> bake_fields(BakeInputs& in) {
+  std::vector<BakeChunk> chunks;
+  for (Entity e : caster_entities(in.world)) {
+    const AOFieldCaster caster = in.world.get<AOFieldCaster>(e);
+    const std::string context = caster_context(in.world, e);
+    PENUMBRA_TRY(validate_ao_field_caster(caster, in.world.get<WorldTransform>(e).matrix, context));
+    auto data = bake_ao_field(caster, *in.world.get<Mesh>(e).data, in.settings.seed ^ e.index, in.jobs, in.budget,
+                              context);
+    if (!data) return data.error();
+    data->entity_index = e.index;
+    chunks.push_back(write_ao_field_chunk(*data));
+    in.world.patch<AOFieldCaster>(e).data = std::make_shared<const AOFieldData>(std::move(*data));
+  }
+  return chunks;
+}
+
+void hash_field_inputs(World& world, const BakeSettings&, Hasher& h) {
+  h.add(kAOFieldChunkVersion);
+  for (Entity e : caster_entities(world)) {
+    const AOFieldCaster& c = world.get<AOFieldCaster>(e);
+    h.add(e.index);
+    h.add(c.resolution);
+    h.add(c.radial_samples);
+    h.add(c.rays_per_sample);
+    h.add(c.falloff_distance);
+    h.add(c.fade_start);
+    h.add(c.inside_occlusion);
+    h.add(c.inside_exponent);
+    h.add(world.get<WorldTransform>(e).matrix);  // validation (uniform scale) depends on it
+  }
+}
+
+}  // namespace
+
+Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& mesh, std::uint64_t seed,
+                                  JobContext& jobs, MemoryBudget& budget, std::string_view context) {
+  PENUMBRA_TRY(validate_ao_field_caster(caster, glm::mat4(1.0f), context));
+  PENUMBRA_TRY(mesh.validate(context));
+  // Field origin: the area-weighted centroid of the surface (inside the convex hull).
+  glm::dvec3 centroid(0.0);
+  double area = 0.0;
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const glm::dvec3 p0(mesh.positions[mesh.indices[3 * t]]), p1(mesh.positions[mesh.indices[3 * t + 1]]),
+        p2(mesh.positions[mesh.indices[3 * t + 2]]);
+    const double a = 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
+    centroid += a * (p0 + p1 + p2) / 3.0;
+    area += a;
+  }
+  if (!(area > 0.0))
+    return make_error(ErrorCode::InvalidInput, std::string(context) + ": mesh '" + mesh.name +
+                                                   "' has no triangle of non-zero area; give the caster geometry");
+  centroid /= area;
+  double radius = 0.0;
+  for (const glm::vec3& v : mesh.positions) radius = std::max(radius, glm::length(glm::dvec3(v) - centroid));
+  const double r_far = caster.falloff_distance > 0.0f ? double(caster.falloff_distance) : 6.0 * radius;
+  if (!(r_far > radius))
+    return make_error(ErrorCode::InvalidArgument,
+                      std::string(context) + ": falloff_distance " + std::to_string(r_far) +
+                          " does not reach beyond the caster (bounding radius " + std::to_string(radius) +
+                          "); use at least 2x the bounding radius, or 0 for 6x");
+
+  const std::uint32_t res = caster.resolution;
+  const std::size_t texel_count = 6 * std::size_t{res} * res;
+  const std::uint64_t need = texel_count * (sizeof(AOFieldTexel) + 1);
+  if (auto st = budget.reserve(std::string(context) + " texels", need); !st)
+    return make_error(ErrorCode::OutOfBudget, st.error().message + "; use a lower resolution");
+  struct Release {
+    MemoryBudget& b;
+    std::uint64_t n;
+    ~Release() { b.release(n); }
+  } release{budget, need};
+
+  // The caster alone, in its mesh frame.
+  World alone;
+  {
+    const Entity e = alone.create();
+    alone.add<Mesh>(e, Mesh{std::make_shared<const MeshData>(mesh)});
+    alone.add<WorldTransform>(e);
+    alone.add<Static>(e);
+  }
+  RaySceneOptions options;
+  options.build_threads = jobs.concurrency();
+  auto scene = RayScene::build(alone, options);
+  if (!scene) return scene.error();
+
+  // Step 1's support function h(u) = max_v (v - centre) . u.
+  const std::vector<glm::dvec3> dirs = support_directions(mesh);
+  std::vector<double> support(dirs.size(), 0.0);
+  for (std::size_t i = 0; i < dirs.size(); ++i) {
+    double h = -std::numeric_limits<double>::infinity();
+    for (const glm::vec3& v : mesh.positions) h = std::max(h, glm::dot(glm::dvec3(v) - centroid, dirs[i]));
+    support[i] = std::max(h, 0.0);
+  }
+
+  AOFieldData data;
+  data.resolution = res;
+  data.centre = glm::vec3(centroid);
+  data.bounding_radius = static_cast<float>(radius);
+  data.r_far = static_cast<float>(r_far);
+  data.fade_start = caster.fade_start;
+  data.inside_occlusion = caster.inside_occlusion;
+  data.inside_exponent = caster.inside_exponent;
+  data.texels.resize(texel_count);
+  std::vector<std::uint8_t> clamped(texel_count, 0);
+
+  const std::uint32_t radii = caster.radial_samples;
+  const std::uint32_t rays = caster.rays_per_sample;
+  const float tnear = static_cast<float>(1e-6 * radius);
+  const glm::vec3 origin_centre(centroid);
+  jobs.begin_stage("ao field", texel_count);
+  Status st = jobs.parallel_for(texel_count, 4, [&](std::size_t begin, std::size_t end) {
+    std::array<Ray, kRayBlock> block;
+    std::array<std::uint8_t, kRayBlock> hit{};
+    std::vector<RadialSample> samples(radii);
+    for (std::size_t i = begin; i < end; ++i) {
+      Rng rng = Rng::stream(seed, i);
+      const auto face = static_cast<std::uint32_t>(i / (std::size_t{res} * res));
+      const auto row = static_cast<std::uint32_t>((i / res) % res), col = static_cast<std::uint32_t>(i % res);
+      const float s = 2.0f * (static_cast<float>(col) + 0.5f) / static_cast<float>(res) - 1.0f;
+      const float t = 2.0f * (static_cast<float>(row) + 0.5f) / static_cast<float>(res) - 1.0f;
+      const glm::vec3 w = cube_direction(face, s, t);
+      const glm::dvec3 wd(w);
+      // Step 1: the hull distance along w.
+      double r0 = std::numeric_limits<double>::infinity();
+      for (std::size_t k = 0; k < dirs.size(); ++k) {
+        const double c = glm::dot(dirs[k], wd);
+        if (c > 1e-9) r0 = std::min(r0, support[k] / c);
+      }
+      r0 = std::min(r0, radius);
+      // Step 2: Omega and Upsilon at log-spaced radii from just outside the hull to r_far.
+      const double r_lo = std::min(std::max(r0 * (1.0 + 1e-3), 1e-2 * radius), 0.5 * r_far);
+      for (std::uint32_t k = 0; k < radii; ++k) {
+        const double r = r_lo * std::pow(r_far / r_lo, double(k) / double(radii - 1));
+        const glm::vec3 p = origin_centre + static_cast<float>(r) * w;
+        const std::uint32_t scramble = rng.next_u32();
+        std::uint32_t hits = 0;
+        glm::dvec3 sum(0.0);
+        for (std::uint32_t first = 0; first < rays; first += kRayBlock) {
+          const std::uint32_t count = std::min(kRayBlock, rays - first);
+          for (std::uint32_t j = 0; j < count; ++j)
+            block[j] = Ray{p, tnear, uniform_sphere(sobol_2d(first + j, scramble)),
+                           std::numeric_limits<float>::infinity()};
+          scene->occluded(std::span<const Ray>(block.data(), count), std::span<std::uint8_t>(hit.data(), count));
+          for (std::uint32_t j = 0; j < count; ++j)
+            if (hit[j]) {
+              ++hits;
+              sum += glm::dvec3(block[j].direction);
+            }
+        }
+        RadialSample& rs = samples[k];
+        rs.rho = r / radius;
+        rs.omega = 4.0 * kPi * hits / rays;
+        const double len = glm::length(sum);
+        rs.upsilon = len > 0.0 ? sum / len : -wd;
+      }
+      // Steps 3 and 4: the fits, in units of the bounding radius, then back to mesh units.
+      Coeffs p{};
+      clamped[i] = fit_omega(samples, r0 / radius, r_far / radius, p) ? 1 : 0;
+      const glm::dvec3 c0 = fit_c0(samples, wd, r0 / radius) * radius;
+      AOFieldTexel& tx = data.texels[i];
+      tx.a = static_cast<float>(p[0] / (radius * radius));
+      tx.b = static_cast<float>(p[1] / radius);
+      tx.c = static_cast<float>(p[2]);
+      tx.r0 = static_cast<float>(r0);
+      tx.c0 = glm::vec3(c0);
+    }
+  });
+  if (!st) return st.error();
+  data.clamped_fits = static_cast<std::uint32_t>(std::count(clamped.begin(), clamped.end(), std::uint8_t{1}));
+  return data;
+}
+
+BakeChunk write_ao_field_chunk(const AOFieldData& data) {
+  ByteWriter w;
+  w.write(data.entity_index);
+  w.write(data.resolution);
+  w.write(data.centre);
+  w.write(data.bounding_radius);
+  w.write(data.r_far);
+  w.write(data.fade_start);
+  w.write(data.inside_occlusion);
+  w.write(data.inside_exponent);
+  w.write(data.clamped_fits);
+  w.write_vector(data.texels);
+  return BakeChunk{kChunkType, kAOFieldChunkVersion, "aofield:" + std::to_string(data.entity_index), w.take()};
+}
+
+Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk) {
+  const std::string context = "chunk 'AOFC' (" + chunk.label + ")";
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the ao fields");
+  };
+  if (chunk.type != kChunkType)
+    return make_error(ErrorCode::InvalidArgument, context + ": this chunk is '" + fourcc_to_string(chunk.type) + "'");
+  if (chunk.version != kAOFieldChunkVersion)
+    return make_error(ErrorCode::Unsupported, context + ": version " + std::to_string(chunk.version) +
+                                                  ", this SDK reads version " + std::to_string(kAOFieldChunkVersion) +
+                                                  "; re-bake with this SDK");
+  AOFieldData d;
+  ByteReader r(chunk.payload, context);
+  PENUMBRA_TRY(r.read(d.entity_index));
+  PENUMBRA_TRY(r.read(d.resolution));
+  PENUMBRA_TRY(r.read(d.centre));
+  PENUMBRA_TRY(r.read(d.bounding_radius));
+  PENUMBRA_TRY(r.read(d.r_far));
+  PENUMBRA_TRY(r.read(d.fade_start));
+  PENUMBRA_TRY(r.read(d.inside_occlusion));
+  PENUMBRA_TRY(r.read(d.inside_exponent));
+  PENUMBRA_TRY(r.read(d.clamped_fits));
+  if (d.resolution < 1 || d.resolution > 256)
+    return bad("resolution " + std::to_string(d.resolution) + " is outside 1..256");
+  const std::size_t count = 6 * std::size_t{d.resolution} * d.resolution;
+  PENUMBRA_TRY(r.read_vector(d.texels, count));
+  PENUMBRA_TRY(r.finish());
+  if (d.texels.size() != count) return bad("it holds " + std::to_string(d.texels.size()) + " texels, not " +
+                                           std::to_string(count));
+  const bool finite_centre = std::isfinite(d.centre.x) && std::isfinite(d.centre.y) && std::isfinite(d.centre.z);
+  if (!finite_centre || !(d.bounding_radius >= 0.0f && std::isfinite(d.bounding_radius)) ||
+      !(d.r_far > 0.0f && std::isfinite(d.r_far)))
+    return bad("the centre, bounding radius or falloff distance is not finite and positive");
+  if (!(d.fade_start > 0.0f && d.fade_start < 1.0f) || !(d.inside_occlusion >= 0.0f && d.inside_occlusion <= 1.0f) ||
+      !(d.inside_exponent > 0.0f && std::isfinite(d.inside_exponent)))
+    return bad("the fade or inside settings are out of range");
+  for (std::size_t i = 0; i < count; ++i) {
+    const AOFieldTexel& t = d.texels[i];
+    const bool ok = std::isfinite(t.a) && std::isfinite(t.b) && std::isfinite(t.c) && t.r0 >= 0.0f &&
+                    std::isfinite(t.r0) && std::isfinite(t.c0.x) && std::isfinite(t.c0.y) && std::isfinite(t.c0.z);
+    if (!ok) return bad("texel " + std::to_string(i) + " has a non-finite or negative value");
+  }
+  return d;
+}
+
+std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk) {
+  if (chunk.type != kChunkType) return {};
+  auto d = read_ao_field_chunk(chunk);
+  if (!d) return {d.error().message};
+  char line[240];
+  std::snprintf(line, sizeof line, "ao field %ux%u per face, falloff %.3g (bounding radius %.3g), %s, %u clamped fits",
+                d->resolution, d->resolution, static_cast<double>(d->r_far), static_cast<double>(d->bounding_radius),
+                format_bytes(d->bytes()).c_str(), d->clamped_fits);
+  return {line};
+}
+
+void register_ao_field(World& world) {
+  Baker b;
+  b.name = "aofields";
+  b.description = "ambient occlusion fields of moving rigid casters (Kontkanen & Laine 2005)";
+  b.stages = 1;
+  b.hash_inputs = hash_field_inputs;
+  b.bake = bake_fields;
+  b.describe = describe_ao_field_chunk;
+  world.resource<BakerRegistry>().add(std::move(b));
+}
+
+Status attach_ao_fields(World& world, const BakeFile& file) {
+  for (const BakeChunk& chunk : file.chunks) {
+    if (chunk.type != kChunkType) continue;
+    auto data = read_ao_field_chunk(chunk);
+    if (!data) return data.error();
+    Entity e;
+    world.each<AOFieldCaster>([&](Entity c, AOFieldCaster&) {
+      if (c.index == data->entity_index) e = c;
+    });
+    if (!e)
+      return make_error(ErrorCode::NotFound, "chunk 'AOFC' (" + chunk.label + "): entity " +
+                                                 std::to_string(data->entity_index) +
+                                                 " has no AOFieldCaster in this World; re-bake the scene");
+    world.patch<AOFieldCaster>(e).data = std::make_shared<const AOFieldData>(std::move(*data));
+  }
+  return {};
+}
+
+}  // namespace penumbra
