@@ -3,6 +3,8 @@
 // 1 / (a r^2 + b r + c) and of C0).
 #include "penumbra/ao_field/ao_field_baker.h"
 
+#include "penumbra/ao_field/ao_field_system.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -492,6 +494,7 @@ void register_ao_field(World& world) {
   b.bake = bake_fields;
   b.describe = describe_ao_field_chunk;
   world.resource<BakerRegistry>().add(std::move(b));
+  register_ao_field_system(world);
 }
 
 Status attach_ao_fields(World& world, const BakeFile& file) {

@@ -57,7 +57,7 @@ std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk);
 // Registers the "aofields" baker: one AOFC chunk per entity with AOFieldCaster, Mesh and
 // WorldTransform (entity order), each baked in its mesh frame after validating the entity's world
 // matrix (non-uniform scale is rejected naming the entity); the data is also attached to the
-// components.
+// components; and the "ao-field" system (ao_field_system.h). The one call the tool and games make.
 void register_ao_field(World& world);
 
 // Attaches the AOFC chunks of `file` to the AOFieldCaster components of the same entity index.

@@ -1,0 +1,28 @@
+// The runtime half of ambient occlusion fields: the system that gives AOFieldReceiver entities the
+// combined occlusion of the casters near them.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "penumbra/ecs/world.h"
+
+namespace penumbra {
+
+// Gives every AOFieldReceiver entity with a WorldTransform the occlusion at its origin (normal:
+// its receiver normal through the world matrix) from every baked caster (AOFieldCaster with data
+// and a WorldTransform; not the receiver itself), combined by 1 - prod (1 - A_i). A caster is
+// skipped for receivers at or beyond its falloff distance (r_far x its uniform scale from its
+// field centre), so casters far from every receiver cost one distance test each. Updates only
+// the receivers whose WorldTransform or AOFieldReceiver changed after tick `since`, or all of them
+// when any caster (its component or WorldTransform) changed or the number of baked casters
+// changed. Writes with World::patch. Returns the number of receivers updated.
+// Cost: O(casters + updated receivers x casters), ~60 ns per receiver and caster in range.
+std::size_t update_ao_field_receivers(World& world, std::uint64_t since);
+
+// Registers system "ao-field" in Phase::Lighting (reads WorldTransform, AOFieldCaster; writes
+// AOFieldReceiver), calling update_ao_field_receivers with the system's last-run tick.
+// register_ao_field() (ao_field_baker.h) calls it.
+void register_ao_field_system(World& world);
+
+}  // namespace penumbra

@@ -1,0 +1,92 @@
+// Ambient-occlusion field runtime (see ao_field_system.h): per receiver, the multiplicative
+// combination of the casters in range (Kontkanen & Laine 2005, section 3.3).
+#include "penumbra/ao_field/ao_field_system.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+
+#include "penumbra/ao_field/ao_field.h"
+#include "penumbra/ecs/transform.h"
+
+namespace penumbra {
+
+namespace {
+
+// A baked caster as this update sees it: the world-to-local matrix computed once.
+struct ActiveCaster {
+  const AOFieldData* data;
+  Entity entity;
+  glm::mat4 world_to_local;
+  glm::vec3 centre;  // field centre, world space
+  float reach;       // r_far in world units
+};
+
+// The system's memory between runs: how many casters were active (a removal changes it).
+struct AOFieldSystemState {
+  std::size_t casters = 0;
+};
+
+}  // namespace
+
+std::size_t update_ao_field_receivers(World& world, std::uint64_t since) {
+  std::vector<ActiveCaster> casters;
+  bool casters_changed = false;
+  world.view<AOFieldCaster, WorldTransform>().each([&](Entity e, AOFieldCaster& c, WorldTransform& wt) {
+    if (world.changed_tick<AOFieldCaster>(e) > since || world.changed_tick<WorldTransform>(e) > since)
+      casters_changed = true;
+    if (!c.data) return;
+    const glm::mat4& m = wt.matrix;
+    const float scale = glm::length(glm::vec3(m[0]));
+    const glm::mat4 inv = glm::inverse(m);
+    if (!(scale > 0.0f) || !std::isfinite(inv[0][0])) return;  // a degenerate transform casts nothing
+    casters.push_back({c.data.get(), e, inv, glm::vec3(m * glm::vec4(c.data->centre, 1.0f)), c.data->r_far * scale});
+  });
+  std::sort(casters.begin(), casters.end(),
+            [](const ActiveCaster& a, const ActiveCaster& b) { return a.entity.index < b.entity.index; });
+  auto& state = world.resource<AOFieldSystemState>();
+  if (state.casters != casters.size()) casters_changed = true;
+  state.casters = casters.size();
+
+  std::vector<Entity> receivers;
+  world.view<AOFieldReceiver, WorldTransform>().each([&](Entity e, AOFieldReceiver&, WorldTransform&) {
+    if (casters_changed || world.changed_tick<WorldTransform>(e) > since ||
+        world.changed_tick<AOFieldReceiver>(e) > since)
+      receivers.push_back(e);
+  });
+
+  for (Entity e : receivers) {
+    const glm::mat4& m = world.get<WorldTransform>(e).matrix;
+    const glm::vec3 x(m[3]);
+    const glm::vec3 nw = glm::mat3(m) * world.get<AOFieldReceiver>(e).normal;
+    const float len = glm::length(nw);
+    float open = 1.0f;  // prod (1 - A_i)
+    if (len > 0.0f && std::isfinite(len)) {
+      for (const ActiveCaster& c : casters) {
+        if (c.entity == e || !(glm::distance(x, c.centre) < c.reach)) continue;
+        const glm::vec3 xl(c.world_to_local * glm::vec4(x, 1.0f));
+        const glm::vec3 nl = glm::normalize(glm::mat3(c.world_to_local) * (nw / len));
+        open *= 1.0f - evaluate_local(*c.data, xl, nl);
+      }
+    }
+    AOFieldReceiver& r = world.patch<AOFieldReceiver>(e);
+    r.occlusion = std::clamp(1.0f - open, 0.0f, 1.0f);
+    r.updated_tick = world.tick();
+  }
+  return receivers.size();
+}
+
+void register_ao_field_system(World& world) {
+  SystemDesc desc;
+  desc.name = "ao-field";
+  desc.phase = Phase::Lighting;
+  desc.reads = {component_id<WorldTransform>(), component_id<AOFieldCaster>()};
+  desc.writes = {component_id<AOFieldReceiver>()};
+  desc.run = [](World& w, const SystemContext& ctx) { update_ao_field_receivers(w, ctx.last_run); };
+  world.add_system(std::move(desc));
+}
+
+}  // namespace penumbra
