@@ -179,6 +179,12 @@ float evaluate(const AOFieldData& field, const glm::mat4& caster_world, glm::vec
   return evaluate_local(field, xl, nl / len);
 }
 
+float hull_distance(const AOFieldData& field, glm::vec3 w) {
+  const float len = glm::length(w);
+  if (field.texels.empty() || field.resolution == 0 || !(len > 0.0f) || !std::isfinite(len)) return 0.0f;
+  return lookup(field, w / len).r0;
+}
+
 float combine_occlusion(std::span<const float> occlusions) {
   float open = 1.0f;  // prod (1 - A_i): stays in [0, 1], underflow only reaches 0
   for (float a : occlusions) open *= 1.0f - (a > 0.0f ? std::min(a, 1.0f) : 0.0f);  // NaN counts as 0

@@ -123,6 +123,11 @@ float evaluate(const AOFieldData& field, const glm::mat4& caster_world, glm::vec
 // The same with x and n already in the caster's mesh frame (n unit length).
 float evaluate_local(const AOFieldData& field, glm::vec3 x, glm::vec3 n);
 
+// The field's convex-hull distance r0 along direction w (mesh frame, any non-zero length),
+// bilinearly interpolated like evaluate_local: a point c + r w with r >= r0 is outside the hull.
+// 0 for an empty field. Cost: ~15 ns. Thread-safe.
+float hull_distance(const AOFieldData& field, glm::vec3 w);
+
 // Several casters at one receiver: 1 - prod (1 - A_i), each A_i clamped to [0, 1] (Kontkanen &
 // Laine's multiplicative rule). Never underflows below 0 or exceeds 1. Cost: O(count).
 float combine_occlusion(std::span<const float> occlusions);
