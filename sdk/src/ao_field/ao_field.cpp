@@ -76,6 +76,24 @@ double cap_occlusion_small(double cos_alpha, double cos_beta) {
   return std::clamp(a, 0.0, 1.0);
 }
 
+// The closed form tabulated over omega in [0, 4 pi] x cos(beta) in [-1, 1] for bilinear lookups
+// (the runtime's "table" option of docs/algorithms.md, P2). Built once, on first use.
+struct CapTable {
+  static constexpr int kSize = 128;  // intervals per axis
+  std::vector<float> values;         // (kSize + 1)^2, omega-major
+  CapTable() : values(static_cast<std::size_t>((kSize + 1) * (kSize + 1))) {
+    for (int i = 0; i <= kSize; ++i)
+      for (int j = 0; j <= kSize; ++j)
+        values[static_cast<std::size_t>(i * (kSize + 1) + j)] =
+            cap_occlusion(static_cast<float>(4.0 * kPiD * i / kSize), static_cast<float>(-1.0 + 2.0 * j / kSize));
+  }
+};
+
+const CapTable& cap_table() {
+  static const CapTable table;  // thread-safe initialisation
+  return table;
+}
+
 }  // namespace
 
 AOFieldCaster AOFieldCaster::preset(Preset preset) {
@@ -147,6 +165,22 @@ float cap_occlusion(float omega, float cos_beta) {
   return static_cast<float>(cap_occlusion_small(cos_alpha, cb));
 }
 
+float cap_occlusion_table(float omega, float cos_beta) {
+  constexpr float n = static_cast<float>(CapTable::kSize);
+  const CapTable& t = cap_table();
+  // NaN inputs land on the clamps' lower ends through the comparisons below.
+  float u = omega * (n / (4.0f * std::numbers::pi_v<float>));
+  float v = (cos_beta + 1.0f) * (0.5f * n);
+  u = u > 0.0f ? std::min(u, n) : 0.0f;
+  v = v > 0.0f ? std::min(v, n) : 0.0f;
+  const int i = std::min(static_cast<int>(u), CapTable::kSize - 1), j = std::min(static_cast<int>(v), CapTable::kSize - 1);
+  const float fu = u - static_cast<float>(i), fv = v - static_cast<float>(j);
+  const float* row0 = &t.values[static_cast<std::size_t>(i * (CapTable::kSize + 1) + j)];
+  const float* row1 = row0 + (CapTable::kSize + 1);
+  const float a0 = row0[0] + (row0[1] - row0[0]) * fv, a1 = row1[0] + (row1[1] - row1[0]) * fv;
+  return a0 + (a1 - a0) * fu;
+}
+
 float evaluate_local(const AOFieldData& field, glm::vec3 x, glm::vec3 n) {
   if (field.texels.empty() || field.resolution == 0) return 0.0f;
   const glm::vec3 p = x - field.centre;
@@ -163,7 +197,7 @@ float evaluate_local(const AOFieldData& field, glm::vec3 x, glm::vec3 n) {
   glm::vec3 axis = t.c0 - rc * w;
   const float len = glm::length(axis);
   axis = len > 0.0f ? axis / len : -w;
-  float a = cap_occlusion(omega, glm::dot(n, axis));
+  float a = cap_occlusion_table(omega, glm::dot(n, axis));
   if (r < t.r0) a = A0 + (a - A0) * std::pow(r / t.r0, field.inside_exponent);
   // Fade to zero between fade_start x r_far and r_far.
   const float fade = std::clamp((field.r_far - r) / ((1.0f - field.fade_start) * field.r_far), 0.0f, 1.0f);
