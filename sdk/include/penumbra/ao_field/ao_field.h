@@ -57,8 +57,9 @@ struct AOFieldCaster {
   static AOFieldCaster preset(Preset preset);
 };
 
-// Receiver component: an entity whose origin receives the occlusion of nearby casters (written
-// by the runtime; static surfaces are shaded per pixel by the renderer from the GPU data).
+// Receiver component: an entity whose origin receives the occlusion of nearby casters, written by
+// the ao-field system (ao_field_system.h). Per-pixel shadows on static surfaces need the
+// renderer's pass, which this module does not provide yet.
 struct AOFieldReceiver {
   glm::vec3 normal{0.0f, 1.0f, 0.0f};  // local-space normal of the receiving point
   float occlusion = 0.0f;              // combined occlusion in [0, 1] (0: open)
@@ -110,20 +111,21 @@ glm::vec3 cube_direction(std::uint32_t face, float s, float t);
 // (cos_beta = cos(beta)). Closed form (docs/algorithms.md, P2): with cos(alpha) = 1 - omega / 2pi
 // and s = sin^2(alpha): the cap above the horizon gives s cos(beta), below it 0, across it the
 // partial formula; omega > 2 pi uses A(alpha, beta) = 1 - A(pi - alpha, pi - beta). Inputs are
-// clamped to their ranges; the result is in [0, 1]. Cost: ~40 ns (acos, atan, sqrt in double).
+// clamped to their ranges; the result is in [0, 1]. Cost: ~55 ns (acos, atan, sqrt in double).
 // Thread-safe.
 float cap_occlusion(float omega, float cos_beta);
 
 // cap_occlusion from a 129 x 129 table (omega x cos(beta), built on first use, 66 KB) with
 // bilinear interpolation: what evaluate() uses. Largest difference from the closed form: 6.5e-4
-// (ao_field_test measures it). Cost: ~3 ns. Thread-safe.
+// (ao_field_test measures it). Cost: ~5 ns. Thread-safe.
 float cap_occlusion_table(float omega, float cos_beta);
 
 // The occlusion a caster's field casts at world point x with unit world normal n, given the
 // caster entity's current world matrix (rotation, translation, uniform scale): 0 beyond r_far,
-// the cap occlusion (table) of the fitted Omega and Upsilon (bilinear texel lookup within a face) outside
-// the hull, blended towards inside_occlusion inside it. Result in [0, 1]. Cost: one 4x4 inverse
-// plus ~60 ns; evaluate_local skips the inverse. Thread-safe.
+// the cap occlusion (table) of the fitted Omega and Upsilon (bilinear texel lookup within a
+// face) outside the hull, blended towards inside_occlusion inside it. Result in [0, 1]. Cost: one
+// 4x4 inverse plus evaluate_local, which the ao-field bench measures at ~50 ns on random
+// receivers. Thread-safe.
 float evaluate(const AOFieldData& field, const glm::mat4& caster_world, glm::vec3 x, glm::vec3 n);
 // The same with x and n already in the caster's mesh frame (n unit length).
 float evaluate_local(const AOFieldData& field, glm::vec3 x, glm::vec3 n);

@@ -17,7 +17,7 @@ namespace penumbra {
 // the receivers whose WorldTransform or AOFieldReceiver changed after tick `since`, or all of them
 // when any caster (its component or WorldTransform) changed or the number of baked casters
 // changed. Writes with World::patch. Returns the number of receivers updated.
-// Cost: O(casters + updated receivers x casters), ~60 ns per receiver and caster in range.
+// Cost: O(casters + updated receivers x casters), ~50 ns per receiver and caster in range.
 std::size_t update_ao_field_receivers(World& world, std::uint64_t since);
 
 // Registers system "ao-field" in Phase::Lighting (reads WorldTransform, AOFieldCaster; writes
