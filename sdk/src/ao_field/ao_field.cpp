@@ -21,14 +21,17 @@ Error bad_setting(std::string_view context, const std::string& what) {
 }
 
 // The face, and the in-face coordinates (s, t) in [-1, 1], of direction d (inverse of
-// cube_direction).
+// cube_direction). Plain scalars and selects (no run-time indexing of glm vectors, which
+// compiles to branches).
 void cube_coordinates(glm::vec3 d, std::uint32_t& face, float& s, float& t) {
-  const glm::vec3 ad = glm::abs(d);
-  const int m = ad.x >= ad.y && ad.x >= ad.z ? 0 : (ad.y >= ad.z ? 1 : 2);
-  face = static_cast<std::uint32_t>(2 * m + (d[m] < 0.0f ? 1 : 0));
-  const float inv = 1.0f / ad[m];
-  s = d[(m + 1) % 3] * inv;
-  t = d[(m + 2) % 3] * inv;
+  const float ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
+  const bool mx = ax >= ay && ax >= az, my = !mx && ay >= az;
+  const float major = mx ? d.x : (my ? d.y : d.z);
+  const float inv = 1.0f / std::abs(major);
+  // Axis m's in-face coordinates are axes (m + 1) % 3 and (m + 2) % 3.
+  s = (mx ? d.y : (my ? d.z : d.x)) * inv;
+  t = (mx ? d.z : (my ? d.x : d.y)) * inv;
+  face = (mx ? 0u : (my ? 2u : 4u)) + (major < 0.0f ? 1u : 0u);
 }
 
 // Bilinear interpolation of the texels of one face at direction w (clamped at the face's edge
