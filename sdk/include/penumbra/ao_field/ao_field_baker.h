@@ -7,8 +7,9 @@
 // Steps, per texel direction w (field origin: the area-weighted centroid of the surface, which
 // lies inside the convex hull):
 //   1. r0(w) = min over support directions u with u.w > 0 of h(u) / (u.w), h the support function
-//      of the vertices; u runs over 1024 Fibonacci directions plus every triangle normal (exact
-//      for convex meshes; slightly outside the hull otherwise, so r >= r0 is always outside).
+//      of the vertices; u runs over 1024 Fibonacci directions plus the triangle normals (the first
+//      65,536): exact for convex meshes, otherwise the boundary of a polytope slightly larger
+//      than the hull, so r >= r0 is always outside the hull.
 //   2. At radii r_k = r_lo (r_far / r_lo)^(k / (K - 1)) (denser near the hull; r_lo = r0 just
 //      outside the hull, at least 1% of the bounding radius), `rays_per_sample` scrambled Sobol'
 //      rays over the sphere give Omega_k = 4 pi hits / rays and Upsilon_k = normalize(sum of hit
