@@ -1,4 +1,5 @@
 #include "cli.h"
+#include "penumbra/ao_field/ao_field_baker.h"
 #include "penumbra/bake/vertex_ao.h"
 #include "penumbra/probe_grid/probe_system.h"
 #include "penumbra/scene/animation.h"
@@ -11,6 +12,7 @@ Status load_world(World& world, std::string_view scene, Preset preset) {
   register_scene_systems(world);
   register_vertex_ao(world);
   register_probe_grid(world);
+  register_ao_field(world);
 
   auto loaded = load_scene(world, scene);
   if (!loaded) return loaded.error();
