@@ -258,12 +258,7 @@ Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk) {
   const auto bad = [&](const std::string& what) {
     return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the ao fields");
   };
-  if (chunk.type != kChunkType)
-    return make_error(ErrorCode::InvalidArgument, context + ": this chunk is '" + fourcc_to_string(chunk.type) + "'");
-  if (chunk.version != kAOFieldChunkVersion)
-    return make_error(ErrorCode::Unsupported, context + ": version " + std::to_string(chunk.version) +
-                                                  ", this SDK reads version " + std::to_string(kAOFieldChunkVersion) +
-                                                  "; re-bake with this SDK");
+  PENUMBRA_TRY(check_chunk(chunk, kChunkType, kAOFieldChunkVersion, context));
   AOFieldData d;
   ByteReader r(chunk.payload, context);
   PENUMBRA_TRY(r.read(d.entity_index));
@@ -326,11 +321,8 @@ Status attach_ao_fields(World& world, const BakeFile& file) {
     if (chunk.type != kChunkType) continue;
     auto data = read_ao_field_chunk(chunk);
     if (!data) return data.error();
-    Entity e;
-    world.each<AOFieldCaster>([&](Entity c, AOFieldCaster&) {
-      if (c.index == data->entity_index) e = c;
-    });
-    if (!e)
+    const Entity e = world.find_entity(data->entity_index);
+    if (!world.has<AOFieldCaster>(e))
       return make_error(ErrorCode::NotFound, "chunk 'AOFC' (" + chunk.label + "): entity " +
                                                  std::to_string(data->entity_index) +
                                                  " has no AOFieldCaster in this World; re-bake the scene");

@@ -451,4 +451,16 @@ Status ByteReader::finish() const {
   return {};
 }
 
+Status check_chunk(const BakeChunk& chunk, std::uint32_t type, std::uint32_t version, std::string_view context) {
+  const std::string where(context);
+  if (chunk.type != type)
+    return make_error(ErrorCode::InvalidArgument,
+                      where + ": this chunk is '" + fourcc_to_string(chunk.type) + "', not '" + fourcc_to_string(type) + "'");
+  if (chunk.version != version)
+    return make_error(ErrorCode::Unsupported, where + ": version " + std::to_string(chunk.version) +
+                                                  ", this SDK reads version " + std::to_string(version) +
+                                                  "; re-bake with this SDK");
+  return {};
+}
+
 }  // namespace penumbra

@@ -58,12 +58,7 @@ BakeChunk write_vertex_ao_chunk(const VertexAoData& data) {
 
 Result<VertexAoData> read_vertex_ao_chunk(const BakeChunk& chunk) {
   const std::string context = "chunk 'VXAO'";
-  if (chunk.type != kChunkType)
-    return make_error(ErrorCode::InvalidArgument, context + ": this chunk is '" + fourcc_to_string(chunk.type) + "'");
-  if (chunk.version != kVertexAoChunkVersion)
-    return make_error(ErrorCode::Unsupported, context + ": version " + std::to_string(chunk.version) +
-                                                  ", this SDK reads version " + std::to_string(kVertexAoChunkVersion) +
-                                                  "; re-bake with this SDK");
+  PENUMBRA_TRY(check_chunk(chunk, kChunkType, kVertexAoChunkVersion, context));
   VertexAoData data;
   ByteReader r(chunk.payload, context);
   std::uint32_t count = 0;

@@ -547,3 +547,21 @@ TEST(World, AlignedViewMemoFollowsLayoutChanges) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+TEST(World, FindEntityChecksIndicesFromOutside) {
+  World w;
+  const Entity a = w.create();
+  EXPECT_EQ(w.find_entity(a.index), a);
+  EXPECT_FALSE(w.find_entity(a.index + 1000));  // never allocated
+  w.destroy(a);
+  EXPECT_FALSE(w.find_entity(a.index));  // free slot
+  const Entity b = w.create();           // reuses the slot under a new generation
+  EXPECT_EQ(w.find_entity(b.index), b);
+  EXPECT_NE(w.find_entity(b.index), a);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -319,12 +319,7 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   const auto bad = [&](const std::string& what) {
     return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the probe grid");
   };
-  if (chunk.type != kChunkType)
-    return make_error(ErrorCode::InvalidArgument, context + ": this chunk is '" + fourcc_to_string(chunk.type) + "'");
-  if (chunk.version != kProbeGridChunkVersion)
-    return make_error(ErrorCode::Unsupported, context + ": version " + std::to_string(chunk.version) +
-                                                  ", this SDK reads version " +
-                                                  std::to_string(kProbeGridChunkVersion) + "; re-bake with this SDK");
+  PENUMBRA_TRY(check_chunk(chunk, kChunkType, kProbeGridChunkVersion, context));
   ProbeGridData data;
   ByteReader r(chunk.payload, context);
   std::uint32_t order = 0, sampling = 0;

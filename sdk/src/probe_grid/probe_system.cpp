@@ -112,12 +112,8 @@ Status attach_probe_grids(World& world, const BakeFile& file) {
     if (chunk.type != kChunkType) continue;
     auto data = read_probe_grid_chunk(chunk);
     if (!data) return data.error();
-    // The grid entity with the chunk's index (a look-up that is safe for any stored index).
-    Entity e;
-    world.each<IrradianceProbeGrid>([&](Entity g, IrradianceProbeGrid&) {
-      if (g.index == data->entity_index) e = g;
-    });
-    if (!e)
+    const Entity e = world.find_entity(data->entity_index);
+    if (!world.has<IrradianceProbeGrid>(e))
       return make_error(ErrorCode::NotFound, "chunk 'PRBG' (" + chunk.label + "): entity " +
                                                  std::to_string(data->entity_index) +
                                                  " has no IrradianceProbeGrid in this World; re-bake the scene");

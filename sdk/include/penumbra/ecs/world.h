@@ -326,6 +326,10 @@ class World {
   // The handle of the alive entity with this index (for code that stores indices).
   // Precondition: an entity with this index is alive.
   Entity handle(std::uint32_t index) const { return Entity{index, slots_[index]}; }
+  // As handle(), for indices from untrusted places (files): null when no alive entity has it.
+  Entity find_entity(std::uint32_t index) const {
+    return index < slots_.size() && (slots_[index] & kDeadBit) == 0 ? Entity{index, slots_[index]} : Entity::null();
+  }
 
   // --- Components (T: a movable object type) ------------------------------------------------
   // Constructs T(args...) (aggregates too), or replaces the present one; stamps the current tick.
