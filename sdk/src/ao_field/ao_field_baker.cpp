@@ -57,12 +57,8 @@ std::string caster_context(World& world, Entity e) {
 }
 
 std::vector<Entity> caster_entities(World& world) {
-  std::vector<Entity> out;
-  world.each<AOFieldCaster, Mesh, WorldTransform>(
-      [&](Entity e, AOFieldCaster&, Mesh& m, WorldTransform&) {
-        if (m.data) out.push_back(e);
-      });
-  std::sort(out.begin(), out.end(), [](Entity a, Entity b) { return a.index < b.index; });
+  std::vector<Entity> out = world.view<AOFieldCaster, Mesh, WorldTransform>().sorted_entities();
+  std::erase_if(out, [&](Entity e) { return !world.get<Mesh>(e).data; });
   return out;
 }
 

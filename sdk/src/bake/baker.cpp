@@ -17,14 +17,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-template <class T>
-std::vector<Entity> sorted_entities(World& world) {
-  std::vector<Entity> out;
-  world.each<T>([&](Entity e, T&) { out.push_back(e); });
-  std::sort(out.begin(), out.end(), [](Entity a, Entity b) { return a.index < b.index; });
-  return out;
-}
-
 }  // namespace
 
 const char* to_string(Preset preset) {
@@ -60,7 +52,7 @@ const Baker* BakerRegistry::find(std::string_view name) const {
 }
 
 void hash_scene(World& world, Hasher& h) {
-  for (Entity e : sorted_entities<Mesh>(world)) {
+  for (Entity e : world.view<Mesh>().sorted_entities()) {
     h.add(e.index);
     const Mesh& mesh = world.get<Mesh>(e);
     if (mesh.data) {
@@ -79,7 +71,7 @@ void hash_scene(World& world, Hasher& h) {
       if (m->base_color_texture) h.add(m->base_color_texture->rgba8);
     }
   }
-  for (Entity e : sorted_entities<Light>(world)) {
+  for (Entity e : world.view<Light>().sorted_entities()) {
     h.add(e.index);
     const Light& l = world.get<Light>(e);
     h.add(l.type);

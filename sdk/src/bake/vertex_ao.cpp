@@ -22,11 +22,11 @@ constexpr std::uint32_t kChunkType = fourcc("VXAO");
 
 // The static meshes to bake, in entity-index order (deterministic whatever the pool order).
 std::vector<Entity> static_meshes(World& world) {
-  std::vector<Entity> out;
-  world.each<Static, Mesh, WorldTransform>([&](Entity e, Static&, Mesh& m, WorldTransform&) {
-    if (m.data && !m.data->positions.empty()) out.push_back(e);
+  std::vector<Entity> out = world.view<Static, Mesh, WorldTransform>().sorted_entities();
+  std::erase_if(out, [&](Entity e) {
+    const Mesh& m = world.get<Mesh>(e);
+    return !m.data || m.data->positions.empty();
   });
-  std::sort(out.begin(), out.end(), [](Entity a, Entity b) { return a.index < b.index; });
   return out;
 }
 

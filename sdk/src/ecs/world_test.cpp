@@ -565,3 +565,25 @@ TEST(World, FindEntityChecksIndicesFromOutside) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+TEST(World, SortedEntitiesFollowIndicesNotPoolHistory) {
+  World w;
+  std::vector<Entity> es;
+  for (int i = 0; i < 10; ++i) es.push_back(w.create());
+  // Add in reverse, then remove and re-add one, so the pool order is scrambled.
+  for (int i = 9; i >= 0; --i) w.add<Position>(es[i]);
+  w.remove<Position>(es[9]);
+  w.add<Position>(es[9]);
+  for (int i = 0; i < 10; i += 2) w.add<Velocity>(es[i]);
+  const std::vector<Entity> all = w.view<Position>().sorted_entities();
+  EXPECT_EQ(all, es);
+  const std::vector<Entity> both = w.view<Velocity, Position>().sorted_entities();
+  ASSERT_EQ(both.size(), 5u);
+  for (std::size_t i = 0; i < both.size(); ++i) EXPECT_EQ(both[i], es[2 * i]);
+}
+
+}  // namespace
+}  // namespace penumbra

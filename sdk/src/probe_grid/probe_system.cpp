@@ -157,11 +157,7 @@ namespace {
 
 // The grids to bake, in entity-index order.
 std::vector<Entity> grid_entities(World& world) {
-  std::vector<Entity> out;
-  world.each<IrradianceProbeGrid, WorldTransform>(
-      [&](Entity e, IrradianceProbeGrid&, WorldTransform&) { out.push_back(e); });
-  std::sort(out.begin(), out.end(), [](Entity a, Entity b) { return a.index < b.index; });
-  return out;
+  return world.view<IrradianceProbeGrid, WorldTransform>().sorted_entities();
 }
 
 std::string grid_context(World& world, Entity e) {

@@ -27,6 +27,7 @@
 // work out to the job system over component references they fetched beforehand).
 #pragma once
 
+#include <algorithm>
 #include <cassert>
 #include <cstddef>
 #include <cstdint>
@@ -540,6 +541,15 @@ class View {
     std::size_t n = 0;
     each([&n](Entity, T&...) { ++n; });
     return n;
+  }
+
+  // The entities with all of T... in increasing index order: an order that does not depend on the
+  // history of the pools, for work that must be deterministic (bakes, input hashes).
+  std::vector<Entity> sorted_entities() {
+    std::vector<Entity> out;
+    each([&out](Entity e, T&...) { out.push_back(e); });
+    std::sort(out.begin(), out.end(), [](Entity a, Entity b) { return a.index < b.index; });
+    return out;
   }
 
  private:
