@@ -9,6 +9,7 @@
 #include "penumbra/bake/baker.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/ecs/world.h"
+#include "load_world.h"
 
 namespace penumbra::cli {
 
@@ -39,11 +40,6 @@ std::optional<unsigned long long> parse_count(std::string_view option, const std
 
 // A progress bar on stderr when it is a terminal; nothing in a pipe.
 ProgressCallback terminal_progress();
-
-// Loads `builtin:NAME` or a glTF path into `world`, registers every module's systems and bakers and
-// runs one update so that world transforms and poses are current. Built-in scenes get a default
-// probe grid with the settings of `preset`.
-Status load_world(World& world, std::string_view scene, Preset preset = Preset::Medium);
 
 int cmd_info(Args args);
 int cmd_bake(Args args);

@@ -1,4 +1,4 @@
-#include "cli.h"
+#include "load_world.h"
 #include "penumbra/ao_field/ao_field_baker.h"
 #include "penumbra/bake/vertex_ao.h"
 #include "penumbra/probe_grid/probe_system.h"
@@ -7,13 +7,16 @@
 
 namespace penumbra::cli {
 
-Status load_world(World& world, std::string_view scene, Preset preset) {
+void register_modules(World& world) {
   // Every module the tool links registers its systems and bakers.
   register_scene_systems(world);
   register_vertex_ao(world);
   register_probe_grid(world);
   register_ao_field(world);
+}
 
+Status load_world(World& world, std::string_view scene, Preset preset) {
+  register_modules(world);
   auto loaded = load_scene(world, scene);
   if (!loaded) return loaded.error();
   world.update(0.0);

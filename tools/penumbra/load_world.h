@@ -1,0 +1,21 @@
+// Setting up a World with every module the tools link: shared by the penumbra tool and the editor
+// (library penumbra_load_world), so that a module registered here is known to both.
+#pragma once
+
+#include <string_view>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/core/result.h"
+#include "penumbra/ecs/world.h"
+
+namespace penumbra::cli {
+
+// Registers every linked module's systems and bakers with `world` (once per World).
+void register_modules(World& world);
+
+// Loads `builtin:NAME` or a glTF path into `world`, registers every module's systems and bakers and
+// runs one update so that world transforms and poses are current. Built-in scenes get a default
+// probe grid with the settings of `preset`.
+Status load_world(World& world, std::string_view scene, Preset preset = Preset::Medium);
+
+}  // namespace penumbra::cli
