@@ -1,4 +1,9 @@
 // A swapchain for a window surface (the editor and the samples), on the shared Device.
+//
+// One frame in flight: acquire() waits for the previous present()'s submission. An sRGB surface
+// format is preferred (the renderer's shader encodes sRGB itself on UNORM targets). Not
+// thread-safe. Changes to the draft: out_of_date() tells a failed acquire/present that needs
+// resize() from other errors (InvalidInput with "out of date" in the message).
 #pragma once
 
 #include <cstdint>
@@ -31,7 +36,10 @@ class Swapchain {
   Result<RenderTarget> acquire();
   // Submits `cmd` (waiting for the acquire, signalling for present) and presents the image.
   Status present(VkCommandBuffer cmd);
+  // Recreates the images for the new window size (waits for the device to be idle).
   Status resize(std::uint32_t width, std::uint32_t height);
+  // True after acquire() or present() found the surface out of date (or suboptimal) until resize().
+  bool out_of_date() const;
   VkFormat format() const;
   VkExtent2D extent() const;
   std::uint32_t image_count() const;

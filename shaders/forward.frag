@@ -1,0 +1,178 @@
+#version 450
+// Forward pass, fragment stage: Lambertian shading with
+//   direct light   directional / point / spot (KHR_lights_punctual, as bake/light_sampling.h) and
+//                  rect lights as Lambertian emitters of intensity L A cos(theta_l) from their centre,
+//                  each with a PCF-filtered shadow map;
+//   indirect light the probe grid's irradiance per pixel (Kontkanen & Laine 2006; the thesis
+//                  section 3.2): trilinear SH from 3D textures, evaluated as core/sh.h;
+//   AO             the per-vertex AO attribute (vertex AO, pose-AO);
+//   emission       the material's emitted radiance;
+// then exposure, the ACES filmic fit of Narkowicz (2015) and, for UNORM targets, the sRGB transfer.
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+
+layout(std430, set = 0, binding = PENUMBRA_BINDING_LIGHTS) readonly buffer Lights { GpuLight lights[]; };
+layout(set = 0, binding = PENUMBRA_BINDING_SHADOW_MAP) uniform sampler2DArrayShadow shadow_map;
+layout(set = 0, binding = PENUMBRA_BINDING_PROBE_SH) uniform sampler3D probe_sh[PENUMBRA_PROBE_TEXTURES];
+layout(set = 0, binding = PENUMBRA_BINDING_PROBE_VALIDITY) uniform sampler3D probe_validity;
+layout(set = 1, binding = PENUMBRA_BINDING_BASE_COLOR) uniform sampler2D base_color_texture;
+
+layout(location = 0) in vec3 in_world;
+layout(location = 1) in vec3 in_normal;
+layout(location = 2) in vec2 in_uv;
+layout(location = 3) in float in_ao;
+
+layout(location = 0) out vec4 out_color;
+
+const float kPi = 3.14159265358979323846;
+
+// 3x3 PCF over the hardware 2x2 comparison filter: the lit fraction at world point p.
+float shadow_factor(uint layer, vec3 p) {
+  vec4 clip = shadow_matrices[layer] * vec4(p, 1.0);
+  if (clip.w <= 0.0) return 1.0;
+  vec3 ndc = clip.xyz / clip.w;
+  vec2 uv = ndc.xy * 0.5 + 0.5;
+  if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || ndc.z > 1.0) return 1.0;
+  float depth = ndc.z - frame.shadow_params.y;
+  float texel = frame.shadow_params.x;
+  float lit = 0.0;
+  for (int y = -1; y <= 1; ++y)
+    for (int x = -1; x <= 1; ++x)
+      lit += texture(shadow_map, vec4(uv + vec2(x, y) * texel, float(layer), depth));
+  return lit / 9.0;
+}
+
+// The cube face of a point/rect light's six shadow layers that sees direction d (from the light).
+uint cube_face(vec3 d) {
+  vec3 a = abs(d);
+  if (a.x >= a.y && a.x >= a.z) return d.x > 0.0 ? 0u : 1u;
+  if (a.y >= a.z) return d.y > 0.0 ? 2u : 3u;
+  return d.z > 0.0 ? 4u : 5u;
+}
+
+// Irradiance E (W/m^2 per channel) at p with unit normal n from every light, shadowed.
+vec3 direct_irradiance(vec3 p, vec3 n) {
+  vec3 e = vec3(0.0);
+  bool shadows = (frame.params.z & PENUMBRA_FLAG_SHADOWS) != 0u;
+  vec3 p_offset = p + n * frame.shadow_params.z;  // normal offset against acne
+  for (uint i = 0u; i < frame.params.y; ++i) {
+    GpuLight light = lights[i];
+    uint type = uint(light.position_type.w);
+    vec3 l;
+    vec3 power = light.color.rgb;
+    if (type == PENUMBRA_LIGHT_DIRECTIONAL) {
+      l = -light.direction_range.xyz;
+    } else {
+      vec3 d = light.position_type.xyz - p;
+      float dist2 = max(dot(d, d), 1e-12);
+      float dist = sqrt(dist2);
+      l = d / dist;
+      float falloff = 1.0 / dist2;
+      if (light.direction_range.w > 0.0) {  // KHR_lights_punctual range window
+        float r = dist / light.direction_range.w;
+        float w = clamp(1.0 - r * r * r * r, 0.0, 1.0);
+        falloff *= w * w;
+      }
+      float cos_l = dot(light.direction_range.xyz, -l);
+      if (type == PENUMBRA_LIGHT_SPOT) {  // squared linear ramp in cos between outer and inner
+        float scale = 1.0 / max(0.001, light.cone_shadow.y - light.cone_shadow.x);
+        float a = clamp((cos_l - light.cone_shadow.x) * scale, 0.0, 1.0);
+        falloff *= a * a;
+      } else if (type == PENUMBRA_LIGHT_RECT) {  // Lambertian emitter: I = L A cos(theta_l)
+        falloff *= light.color.w * max(cos_l, 0.0);
+      }
+      power *= falloff;
+    }
+    float cos_x = dot(n, l);
+    if (cos_x <= 0.0 || all(equal(power, vec3(0.0)))) continue;
+    float visible = 1.0;
+    if (shadows && light.cone_shadow.z >= 0.0) {
+      uint layer = uint(light.cone_shadow.z);
+      if (light.cone_shadow.w > 1.0) layer += cube_face(p - light.position_type.xyz);
+      visible = shadow_factor(layer, p_offset);
+    }
+    e += power * (cos_x * visible);
+  }
+  return e;
+}
+
+// The probe grid's texture coordinate at p (probe_grid.h: node centres at texel centres).
+vec3 probe_uvw(vec3 p) {
+  vec3 g = clamp((frame.probe_world_to_grid * vec4(p, 1.0)).xyz, 0.0, 1.0);
+  vec3 res = frame.probe_resolution.xyz;
+  return (g * (res - 1.0) + 0.5) / res;
+}
+
+// E(p, n) = the trilinearly interpolated SH expansion evaluated at n, clamped at 0 (evaluate() in
+// probe_grid.cpp; basis and signs of core/sh.h).
+vec3 probe_irradiance(vec3 p, vec3 n) {
+  vec3 uvw = probe_uvw(p);
+  float s[28];
+  int textures = frame.params.w == 3u ? 7 : 3;
+  for (int t = 0; t < 7; ++t) {
+    vec4 v = t < textures ? texture(probe_sh[t], uvw) : vec4(0.0);
+    s[4 * t] = v.x; s[4 * t + 1] = v.y; s[4 * t + 2] = v.z; s[4 * t + 3] = v.w;
+  }
+  const float kY0 = 0.28209479177387814, kY1 = 0.48860251190291992;
+  const float kY2a = 1.09254843059207907, kY2b = 0.31539156525252005, kY2c = 0.54627421529603959;
+  float y[9] = float[9](kY0, -kY1 * n.y, kY1 * n.z, -kY1 * n.x, kY2a * n.x * n.y, -kY2a * n.y * n.z,
+                        kY2b * (3.0 * n.z * n.z - 1.0), -kY2a * n.x * n.z, kY2c * (n.x * n.x - n.y * n.y));
+  int count = frame.params.w == 3u ? 9 : 4;
+  vec3 e = vec3(0.0);
+  for (int c = 0; c < count; ++c) e += vec3(s[3 * c], s[3 * c + 1], s[3 * c + 2]) * y[c];
+  return max(e, vec3(0.0));
+}
+
+// ACES filmic curve, Narkowicz 2015 ("ACES Filmic Tone Mapping Curve"), per channel, to [0, 1].
+vec3 tone_map(vec3 x) {
+  return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
+
+vec3 srgb_encode(vec3 c) {
+  return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, greaterThan(c, vec3(0.0031308)));
+}
+
+void main() {
+  vec3 n = normalize(in_normal);
+  if (!gl_FrontFacing) n = -n;  // shade the side the camera sees
+  vec3 albedo = push.base_color.rgb * texture(base_color_texture, in_uv).rgb;
+  bool has_probe = (frame.params.z & PENUMBRA_FLAG_PROBE_GRID) != 0u;
+  float ao = in_ao;
+  uint view = frame.params.x;
+
+  vec3 color;
+  bool scene_referred = true;  // radiance to expose and tone map, or data to show as is
+  if (view == PENUMBRA_VIEW_ALBEDO) {
+    color = albedo;
+    scene_referred = false;
+  } else if (view == PENUMBRA_VIEW_AO) {
+    color = vec3(ao);
+    scene_referred = false;
+  } else if (view == PENUMBRA_VIEW_VALIDITY) {
+    // Red (no valid samples) -> green (fully valid); blue where no grid is bound.
+    float v = has_probe ? texture(probe_validity, probe_uvw(in_world)).r : 0.0;
+    color = has_probe ? vec3(1.0 - v, v, 0.0) : vec3(0.0, 0.0, 1.0);
+    scene_referred = false;
+  } else if (view == PENUMBRA_VIEW_POSITION) {
+    color = in_world;
+    scene_referred = false;
+  } else if (view == PENUMBRA_VIEW_NORMAL) {
+    color = n;
+    scene_referred = false;
+  } else if (view == PENUMBRA_VIEW_IRRADIANCE) {
+    color = has_probe ? probe_irradiance(in_world, n) : vec3(0.0);
+  } else {
+    vec3 direct = (view == PENUMBRA_VIEW_INDIRECT) ? vec3(0.0) : direct_irradiance(in_world, n);
+    vec3 indirect = (view == PENUMBRA_VIEW_DIRECT || !has_probe) ? vec3(0.0) : probe_irradiance(in_world, n) * ao;
+    color = albedo / kPi * (direct + indirect);
+    if (view == PENUMBRA_VIEW_LIT) color += push.emissive.rgb;
+  }
+
+  uint flags = frame.params.z;
+  if ((flags & PENUMBRA_FLAG_LINEAR) == 0u) {
+    if (scene_referred) color = tone_map(color * frame.camera_exposure.w);
+    color = clamp(color, 0.0, 1.0);
+    if ((flags & PENUMBRA_FLAG_ENCODE_SRGB) != 0u) color = srgb_encode(color);
+  }
+  out_color = vec4(color, 1.0);
+}
