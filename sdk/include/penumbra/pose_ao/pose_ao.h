@@ -1,0 +1,165 @@
+// Skinned pose-AO (P5): ambient occlusion for animated characters in any pose, after Kontkanen &
+// Aila 2006, "Ambient Occlusion for Animated Characters" (EGSR; the thesis, section 4.2).
+//
+// Per vertex v a linear map from the pose parameters theta to AO is learnt from ray-traced
+// reference poses: A_v(theta) = clamp(t_v . theta_local(v), 0, 1), where theta_local(v) =
+// [1, f_j1 .. f_jk] holds the parameters of the k <= kPoseAOMaxLocality joints that matter for v
+// (its locality). The bake is in pose_ao_baker.h, the per-frame system in pose_ao_system.h.
+//
+// Pose parameters (the 9-entry choice of the thesis' reconstruction, algorithms.md P5). With M_j
+// the skinning matrix of joint j (SkinPose::joint_matrices, the identity in the bind pose) and
+// R_j the rotation of its upper 3x3 (columns normalised),
+//   f_j = R_p^T R_j - I   (9 numbers, column-major), p = the joint's parent joint,
+//   f_j = R_j - I         for a root joint (no parent among the skin's joints).
+// R_p^T R_j is the joint's local rotation relative to its bind local rotation, expressed in the
+// parent's bind frame: a fixed change of basis of the "R R_bind^T - I" of the joint's local
+// rotation, so the linear model is the same, and it can be computed from SkinPose alone (no
+// hierarchy walk at runtime). Zero in the bind pose; bounded by 2 per entry in any pose.
+// Translations (a hip bob, root motion) are not parameters: self-occlusion ignores root motion.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/core/result.h"
+
+namespace penumbra {
+
+inline constexpr std::uint32_t kPoseAOMaxLocality = 4;    // joints per vertex, at most
+inline constexpr std::uint32_t kPoseFeaturesPerJoint = 9;  // entries of R_p^T R_j - I
+// Coefficients of a vertex whose locality has `joints` joints: the bias plus 9 per joint.
+constexpr std::uint32_t pose_ao_coefficients(std::uint32_t joints) { return 1 + kPoseFeaturesPerJoint * joints; }
+
+struct PoseAOData;
+
+// The range of a joint's local rotation, relative to its bind local rotation, as a rotation
+// vector (axis x angle, radians, in the joint's bind local frame): each component in [min, max].
+struct JointRange {
+  glm::vec3 min{0.0f};
+  glm::vec3 max{0.0f};
+};
+
+// Authoring component, on an entity with Mesh (joints + weights) and Skin.
+struct SkinnedPoseAO {
+  // Random reference poses: each joint's rotation drawn independently and uniformly within its
+  // range, so that the effects of different joints are not confounded (the thesis uses ~1000).
+  std::uint32_t reference_poses = 250;
+  // Frames of each animation clip that targets the skin's joints, added to the reference poses
+  // (uniform in time, at the middle of each of clip_poses equal intervals).
+  std::uint32_t clip_poses = 16;
+  // Cosine-weighted rays per vertex per pose (scrambled Sobol', the same scramble in every pose so
+  // that pose-to-pose differences are not swamped by noise).
+  std::uint32_t rays_per_vertex = 64;
+  // Joints per vertex (0..kPoseAOMaxLocality): its skinning joints by weight, then the joints
+  // whose bones pass nearest to it in the bind pose; joints that never move are skipped.
+  // 0 gives the pose-averaged AO.
+  std::uint32_t locality = 4;
+  // Ridge strength per pose: t_v minimises sum_p (t . theta_p - a_p)^2 + lambda P |t_1..|^2 over the
+  // P poses (the bias t_0 is not regularised).
+  float lambda = 1e-3f;
+  // Ranges from the clips are widened by this fraction of their width on each side (a joint whose
+  // clip range is empty stays fixed).
+  float range_margin = 0.25f;
+  // A character without clips (and without joint_ranges): every joint moves within +-default_range
+  // radians about each axis.
+  float default_range = 0.5f;
+  // Ranges set by hand, one per skin joint (empty: from the clips as above).
+  std::vector<JointRange> joint_ranges;
+
+  // The baked data (set by the baker or attach_pose_ao()); null until baked.
+  std::shared_ptr<const PoseAOData> data;
+
+  // Quality presets: draft 100 random poses, 32 rays, 3 joints; medium 250 poses, 64 rays, 4
+  // joints; high 1000 poses, 128 rays, 4 joints. Each adds 16 frames per clip.
+  static SkinnedPoseAO preset(Preset preset);
+};
+
+// Checks the settings against a skin of `joint_count` joints. InvalidArgument naming `context`
+// (e.g. "pose-AO 'body' (entity 12)"), the field and the fix: zero poses in total, zero rays,
+// locality above kPoseAOMaxLocality, a negative or non-finite lambda, margin or default range,
+// joint_ranges of the wrong length or with min > max or non-finite bounds. O(joints). Thread-safe.
+Status validate_pose_ao(const SkinnedPoseAO& settings, std::size_t joint_count, std::string_view context);
+
+// Vertices that share a joint set share one factorisation at bake and one parameter gather at
+// runtime. Coefficient c of the group's vertex i is coefficients[coefficient_offset + c * count +
+// i] (structure of arrays: the runtime loop runs over i).
+struct PoseAOGroup {
+  std::array<std::uint16_t, kPoseAOMaxLocality> joints{};  // skin joint indices, ascending
+  std::uint32_t joint_count = 0;
+  std::uint32_t first = 0;   // into PoseAOData::vertex_order
+  std::uint32_t count = 0;   // vertices
+  std::uint64_t coefficient_offset = 0;
+  std::uint32_t coefficient_count() const { return pose_ao_coefficients(joint_count); }
+};
+
+// Baked data of one skinned mesh.
+struct PoseAOData {
+  std::uint32_t entity_index = 0;  // Entity::index of the mesh at bake time
+  std::uint32_t vertex_count = 0;
+  std::uint32_t joint_count = 0;
+  std::vector<std::int32_t> joint_parents;  // per skin joint: its parent joint, -1 for a root
+  std::vector<PoseAOGroup> groups;          // in the order of their joint sets
+  std::vector<std::uint32_t> vertex_order;  // group vertices, concatenated: mesh vertex indices
+  std::vector<float> coefficients;          // see PoseAOGroup
+  // Baselines by the same bake: AO of the bind pose and AO averaged over the reference poses.
+  std::vector<float> bind_ao, mean_ao;
+
+  // How it was baked (for reports).
+  std::uint32_t poses = 0;             // reference poses fitted (random + clip frames)
+  std::uint32_t rays_per_vertex = 0;
+  std::uint32_t requested_locality = 0;
+  std::uint32_t locality = 0;          // < requested when there were fewer poses than coefficients
+  float lambda = 0.0f;
+  float training_rmse = 0.0f;          // of the clamped model over the reference poses
+
+  std::size_t feature_count() const { return std::size_t{joint_count} * kPoseFeaturesPerJoint; }
+  std::uint64_t bytes() const;  // memory held by the arrays
+  // Stored bytes per vertex: its coefficients as 16-bit halves plus its 4-byte vertex index, with
+  // the group table spread over the vertices.
+  double bytes_per_vertex() const;
+};
+
+// The pose parameters f (9 per joint, joint-major; see above) of a pose given by its skinning
+// matrices. parents[j] < j is not required; -1 marks a root. Precondition: parents.size() ==
+// joint_matrices.size(). out is resized to 9 x joints. Cost: ~60 flops per joint. Thread-safe.
+void pose_features(std::span<const std::int32_t> parents, std::span<const glm::mat4> joint_matrices,
+                   std::vector<float>& out);
+
+// AO of every vertex for pose features `features` (from pose_features): ao[v] = clamp(t_v .
+// theta_local(v), 0, 1), group by group in a loop the compiler vectorises. Preconditions:
+// features.size() == data.feature_count(), ao.size() == data.vertex_count. The same math as the
+// vertex shader. Cost: about (1 + 9 k) multiply-adds per vertex (the pose-ao bench measures the ns
+// per vertex). Thread-safe (writes only `ao`).
+void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao);
+
+// GPU layout for the vertex-shader path. Per vertex (in mesh vertex order) `coefficients` holds
+// kGpuStride floats: [0] the bias, [1 + 9 k + e] entry e of joint slot k (zero for unused slots),
+// and `joints` holds 4 joint indices; an unused slot names joint `joint_count`, whose 9 features
+// in the per-frame theta buffer are zero (no branch in the shader). Per frame the shader reads
+// the theta buffer of (joint_count + 1) x 9 floats (pack_pose_ao_theta) and computes
+//   ao = clamp(c[0] + sum_k sum_e c[1 + 9 k + e] theta[9 joints[k] + e], 0, 1).
+struct PoseAOGpuBuffers {
+  static constexpr std::uint32_t kGpuStride = pose_ao_coefficients(kPoseAOMaxLocality);  // 37
+  std::uint32_t vertex_count = 0;
+  std::uint32_t joint_count = 0;
+  std::vector<float> coefficients;        // vertex_count x kGpuStride
+  std::vector<std::uint32_t> joints;      // vertex_count x 4
+};
+// Packs the data into that layout. Cost: O(vertices x 37). Thread-safe.
+PoseAOGpuBuffers pack_pose_ao_gpu(const PoseAOData& data);
+// The per-frame theta buffer: the features followed by 9 zeros. Thread-safe.
+void pack_pose_ao_theta(std::span<const float> features, std::vector<float>& out);
+// The shader's arithmetic on the CPU, for one vertex (tests compare it with evaluate_pose_ao).
+float evaluate_pose_ao_gpu(const PoseAOGpuBuffers& buffers, std::span<const float> theta, std::uint32_t vertex);
+
+}  // namespace penumbra

@@ -1,0 +1,151 @@
+// The pose-AO baker (Kontkanen & Aila 2006; the thesis, section 4.2): reference poses, ray-traced
+// per-vertex self-occlusion of each posed mesh, and the per-vertex ridge regression; the "PSAO"
+// .pbake chunk.
+//
+// Steps (bake_pose_ao runs them; the pose-ao bench calls them one by one to sweep the settings):
+//   1. make_pose_rig: the skin's joint hierarchy, bind local transforms (from the inverse bind
+//      matrices) and per-joint rotation ranges from the clips that animate the joints.
+//   2. reference poses: random ones (each joint independently within its range) and clip frames.
+//   3. PoseAOTracer: the posed mesh alone in an Embree BVH refitted per pose; per vertex
+//      `rays_per_vertex` cosine-weighted rays from a scrambled Sobol' net, AO = unoccluded fraction.
+//   4. fit_pose_ao: per vertex ridge regression from the parameters of its joints to its AO.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "penumbra/bake/pbake.h"
+#include "penumbra/core/jobs.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/pose_ao.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+
+inline constexpr std::uint32_t kPoseAOChunkVersion = 1;
+
+// A pose: the local transform of every skin joint.
+using Pose = std::vector<Transform>;
+
+// What the bake needs to know about a skinned mesh's skeleton.
+struct PoseRig {
+  std::vector<std::int32_t> parents;       // nearest ancestor among the skin's joints, -1 for a root
+  std::vector<glm::mat4> offsets;          // fixed: parent joint's frame (mesh frame for a root) -> the joint's parent node
+  std::vector<glm::mat4> inverse_bind;
+  Pose bind;                               // bind local transforms
+  std::vector<glm::vec3> bind_positions;   // joint origins in the bind pose, mesh frame
+  std::vector<JointRange> clip_ranges;     // rotation ranges seen in the clips (unwidened)
+  std::vector<bool> animated;              // some clip rotates the joint
+  std::vector<std::uint32_t> order;        // joints with parents before children
+  // The clips that animate the skin's joints, and per clip its (channel, joint) pairs (channels on
+  // other nodes are ignored).
+  std::vector<const AnimationClip*> clips;
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> clip_channels;
+
+  std::size_t joint_count() const { return parents.size(); }
+};
+
+// Builds the rig of the skinned mesh `mesh_entity` (Mesh, Skin, WorldTransform; joints with
+// Transforms and WorldTransforms: run the transform system first). The clips are those of every
+// Animator whose clip targets a joint of the skin (sampled at 64 times per clip plus its keys for
+// the ranges). Errors (InvalidInput) name `context`: no Skin, joints without transforms, an
+// inverse bind matrix that is singular or not finite. Cost: O(joints x depth + clip samples).
+// The rig points into the Animators' clips: keep the World's clips alive while using it.
+Result<PoseRig> make_pose_rig(World& world, Entity mesh_entity, std::string_view context);
+
+// The ranges the bake samples: settings.joint_ranges when set; else the clip ranges widened by
+// range_margin (fixed joints stay fixed); else (no clip at all) +-default_range on every axis.
+std::vector<JointRange> pose_ranges(const PoseRig& rig, const SkinnedPoseAO& settings);
+
+// Random pose `index` of the stream `seed`: joint j's local rotation is bind rotation x
+// exp(r), r uniform in ranges[j] (Rng::stream(seed, index)); translations and scales stay at bind.
+Pose random_pose(const PoseRig& rig, std::span<const JointRange> ranges, std::uint64_t seed, std::uint64_t index);
+// The pose of clip `clip` (an index into rig.clips) at time t (clamped into the clip): its channels
+// on the skin's joints over the bind pose.
+Pose clip_pose(const PoseRig& rig, std::size_t clip, float t);
+
+// Skinning matrices of a pose (what SkinPose::joint_matrices holds for it): M_j = X_j inverse_bind_j
+// with X_j = X_parent offset_j local_j. Cost: O(joints).
+std::vector<glm::mat4> skinning_matrices(const PoseRig& rig, const Pose& pose);
+
+// Ray-traced self-occlusion of one skinned mesh in any pose. Vertices with no skin weight follow
+// the mesh (identity), as a rigid part of the character. Not thread-safe (trace() refits); the
+// queries inside trace() run in parallel on `jobs`.
+class PoseAOTracer {
+ public:
+  // Fails with InvalidInput naming `context` when the mesh has no normals, no joints/weights, or
+  // a joint index >= joint_count with a non-zero weight. Cost: one BVH build.
+  static Result<PoseAOTracer> create(std::shared_ptr<const MeshData> mesh, std::size_t joint_count,
+                                     std::string_view context);
+  PoseAOTracer(PoseAOTracer&&) noexcept;
+  PoseAOTracer& operator=(PoseAOTracer&&) noexcept;
+  ~PoseAOTracer();
+
+  // AO of every vertex in the pose with skinning matrices `joint_matrices` (joint_count of them):
+  // `rays` cosine-weighted rays per vertex from p + eps n (eps = 1e-4 x the bind bounds'
+  // diagonal + 2e-5 |p|_max: scale-invariant), scrambled per vertex by `seed` (the same
+  // directions for a vertex in every pose). Optionally the binomial standard error per vertex.
+  // ao.size() == vertices. Bit-identical at any thread count. Fails with Cancelled, or
+  // InvalidInput when the pose makes a vertex non-finite.
+  // Cost: vertices x rays occlusion rays plus an O(vertices) refit.
+  Status trace(std::span<const glm::mat4> joint_matrices, std::uint32_t rays, std::uint64_t seed, JobContext& jobs,
+               std::span<float> ao, std::span<float> standard_error = {});
+
+  std::size_t vertex_count() const;
+
+ private:
+  struct Impl;
+  explicit PoseAOTracer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// Reference data of a mesh: per pose its features and per-vertex AO.
+struct PoseAOTraining {
+  std::size_t vertex_count = 0;
+  std::size_t joint_count = 0;
+  std::vector<float> features;  // pose p: [p F, (p + 1) F), F = 9 joints
+  std::vector<float> ao;        // pose p: [p V, (p + 1) V)
+  std::vector<float> bind_ao;   // the bind pose (all skinning matrices identity)
+
+  std::size_t poses() const { return vertex_count == 0 ? 0 : ao.size() / vertex_count; }
+  // Appends one pose (traced by `tracer`). Cost: one trace().
+  Status add_pose(PoseAOTracer& tracer, const PoseRig& rig, const Pose& pose, std::uint32_t rays,
+                  std::uint64_t seed, JobContext& jobs);
+};
+
+// Fits the per-vertex linear models to the first `poses` poses of `training` (all when 0).
+// Locality as SkinnedPoseAO::locality over `mesh`'s weights and the rig's bones; a joint whose
+// features are constant over those poses is never selected. When the poses are fewer than the
+// coefficients (poses < 1 + 9 k) k is reduced to fit and a warning is logged and appended to
+// `warnings`. Normal equations per joint set in double, Cholesky with a pivot floor (1e-9 of the
+// trace), so rank-deficient data (a joint that never moves, collinear parameters, lambda = 0)
+// gives finite, bounded coefficients. Deterministic (fixed summation order, any thread count).
+// Errors: InvalidArgument when training has no pose. Cost: per joint set P C^2, per vertex P C.
+Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
+                               const SkinnedPoseAO& settings, std::size_t poses, JobContext& jobs,
+                               std::vector<std::string>* warnings = nullptr, std::string_view context = "pose-AO");
+
+// The whole bake of one skinned mesh entity: validate, rig, tracer, bind pose, reference poses
+// (random with Rng::stream(seed, pose), then clip frames), fit. Reserves the training arrays in
+// `budget` first (OutOfBudget suggests fewer poses). Progress stages "pose-ao poses" (one unit per
+// vertex per pose) and "pose-ao fit". Bit-identical at any thread count.
+Result<PoseAOData> bake_pose_ao(World& world, Entity mesh_entity, const SkinnedPoseAO& settings, std::uint64_t seed,
+                                JobContext& jobs, MemoryBudget& budget, std::vector<std::string>* warnings = nullptr);
+
+// The "PSAO" chunk of one mesh (label "poseao:<entity index>"): coefficients as IEEE 16-bit halves
+// (relative error <= 2^-11 per coefficient; the pose-ao bench prints what it costs in AO), the
+// rest as written. The reader checks the version, every size and index, that the groups
+// partition the vertices, finiteness and [0, 1] baselines, naming the chunk in its errors.
+BakeChunk write_pose_ao_chunk(const PoseAOData& data);
+Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk);
+
+// Lines for `penumbra info`: vertices, joints, groups, poses, rays, locality, lambda, training
+// RMSE, bytes per vertex (and a warning when locality was reduced).
+std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk);
+
+}  // namespace penumbra

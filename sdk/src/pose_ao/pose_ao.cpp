@@ -1,0 +1,155 @@
+// Skinned pose-AO (Kontkanen & Aila 2006): settings, pose parameters, the per-frame evaluation and
+// the GPU layout (see pose_ao.h).
+#include "penumbra/pose_ao/pose_ao.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/mat3x3.hpp>
+
+namespace penumbra {
+
+SkinnedPoseAO SkinnedPoseAO::preset(Preset preset) {
+  SkinnedPoseAO s;
+  switch (preset) {
+    case Preset::Draft: s.reference_poses = 100; s.rays_per_vertex = 32; s.locality = 3; break;
+    case Preset::Medium: s.reference_poses = 250; s.rays_per_vertex = 64; s.locality = 4; break;
+    case Preset::High: s.reference_poses = 1000; s.rays_per_vertex = 128; s.locality = 4; break;
+  }
+  s.clip_poses = 16;
+  return s;
+}
+
+Status validate_pose_ao(const SkinnedPoseAO& s, std::size_t joint_count, std::string_view context) {
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidArgument, std::string(context) + ": " + what);
+  };
+  if (std::uint64_t{s.reference_poses} + s.clip_poses == 0)
+    return bad("reference_poses and clip_poses are both 0; use at least 50 reference poses (the presets use 100-1000)");
+  if (s.rays_per_vertex == 0) return bad("rays_per_vertex is 0; use at least 16 (the presets use 32-128)");
+  if (s.locality > kPoseAOMaxLocality)
+    return bad("locality " + std::to_string(s.locality) + " exceeds " + std::to_string(kPoseAOMaxLocality) +
+               " joints per vertex; lower it");
+  if (!(std::isfinite(s.lambda) && s.lambda >= 0.0f))
+    return bad("lambda must be finite and >= 0 (1e-3 is a good start)");
+  if (!(std::isfinite(s.range_margin) && s.range_margin >= 0.0f))
+    return bad("range_margin must be finite and >= 0 (a fraction of each clip range, e.g. 0.25)");
+  if (!(std::isfinite(s.default_range) && s.default_range >= 0.0f))
+    return bad("default_range must be finite and >= 0 radians");
+  if (!s.joint_ranges.empty()) {
+    if (s.joint_ranges.size() != joint_count)
+      return bad("joint_ranges has " + std::to_string(s.joint_ranges.size()) + " entries but the skin has " +
+                 std::to_string(joint_count) + " joints; give one per joint or none");
+    for (std::size_t j = 0; j < joint_count; ++j) {
+      const JointRange& r = s.joint_ranges[j];
+      for (int a = 0; a < 3; ++a)
+        if (!(std::isfinite(r.min[a]) && std::isfinite(r.max[a]) && r.min[a] <= r.max[a]))
+          return bad("joint_ranges[" + std::to_string(j) + "] axis " + std::to_string(a) +
+                     " is not a finite interval with min <= max");
+    }
+  }
+  return {};
+}
+
+std::uint64_t PoseAOData::bytes() const {
+  return bytes_of(joint_parents) + bytes_of(groups) + bytes_of(vertex_order) + bytes_of(coefficients) +
+         bytes_of(bind_ao) + bytes_of(mean_ao);
+}
+
+double PoseAOData::bytes_per_vertex() const {
+  if (vertex_count == 0) return 0.0;
+  const double stored = 2.0 * static_cast<double>(coefficients.size()) + 4.0 * static_cast<double>(vertex_order.size()) +
+                        static_cast<double>(groups.size() * (kPoseAOMaxLocality * 2 + 4 * 3));
+  return stored / vertex_count;
+}
+
+namespace {
+
+// The rotation of a skinning matrix: its upper 3x3 with unit columns (drops a joint's scale).
+glm::mat3 rotation_of(const glm::mat4& m) {
+  glm::mat3 r(m);
+  for (int c = 0; c < 3; ++c) {
+    const float len = glm::length(r[c]);
+    r[c] = len > 0.0f ? r[c] / len : glm::vec3(0.0f);
+  }
+  return r;
+}
+
+}  // namespace
+
+void pose_features(std::span<const std::int32_t> parents, std::span<const glm::mat4> joint_matrices,
+                   std::vector<float>& out) {
+  const std::size_t joints = joint_matrices.size();
+  out.resize(joints * kPoseFeaturesPerJoint);
+  for (std::size_t j = 0; j < joints; ++j) {
+    const glm::mat3 r = rotation_of(joint_matrices[j]);
+    const std::int32_t p = parents[j];
+    const glm::mat3 local = p >= 0 && static_cast<std::size_t>(p) < joints
+                                ? glm::transpose(rotation_of(joint_matrices[static_cast<std::size_t>(p)])) * r
+                                : r;
+    float* f = out.data() + j * kPoseFeaturesPerJoint;
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k) f[3 * c + k] = local[c][k] - (c == k ? 1.0f : 0.0f);
+  }
+}
+
+void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao) {
+  constexpr std::uint32_t kMaxCoefficients = pose_ao_coefficients(kPoseAOMaxLocality);
+  std::vector<float> sums;  // one group's AO before clamping, in group order
+  for (const PoseAOGroup& g : data.groups) {
+    // Gather theta_local once per group: [1, f_j1 .. f_jk].
+    float theta[kMaxCoefficients];
+    theta[0] = 1.0f;
+    for (std::uint32_t k = 0; k < g.joint_count; ++k)
+      for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e)
+        theta[1 + kPoseFeaturesPerJoint * k + e] = features[std::size_t{g.joints[k]} * kPoseFeaturesPerJoint + e];
+    // t_v . theta over the group's vertices, coefficient by coefficient (vectorised over i).
+    const std::size_t n = g.count;
+    sums.resize(n);
+    float* __restrict acc = sums.data();
+    const float* __restrict t = data.coefficients.data() + g.coefficient_offset;
+    for (std::size_t i = 0; i < n; ++i) acc[i] = t[i];
+    for (std::uint32_t c = 1; c < g.coefficient_count(); ++c) {
+      const float w = theta[c];
+      const float* __restrict tc = t + std::size_t{c} * n;
+      for (std::size_t i = 0; i < n; ++i) acc[i] += w * tc[i];
+    }
+    const std::uint32_t* order = data.vertex_order.data() + g.first;
+    for (std::size_t i = 0; i < n; ++i) ao[order[i]] = std::clamp(acc[i], 0.0f, 1.0f);
+  }
+}
+
+PoseAOGpuBuffers pack_pose_ao_gpu(const PoseAOData& data) {
+  constexpr std::uint32_t kStride = PoseAOGpuBuffers::kGpuStride;
+  PoseAOGpuBuffers out;
+  out.vertex_count = data.vertex_count;
+  out.joint_count = data.joint_count;
+  out.coefficients.assign(std::size_t{data.vertex_count} * kStride, 0.0f);
+  out.joints.assign(std::size_t{data.vertex_count} * kPoseAOMaxLocality, data.joint_count);
+  for (const PoseAOGroup& g : data.groups)
+    for (std::uint32_t i = 0; i < g.count; ++i) {
+      const std::size_t v = data.vertex_order[g.first + i];
+      for (std::uint32_t c = 0; c < g.coefficient_count(); ++c)
+        out.coefficients[v * kStride + c] = data.coefficients[g.coefficient_offset + std::size_t{c} * g.count + i];
+      for (std::uint32_t k = 0; k < g.joint_count; ++k) out.joints[v * kPoseAOMaxLocality + k] = g.joints[k];
+    }
+  return out;
+}
+
+void pack_pose_ao_theta(std::span<const float> features, std::vector<float>& out) {
+  out.assign(features.begin(), features.end());
+  out.resize(features.size() + kPoseFeaturesPerJoint, 0.0f);
+}
+
+float evaluate_pose_ao_gpu(const PoseAOGpuBuffers& buffers, std::span<const float> theta, std::uint32_t vertex) {
+  const float* c = buffers.coefficients.data() + std::size_t{vertex} * PoseAOGpuBuffers::kGpuStride;
+  float ao = c[0];
+  for (std::uint32_t k = 0; k < kPoseAOMaxLocality; ++k) {
+    const std::size_t j = buffers.joints[std::size_t{vertex} * kPoseAOMaxLocality + k];
+    for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e)
+      ao += c[1 + kPoseFeaturesPerJoint * k + e] * theta[j * kPoseFeaturesPerJoint + e];
+  }
+  return std::clamp(ao, 0.0f, 1.0f);
+}
+
+}  // namespace penumbra

@@ -1,0 +1,730 @@
+// The pose-AO bake (Kontkanen & Aila 2006, "Ambient Occlusion for Animated Characters"; the
+// thesis, section 4.2): reference poses, ray-traced self-occlusion per posed mesh, per-vertex
+// ridge regression, and the PSAO chunk (see pose_ao_baker.h).
+#include "penumbra/pose_ao/pose_ao_baker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <optional>
+#include <unordered_map>
+
+#include <glm/gtc/packing.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/mat3x3.hpp>
+
+#include "penumbra/bake/ray_scene.h"
+#include "penumbra/core/log.h"
+#include "penumbra/core/random.h"
+#include "penumbra/core/sampling.h"
+#include "penumbra/scene/animation.h"
+#include "ridge.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr std::uint32_t kChunkType = fourcc("PSAO");
+constexpr std::uint64_t kPoseStreamTag = 0x706f7365616f5f70ull;  // random poses
+constexpr std::uint64_t kRayStreamTag = 0x7261795f73636d62ull;   // ray scrambles
+
+bool finite_matrix(const glm::mat4& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int k = 0; k < 4; ++k)
+      if (!std::isfinite(m[c][k])) return false;
+  return true;
+}
+
+// TRS of an affine matrix without shear (columns' lengths are the scale).
+Transform decompose(const glm::mat4& m) {
+  Transform t;
+  t.translation = glm::vec3(m[3]);
+  glm::mat3 r(m);
+  for (int c = 0; c < 3; ++c) {
+    t.scale[c] = glm::length(r[c]);
+    r[c] = t.scale[c] > 0.0f ? r[c] / t.scale[c] : glm::vec3(0.0f);
+  }
+  t.rotation = glm::normalize(glm::quat_cast(r));
+  return t;
+}
+
+// Rotation vector (axis x angle) of a unit quaternion, angle in [0, pi].
+glm::vec3 rotation_vector(glm::quat q) {
+  if (q.w < 0.0f) q = -q;
+  const glm::vec3 v(q.x, q.y, q.z);
+  const float s = glm::length(v);
+  if (s < 1e-12f) return 2.0f * v;
+  return v * (2.0f * std::atan2(s, q.w) / s);
+}
+
+glm::quat rotation_from_vector(glm::vec3 r) {
+  const float angle = glm::length(r);
+  if (angle < 1e-12f) return glm::normalize(glm::quat(1.0f, 0.5f * r.x, 0.5f * r.y, 0.5f * r.z));
+  return glm::angleAxis(angle, r / angle);
+}
+
+std::string entity_context(World& world, Entity e) {
+  const Name* name = world.try_get<Name>(e);
+  return "pose-AO " + (name ? "'" + name->value + "' " : std::string()) + "(entity " + std::to_string(e.index) + ")";
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Step 1: the rig.
+
+Result<PoseRig> make_pose_rig(World& world, Entity e, std::string_view context) {
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidInput, std::string(context) + ": " + what);
+  };
+  const Skin* skin = world.alive(e) ? world.try_get<Skin>(e) : nullptr;
+  const WorldTransform* mesh_world = world.alive(e) ? world.try_get<WorldTransform>(e) : nullptr;
+  if (skin == nullptr || mesh_world == nullptr)
+    return bad("needs a Skin and a WorldTransform (run the transform system before baking)");
+  const std::size_t joints = skin->joints.size();
+  if (joints == 0 || joints > 65535 || skin->inverse_bind.size() != joints)
+    return bad("the skin has " + std::to_string(joints) + " joints and " + std::to_string(skin->inverse_bind.size()) +
+               " inverse bind matrices; re-export the skin with 1..65535 joints, one matrix each");
+
+  std::unordered_map<std::uint32_t, std::uint32_t> joint_of;  // entity index -> skin joint
+  for (std::size_t j = 0; j < joints; ++j) joint_of.emplace(skin->joints[j].index, static_cast<std::uint32_t>(j));
+  const auto joint_index = [&](Entity x) -> std::int32_t {
+    const auto it = joint_of.find(x.index);
+    return it != joint_of.end() && skin->joints[it->second] == x ? static_cast<std::int32_t>(it->second) : -1;
+  };
+
+  PoseRig rig;
+  rig.parents.assign(joints, -1);
+  rig.offsets.resize(joints);
+  rig.inverse_bind = skin->inverse_bind;
+  for (std::size_t j = 0; j < joints; ++j) {
+    const Entity je = skin->joints[j];
+    if (!world.alive(je) || !world.has<Transform>(je) || !world.has<WorldTransform>(je))
+      return bad("joint " + std::to_string(j) + " has no Transform/WorldTransform (a stale joint entity?)");
+    const Parent* parent = world.try_get<Parent>(je);
+    const Entity parent_node = parent ? parent->entity : Entity::null();
+    // The nearest ancestor that is a joint of this skin.
+    for (Entity a = parent_node; a && world.alive(a);) {
+      if (const std::int32_t pj = joint_index(a); pj >= 0) {
+        rig.parents[j] = pj;
+        break;
+      }
+      const Parent* up = world.try_get<Parent>(a);
+      a = up ? up->entity : Entity::null();
+    }
+    const glm::mat4 anchor = rig.parents[j] >= 0
+                                 ? world.get<WorldTransform>(skin->joints[static_cast<std::size_t>(rig.parents[j])]).matrix
+                                 : mesh_world->matrix;
+    const WorldTransform* pw = parent_node && world.alive(parent_node) ? world.try_get<WorldTransform>(parent_node) : nullptr;
+    rig.offsets[j] = glm::inverse(anchor) * (pw ? pw->matrix : glm::mat4(1.0f));
+    if (!finite_matrix(rig.offsets[j])) return bad("joint " + std::to_string(j) + ": a singular node transform");
+  }
+
+  // Joints with parents first (depth-first from the roots); a parent cycle cannot occur in a
+  // hierarchy, but guard the walk anyway.
+  std::vector<std::uint8_t> placed(joints, 0);
+  while (rig.order.size() < joints) {
+    const std::size_t before = rig.order.size();
+    for (std::size_t j = 0; j < joints; ++j)
+      if (!placed[j] && (rig.parents[j] < 0 || placed[static_cast<std::size_t>(rig.parents[j])])) {
+        placed[j] = 1;
+        rig.order.push_back(static_cast<std::uint32_t>(j));
+      }
+    if (rig.order.size() == before) return bad("the joints' parents form a cycle");
+  }
+
+  // Bind pose: X_j,bind = inverse(inverse_bind_j) in the mesh frame; local = offset^-1 X_p^-1 X_j.
+  std::vector<glm::mat4> bind_world(joints);
+  for (std::size_t j = 0; j < joints; ++j) {
+    const glm::mat4& ib = skin->inverse_bind[j];
+    const float det = glm::determinant(glm::mat3(ib));
+    if (!finite_matrix(ib) || !(std::abs(det) > 1e-30f))
+      return bad("inverse bind matrix " + std::to_string(j) + " is singular or not finite; re-export the skin");
+    bind_world[j] = glm::inverse(ib);
+  }
+  rig.bind.resize(joints);
+  rig.bind_positions.resize(joints);
+  for (std::size_t j = 0; j < joints; ++j) {
+    const glm::mat4 parent_world =
+        rig.parents[j] >= 0 ? bind_world[static_cast<std::size_t>(rig.parents[j])] : glm::mat4(1.0f);
+    rig.bind[j] = decompose(glm::inverse(rig.offsets[j]) * glm::inverse(parent_world) * bind_world[j]);
+    rig.bind_positions[j] = glm::vec3(bind_world[j][3]);
+  }
+
+  // Clips: those of every Animator (in entity order) with a channel on a joint of this skin.
+  for (Entity a : world.view<Animator>().sorted_entities()) {
+    const Animator& animator = world.get<Animator>(a);
+    if (!animator.clips) continue;
+    for (const AnimationClip& clip : *animator.clips) {
+      if (std::find(rig.clips.begin(), rig.clips.end(), &clip) != rig.clips.end()) continue;
+      std::vector<std::pair<std::uint32_t, std::uint32_t>> channels;
+      for (std::size_t c = 0; c < clip.channels.size(); ++c) {
+        const AnimationChannel& ch = clip.channels[c];
+        if (ch.target >= clip.targets.size() || ch.times.empty()) continue;
+        if (const std::int32_t j = joint_index(clip.targets[ch.target]); j >= 0)
+          channels.emplace_back(static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(j));
+      }
+      if (channels.empty()) continue;
+      rig.clips.push_back(&clip);
+      rig.clip_channels.push_back(std::move(channels));
+    }
+  }
+
+  // Rotation ranges seen in the clips: 64 uniform times per clip plus every key time.
+  rig.clip_ranges.assign(joints, JointRange{glm::vec3(std::numeric_limits<float>::max()),
+                                            glm::vec3(-std::numeric_limits<float>::max())});
+  std::vector<std::uint8_t> seen(joints, 0);
+  for (std::size_t c = 0; c < rig.clips.size(); ++c) {
+    std::vector<float> times;
+    for (int k = 0; k <= 64; ++k) times.push_back(rig.clips[c]->duration * static_cast<float>(k) / 64.0f);
+    for (const auto& [channel, joint] : rig.clip_channels[c])
+      for (float t : rig.clips[c]->channels[channel].times) times.push_back(t);
+    for (float t : times) {
+      const Pose pose = clip_pose(rig, c, t);
+      for (const auto& [channel, joint] : rig.clip_channels[c]) {
+        if (rig.clips[c]->channels[channel].path != AnimationChannel::Path::Rotation) continue;
+        const glm::vec3 r = rotation_vector(glm::conjugate(rig.bind[joint].rotation) * pose[joint].rotation);
+        rig.clip_ranges[joint].min = glm::min(rig.clip_ranges[joint].min, r);
+        rig.clip_ranges[joint].max = glm::max(rig.clip_ranges[joint].max, r);
+        seen[joint] = 1;
+      }
+    }
+  }
+  rig.animated.assign(joints, false);
+  for (std::size_t j = 0; j < joints; ++j) {
+    if (!seen[j]) {
+      rig.clip_ranges[j] = JointRange{};
+      continue;
+    }
+    const glm::vec3 width = rig.clip_ranges[j].max - rig.clip_ranges[j].min;
+    rig.animated[j] = std::max({width.x, width.y, width.z}) > 1e-6f;
+  }
+  return rig;
+}
+
+std::vector<JointRange> pose_ranges(const PoseRig& rig, const SkinnedPoseAO& settings) {
+  if (!settings.joint_ranges.empty()) return settings.joint_ranges;
+  std::vector<JointRange> ranges(rig.joint_count());
+  if (rig.clips.empty()) {
+    for (JointRange& r : ranges) r = JointRange{glm::vec3(-settings.default_range), glm::vec3(settings.default_range)};
+    return ranges;
+  }
+  for (std::size_t j = 0; j < ranges.size(); ++j) {
+    if (!rig.animated[j]) continue;  // fixed: zero range about the bind rotation
+    const JointRange& c = rig.clip_ranges[j];
+    const glm::vec3 widen = settings.range_margin * (c.max - c.min);
+    ranges[j] = JointRange{c.min - widen, c.max + widen};
+  }
+  return ranges;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Step 2: poses.
+
+Pose random_pose(const PoseRig& rig, std::span<const JointRange> ranges, std::uint64_t seed, std::uint64_t index) {
+  Rng rng = Rng::stream(seed ^ kPoseStreamTag, index);
+  Pose pose = rig.bind;
+  for (std::size_t j = 0; j < pose.size(); ++j) {
+    glm::vec3 r;
+    for (int a = 0; a < 3; ++a) r[a] = ranges[j].min[a] + (ranges[j].max[a] - ranges[j].min[a]) * rng.next_float();
+    pose[j].rotation = glm::normalize(rig.bind[j].rotation * rotation_from_vector(r));
+  }
+  return pose;
+}
+
+Pose clip_pose(const PoseRig& rig, std::size_t clip, float t) {
+  Pose pose = rig.bind;
+  const AnimationClip& c = *rig.clips[clip];
+  t = std::clamp(t, 0.0f, std::max(c.duration, 0.0f));
+  for (const auto& [channel, joint] : rig.clip_channels[clip]) {
+    const AnimationChannel& ch = c.channels[channel];
+    const glm::vec4 v = sample_channel(ch, t);
+    switch (ch.path) {
+      case AnimationChannel::Path::Translation: pose[joint].translation = glm::vec3(v); break;
+      case AnimationChannel::Path::Rotation: pose[joint].rotation = glm::quat(v.w, v.x, v.y, v.z); break;
+      case AnimationChannel::Path::Scale: pose[joint].scale = glm::vec3(v); break;
+    }
+  }
+  return pose;
+}
+
+std::vector<glm::mat4> skinning_matrices(const PoseRig& rig, const Pose& pose) {
+  std::vector<glm::mat4> world(rig.joint_count()), out(rig.joint_count());
+  for (std::uint32_t j : rig.order) {
+    const glm::mat4 parent = rig.parents[j] >= 0 ? world[static_cast<std::size_t>(rig.parents[j])] : glm::mat4(1.0f);
+    world[j] = parent * rig.offsets[j] * pose[j].matrix();
+    out[j] = world[j] * rig.inverse_bind[j];
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Step 3: ray-traced self-occlusion of the posed mesh.
+
+struct PoseAOTracer::Impl {
+  std::shared_ptr<const MeshData> mesh;  // weightless vertices bound to the extra joint `joints`
+  std::size_t joints = 0;
+  std::unique_ptr<World> world;          // the mesh alone, skinned, refitted per pose
+  Entity entity;
+  std::optional<RayScene> scene;
+  float eps_scale = 0.0f;                // 1e-4 x the bind bounds' diagonal
+  std::vector<glm::vec3> positions, normals;
+  std::string context;
+};
+
+PoseAOTracer::PoseAOTracer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+PoseAOTracer::PoseAOTracer(PoseAOTracer&&) noexcept = default;
+PoseAOTracer& PoseAOTracer::operator=(PoseAOTracer&&) noexcept = default;
+PoseAOTracer::~PoseAOTracer() = default;
+std::size_t PoseAOTracer::vertex_count() const { return impl_->mesh->positions.size(); }
+
+Result<PoseAOTracer> PoseAOTracer::create(std::shared_ptr<const MeshData> source, std::size_t joint_count,
+                                          std::string_view context) {
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidInput, std::string(context) + ": " + what);
+  };
+  if (!source || source->positions.empty() || source->indices.empty()) return bad("the mesh is empty");
+  const std::size_t n = source->positions.size();
+  if (source->normals.size() != n) return bad("the mesh has no normals; import computes them, re-import it");
+  if (source->joints.size() != n || source->weights.size() != n)
+    return bad("the mesh has no JOINTS_0/WEIGHTS_0; pose-AO needs a skinned mesh");
+  auto mesh = std::make_shared<MeshData>(*source);
+  for (std::size_t v = 0; v < n; ++v) {
+    bool weighted = false;
+    for (int k = 0; k < 4; ++k) {
+      if (mesh->weights[v][k] == 0.0f) continue;
+      if (mesh->joints[v][k] >= joint_count)
+        return bad("vertex " + std::to_string(v) + " uses joint " + std::to_string(mesh->joints[v][k]) +
+                   " but the skin has " + std::to_string(joint_count) + "; re-export the skin");
+      weighted = true;
+    }
+    // A vertex without weights follows the mesh frame: bind it to the extra identity joint.
+    if (!weighted) {
+      mesh->joints[v] = glm::u16vec4(static_cast<std::uint16_t>(joint_count), 0, 0, 0);
+      mesh->weights[v] = glm::vec4(1.0f, 0.0f, 0.0f, 0.0f);
+    }
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->joints = joint_count;
+  impl->context = std::string(context);
+  impl->eps_scale = 1e-4f * glm::length(mesh->bounds.extent());
+  impl->mesh = mesh;
+  impl->world = std::make_unique<World>();
+  World& w = *impl->world;
+  impl->entity = w.create();
+  w.add<Mesh>(impl->entity, Mesh{mesh});
+  w.add<Skin>(impl->entity);
+  w.add<SkinPose>(impl->entity, SkinPose{std::vector<glm::mat4>(joint_count + 1, glm::mat4(1.0f))});
+  w.add<WorldTransform>(impl->entity);
+  auto scene = RayScene::build(w);
+  if (!scene) return bad(scene.error().message);
+  impl->scene.emplace(std::move(*scene));
+  return PoseAOTracer(std::move(impl));
+}
+
+Status PoseAOTracer::trace(std::span<const glm::mat4> joint_matrices, std::uint32_t rays, std::uint64_t seed,
+                           JobContext& jobs, std::span<float> ao, std::span<float> standard_error) {
+  Impl& s = *impl_;
+  const std::size_t n = s.mesh->positions.size();
+  if (joint_matrices.size() != s.joints || ao.size() != n || rays == 0)
+    return make_error(ErrorCode::InvalidArgument, s.context + ": trace() needs one matrix per joint and one AO per vertex");
+  // Refit the BVH to the pose (the extra joint stays the identity).
+  SkinPose& pose = s.world->patch<SkinPose>(s.entity);
+  std::copy(joint_matrices.begin(), joint_matrices.end(), pose.joint_matrices.begin());
+  PENUMBRA_TRY(s.scene->update(*s.world));
+  skin_positions(*s.mesh, pose, s.positions);
+  skin_normals(*s.mesh, pose, s.normals);
+  for (std::size_t v = 0; v < n; ++v)
+    if (!std::isfinite(s.positions[v].x + s.positions[v].y + s.positions[v].z))
+      return make_error(ErrorCode::InvalidInput, s.context + ": the pose makes vertex " + std::to_string(v) + " non-finite");
+
+  const RayScene& scene = *s.scene;
+  return jobs.parallel_for(n, 64, [&](std::size_t begin, std::size_t end) {
+    std::vector<Ray> batch(rays);
+    std::vector<std::uint8_t> blocked(rays);
+    for (std::size_t v = begin; v < end; ++v) {
+      const glm::vec3 p = s.positions[v], nrm = s.normals[v];
+      const float eps = s.eps_scale + 2e-5f * std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+      const auto scramble = static_cast<std::uint32_t>(mix64(seed ^ kRayStreamTag ^ mix64(v)));
+      for (std::uint32_t i = 0; i < rays; ++i) {
+        batch[i].origin = p + eps * nrm;
+        batch[i].tnear = 0.0f;
+        batch[i].direction = to_world(nrm, cosine_hemisphere(sobol_2d(i, scramble)));
+        batch[i].tfar = std::numeric_limits<float>::infinity();
+      }
+      scene.occluded(batch, blocked);
+      std::uint32_t open = 0;
+      for (std::uint32_t i = 0; i < rays; ++i) open += blocked[i] ? 0u : 1u;
+      const float a = static_cast<float>(open) / static_cast<float>(rays);
+      ao[v] = a;
+      if (!standard_error.empty()) standard_error[v] = std::sqrt(a * (1.0f - a) / static_cast<float>(rays));
+    }
+  });
+}
+
+Status PoseAOTraining::add_pose(PoseAOTracer& tracer, const PoseRig& rig, const Pose& pose, std::uint32_t rays,
+                                std::uint64_t seed, JobContext& jobs) {
+  const std::vector<glm::mat4> matrices = skinning_matrices(rig, pose);
+  std::vector<float> f;
+  pose_features(rig.parents, matrices, f);
+  std::vector<float> a(vertex_count);
+  PENUMBRA_TRY(tracer.trace(matrices, rays, seed, jobs, a));
+  features.insert(features.end(), f.begin(), f.end());
+  ao.insert(ao.end(), a.begin(), a.end());
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Step 4: the per-vertex fit.
+
+namespace {
+
+using JointSet = std::array<std::uint16_t, kPoseAOMaxLocality + 1>;  // joints ascending, then the count
+
+// Locality (algorithms.md P5): per vertex the joints whose rotation moves geometry near it, at
+// most k. Joint j's rotation moves its subtree against the rest of the character, so the distance
+// that matters is from v to the geometry on the other side: to the vertices outside subtree(j)
+// when v is inside it, else to those inside (bind pose, vertices by dominant joint, at most 2048
+// of them sampled). Skinning joints come first; roots (nothing outside) and joints that never
+// move are never chosen.
+std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, const std::vector<bool>& moving,
+                                    std::uint32_t k) {
+  const std::size_t n = mesh.positions.size(), joints = rig.joint_count();
+  const auto dominant = [&](std::size_t v) {
+    std::size_t best = joints;
+    float w = 0.0f;
+    for (int c = 0; c < 4; ++c)
+      if (mesh.weights[v][c] > w && mesh.joints[v][c] < joints) { w = mesh.weights[v][c]; best = mesh.joints[v][c]; }
+    return best;
+  };
+  // in_subtree[j * (joints + 1) + i]: joint i lies in joint j's subtree (index `joints`: no joint).
+  std::vector<std::uint8_t> in_subtree(joints * (joints + 1), 0);
+  for (std::size_t i = 0; i < joints; ++i)
+    for (std::int32_t a = static_cast<std::int32_t>(i); a >= 0; a = rig.parents[static_cast<std::size_t>(a)])
+      in_subtree[static_cast<std::size_t>(a) * (joints + 1) + i] = 1;
+  const std::size_t stride = std::max<std::size_t>(1, n / 2048);
+  std::vector<std::size_t> sample_joint;
+  std::vector<glm::vec3> sample_pos;
+  for (std::size_t u = 0; u < n; u += stride) {
+    sample_joint.push_back(dominant(u));
+    sample_pos.push_back(mesh.positions[u]);
+  }
+  std::vector<JointSet> sets(n);
+  std::vector<float> nearest(joints + 1);
+  std::vector<std::pair<float, std::uint16_t>> ranked;
+  for (std::size_t v = 0; v < n; ++v) {
+    std::fill(nearest.begin(), nearest.end(), std::numeric_limits<float>::infinity());
+    for (std::size_t u = 0; u < sample_pos.size(); ++u) {
+      const glm::vec3 d = sample_pos[u] - mesh.positions[v];
+      nearest[sample_joint[u]] = std::min(nearest[sample_joint[u]], glm::dot(d, d));
+    }
+    const std::size_t own = dominant(v);
+    ranked.clear();
+    for (std::size_t j = 0; j < joints; ++j) {
+      if (!moving[j]) continue;
+      const bool inside = in_subtree[j * (joints + 1) + own] != 0;
+      float d = std::numeric_limits<float>::infinity();
+      for (std::size_t i = 0; i <= joints; ++i)
+        if ((in_subtree[j * (joints + 1) + i] != 0) != inside) d = std::min(d, nearest[i]);
+      if (!std::isfinite(d)) continue;
+      bool skinning = false;
+      for (int c = 0; c < 4; ++c) skinning = skinning || (mesh.weights[v][c] > 0.0f && mesh.joints[v][c] == j);
+      ranked.emplace_back(skinning ? -1.0f : d, static_cast<std::uint16_t>(j));
+    }
+    std::sort(ranked.begin(), ranked.end());
+    JointSet set{};
+    const std::size_t count = std::min<std::size_t>(k, ranked.size());
+    for (std::size_t i = 0; i < count; ++i) set[i] = ranked[i].second;
+    std::sort(set.begin(), set.begin() + static_cast<std::ptrdiff_t>(count));
+    set[kPoseAOMaxLocality] = static_cast<std::uint16_t>(count);
+    sets[v] = set;
+  }
+  return sets;
+}
+
+}  // namespace
+
+Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
+                               const SkinnedPoseAO& settings, std::size_t poses, JobContext& jobs,
+                               std::vector<std::string>* warnings, std::string_view context) {
+  const std::size_t available = training.poses();
+  const std::size_t P = poses == 0 ? available : std::min(poses, available);
+  const std::size_t V = training.vertex_count, J = training.joint_count, F = J * kPoseFeaturesPerJoint;
+  if (P == 0 || V != mesh.positions.size() || J != rig.joint_count() || training.bind_ao.size() != V)
+    return make_error(ErrorCode::InvalidArgument, std::string(context) + ": no reference pose to fit (or the training "
+                                                                         "data does not match the mesh); bake poses first");
+
+  // Joints whose parameters change over the poses used.
+  std::vector<bool> moving(J, false);
+  for (std::size_t p = 1; p < P; ++p)
+    for (std::size_t i = 0; i < F; ++i)
+      if (training.features[p * F + i] != training.features[i]) moving[i / kPoseFeaturesPerJoint] = true;
+
+  // Fewer poses than coefficients: reduce the locality until 1 + 9 k <= P.
+  std::uint32_t k = std::min(settings.locality, kPoseAOMaxLocality);
+  const auto fits = static_cast<std::uint32_t>(std::min<std::size_t>((P - 1) / kPoseFeaturesPerJoint, kPoseAOMaxLocality));
+  if (fits < k) {
+    const std::string message = std::string(context) + ": " + std::to_string(P) + " reference poses for " +
+                                std::to_string(pose_ao_coefficients(k)) + " coefficients per vertex; locality reduced from " +
+                                std::to_string(k) + " to " + std::to_string(fits) + " joints (bake at least " +
+                                std::to_string(pose_ao_coefficients(k)) + " poses, several times more for a good fit)";
+    log(LogLevel::Warning, message);
+    if (warnings) warnings->push_back(message);
+    k = fits;
+  }
+
+  // Group the vertices by joint set (std::map: a deterministic order).
+  const std::vector<JointSet> sets = select_joints(mesh, rig, moving, k);
+  std::map<JointSet, std::vector<std::uint32_t>> by_set;
+  for (std::size_t v = 0; v < V; ++v) by_set[sets[v]].push_back(static_cast<std::uint32_t>(v));
+
+  PoseAOData data;
+  data.vertex_count = static_cast<std::uint32_t>(V);
+  data.joint_count = static_cast<std::uint32_t>(J);
+  data.joint_parents = rig.parents;
+  data.poses = static_cast<std::uint32_t>(P);
+  data.rays_per_vertex = settings.rays_per_vertex;
+  data.requested_locality = settings.locality;
+  data.locality = k;
+  data.lambda = settings.lambda;
+  std::vector<const std::vector<std::uint32_t>*> members;
+  for (const auto& [set, vertices] : by_set) {
+    PoseAOGroup g;
+    g.joint_count = set[kPoseAOMaxLocality];
+    for (std::uint32_t i = 0; i < g.joint_count; ++i) g.joints[i] = set[i];
+    g.first = static_cast<std::uint32_t>(data.vertex_order.size());
+    g.count = static_cast<std::uint32_t>(vertices.size());
+    g.coefficient_offset = data.coefficients.size();
+    data.vertex_order.insert(data.vertex_order.end(), vertices.begin(), vertices.end());
+    data.coefficients.resize(data.coefficients.size() + std::size_t{g.coefficient_count()} * g.count);
+    data.groups.push_back(g);
+    members.push_back(&vertices);
+  }
+
+  // One factorisation per joint set; each vertex one solve. Squared training errors per group.
+  std::vector<double> group_error(data.groups.size(), 0.0);
+  jobs.begin_stage("pose-ao fit", data.groups.size());
+  PENUMBRA_TRY(jobs.parallel_for(data.groups.size(), 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t gi = begin; gi < end; ++gi) {
+      const PoseAOGroup& g = data.groups[gi];
+      const std::size_t C = g.coefficient_count();
+      std::vector<double> theta(P * C);
+      for (std::size_t p = 0; p < P; ++p) {
+        theta[p * C] = 1.0;
+        for (std::uint32_t j = 0; j < g.joint_count; ++j)
+          for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e)
+            theta[p * C + 1 + j * kPoseFeaturesPerJoint + e] =
+                static_cast<double>(training.features[p * F + std::size_t{g.joints[j]} * kPoseFeaturesPerJoint + e]);
+      }
+      const pose_ao_detail::RidgeSolver solver(theta, P, C, static_cast<double>(settings.lambda));
+      std::vector<double> t(C);
+      for (std::uint32_t i = 0; i < g.count; ++i) {
+        const std::uint32_t v = (*members[gi])[i];
+        solver.solve(training.ao.data() + v, V, t);
+        for (std::size_t c = 0; c < C; ++c)
+          data.coefficients[g.coefficient_offset + c * g.count + i] = static_cast<float>(t[c]);
+        for (std::size_t p = 0; p < P; ++p) {
+          double a = 0.0;
+          for (std::size_t c = 0; c < C; ++c) a += theta[p * C + c] * t[c];
+          const double err = std::clamp(a, 0.0, 1.0) - static_cast<double>(training.ao[p * V + v]);
+          group_error[gi] += err * err;
+        }
+      }
+    }
+  }));
+  double sum = 0.0;
+  for (double e : group_error) sum += e;
+  data.training_rmse = static_cast<float>(std::sqrt(sum / static_cast<double>(P * V)));
+
+  // Baselines: the bind pose, and the mean over the reference poses (summed in pose order).
+  data.bind_ao = training.bind_ao;
+  data.mean_ao.assign(V, 0.0f);
+  for (std::size_t v = 0; v < V; ++v) {
+    double m = 0.0;
+    for (std::size_t p = 0; p < P; ++p) m += static_cast<double>(training.ao[p * V + v]);
+    data.mean_ao[v] = static_cast<float>(m / static_cast<double>(P));
+  }
+  return data;
+}
+
+Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& settings, std::uint64_t seed,
+                                JobContext& jobs, MemoryBudget& budget, std::vector<std::string>* warnings) {
+  const std::string context = entity_context(world, e);
+  const Mesh* mesh = world.alive(e) ? world.try_get<Mesh>(e) : nullptr;
+  if (mesh == nullptr || !mesh->data)
+    return make_error(ErrorCode::InvalidInput, context + ": has no Mesh; put SkinnedPoseAO on a skinned mesh entity");
+  auto rig = make_pose_rig(world, e, context);
+  if (!rig) return rig.error();
+  PENUMBRA_TRY(validate_pose_ao(settings, rig->joint_count(), context));
+  auto tracer = PoseAOTracer::create(mesh->data, rig->joint_count(), context);
+  if (!tracer) return tracer.error();
+
+  const std::size_t V = mesh->data->positions.size(), J = rig->joint_count();
+  const std::size_t P = settings.reference_poses + std::size_t{settings.clip_poses} * rig->clips.size();
+  const std::uint64_t bytes = P * (V + J * kPoseFeaturesPerJoint) * sizeof(float) +
+                              V * (pose_ao_coefficients(kPoseAOMaxLocality) + 4) * sizeof(float);
+  PENUMBRA_TRY(budget.reserve(context + " reference poses (" + std::to_string(P) + " poses x " + std::to_string(V) +
+                                  " vertices; use fewer reference_poses)",
+                              bytes));
+  struct Release {
+    MemoryBudget& b;
+    std::uint64_t n;
+    ~Release() { b.release(n); }
+  } release{budget, bytes};
+
+  PoseAOTraining training;
+  training.vertex_count = V;
+  training.joint_count = J;
+  training.features.reserve(P * J * kPoseFeaturesPerJoint);
+  training.ao.reserve(P * V);
+  training.bind_ao.resize(V);
+  jobs.begin_stage("pose-ao poses", (P + 1) * V);
+  // The bind pose (every skinning matrix the identity), then the reference poses.
+  const std::vector<glm::mat4> identity(J, glm::mat4(1.0f));
+  PENUMBRA_TRY(tracer->trace(identity, settings.rays_per_vertex, seed, jobs, training.bind_ao));
+  const std::vector<JointRange> ranges = pose_ranges(*rig, settings);
+  for (std::uint32_t p = 0; p < settings.reference_poses; ++p)
+    PENUMBRA_TRY(training.add_pose(*tracer, *rig, random_pose(*rig, ranges, seed, p), settings.rays_per_vertex, seed, jobs));
+  for (std::size_t c = 0; c < rig->clips.size(); ++c)
+    for (std::uint32_t k = 0; k < settings.clip_poses; ++k) {
+      const float t = rig->clips[c]->duration * (static_cast<float>(k) + 0.5f) / static_cast<float>(settings.clip_poses);
+      PENUMBRA_TRY(training.add_pose(*tracer, *rig, clip_pose(*rig, c, t), settings.rays_per_vertex, seed, jobs));
+    }
+  auto data = fit_pose_ao(training, *rig, *mesh->data, settings, 0, jobs, warnings, context);
+  if (!data) return data.error();
+  data->entity_index = e.index;
+  return data;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The PSAO chunk.
+
+BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
+  ByteWriter w;
+  w.write(d.entity_index);
+  w.write(d.vertex_count);
+  w.write(d.joint_count);
+  w.write(d.poses);
+  w.write(d.rays_per_vertex);
+  w.write(d.requested_locality);
+  w.write(d.locality);
+  w.write(d.lambda);
+  w.write(d.training_rmse);
+  w.write_vector(d.joint_parents);
+  w.write(static_cast<std::uint64_t>(d.groups.size()));
+  for (const PoseAOGroup& g : d.groups) {
+    w.write(g.joints);
+    w.write(g.joint_count);
+    w.write(g.first);
+    w.write(g.count);
+    w.write(g.coefficient_offset);
+  }
+  w.write_vector(d.vertex_order);
+  std::vector<std::uint16_t> halves(d.coefficients.size());
+  for (std::size_t i = 0; i < halves.size(); ++i) halves[i] = glm::packHalf1x16(d.coefficients[i]);
+  w.write_vector(halves);
+  w.write_vector(d.bind_ao);
+  w.write_vector(d.mean_ao);
+  return BakeChunk{kChunkType, kPoseAOChunkVersion, "poseao:" + std::to_string(d.entity_index), w.take()};
+}
+
+Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
+  const std::string context = "chunk 'PSAO' (" + chunk.label + ")";
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the pose-AO");
+  };
+  PENUMBRA_TRY(check_chunk(chunk, kChunkType, kPoseAOChunkVersion, context));
+  PoseAOData d;
+  ByteReader r(chunk.payload, context);
+  PENUMBRA_TRY(r.read(d.entity_index));
+  PENUMBRA_TRY(r.read(d.vertex_count));
+  PENUMBRA_TRY(r.read(d.joint_count));
+  PENUMBRA_TRY(r.read(d.poses));
+  PENUMBRA_TRY(r.read(d.rays_per_vertex));
+  PENUMBRA_TRY(r.read(d.requested_locality));
+  PENUMBRA_TRY(r.read(d.locality));
+  PENUMBRA_TRY(r.read(d.lambda));
+  PENUMBRA_TRY(r.read(d.training_rmse));
+  const std::uint32_t V = d.vertex_count, J = d.joint_count;
+  if (V == 0 || V > (1u << 30)) return bad("vertex count " + std::to_string(V) + " is outside 1..2^30");
+  if (J == 0 || J > 65535) return bad("joint count " + std::to_string(J) + " is outside 1..65535");
+  if (d.locality > d.requested_locality || d.requested_locality > kPoseAOMaxLocality)
+    return bad("locality " + std::to_string(d.locality) + " of " + std::to_string(d.requested_locality) + " is out of range");
+  if (!(std::isfinite(d.lambda) && d.lambda >= 0.0f) || !std::isfinite(d.training_rmse))
+    return bad("lambda or training RMSE is not finite");
+  PENUMBRA_TRY(r.read_vector(d.joint_parents, J));
+  if (d.joint_parents.size() != J) return bad("joint parents do not match " + std::to_string(J) + " joints");
+  for (std::size_t j = 0; j < J; ++j)
+    if (d.joint_parents[j] < -1 || d.joint_parents[j] >= static_cast<std::int32_t>(J) ||
+        d.joint_parents[j] == static_cast<std::int32_t>(j))
+      return bad("joint " + std::to_string(j) + " has parent " + std::to_string(d.joint_parents[j]));
+  std::uint64_t groups = 0;
+  PENUMBRA_TRY(r.read(groups));
+  if (groups == 0 || groups > V) return bad(std::to_string(groups) + " joint sets for " + std::to_string(V) + " vertices");
+  d.groups.resize(static_cast<std::size_t>(groups));
+  std::uint64_t vertices = 0, coefficients = 0;
+  for (std::size_t i = 0; i < d.groups.size(); ++i) {
+    PoseAOGroup& g = d.groups[i];
+    PENUMBRA_TRY(r.read(g.joints));
+    PENUMBRA_TRY(r.read(g.joint_count));
+    PENUMBRA_TRY(r.read(g.first));
+    PENUMBRA_TRY(r.read(g.count));
+    PENUMBRA_TRY(r.read(g.coefficient_offset));
+    bool ok = g.joint_count <= d.locality && g.count >= 1 && g.first == vertices && g.coefficient_offset == coefficients;
+    for (std::uint32_t k = 0; ok && k < g.joint_count; ++k)
+      ok = g.joints[k] < J && (k == 0 || g.joints[k] > g.joints[k - 1]);
+    if (!ok) return bad("joint set " + std::to_string(i) + " is malformed (joints, count or offsets)");
+    vertices += g.count;
+    coefficients += std::uint64_t{g.coefficient_count()} * g.count;
+    if (vertices > V) return bad("the joint sets hold more than " + std::to_string(V) + " vertices");
+  }
+  if (vertices != V) return bad("the joint sets hold " + std::to_string(vertices) + " of " + std::to_string(V) + " vertices");
+  PENUMBRA_TRY(r.read_vector(d.vertex_order, V));
+  if (d.vertex_order.size() != V) return bad("the vertex order does not hold " + std::to_string(V) + " vertices");
+  std::vector<std::uint8_t> seen(V, 0);
+  for (std::uint32_t v : d.vertex_order) {
+    if (v >= V || seen[v]) return bad("the vertex order is not a permutation (vertex " + std::to_string(v) + ")");
+    seen[v] = 1;
+  }
+  std::vector<std::uint16_t> halves;
+  PENUMBRA_TRY(r.read_vector(halves, coefficients));
+  if (halves.size() != coefficients) return bad("the coefficient count does not match the joint sets");
+  d.coefficients.resize(halves.size());
+  for (std::size_t i = 0; i < halves.size(); ++i) {
+    d.coefficients[i] = glm::unpackHalf1x16(halves[i]);
+    if (!std::isfinite(d.coefficients[i])) return bad("coefficient " + std::to_string(i) + " is not finite");
+  }
+  PENUMBRA_TRY(r.read_vector(d.bind_ao, V));
+  PENUMBRA_TRY(r.read_vector(d.mean_ao, V));
+  PENUMBRA_TRY(r.finish());
+  if (d.bind_ao.size() != V || d.mean_ao.size() != V) return bad("the baselines do not hold one AO per vertex");
+  for (std::size_t v = 0; v < V; ++v)
+    if (!(d.bind_ao[v] >= 0.0f && d.bind_ao[v] <= 1.0f && d.mean_ao[v] >= 0.0f && d.mean_ao[v] <= 1.0f))
+      return bad("vertex " + std::to_string(v) + " has a baseline AO outside [0, 1]");
+  return d;
+}
+
+std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk) {
+  if (chunk.type != kChunkType) return {};
+  auto d = read_pose_ao_chunk(chunk);
+  if (!d) return {d.error().message};
+  char line[256];
+  std::vector<std::string> out;
+  std::snprintf(line, sizeof line, "%u vertices, %u joints, %zu joint sets, %u poses x %u rays, locality %u, lambda %.3g",
+                d->vertex_count, d->joint_count, d->groups.size(), d->poses, d->rays_per_vertex, d->locality,
+                static_cast<double>(d->lambda));
+  out.emplace_back(line);
+  std::snprintf(line, sizeof line, "training RMSE %.4f, %.1f B per vertex (16-bit coefficients), %s", 
+                static_cast<double>(d->training_rmse), d->bytes_per_vertex(), format_bytes(d->bytes()).c_str());
+  out.emplace_back(line);
+  if (d->locality < d->requested_locality) {
+    std::snprintf(line, sizeof line, "warning: locality reduced from %u to %u joints (too few poses); bake more poses",
+                  d->requested_locality, d->locality);
+    out.emplace_back(line);
+  }
+  return out;
+}
+
+}  // namespace penumbra
