@@ -102,11 +102,20 @@ PointSample sample_point(const RayScene& scene, std::span<const WorldLight> ligh
 
 // Per axis tent offset in cells: xi1 + xi2 - 1 has the density max(0, 1 - |t|) on [-1, 1]
 // (the node's trilinear basis B_i). xi from an Owen-scrambled (0,2)-net, one scramble per axis.
-glm::vec3 tent_offset(std::uint32_t k, const std::array<std::uint32_t, 3>& scrambles) {
+// `fold` (fitted mode) keeps the points in the grid's box, the only region the fit measures
+// (receivers are clamped to the box): on a boundary node's outer axis the offset is folded inwards
+// (|t| has the density 2 (1 - |t|) on [0, 1], the tent's inner half), so none of the node's rays
+// is spent outside the box; probe_fit_weight() undoes the extra density in the boundary cells.
+// Supersampled mode keeps the paper's whole tent: its average over a half tent would be biased a
+// third of a cell inwards wherever the lighting has a gradient across the box's face.
+glm::vec3 tent_offset(std::uint32_t k, const std::array<std::uint32_t, 3>& scrambles, glm::uvec3 ijk,
+                      glm::uvec3 res, bool fold) {
   glm::vec3 t;
   for (int a = 0; a < 3; ++a) {
     const glm::vec2 u = sobol_2d(k, scrambles[static_cast<std::size_t>(a)]);
     t[a] = u.x + u.y - 1.0f;
+    if (fold && ijk[a] == 0) t[a] = std::abs(t[a]);
+    if (fold && ijk[a] + 1 == res[a]) t[a] = -std::abs(t[a]);
   }
   return t;
 }
@@ -233,7 +242,7 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
       SH9rgb sum;
       std::uint32_t inside = 0;
       for (std::uint32_t k = 0; k < grid.samples_per_node; ++k) {
-        const glm::vec3 t = tent_offset(k, scrambles);
+        const glm::vec3 t = tent_offset(k, scrambles, ijk, res, fitted);
         const glm::vec3 y(layout->grid_to_world * glm::vec4(u + t * cell, 1.0f));
         const PointSample p = sample_point(scene, lights, y, s, rng);
         if (fitted) {

@@ -82,6 +82,15 @@ void multiply_rows(const Grid& g, const std::vector<double>& stencil, std::size_
 
 }  // namespace
 
+double probe_fit_weight(glm::vec3 u, glm::uvec3 res) {
+  double w = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double x = static_cast<double>(u[a]), last = static_cast<double>(res[a] - 1u);
+    w /= 1.0 + std::max(0.0, 1.0 - x) + std::max(0.0, 1.0 - (last - x));
+  }
+  return w;
+}
+
 std::uint64_t probe_fit_bytes(std::size_t nodes, std::size_t columns) {
   // Stencil + diagonal, five CG vectors (x, r, z, p, q), block partial sums.
   const std::uint64_t n = nodes;
@@ -129,12 +138,14 @@ Result<ProbeFitReport> fit_probe_nodes(const ProbeFitInput& input, std::span<flo
               if (o.x < 0 || o.y < 0 || o.z < 0 || o.x > 1 || o.y > 1 || o.z > 1) continue;
               const double bn = c.weight[static_cast<std::size_t>(o.x | (o.y << 1) | (o.z << 2))];
               if (bn == 0.0) continue;
+              // w (B_n B_m): the same product for G[n][m] and G[m][n] (exact symmetry).
+              const double w = probe_fit_weight(input.positions[s], input.resolution);
               for (int k = 0; k < 8; ++k) {
                 const glm::ivec3 j = c.base + glm::ivec3(k & 1, (k >> 1) & 1, (k >> 2) & 1);
-                row[stencil_index(j - self)] += bn * c.weight[static_cast<std::size_t>(k)];
+                row[stencil_index(j - self)] += w * (bn * c.weight[static_cast<std::size_t>(k)]);
               }
               const float* v = &input.values[s * K];
-              for (std::size_t k = 0; k < K; ++k) rhs[k] += bn * static_cast<double>(v[k]);
+              for (std::size_t k = 0; k < K; ++k) rhs[k] += w * bn * static_cast<double>(v[k]);
             }
           }
       // Tikhonov pull towards the targets: lambda on the diagonal, lambda a on the right.

@@ -15,10 +15,13 @@
 // (G + lambda I) c = B^T L + lambda a share one sparse SPD matrix G = sum_s w_s B(y_s) B(y_s)^T
 // with a 27-point stencil, solved by Jacobi-preconditioned conjugate gradients warm-started at a.
 //
-// Weights: node i draws S points from its tent pdf B_i (grid units, integral 1), so the union of
-// all nodes' samples has density S sum_i B_i(y) = S inside the box (the tents are a partition of
-// unity): uniform. Every sample therefore has the same weight and w_s = 1 is the uniform measure
-// over D up to a constant; samples outside the box are dropped (receivers are clamped into it).
+// Weights: node i draws S points from its tent pdf B_i (grid units, integral 1), folded into the
+// box on a boundary node's outer side (probe_baker.cpp), so the union of all nodes' samples has
+// the density S prod_a (1 + B_first(u_a) + B_last(u_a)): S in the interior (the tents are a
+// partition of unity), up to 2S per axis in the boundary cells, where the folded halves land.
+// probe_fit_weight() is its inverse relative to the interior, so sum_s w_s (...)^2 estimates the
+// uniform measure over D inside the box up to a constant; samples outside the box are dropped
+// (receivers are clamped into it).
 // Regularisation: lambda = mu S (2/3)^3, mu times the diagonal of a node whose whole support is in
 // D ((2/3)^3 = integral of B_i^2). It keeps nodes with little or no in-domain support well posed
 // (a node with none gets exactly its target a_i) and limits the fit's noise: the eigenvalues of G
@@ -60,6 +63,10 @@ struct ProbeFitReport {
   std::uint32_t iterations = 0;   // CG iterations run (the most over the columns)
   double worst_residual = 0.0;    // largest final ||r||_M / ||b||_M over the columns
 };
+
+// Weight w_s of a sample at grid point u (inside the box) of a grid with `res` nodes per axis:
+// prod_a 1 / (1 + B_first(u_a) + B_last(u_a)), 1 in interior cells. Cost: O(1). Thread-safe.
+double probe_fit_weight(glm::vec3 u, glm::uvec3 res);
 
 // Bytes the fit allocates for `nodes` nodes and `columns` columns (stencil matrix, CG vectors).
 std::uint64_t probe_fit_bytes(std::size_t nodes, std::size_t columns);

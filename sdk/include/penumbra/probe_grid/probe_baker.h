@@ -16,9 +16,11 @@
 // supersampled mode draws S points from the node's tent B_i (per axis y = x_i + h (xi1 + xi2 - 1),
 // xi from a scrambled Sobol' net), drops the points outside the domain of interest, and averages.
 // Nodes with no in-domain point are filled by iterative dilation from valid neighbours (they
-// cannot influence an in-domain receiver anyway). Fitted mode keeps every in-domain point of every
-// node and solves for the node values that minimise the squared reconstruction error over them
-// (least squares, pulled towards the supersampled averages where support is thin; probe_fit.h).
+// cannot influence an in-domain receiver anyway). Fitted mode draws its points from tents folded
+// into the grid's box on boundary nodes (the fit measures the error only where receivers are, so
+// no ray is spent outside the box), keeps every in-domain point of every node and solves for the
+// node values that minimise the squared reconstruction error over them (least squares, weighted
+// to the uniform measure, pulled towards the nodes' averages where support is thin; probe_fit.h).
 #pragma once
 
 #include <cstdint>
