@@ -34,8 +34,8 @@ void cube_coordinates(glm::vec3 d, std::uint32_t& face, float& s, float& t) {
   face = (mx ? 0u : (my ? 2u : 4u)) + (major < 0.0f ? 1u : 0u);
 }
 
-// Bilinear interpolation of the texels of one face at direction w (clamped at the face's edge
-// texel centres, so each lookup reads a single face).
+// Bilinear interpolation of the texels of one face in direction w (any non-zero length; clamped
+// at the face's edge texel centres, so each lookup reads a single face).
 AOFieldTexel lookup(const AOFieldData& field, glm::vec3 w) {
   std::uint32_t face = 0;
   float s = 0.0f, t = 0.0f;
@@ -97,19 +97,84 @@ const CapTable& cap_table() {
   return table;
 }
 
+// Step 5 of evaluate_local: the linear fade to 0 between fade_start x r_far and r_far.
+float fade(const AOFieldData& field, float r) {
+  return std::clamp((field.r_far - r) / ((1.0f - field.fade_start) * field.r_far), 0.0f, 1.0f);
+}
+
+// Steps 2-4 for a RadialFit field at p = x - centre, r = |p| in (0, r_far).
+float radial_occlusion(const AOFieldData& field, glm::vec3 p, float r, glm::vec3 n) {
+  const AOFieldTexel t = lookup(field, p);
+  // Outside the hull: r itself; inside: the hull point, then the blend towards A0.
+  const float rc = std::max(r, t.r0);
+  const float denom = (t.a * rc + t.b) * rc + t.c;
+  const float omega = denom > 0.0f ? std::min(1.0f / denom, 4.0f * std::numbers::pi_v<float>) : 0.0f;
+  const float inv_r = 1.0f / r;
+  const glm::vec3 axis = t.c0 - (rc * inv_r) * p;
+  const float len2 = glm::dot(axis, axis);
+  const float cos_beta = len2 > 0.0f ? glm::dot(n, axis) / std::sqrt(len2) : -glm::dot(n, p) * inv_r;
+  float a = cap_occlusion_table(omega, cos_beta);
+  if (r < t.r0) {
+    const float A0 = field.inside_occlusion, q = r / t.r0;
+    a = A0 + (a - A0) * (field.inside_exponent == 2.0f ? q * q : std::pow(q, field.inside_exponent));
+  }
+  return a;
+}
+
+// Steps 2-3 for a Grid field (Malmer et al. 2007): trilinear Omega and Omega x Upsilon on the
+// warped grid.
+float grid_occlusion(const AOFieldData& field, glm::vec3 p, float r, glm::vec3 n) {
+  const std::uint32_t size = field.grid_size;
+  const float last = static_cast<float>(size - 1), inv_far = 1.0f / field.r_far;
+  std::uint32_t i0[3];
+  float f[3];
+  for (int k = 0; k < 3; ++k) {
+    const float u = std::copysign(std::sqrt(std::abs(p[k]) * inv_far), p[k]);  // the warp's inverse
+    const float g = std::clamp((u + 1.0f) * 0.5f * last, 0.0f, last);
+    i0[k] = std::min(static_cast<std::uint32_t>(g), size - 2);
+    f[k] = g - static_cast<float>(i0[k]);
+  }
+  const std::size_t sx = 1, sy = size, sz = std::size_t{size} * size;
+  const AOFieldGridNode* base = &field.nodes[i0[2] * sz + i0[1] * sy + i0[0]];
+  float omega = 0.0f;
+  glm::vec3 dir(0.0f);
+  for (int corner = 0; corner < 8; ++corner) {
+    const int cx = corner & 1, cy = (corner >> 1) & 1, cz = corner >> 2;
+    const float w = (cx ? f[0] : 1.0f - f[0]) * (cy ? f[1] : 1.0f - f[1]) * (cz ? f[2] : 1.0f - f[2]);
+    const AOFieldGridNode& node = base[cx * sx + cy * sy + cz * sz];
+    omega += w * node.omega;
+    dir += w * node.weighted_direction;
+  }
+  const float len2 = glm::dot(dir, dir);
+  const float cos_beta = len2 > 0.0f ? glm::dot(n, dir) / std::sqrt(len2) : -glm::dot(n, p) / r;
+  return cap_occlusion_table(omega, cos_beta);
+}
+
 }  // namespace
+
+const char* to_string(AOFieldRepresentation representation) {
+  return representation == AOFieldRepresentation::Grid ? "grid" : "radial-fit";
+}
 
 AOFieldCaster AOFieldCaster::preset(Preset preset) {
   AOFieldCaster c;
   switch (preset) {
-    case Preset::Draft: c.resolution = 8; c.radial_samples = 16; c.rays_per_sample = 64; break;
-    case Preset::Medium: c.resolution = 16; c.radial_samples = 32; c.rays_per_sample = 256; break;
-    case Preset::High: c.resolution = 32; c.radial_samples = 48; c.rays_per_sample = 512; break;
+    case Preset::Draft: c.resolution = 8; c.radial_samples = 16; c.rays_per_sample = 64; c.grid_size = 16; break;
+    case Preset::Medium: c.resolution = 16; c.radial_samples = 32; c.rays_per_sample = 256; c.grid_size = 32; break;
+    case Preset::High: c.resolution = 32; c.radial_samples = 48; c.rays_per_sample = 512; c.grid_size = 48; break;
   }
   return c;
 }
 
 Status validate_ao_field_caster(const AOFieldCaster& c, const glm::mat4& m, std::string_view context) {
+  if (c.representation != AOFieldRepresentation::RadialFit && c.representation != AOFieldRepresentation::Grid)
+    return bad_setting(context, "representation " + std::to_string(static_cast<std::uint32_t>(c.representation)) +
+                                    " is unknown; use RadialFit or Grid");
+  if (c.supersample < 1 || c.supersample > 4)
+    return bad_setting(context, "supersample " + std::to_string(c.supersample) + " is outside 1..4; use 2");
+  if (c.grid_size < 4 || c.grid_size > 128)
+    return bad_setting(context, "grid_size " + std::to_string(c.grid_size) +
+                                    " is outside 4..128 vertices per axis; use 16, 32 or 48");
   if (c.resolution < 1 || c.resolution > 256)
     return bad_setting(context, "resolution " + std::to_string(c.resolution) +
                                     " is outside 1..256 texels per face; use 8, 16 or 32");
@@ -146,7 +211,16 @@ Status validate_ao_field_caster(const AOFieldCaster& c, const glm::mat4& m, std:
   return {};
 }
 
-std::uint64_t AOFieldData::bytes() const { return texels.size() * 7ull * sizeof(float); }
+std::uint64_t AOFieldData::bytes() const {
+  return texels.size() * 7ull * sizeof(float) + nodes.size() * 4ull * sizeof(float);
+}
+
+bool AOFieldData::valid() const {
+  if (representation == AOFieldRepresentation::RadialFit)
+    return resolution > 0 && texels.size() == 6 * std::size_t{resolution} * resolution;
+  return representation == AOFieldRepresentation::Grid && grid_size >= 2 &&
+         nodes.size() == std::size_t{grid_size} * grid_size * grid_size;
+}
 
 glm::vec3 cube_direction(std::uint32_t face, float s, float t) {
   const int m = static_cast<int>(face / 2);
@@ -185,26 +259,27 @@ float cap_occlusion_table(float omega, float cos_beta) {
 }
 
 float evaluate_local(const AOFieldData& field, glm::vec3 x, glm::vec3 n) {
-  if (field.texels.empty() || field.resolution == 0) return 0.0f;
+  if (!field.valid()) return 0.0f;
   const glm::vec3 p = x - field.centre;
   const float r = glm::length(p);
   if (!(r < field.r_far)) return 0.0f;  // beyond the falloff (or not finite)
-  const float A0 = field.inside_occlusion;
-  if (r == 0.0f) return A0;
-  const glm::vec3 w = p / r;
-  const AOFieldTexel t = lookup(field, w);
-  // Outside the hull: r itself; inside: the hull point, then the blend towards A0.
-  const float rc = std::max(r, t.r0);
-  const float denom = (t.a * rc + t.b) * rc + t.c;
-  const float omega = denom > 0.0f ? std::min(1.0f / denom, 4.0f * std::numbers::pi_v<float>) : 0.0f;
-  glm::vec3 axis = t.c0 - rc * w;
-  const float len = glm::length(axis);
-  axis = len > 0.0f ? axis / len : -w;
-  float a = cap_occlusion_table(omega, glm::dot(n, axis));
-  if (r < t.r0) a = A0 + (a - A0) * std::pow(r / t.r0, field.inside_exponent);
-  // Fade to zero between fade_start x r_far and r_far.
-  const float fade = std::clamp((field.r_far - r) / ((1.0f - field.fade_start) * field.r_far), 0.0f, 1.0f);
-  return std::clamp(a * fade, 0.0f, 1.0f);
+  if (r == 0.0f) return field.inside_occlusion;
+  const float a = field.representation == AOFieldRepresentation::Grid ? grid_occlusion(field, p, r, n)
+                                                                       : radial_occlusion(field, p, r, n);
+  return std::clamp(a * fade(field, r), 0.0f, 1.0f);
+}
+
+void accumulate_open(const AOFieldData& field, const glm::mat4& world_to_local, std::span<const glm::vec3> x,
+                     std::span<const glm::vec3> n, std::span<float> open) {
+  const glm::mat3 linear(world_to_local);
+  const glm::vec3 offset(world_to_local[3]);
+  const std::size_t count = std::min({x.size(), n.size(), open.size()});
+  for (std::size_t i = 0; i < count; ++i) {
+    const glm::vec3 nl = linear * n[i];
+    const float len2 = glm::dot(nl, nl);
+    if (!(len2 > 0.0f) || !std::isfinite(len2)) continue;
+    open[i] *= 1.0f - evaluate_local(field, linear * x[i] + offset, nl / std::sqrt(len2));
+  }
 }
 
 float evaluate(const AOFieldData& field, const glm::mat4& caster_world, glm::vec3 x, glm::vec3 n) {
@@ -218,7 +293,9 @@ float evaluate(const AOFieldData& field, const glm::mat4& caster_world, glm::vec
 
 float hull_distance(const AOFieldData& field, glm::vec3 w) {
   const float len = glm::length(w);
-  if (field.texels.empty() || field.resolution == 0 || !(len > 0.0f) || !std::isfinite(len)) return 0.0f;
+  if (field.representation != AOFieldRepresentation::RadialFit || !field.valid() || !(len > 0.0f) ||
+      !std::isfinite(len))
+    return 0.0f;
   return lookup(field, w / len).r0;
 }
 

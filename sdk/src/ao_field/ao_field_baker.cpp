@@ -83,7 +83,10 @@ void hash_field_inputs(World& world, const BakeSettings&, Hasher& h) {
   for (Entity e : caster_entities(world)) {
     const AOFieldCaster& c = world.get<AOFieldCaster>(e);
     h.add(e.index);
+    h.add(static_cast<std::uint32_t>(c.representation));
     h.add(c.resolution);
+    h.add(c.supersample);
+    h.add(c.grid_size);
     h.add(c.radial_samples);
     h.add(c.rays_per_sample);
     h.add(c.falloff_distance);
@@ -92,6 +95,85 @@ void hash_field_inputs(World& world, const BakeSettings&, Hasher& h) {
     h.add(c.inside_exponent);
     h.add(world.get<WorldTransform>(e).matrix);  // validation (uniform scale) depends on it
   }
+}
+
+// Omega and the (unnormalised) sum of occluded directions at the points `from[j % from.size()]`
+// for rays j = 0..rays-1 (scrambled Sobol' directions over the sphere): one point, or a texel's
+// supersample points whose samples are averaged (the filter down).
+struct SphereSample {
+  std::uint32_t hits = 0;
+  glm::dvec3 sum{0.0};
+};
+SphereSample trace_sphere(const RayScene& scene, std::span<const glm::vec3> from, std::uint32_t rays,
+                          std::uint32_t scramble, float tnear) {
+  std::array<Ray, kRayBlock> block;
+  std::array<std::uint8_t, kRayBlock> hit{};
+  SphereSample out;
+  for (std::uint32_t first = 0; first < rays; first += kRayBlock) {
+    const std::uint32_t count = std::min(kRayBlock, rays - first);
+    for (std::uint32_t j = 0; j < count; ++j)
+      block[j] = Ray{from[(first + j) % from.size()], tnear, uniform_sphere(sobol_2d(first + j, scramble)),
+                     std::numeric_limits<float>::infinity()};
+    scene.occluded(std::span<const Ray>(block.data(), count), std::span<std::uint8_t>(hit.data(), count));
+    for (std::uint32_t j = 0; j < count; ++j)
+      if (hit[j]) {
+        ++out.hits;
+        out.sum += glm::dvec3(block[j].direction);
+      }
+  }
+  return out;
+}
+
+// Step 1: r0(w) = min over the support directions u with u.w > 0 of h(u) / (u.w), at most the
+// bounding radius.
+double hull_distance_of(const std::vector<glm::dvec3>& dirs, const std::vector<double>& support, glm::dvec3 w,
+                        double radius) {
+  double r0 = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < dirs.size(); ++k) {
+    const double c = glm::dot(dirs[k], w);
+    if (c > 1e-9) r0 = std::min(r0, support[k] / c);
+  }
+  return std::min(r0, radius);
+}
+
+// The grid representation (Malmer et al. 2007): Omega and Omega x Upsilon at every vertex that a
+// point within r_far can interpolate from (the others stay 0). Vertex v draws from
+// Rng::stream(seed, v).
+Status bake_grid(const AOFieldCaster& caster, const RayScene& scene, std::uint64_t seed, float tnear,
+                 JobContext& jobs, AOFieldData& data) {
+  const std::uint32_t size = caster.grid_size;
+  const double far = data.r_far;
+  std::vector<double> coord(size);  // the warped vertex coordinate g(u) r_far per index
+  for (std::uint32_t i = 0; i < size; ++i) {
+    const double u = 2.0 * i / double(size - 1) - 1.0;
+    coord[i] = u * std::abs(u) * far;
+  }
+  // Per index, the distance from 0 to the span of the cells around the vertex (0 when it holds 0).
+  std::vector<double> near_span(size);
+  for (std::uint32_t i = 0; i < size; ++i) {
+    const double lo = coord[i == 0 ? 0 : i - 1], hi = coord[std::min(i + 1, size - 1)];
+    near_span[i] = lo <= 0.0 && hi >= 0.0 ? 0.0 : std::min(std::abs(lo), std::abs(hi));
+  }
+  const std::size_t count = std::size_t{size} * size * size;
+  data.nodes.assign(count, AOFieldGridNode{});
+  const glm::dvec3 centre(data.centre);
+  jobs.begin_stage("ao field", count);
+  return jobs.parallel_for(count, 256, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t v = begin; v < end; ++v) {
+      const std::size_t i = v % size, j = (v / size) % size, k = v / (std::size_t{size} * size);
+      const glm::dvec3 span(near_span[i], near_span[j], near_span[k]);
+      if (!(glm::length(span) < far)) continue;  // no point within r_far reads this vertex
+      Rng rng = Rng::stream(seed, v);
+      const glm::vec3 at(centre + glm::dvec3(coord[i], coord[j], coord[k]));
+      const SphereSample smp = trace_sphere(scene, std::span<const glm::vec3>(&at, 1), caster.rays_per_sample,
+                                            rng.next_u32(), tnear);
+      const double omega = 4.0 * kPi * smp.hits / caster.rays_per_sample;
+      const double len = glm::length(smp.sum);
+      AOFieldGridNode& node = data.nodes[v];
+      node.omega = static_cast<float>(omega);
+      node.weighted_direction = len > 0.0 ? glm::vec3(omega * smp.sum / len) : glm::vec3(0.0f);
+    }
+  });
 }
 
 }  // namespace
@@ -123,11 +205,15 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
                           " does not reach beyond the caster (bounding radius " + std::to_string(radius) +
                           "); use at least 2x the bounding radius, or 0 for 6x");
 
-  const std::uint32_t res = caster.resolution;
+  const bool grid = caster.representation == AOFieldRepresentation::Grid;
+  const std::uint32_t res = grid ? 0 : caster.resolution;
   const std::size_t texel_count = 6 * std::size_t{res} * res;
-  const std::uint64_t need = texel_count * (sizeof(AOFieldTexel) + 1);
+  const std::uint64_t need = grid ? std::uint64_t{caster.grid_size} * caster.grid_size * caster.grid_size *
+                                        sizeof(AOFieldGridNode)
+                                  : texel_count * (sizeof(AOFieldTexel) + 1);
   if (auto st = budget.reserve(std::string(context) + " texels", need); !st)
-    return make_error(ErrorCode::OutOfBudget, st.error().message + "; use a lower resolution");
+    return make_error(ErrorCode::OutOfBudget, st.error().message + (grid ? "; use a smaller grid_size"
+                                                                              : "; use a lower resolution"));
   struct Release {
     MemoryBudget& b;
     std::uint64_t n;
@@ -147,6 +233,22 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
   auto scene = RayScene::build(alone, options);
   if (!scene) return scene.error();
 
+  AOFieldData data;
+  data.representation = caster.representation;
+  data.resolution = res;
+  data.grid_size = grid ? caster.grid_size : 0;
+  data.centre = glm::vec3(centroid);
+  data.bounding_radius = static_cast<float>(radius);
+  data.r_far = static_cast<float>(r_far);
+  data.fade_start = caster.fade_start;
+  data.inside_occlusion = caster.inside_occlusion;
+  data.inside_exponent = caster.inside_exponent;
+  const float tnear = static_cast<float>(1e-6 * radius);
+  if (grid) {
+    PENUMBRA_TRY(bake_grid(caster, *scene, seed, tnear, jobs, data));
+    return data;
+  }
+
   // Step 1's support function h(u) = max_v (v - centre) . u.
   const std::vector<glm::dvec3> dirs = support_directions(mesh);
   std::vector<double> support(dirs.size(), 0.0);
@@ -156,66 +258,51 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
     support[i] = std::max(h, 0.0);
   }
 
-  AOFieldData data;
-  data.resolution = res;
-  data.centre = glm::vec3(centroid);
-  data.bounding_radius = static_cast<float>(radius);
-  data.r_far = static_cast<float>(r_far);
-  data.fade_start = caster.fade_start;
-  data.inside_occlusion = caster.inside_occlusion;
-  data.inside_exponent = caster.inside_exponent;
   data.texels.resize(texel_count);
   std::vector<std::uint8_t> clamped(texel_count, 0);
-
   const std::uint32_t radii = caster.radial_samples;
   const std::uint32_t rays = caster.rays_per_sample;
-  const float tnear = static_cast<float>(1e-6 * radius);
+  const std::uint32_t sub = caster.supersample;
   const glm::vec3 origin_centre(centroid);
   jobs.begin_stage("ao field", texel_count);
   Status st = jobs.parallel_for(texel_count, 4, [&](std::size_t begin, std::size_t end) {
-    std::array<Ray, kRayBlock> block;
-    std::array<std::uint8_t, kRayBlock> hit{};
     std::vector<AORadialSample> samples(radii);
+    std::vector<glm::vec3> sub_dirs(std::size_t{sub} * sub), from(sub_dirs.size());
     for (std::size_t i = begin; i < end; ++i) {
       Rng rng = Rng::stream(seed, i);
       const auto face = static_cast<std::uint32_t>(i / (std::size_t{res} * res));
       const auto row = static_cast<std::uint32_t>((i / res) % res), col = static_cast<std::uint32_t>(i % res);
-      const float s = 2.0f * (static_cast<float>(col) + 0.5f) / static_cast<float>(res) - 1.0f;
-      const float t = 2.0f * (static_cast<float>(row) + 0.5f) / static_cast<float>(res) - 1.0f;
+      const float texel = 2.0f / static_cast<float>(res);
+      const float s = (static_cast<float>(col) + 0.5f) * texel - 1.0f;
+      const float t = (static_cast<float>(row) + 0.5f) * texel - 1.0f;
       const glm::vec3 w = cube_direction(face, s, t);
       const glm::dvec3 wd(w);
       // Step 1: the hull distance along w.
-      double r0 = std::numeric_limits<double>::infinity();
-      for (std::size_t k = 0; k < dirs.size(); ++k) {
-        const double c = glm::dot(dirs[k], wd);
-        if (c > 1e-9) r0 = std::min(r0, support[k] / c);
-      }
-      r0 = std::min(r0, radius);
-      // Step 2: Omega and Upsilon at log-spaced radii from just outside the hull to r_far.
-      const double r_lo = std::min(std::max(r0 * (1.0 + 1e-3), 1e-2 * radius), 0.5 * r_far);
+      const double r0 = hull_distance_of(dirs, support, wd, radius);
+      // The supersample directions: the centres of the sub x sub texels of the cube map built at
+      // sub x the resolution that cover this texel; the sampled radii start outside the hull
+      // along all of them.
+      double r0_max = r0;
+      for (std::uint32_t b = 0; b < sub; ++b)
+        for (std::uint32_t a = 0; a < sub; ++a) {
+          const float ds = (static_cast<float>(a) + 0.5f) / static_cast<float>(sub) - 0.5f;
+          const float dt = (static_cast<float>(b) + 0.5f) / static_cast<float>(sub) - 0.5f;
+          const glm::vec3 d = sub == 1 ? w : cube_direction(face, s + ds * texel, t + dt * texel);
+          sub_dirs[b * sub + a] = d;
+          if (sub > 1) r0_max = std::max(r0_max, hull_distance_of(dirs, support, glm::dvec3(d), radius));
+        }
+      // Step 2: Omega and Upsilon at log-spaced radii from just outside the hull to r_far, each
+      // averaged over the supersample directions (rays spread over them in turn).
+      const double r_lo = std::min(std::max(r0_max * (1.0 + 1e-3), 1e-2 * radius), 0.5 * r_far);
       for (std::uint32_t k = 0; k < radii; ++k) {
         const double r = r_lo * std::pow(r_far / r_lo, double(k) / double(radii - 1));
-        const glm::vec3 p = origin_centre + static_cast<float>(r) * w;
-        const std::uint32_t scramble = rng.next_u32();
-        std::uint32_t hits = 0;
-        glm::dvec3 sum(0.0);
-        for (std::uint32_t first = 0; first < rays; first += kRayBlock) {
-          const std::uint32_t count = std::min(kRayBlock, rays - first);
-          for (std::uint32_t j = 0; j < count; ++j)
-            block[j] = Ray{p, tnear, uniform_sphere(sobol_2d(first + j, scramble)),
-                           std::numeric_limits<float>::infinity()};
-          scene->occluded(std::span<const Ray>(block.data(), count), std::span<std::uint8_t>(hit.data(), count));
-          for (std::uint32_t j = 0; j < count; ++j)
-            if (hit[j]) {
-              ++hits;
-              sum += glm::dvec3(block[j].direction);
-            }
-        }
+        for (std::size_t d = 0; d < sub_dirs.size(); ++d) from[d] = origin_centre + static_cast<float>(r) * sub_dirs[d];
+        const SphereSample smp = trace_sphere(*scene, from, rays, rng.next_u32(), tnear);
         AORadialSample& rs = samples[k];
         rs.rho = r / radius;
-        rs.omega = 4.0 * kPi * hits / rays;
-        const double len = glm::length(sum);
-        rs.upsilon = len > 0.0 ? sum / len : -wd;
+        rs.omega = 4.0 * kPi * smp.hits / rays;
+        const double len = glm::length(smp.sum);
+        rs.upsilon = len > 0.0 ? smp.sum / len : -wd;
       }
       // Steps 3 and 4: the fits, in units of the bounding radius, then back to mesh units.
       AOOmegaFit p{};
@@ -237,7 +324,9 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
 BakeChunk write_ao_field_chunk(const AOFieldData& data) {
   ByteWriter w;
   w.write(data.entity_index);
+  w.write(static_cast<std::uint32_t>(data.representation));
   w.write(data.resolution);
+  w.write(data.grid_size);
   w.write(data.centre);
   w.write(data.bounding_radius);
   w.write(data.r_far);
@@ -246,6 +335,7 @@ BakeChunk write_ao_field_chunk(const AOFieldData& data) {
   w.write(data.inside_exponent);
   w.write(data.clamped_fits);
   w.write_vector(data.texels);
+  w.write_vector(data.nodes);
   return BakeChunk{kChunkType, kAOFieldChunkVersion, "aofield:" + std::to_string(data.entity_index), w.take()};
 }
 
@@ -257,8 +347,11 @@ Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(check_chunk(chunk, kChunkType, kAOFieldChunkVersion, context));
   AOFieldData d;
   ByteReader r(chunk.payload, context);
+  std::uint32_t representation = 0;
   PENUMBRA_TRY(r.read(d.entity_index));
+  PENUMBRA_TRY(r.read(representation));
   PENUMBRA_TRY(r.read(d.resolution));
+  PENUMBRA_TRY(r.read(d.grid_size));
   PENUMBRA_TRY(r.read(d.centre));
   PENUMBRA_TRY(r.read(d.bounding_radius));
   PENUMBRA_TRY(r.read(d.r_far));
@@ -266,13 +359,22 @@ Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(d.inside_occlusion));
   PENUMBRA_TRY(r.read(d.inside_exponent));
   PENUMBRA_TRY(r.read(d.clamped_fits));
-  if (d.resolution < 1 || d.resolution > 256)
-    return bad("resolution " + std::to_string(d.resolution) + " is outside 1..256");
+  if (representation > static_cast<std::uint32_t>(AOFieldRepresentation::Grid))
+    return bad("representation " + std::to_string(representation) + " is unknown");
+  d.representation = static_cast<AOFieldRepresentation>(representation);
+  const bool grid = d.representation == AOFieldRepresentation::Grid;
+  if (grid ? (d.resolution != 0 || d.grid_size < 4 || d.grid_size > 128)
+           : (d.resolution < 1 || d.resolution > 256 || d.grid_size != 0))
+    return bad("resolution " + std::to_string(d.resolution) + " / grid_size " + std::to_string(d.grid_size) +
+               " do not fit the " + to_string(d.representation) + " representation");
   const std::size_t count = 6 * std::size_t{d.resolution} * d.resolution;
+  const std::size_t node_count = std::size_t{d.grid_size} * d.grid_size * d.grid_size;
   PENUMBRA_TRY(r.read_vector(d.texels, count));
+  PENUMBRA_TRY(r.read_vector(d.nodes, node_count));
   PENUMBRA_TRY(r.finish());
-  if (d.texels.size() != count) return bad("it holds " + std::to_string(d.texels.size()) + " texels, not " +
-                                           std::to_string(count));
+  if (d.texels.size() != count || d.nodes.size() != node_count)
+    return bad("it holds " + std::to_string(d.texels.size()) + " texels and " + std::to_string(d.nodes.size()) +
+               " grid vertices, not " + std::to_string(count) + " and " + std::to_string(node_count));
   const bool finite_centre = std::isfinite(d.centre.x) && std::isfinite(d.centre.y) && std::isfinite(d.centre.z);
   if (!finite_centre || !(d.bounding_radius >= 0.0f && std::isfinite(d.bounding_radius)) ||
       !(d.r_far > 0.0f && std::isfinite(d.r_far)))
@@ -286,6 +388,14 @@ Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk) {
                     std::isfinite(t.r0) && std::isfinite(t.c0.x) && std::isfinite(t.c0.y) && std::isfinite(t.c0.z);
     if (!ok) return bad("texel " + std::to_string(i) + " has a non-finite or negative value");
   }
+  constexpr float kFourPi = 4.0f * std::numbers::pi_v<float>;
+  for (std::size_t i = 0; i < node_count; ++i) {
+    const AOFieldGridNode& n = d.nodes[i];
+    const float len = glm::length(n.weighted_direction);
+    if (!(n.omega >= 0.0f && n.omega <= kFourPi) || !(len <= n.omega * 1.0001f + 1e-6f))
+      return bad("grid vertex " + std::to_string(i) + " has a solid angle outside [0, 4 pi] or a direction longer "
+                 "than it");
+  }
   return d;
 }
 
@@ -294,9 +404,15 @@ std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk) {
   auto d = read_ao_field_chunk(chunk);
   if (!d) return {d.error().message};
   char line[240];
-  std::snprintf(line, sizeof line, "ao field %ux%u per face, falloff %.3g (bounding radius %.3g), %s, %u clamped fits",
-                d->resolution, d->resolution, static_cast<double>(d->r_far), static_cast<double>(d->bounding_radius),
-                format_bytes(d->bytes()).c_str(), d->clamped_fits);
+  if (d->representation == AOFieldRepresentation::Grid)
+    std::snprintf(line, sizeof line, "ao field grid %u^3, falloff %.3g (bounding radius %.3g), %s", d->grid_size,
+                  static_cast<double>(d->r_far), static_cast<double>(d->bounding_radius),
+                  format_bytes(d->bytes()).c_str());
+  else
+    std::snprintf(line, sizeof line,
+                  "ao field radial fit %ux%u per face, falloff %.3g (bounding radius %.3g), %s, %u clamped fits",
+                  d->resolution, d->resolution, static_cast<double>(d->r_far),
+                  static_cast<double>(d->bounding_radius), format_bytes(d->bytes()).c_str(), d->clamped_fits);
   return {line};
 }
 

@@ -52,28 +52,44 @@ std::size_t update_ao_field_receivers(World& world, std::uint64_t since) {
   state.casters = casters.size();
 
   std::vector<Entity> receivers;
-  world.view<AOFieldReceiver, WorldTransform>().each([&](Entity e, AOFieldReceiver&, WorldTransform&) {
+  world.view<AOFieldReceiver, WorldTransform>().each([&](Entity e, AOFieldReceiver& r, WorldTransform&) {
+    if (r.mode != AOFieldReceiver::Mode::Entity) return;  // surfaces: the renderer's per-pixel pass
     if (casters_changed || world.changed_tick<WorldTransform>(e) > since ||
         world.changed_tick<AOFieldReceiver>(e) > since)
       receivers.push_back(e);
   });
 
-  for (Entity e : receivers) {
-    const glm::mat4& m = world.get<WorldTransform>(e).matrix;
-    const glm::vec3 x(m[3]);
-    const glm::vec3 nw = glm::mat3(m) * world.get<AOFieldReceiver>(e).normal;
+  // Receiver points and unit normals (a zero normal for a degenerate one: it stays open).
+  std::vector<glm::vec3> xs(receivers.size()), ns(receivers.size());
+  for (std::size_t i = 0; i < receivers.size(); ++i) {
+    const glm::mat4& m = world.get<WorldTransform>(receivers[i]).matrix;
+    xs[i] = glm::vec3(m[3]);
+    const glm::vec3 nw = glm::mat3(m) * world.get<AOFieldReceiver>(receivers[i]).normal;
     const float len = glm::length(nw);
-    float open = 1.0f;  // prod (1 - A_i)
-    if (len > 0.0f && std::isfinite(len)) {
-      for (const ActiveCaster& c : casters) {
-        if (c.entity == e || !(glm::distance(x, c.centre) < c.reach)) continue;
-        const glm::vec3 xl(c.world_to_local * glm::vec4(x, 1.0f));
-        const glm::vec3 nl = glm::normalize(glm::mat3(c.world_to_local) * (nw / len));
-        open *= 1.0f - evaluate_local(*c.data, xl, nl);
-      }
+    ns[i] = len > 0.0f && std::isfinite(len) ? nw / len : glm::vec3(0.0f);
+  }
+  // Per caster, the receivers in its reach in one batch: open = prod (1 - A_i).
+  std::vector<float> open(receivers.size(), 1.0f);
+  std::vector<std::size_t> in_range;
+  std::vector<glm::vec3> bx, bn;
+  std::vector<float> bopen;
+  for (const ActiveCaster& c : casters) {
+    in_range.clear();
+    for (std::size_t i = 0; i < receivers.size(); ++i)
+      if (receivers[i] != c.entity && glm::distance(xs[i], c.centre) < c.reach) in_range.push_back(i);
+    bx.resize(in_range.size());
+    bn.resize(in_range.size());
+    bopen.assign(in_range.size(), 1.0f);
+    for (std::size_t k = 0; k < in_range.size(); ++k) {
+      bx[k] = xs[in_range[k]];
+      bn[k] = ns[in_range[k]];
     }
-    AOFieldReceiver& r = world.patch<AOFieldReceiver>(e);
-    r.occlusion = std::clamp(1.0f - open, 0.0f, 1.0f);
+    accumulate_open(*c.data, c.world_to_local, bx, bn, bopen);
+    for (std::size_t k = 0; k < in_range.size(); ++k) open[in_range[k]] *= bopen[k];
+  }
+  for (std::size_t i = 0; i < receivers.size(); ++i) {
+    AOFieldReceiver& r = world.patch<AOFieldReceiver>(receivers[i]);
+    r.occlusion = std::clamp(1.0f - open[i], 0.0f, 1.0f);
     r.updated_tick = world.tick();
   }
   return receivers.size();

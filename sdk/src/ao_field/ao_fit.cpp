@@ -49,10 +49,10 @@ double denominator(const AOOmegaFit& p, double rho) { return (p[0] * rho + p[1])
 
 bool ao_denominator_positive(const AOOmegaFit& p, double lo, double hi) {
   if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) return false;
-  if (!(denominator(p, lo) > 0.0) || !(denominator(p, hi) > 0.0)) return false;
+  if (!(denominator(p, lo) >= kAOMinDenominator) || !(denominator(p, hi) >= kAOMinDenominator)) return false;
   if (p[0] > 0.0) {
     const double v = -p[1] / (2.0 * p[0]);
-    if (v > lo && v < hi && !(denominator(p, v) > 0.0)) return false;
+    if (v > lo && v < hi && !(denominator(p, v) >= kAOMinDenominator)) return false;
   }
   return true;
 }
@@ -105,7 +105,8 @@ bool fit_ao_omega(const std::vector<AORadialSample>& samples, double lo, double 
       a = err_a < err_c ? a_only : 0.0;
       c = err_a < err_c ? 0.0 : c_only;
     }
-    p = {a, 0.0, c};
+    // D is smallest at lo: lift c so that the solid angle there stays within the sphere.
+    p = {a, 0.0, std::max(c, kAOMinDenominator - a * lo * lo)};
     if (!ao_denominator_positive(p, lo, hi)) {
       p = {0.0, 0.0, kAOEmptyDenominator};
       return true;

@@ -25,8 +25,12 @@ using AOOmegaFit = std::array<double, 3>;
 // The denominator of the empty fit (a direction that never sees the caster): Omega ~ 1e-30.
 inline constexpr double kAOEmptyDenominator = 1e30;
 
-// True when the coefficients are finite and D > 0 on all of [lo, hi] (both ends and the vertex of
-// the parabola when it lies inside). O(1).
+// The smallest denominator a fit may take: Omega = 1 / D never exceeds the whole sphere, 4 pi.
+// (A bare D > 0 could round to 0 or below in the runtime's floats.)
+inline constexpr double kAOMinDenominator = 0.25 / 3.14159265358979323846;
+
+// True when the coefficients are finite and D >= kAOMinDenominator on all of [lo, hi] (both ends
+// and the vertex of the parabola when it lies inside). O(1).
 bool ao_denominator_positive(const AOOmegaFit& p, double lo, double hi);
 
 // Fits Omega(rho) = 1 / D(rho) on [lo, hi]: linear least squares on D(rho_k) Omega_k = 1, then up
@@ -34,7 +38,7 @@ bool ao_denominator_positive(const AOOmegaFit& p, double lo, double hi);
 // on [lo, hi]. When the linear fit is not positive there (or has fewer than 3 samples that see the
 // caster), starts instead from the clamp: D = a rho^2 + c with a, c >= 0 (the 2x2 least squares,
 // or the better single term), and returns true. No sample with omega > 0: the empty fit, true.
-// The result is always positive on [lo, hi]. Deterministic; cost O(samples x 30 x 8).
+// The result is always at least kAOMinDenominator on [lo, hi]. Deterministic; cost O(samples x 30 x 8).
 bool fit_ao_omega(const std::vector<AORadialSample>& samples, double lo, double hi, AOOmegaFit& p);
 
 // C0 for direction w (unit): the point nearest, in least squares weighted by omega_k, to the lines

@@ -10,9 +10,14 @@
 // towards a constant; beyond the falloff distance it is zero. Several casters combine by
 // 1 - A = prod (1 - A_i).
 //
+// A second representation, the 3D grid of Malmer et al. 2007 ("Fast precomputed ambient
+// occlusion for proximity shadows", JGT 12(2)), stores the raw solid angle and average occluded
+// direction at the vertices of a grid around the caster (no fit, so also right inside the hull and
+// in concavities, for more memory) and feeds the same cap occlusion after a trilinear lookup.
+//
 // This header holds the authoring component (AOFieldCaster), the receiver component
 // (AOFieldReceiver), the baked data (AOFieldData), the closed form and the CPU evaluation. The
-// bake is in ao_field_baker.h. Units: the caster's local (mesh) units; a field follows its
+// bake is in ao_field_baker.h; the GPU layout in ao_field_gpu.h. Units: the caster's local (mesh) units; a field follows its
 // entity's rotation, translation and uniform scale (AO is scale-invariant).
 #pragma once
 
@@ -32,11 +37,32 @@ namespace penumbra {
 
 struct AOFieldData;
 
+// How a field stores what the caster subtends.
+enum class AOFieldRepresentation : std::uint32_t {
+  // Kontkanen & Laine 2005: a cube map of fitted Omega(r) = 1 / (a r^2 + b r + c), the hull
+  // distance r0 and C0 (7 floats per texel). Small; close outside the hull of convex casters;
+  // inside the hull a blend.
+  RadialFit = 0,
+  // Malmer et al. 2007: Omega and Omega x Upsilon at the vertices of a grid_size^3 grid over the
+  // cube of half-size r_far around the centre (4 floats per vertex), trilinear. Larger; no fit and
+  // no hull, so concave casters are right inside their hull too.
+  Grid = 1,
+};
+const char* to_string(AOFieldRepresentation representation);  // "radial-fit", "grid"
+
 // Authoring component on a rigid entity with a Mesh: casts ambient-occlusion contact shadows.
 struct AOFieldCaster {
+  AOFieldRepresentation representation = AOFieldRepresentation::RadialFit;
   std::uint32_t resolution = 16;       // cube-map texels per face edge (1..256)
   std::uint32_t radial_samples = 32;   // radii per texel between the hull and the falloff (3..1024)
-  std::uint32_t rays_per_sample = 256; // rays per radius that measure Omega and Upsilon (>= 16)
+  std::uint32_t rays_per_sample = 256; // rays per radius (or grid vertex) measuring Omega and Upsilon (>= 16)
+  // Radial fit: each texel is sampled along supersample x supersample directions spread over the
+  // texel (the cube map built at supersample x the resolution), whose samples are averaged per
+  // radius before the fit (filtered down); rays_per_sample are split among them (1..4).
+  std::uint32_t supersample = 2;
+  // Grid: vertices per axis (4..128). The grid is warped, x = r_far u |u| for u in [-1, 1] per
+  // axis, so that vertices crowd near the caster where the field changes fastest.
+  std::uint32_t grid_size = 32;
   // Falloff distance r_far from the centre, in the mesh's local units; 0 derives 6 x the bounding
   // radius (the distance from the bounds' centre to the farthest vertex). Must exceed the
   // bounding radius when set.
@@ -52,24 +78,28 @@ struct AOFieldCaster {
   // The baked data (set by the baker or attach_ao_fields()); null until baked.
   std::shared_ptr<const AOFieldData> data;
 
-  // Quality presets: draft 8x8 per face, 16 radii, 64 rays; medium 16x16, 32 radii, 256 rays;
-  // high 32x32, 48 radii, 512 rays.
+  // Quality presets (radial fit): draft 8x8 per face, 16 radii, 64 rays; medium 16x16, 32 radii,
+  // 256 rays; high 32x32, 48 radii, 512 rays; grid_size 16, 32 and 48 for a grid.
   static AOFieldCaster preset(Preset preset);
 };
 
-// Receiver component: an entity whose origin receives the occlusion of nearby casters, written by
-// the ao-field system (ao_field_system.h). Per-pixel shadows on static surfaces need the
-// renderer's pass, which this module does not provide yet.
+// Receiver component. Entity receivers (dynamic objects): the entity's origin receives the
+// occlusion of nearby casters, written by the ao-field system (ao_field_system.h). Surface
+// receivers (static geometry): the renderer's per-pixel pass evaluates the fields on the
+// entity's surface from the GPU layout (ao_field_gpu.h); the system leaves them alone.
 struct AOFieldReceiver {
-  glm::vec3 normal{0.0f, 1.0f, 0.0f};  // local-space normal of the receiving point
-  float occlusion = 0.0f;              // combined occlusion in [0, 1] (0: open)
+  enum class Mode : std::uint32_t { Entity, Surface };
+  glm::vec3 normal{0.0f, 1.0f, 0.0f};  // local-space normal of the receiving point (Entity mode)
+  float occlusion = 0.0f;              // combined occlusion in [0, 1] (0: open); Entity mode
   std::uint64_t updated_tick = 0;
+  Mode mode = Mode::Entity;
 };
 
 // Checks a caster's settings and its entity's world matrix. Errors (InvalidArgument) name
 // `context` (e.g. "ao field 'crate'"), the field and the fix: resolution, radial samples or rays
 // out of range, a non-finite or negative falloff, fade_start outside (0, 1), inside settings out
-// of range, a singular or non-finite matrix, and a non-uniform scale (the field would be
+// of range, supersample or grid_size out of range, a singular or non-finite matrix, and a
+// non-uniform scale (the field would be
 // distorted: bake the scale into the mesh instead). Cost: O(1). Thread-safe.
 Status validate_ao_field_caster(const AOFieldCaster& caster, const glm::mat4& world_matrix,
                                 std::string_view context);
@@ -81,10 +111,20 @@ struct AOFieldTexel {
   glm::vec3 c0{0.0f};
 };
 
+// One grid vertex of a Grid field: the solid angle Omega the caster subtends there and
+// Omega x Upsilon (Upsilon: the unit average occluded direction). Interpolating the product keeps
+// the direction of the larger caps.
+struct AOFieldGridNode {
+  float omega = 0.0f;
+  glm::vec3 weighted_direction{0.0f};
+};
+
 // Baked field of one caster, in the caster's local frame.
 struct AOFieldData {
   std::uint32_t entity_index = 0;  // Entity::index of the caster at bake time
-  std::uint32_t resolution = 0;    // texels per face edge
+  AOFieldRepresentation representation = AOFieldRepresentation::RadialFit;
+  std::uint32_t resolution = 0;    // texels per face edge (RadialFit; 0 for a Grid)
+  std::uint32_t grid_size = 0;     // vertices per axis (Grid; 0 for a RadialFit)
   glm::vec3 centre{0.0f};          // field origin in the mesh frame
   float bounding_radius = 0.0f;    // farthest vertex from the centre
   float r_far = 0.0f;              // falloff distance
@@ -93,12 +133,19 @@ struct AOFieldData {
   float inside_exponent = 2.0f;
   // Texel (face f, row v, column u) is texels[(f * resolution + v) * resolution + u]; faces in
   // the order +X, -X, +Y, -Y, +Z, -Z (cube_direction()).
+  // RadialFit only.
   std::vector<AOFieldTexel> texels;
+  // Grid only: vertex (i, j, k) along (x, y, z) is nodes[(k * grid_size + j) * grid_size + i], at
+  // centre + r_far (g(u_i), g(u_j), g(u_k)) with u_i = 2 i / (grid_size - 1) - 1, g(u) = u |u|.
+  std::vector<AOFieldGridNode> nodes;
   // Bake diagnostic: texels whose linear fit of the denominator was not positive over [r0, r_far]
   // and that were fitted instead with non-negative inverse-square and constant terms (the clamp).
   std::uint32_t clamped_fits = 0;
 
-  std::uint64_t bytes() const;  // runtime payload: 7 floats per texel
+  // Runtime payload: 7 floats per texel, 4 per grid vertex.
+  std::uint64_t bytes() const;
+  // True when the arrays match the representation and its size (what evaluation needs).
+  bool valid() const;
 };
 
 // The unit direction through the centre of texel (u, v) of face `face` at `resolution` texels per
@@ -121,18 +168,37 @@ float cap_occlusion(float omega, float cos_beta);
 float cap_occlusion_table(float omega, float cos_beta);
 
 // The occlusion a caster's field casts at world point x with unit world normal n, given the
-// caster entity's current world matrix (rotation, translation, uniform scale): 0 beyond r_far,
-// the cap occlusion (table) of the fitted Omega and Upsilon (bilinear texel lookup within a
-// face) outside the hull, blended towards inside_occlusion inside it. Result in [0, 1]. Cost: one
-// 4x4 inverse plus evaluate_local, which the ao-field bench measures at ~50 ns on random
-// receivers. Thread-safe.
+// caster entity's current world matrix (rotation, translation, uniform scale). Result in [0, 1];
+// 0 for a field that is not valid(). Cost: one 4x4 inverse plus evaluate_local. Thread-safe.
 float evaluate(const AOFieldData& field, const glm::mat4& caster_world, glm::vec3 x, glm::vec3 n);
-// The same with x and n already in the caster's mesh frame (n unit length).
+
+// The same with x and n already in the caster's mesh frame (n unit length). The steps, in this
+// order (the GPU pass of ao_field_gpu.h repeats them), with p = x - centre, r = |p|:
+//   1. r >= r_far: 0. r == 0: inside_occlusion.
+//   2. RadialFit: the face and (s, t) of p (cube_direction's inverse: major axis m of p, s and t
+//      the axes (m+1)%3 and (m+2)%3 of p over |p_m|); texel coordinates u = (s+1)/2 res - 1/2 and
+//      v = (t+1)/2 res - 1/2 clamped to [0, res-1]; a, b, c, r0, C0 bilinear from the four texels
+//      of that face. rc = max(r, r0); Omega = 1 / (a rc^2 + b rc + c) (0 when that is not
+//      positive, at most 4 pi); Upsilon = normalize(C0 - rc p / r) (-p / r when zero).
+//      Grid: per axis u = sign(p) sqrt(|p| / r_far), g = (u + 1)/2 (grid_size - 1) clamped to
+//      [0, grid_size - 1]; Omega and Omega Upsilon trilinear from the 8 vertices around g;
+//      Upsilon = normalize(Omega Upsilon) (-p / r when zero).
+//   3. A = cap_occlusion_table(Omega, n . Upsilon).
+//   4. RadialFit with r < r0: A = A0 + (A - A0) (r / r0)^inside_exponent, A0 = inside_occlusion.
+//   5. A x clamp((r_far - r) / ((1 - fade_start) r_far), 0, 1), then clamped to [0, 1].
+// Cost (one core, measured by the ao-field bench): see its eval_ns column. Thread-safe.
 float evaluate_local(const AOFieldData& field, glm::vec3 x, glm::vec3 n);
+
+// The loop the ao-field system runs per caster: for each receiver i (world point x[i], unit world
+// normal n[i]), open[i] *= 1 - A_i, with A_i the caster's occlusion there (evaluate_local after
+// world_to_local, the inverse of the caster's world matrix; the normal is renormalised). Spans of
+// equal length. Cost: the bench's eval_ns per receiver. Thread-safe for distinct `open`.
+void accumulate_open(const AOFieldData& field, const glm::mat4& world_to_local, std::span<const glm::vec3> x,
+                     std::span<const glm::vec3> n, std::span<float> open);
 
 // The field's convex-hull distance r0 along direction w (mesh frame, any non-zero length),
 // bilinearly interpolated like evaluate_local: a point c + r w with r >= r0 is outside the hull.
-// 0 for an empty field. Cost: ~15 ns. Thread-safe.
+// 0 for a Grid field (it keeps no hull) and for an empty one. Cost: ~15 ns. Thread-safe.
 float hull_distance(const AOFieldData& field, glm::vec3 w);
 
 // Several casters at one receiver: 1 - prod (1 - A_i), each A_i clamped to [0, 1] (Kontkanen &

@@ -36,7 +36,7 @@
 
 namespace penumbra {
 
-inline constexpr std::uint32_t kAOFieldChunkVersion = 1;
+inline constexpr std::uint32_t kAOFieldChunkVersion = 2;  // 2: representation, grid_size and grid vertices
 
 // Bakes the field of `mesh` (in its local frame) with `caster`'s settings. Validates the
 // settings (validate_ao_field_caster with an identity matrix) and the mesh (InvalidInput when it

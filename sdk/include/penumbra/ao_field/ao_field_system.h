@@ -9,7 +9,7 @@
 
 namespace penumbra {
 
-// Gives every AOFieldReceiver entity with a WorldTransform the occlusion at its origin (normal:
+// Gives every AOFieldReceiver entity (Mode::Entity) with a WorldTransform the occlusion at its origin (normal:
 // its receiver normal through the world matrix) from every baked caster (AOFieldCaster with data
 // and a WorldTransform; not the receiver itself), combined by 1 - prod (1 - A_i). A caster is
 // skipped for receivers at or beyond its falloff distance (r_far x its uniform scale from its
