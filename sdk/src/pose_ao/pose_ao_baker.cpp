@@ -437,7 +437,8 @@ std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, co
     JointSet set{};
     const std::size_t count = std::min<std::size_t>(k, ranked.size());
     for (std::size_t i = 0; i < count; ++i) set[i] = ranked[i].second;
-    std::sort(set.begin(), set.begin() + static_cast<std::ptrdiff_t>(count));
+    for (std::size_t i = 1; i < count; ++i)  // ascending (insertion sort of at most 4)
+      for (std::size_t m = i; m > 0 && set[m - 1] > set[m]; --m) std::swap(set[m - 1], set[m]);
     set[kPoseAOMaxLocality] = static_cast<std::uint16_t>(count);
     sets[v] = set;
   }

@@ -1,0 +1,301 @@
+// Pose-AO without ray tracing: the ridge solver against closed forms and on rank-deficient data,
+// pose parameters, exact recovery of a linear AO, clamping, the GPU layout, the PSAO chunk, the
+// settings' validation and the system.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include <glm/gtc/quaternion.hpp>
+
+#include "penumbra/core/random.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/pose_ao_baker.h"
+#include "penumbra/pose_ao/pose_ao_system.h"
+#include "ridge.h"
+
+namespace penumbra {
+namespace {
+
+using pose_ao_detail::RidgeSolver;
+
+TEST(PoseAORidge, MatchesTheClosedFormOfALine) {
+  // y = a + b x with ridge on b only: [[n, Sx], [Sx, Sxx + lambda n]] t = [Sy, Sxy].
+  const std::vector<double> x = {0.0, 1.0, 2.0, 4.0};
+  const std::vector<float> y = {1.0f, 2.5f, 2.0f, 5.0f};
+  std::vector<double> theta;
+  for (double xi : x) theta.insert(theta.end(), {1.0, xi});
+  for (double lambda : {0.0, 0.3}) {
+    const RidgeSolver solver(theta, 4, 2, lambda);
+    std::vector<double> t(2);
+    solver.solve(y.data(), 1, t);
+    double sx = 0, sxx = 0, sy = 0, sxy = 0;
+    for (std::size_t i = 0; i < 4; ++i) {
+      sx += x[i]; sxx += x[i] * x[i]; sy += y[i]; sxy += x[i] * y[i];
+    }
+    const double a11 = 4, a12 = sx, a22 = sxx + lambda * 4, det = a11 * a22 - a12 * a12;
+    EXPECT_NEAR(t[0], (a22 * sy - a12 * sxy) / det, 1e-12) << lambda;
+    EXPECT_NEAR(t[1], (a11 * sxy - a12 * sy) / det, 1e-12) << lambda;
+    EXPECT_EQ(solver.floored_pivots(), 0u);
+  }
+}
+
+TEST(PoseAORidge, RankDeficientColumnsDoNotBlowUp) {
+  // Columns: bias, x, a zero column (a joint that never moves), x again (collinear); lambda = 0.
+  std::vector<double> theta;
+  std::vector<float> y;
+  for (int i = 0; i < 20; ++i) {
+    const double x = 0.1 * i - 1.0;
+    theta.insert(theta.end(), {1.0, x, 0.0, x});
+    y.push_back(static_cast<float>(0.5 + 0.2 * x));
+  }
+  const RidgeSolver solver(theta, 20, 4, 0.0);
+  std::vector<double> t(4);
+  solver.solve(y.data(), 1, t);
+  EXPECT_GE(solver.floored_pivots(), 1u);
+  for (double c : t) EXPECT_TRUE(std::isfinite(c) && std::abs(c) < 10.0) << c;
+  EXPECT_NEAR(t[0], 0.5, 1e-6);
+  EXPECT_NEAR(t[1] + t[3], 0.2, 1e-6);  // the collinear pair shares the slope
+  EXPECT_EQ(t[2], 0.0);                 // nothing along the zero column
+}
+
+glm::mat4 rotation(float angle, glm::vec3 axis) { return glm::mat4_cast(glm::angleAxis(angle, glm::normalize(axis))); }
+
+TEST(PoseAOFeatures, LocalRotationRelativeToTheParent) {
+  const glm::mat4 r1 = rotation(0.7f, {1, 2, 0}), r2 = rotation(-0.4f, {0, 1, 1});
+  glm::mat4 child = r1 * r2;
+  child[3] = glm::vec4(3.0f, -1.0f, 2.0f, 1.0f);  // translations do not matter
+  const std::vector<std::int32_t> parents = {-1, 0};
+  std::vector<float> f;
+  pose_features(parents, std::vector<glm::mat4>{r1, child}, f);
+  ASSERT_EQ(f.size(), 18u);
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(f[3 * c + k], r1[c][k] - (c == k), 1e-6f);
+      EXPECT_NEAR(f[9 + 3 * c + k], r2[c][k] - (c == k), 1e-6f);
+    }
+  pose_features(parents, std::vector<glm::mat4>(2, glm::mat4(1.0f)), f);
+  for (float v : f) EXPECT_EQ(v, 0.0f);
+}
+
+// A two-joint rig (root, child), three vertices skinned to the child and one to the root: the fit
+// sees only the child (nothing lies outside the root's subtree, so its rotation cannot matter).
+struct TinyCharacter {
+  PoseRig rig;
+  MeshData mesh;
+  TinyCharacter() {
+    rig.parents = {-1, 0};
+    rig.order = {0, 1};
+    rig.offsets.assign(2, glm::mat4(1.0f));
+    rig.inverse_bind.assign(2, glm::mat4(1.0f));
+    rig.bind.assign(2, Transform{});
+    rig.bind_positions = {glm::vec3(0.0f), glm::vec3(0.0f, 1.0f, 0.0f)};
+    rig.animated = {true, true};
+    rig.clip_ranges.assign(2, JointRange{});
+    mesh.positions = {{0, 1, 0}, {1, 1, 0}, {0, 1, 1}, {0, 0, 0}};
+    mesh.normals.assign(4, glm::vec3(0, 1, 0));
+    mesh.joints = {glm::u16vec4(1, 0, 0, 0), glm::u16vec4(1, 0, 0, 0), glm::u16vec4(1, 0, 0, 0), glm::u16vec4(0)};
+    mesh.weights.assign(4, glm::vec4(1, 0, 0, 0));
+    mesh.indices = {0, 1, 2, 0, 2, 3};
+  }
+};
+
+constexpr std::size_t kVertices = 4;
+
+// AO exactly linear in the child's parameters: a_v = 0.5 + sum_e w_ve f_e.
+PoseAOTraining linear_training(const TinyCharacter& c, std::size_t poses, std::uint64_t seed, std::vector<float>& weights) {
+  PoseAOTraining tr;
+  tr.vertex_count = kVertices;
+  tr.joint_count = 2;
+  tr.bind_ao.assign(kVertices, 0.5f);
+  weights.resize(9 * kVertices);
+  Rng w = Rng::stream(4242, 999);  // the same model for every seed
+  for (float& x : weights) x = 0.04f * (w.next_float() - 0.5f);
+  for (std::size_t p = 0; p < poses; ++p) {
+    Rng rng = Rng::stream(seed, p);
+    const glm::vec3 axis(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f + 1e-3f);
+    const glm::mat4 r = rotation(3.0f * rng.next_float(), axis);
+    std::vector<float> f;
+    pose_features(c.rig.parents, std::vector<glm::mat4>{glm::mat4(1.0f), r}, f);
+    tr.features.insert(tr.features.end(), f.begin(), f.end());
+    for (std::size_t v = 0; v < kVertices; ++v) {
+      float a = 0.5f;
+      for (std::size_t e = 0; e < 9; ++e) a += weights[v * 9 + e] * f[9 + e];
+      tr.ao.push_back(a);
+    }
+  }
+  return tr;
+}
+
+TEST(PoseAOFit, RecoversAnExactlyLinearAO) {
+  TinyCharacter c;
+  std::vector<float> w;
+  const PoseAOTraining tr = linear_training(c, 200, 7, w);
+  SkinnedPoseAO s;
+  s.lambda = 0.0f;
+  JobContext jobs;
+  auto data = fit_pose_ao(tr, c.rig, c.mesh, s, 0, jobs);
+  ASSERT_TRUE(data) << data.error().message;
+  ASSERT_EQ(data->groups.size(), 1u);
+  EXPECT_EQ(data->groups[0].joint_count, 1u);
+  EXPECT_EQ(data->groups[0].joints[0], 1u);
+  EXPECT_LT(data->training_rmse, 1e-5f);
+  const PoseAOGroup& g = data->groups[0];
+  for (std::uint32_t i = 0; i < g.count; ++i) {
+    const std::uint32_t v = data->vertex_order[g.first + i];
+    EXPECT_NEAR(data->coefficients[g.coefficient_offset + i], 0.5f, 1e-4f);
+    for (std::size_t e = 0; e < 9; ++e)
+      EXPECT_NEAR(data->coefficients[g.coefficient_offset + (1 + e) * g.count + i], w[v * 9 + e], 1e-4f) << v << " " << e;
+  }
+  // Held-out poses: the evaluation reproduces the linear AO; the GPU layout gives the same.
+  std::vector<float> w2;
+  const PoseAOTraining test = linear_training(c, 20, 7 + 1000, w2);
+  ASSERT_EQ(w, w2);
+  const PoseAOGpuBuffers gpu = pack_pose_ao_gpu(*data);
+  std::vector<float> ao(kVertices), theta;
+  for (std::size_t p = 0; p < test.poses(); ++p) {
+    const std::span<const float> f(test.features.data() + p * 18, 18);
+    evaluate_pose_ao(*data, f, ao);
+    pack_pose_ao_theta(f, theta);
+    for (std::uint32_t v = 0; v < kVertices; ++v) {
+      EXPECT_NEAR(ao[v], test.ao[p * kVertices + v], 1e-4f);
+      EXPECT_NEAR(evaluate_pose_ao_gpu(gpu, theta, v), ao[v], 1e-6f);
+    }
+  }
+  // Poses far outside any range (features at their bounds and beyond) stay in [0, 1].
+  for (float big : {-2.0f, 2.0f, 50.0f, -50.0f}) {
+    std::vector<float> f(18, big);
+    evaluate_pose_ao(*data, f, ao);
+    for (float a : ao) EXPECT_TRUE(a >= 0.0f && a <= 1.0f) << a;
+  }
+}
+
+TEST(PoseAOFit, FewerPosesThanCoefficientsReducesLocalityWithAWarning) {
+  TinyCharacter c;
+  std::vector<float> w;
+  const PoseAOTraining tr = linear_training(c, 6, 3, w);  // 6 poses < 10 coefficients of one joint
+  SkinnedPoseAO s;
+  s.locality = 4;
+  std::vector<std::string> warnings;
+  JobContext jobs;
+  auto data = fit_pose_ao(tr, c.rig, c.mesh, s, 0, jobs, &warnings);
+  ASSERT_TRUE(data);
+  EXPECT_EQ(data->locality, 0u);
+  EXPECT_EQ(data->requested_locality, 4u);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("locality reduced from 4 to 0"), std::string::npos) << warnings[0];
+  // Bias only: the pose average.
+  for (std::uint32_t i = 0; i < kVertices; ++i) EXPECT_NEAR(data->coefficients[i], data->mean_ao[data->vertex_order[i]], 1e-6f);
+  EXPECT_FALSE(fit_pose_ao(PoseAOTraining{}, c.rig, c.mesh, s, 0, jobs));
+}
+
+PoseAOData tiny_data() {
+  TinyCharacter c;
+  std::vector<float> w;
+  const PoseAOTraining tr = linear_training(c, 60, 11, w);
+  JobContext jobs;
+  PoseAOData d = fit_pose_ao(tr, c.rig, c.mesh, SkinnedPoseAO{}, 0, jobs).value();
+  d.entity_index = 5;
+  return d;
+}
+
+TEST(PoseAOChunk, RoundTripKeepsHalfPrecision) {
+  const PoseAOData d = tiny_data();
+  const BakeChunk chunk = write_pose_ao_chunk(d);
+  EXPECT_EQ(chunk.label, "poseao:5");
+  auto r = read_pose_ao_chunk(chunk);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_EQ(r->entity_index, 5u);
+  EXPECT_EQ(r->vertex_order, d.vertex_order);
+  EXPECT_EQ(r->bind_ao, d.bind_ao);
+  EXPECT_EQ(r->mean_ao, d.mean_ao);
+  EXPECT_EQ(r->joint_parents, d.joint_parents);
+  ASSERT_EQ(r->coefficients.size(), d.coefficients.size());
+  for (std::size_t i = 0; i < d.coefficients.size(); ++i)
+    EXPECT_NEAR(r->coefficients[i], d.coefficients[i], std::abs(d.coefficients[i]) * 0x1p-11f + 1e-7f);
+  EXPECT_FALSE(describe_pose_ao_chunk(chunk).empty());
+  EXPECT_TRUE(describe_pose_ao_chunk(BakeChunk{fourcc("PRBG"), 1, "x", {}}).empty());
+}
+
+TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
+  const BakeChunk good = write_pose_ao_chunk(tiny_data());
+  const auto expect_bad = [](const BakeChunk& c, const char* why) {
+    auto r = read_pose_ao_chunk(c);
+    ASSERT_FALSE(r) << why;
+    EXPECT_NE(r.error().message.find("PSAO"), std::string::npos) << r.error().message;
+  };
+  BakeChunk c = good;
+  c.payload.resize(c.payload.size() - 3);
+  expect_bad(c, "truncated");
+  c = good;
+  c.payload.push_back(std::byte{0});
+  expect_bad(c, "trailing byte");
+  c = good;
+  c.version = 99;
+  expect_bad(c, "version");
+  c = good;
+  const std::uint32_t zero = 0;
+  std::memcpy(c.payload.data() + 4, &zero, 4);  // vertex count 0
+  expect_bad(c, "vertex count");
+  // Every single-byte change either fails or reads back finite data of the same shape.
+  for (std::size_t i = 0; i < good.payload.size(); ++i) {
+    c = good;
+    c.payload[i] ^= std::byte{0xFF};
+    auto r = read_pose_ao_chunk(c);
+    if (!r) continue;
+    EXPECT_EQ(r->vertex_order.size(), r->vertex_count);
+    for (float x : r->coefficients) EXPECT_TRUE(std::isfinite(x));
+  }
+}
+
+TEST(PoseAOSettings, ValidationNamesTheFieldAndTheFix) {
+  EXPECT_TRUE(validate_pose_ao(SkinnedPoseAO::preset(Preset::Draft), 8, "c"));
+  SkinnedPoseAO s;
+  s.locality = 5;
+  EXPECT_NE(validate_pose_ao(s, 8, "pose-AO 'x'").error().message.find("locality"), std::string::npos);
+  s = {};
+  s.lambda = -1.0f;
+  EXPECT_NE(validate_pose_ao(s, 8, "c").error().message.find("lambda"), std::string::npos);
+  s = {};
+  s.rays_per_vertex = 0;
+  EXPECT_FALSE(validate_pose_ao(s, 8, "c"));
+  s = {};
+  s.reference_poses = 0;
+  s.clip_poses = 0;
+  EXPECT_FALSE(validate_pose_ao(s, 8, "c"));
+  s = {};
+  s.joint_ranges.resize(3);
+  EXPECT_NE(validate_pose_ao(s, 8, "c").error().message.find("joint_ranges"), std::string::npos);
+  s.joint_ranges.resize(8);
+  s.joint_ranges[2].min.x = 1.0f;
+  EXPECT_FALSE(validate_pose_ao(s, 8, "c"));
+}
+
+TEST(PoseAOSystem, NothingWithoutTheComponentAndOnlyOnChange) {
+  World world;
+  const Entity plain = world.create();
+  world.add<SkinPose>(plain, SkinPose{std::vector<glm::mat4>(2, glm::mat4(1.0f))});
+  EXPECT_EQ(update_pose_ao(world, 0), 0u);
+  EXPECT_FALSE(world.has<PoseAOValues>(plain));
+
+  const Entity e = world.create();
+  world.add<SkinPose>(e, SkinPose{std::vector<glm::mat4>(2, glm::mat4(1.0f))});
+  SkinnedPoseAO s;
+  s.data = std::make_shared<const PoseAOData>(tiny_data());
+  world.add<SkinnedPoseAO>(e, s);
+  EXPECT_EQ(update_pose_ao(world, 0), 1u);
+  ASSERT_TRUE(world.has<PoseAOValues>(e));
+  const std::vector<float> bind = world.get<PoseAOValues>(e).ao;
+  ASSERT_EQ(bind.size(), kVertices);
+  EXPECT_FALSE(world.has<PoseAOValues>(plain));
+  // Unchanged pose: no work. A new pose: new values.
+  const std::uint64_t since = world.tick();
+  update_world_transforms(world);  // advances the tick
+  EXPECT_EQ(update_pose_ao(world, since), 0u);
+  world.patch<SkinPose>(e).joint_matrices[1] = rotation(1.0f, {1, 0, 0});
+  EXPECT_EQ(update_pose_ao(world, since), 1u);
+  EXPECT_NE(world.get<PoseAOValues>(e).ao, bind);
+}
+
+}  // namespace
+}  // namespace penumbra
