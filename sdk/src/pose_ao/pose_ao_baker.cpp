@@ -457,11 +457,12 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
     return make_error(ErrorCode::InvalidArgument, std::string(context) + ": no reference pose to fit (or the training "
                                                                          "data does not match the mesh); bake poses first");
 
-  // Joints whose parameters change over the poses used.
+  // Joints whose parameters change over the poses used (by more than float rounding of the
+  // products: 1e-5 is a rotation of 1e-5 rad).
   std::vector<bool> moving(J, false);
   for (std::size_t p = 1; p < P; ++p)
     for (std::size_t i = 0; i < F; ++i)
-      if (training.features[p * F + i] != training.features[i]) moving[i / kPoseFeaturesPerJoint] = true;
+      if (std::abs(training.features[p * F + i] - training.features[i]) > 1e-5f) moving[i / kPoseFeaturesPerJoint] = true;
 
   // Fewer poses than coefficients: reduce the locality until 1 + 9 k <= P.
   std::uint32_t k = std::min(settings.locality, kPoseAOMaxLocality);

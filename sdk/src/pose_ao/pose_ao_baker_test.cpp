@@ -1,0 +1,315 @@
+// The pose-AO bake on the courtyard's skinned walker (8 joints, ~800 vertices): the rig against the
+// animation system, ranges, determinism at 1 and 2 threads, the extremes of issue 7 (a joint that
+// never moves, fewer poses than coefficients, far poses, weightless vertices, scale 1e-3 and 1e4),
+// the model against its baselines, bake_world + attach + the system over the walk cycle.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/pose_ao_baker.h"
+#include "penumbra/pose_ao/pose_ao_system.h"
+#include "penumbra/scene/animation.h"
+#include "penumbra/scene/builtin.h"
+
+namespace penumbra {
+namespace {
+
+struct Walker {
+  std::unique_ptr<World> world = std::make_unique<World>();
+  Entity mesh;
+  Walker() {
+    EXPECT_TRUE(load_builtin(*world, "courtyard"));
+    update_world_transforms(*world);
+    update_skin_poses(*world);
+    world->view<Skin, Mesh>().each([&](Entity e, Skin&, Mesh&) { mesh = e; });
+  }
+  const MeshData& data() { return *world->get<Mesh>(mesh).data; }
+};
+
+// Quick settings: a few poses and rays (the bench measures quality).
+SkinnedPoseAO quick() {
+  SkinnedPoseAO s;
+  s.reference_poses = 40;
+  s.clip_poses = 4;
+  s.rays_per_vertex = 16;
+  s.locality = 2;
+  return s;
+}
+
+void expect_near_matrix(const glm::mat4& a, const glm::mat4& b, float tol) {
+  for (int c = 0; c < 4; ++c)
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(a[c][k], b[c][k], tol) << c << "," << k;
+}
+
+TEST(PoseAORig, MatchesTheAnimationSystem) {
+  Walker w;
+  ASSERT_TRUE(w.mesh);
+  auto rig = make_pose_rig(*w.world, w.mesh, "walker");
+  ASSERT_TRUE(rig) << rig.error().message;
+  ASSERT_EQ(rig->joint_count(), 8u);
+  EXPECT_EQ(rig->parents[0], -1);  // hips
+  EXPECT_EQ(rig->parents[3], 2);   // left shin under left thigh
+  ASSERT_EQ(rig->clips.size(), 1u);
+  // The bind pose skins to the identity.
+  for (const glm::mat4& m : skinning_matrices(*rig, rig->bind)) expect_near_matrix(m, glm::mat4(1.0f), 1e-5f);
+  // A clip frame gives what the animation and skinning systems give.
+  for (float t : {0.1f, 0.37f, 0.8f}) {
+    const AnimationClip& clip = *rig->clips[0];
+    apply_clip(*w.world, clip, t);
+    update_world_transforms(*w.world);
+    update_skin_poses(*w.world);
+    const std::vector<glm::mat4> mine = skinning_matrices(*rig, clip_pose(*rig, 0, t));
+    const SkinPose& pose = w.world->get<SkinPose>(w.mesh);
+    for (std::size_t j = 0; j < 8; ++j) expect_near_matrix(mine[j], pose.joint_matrices[j], 1e-5f);
+  }
+  // Ranges: the limbs swing about X; hips and spine never rotate.
+  EXPECT_FALSE(rig->animated[0]);
+  EXPECT_FALSE(rig->animated[1]);
+  for (std::size_t j = 2; j < 8; ++j) {
+    EXPECT_TRUE(rig->animated[j]) << j;
+    EXPECT_GT(rig->clip_ranges[j].max.x - rig->clip_ranges[j].min.x, 0.5f) << j;
+    EXPECT_NEAR(rig->clip_ranges[j].max.y, 0.0f, 1e-5f);
+  }
+  const std::vector<JointRange> ranges = pose_ranges(*rig, quick());
+  EXPECT_NEAR(ranges[2].max.x - ranges[2].min.x, 1.5f * (rig->clip_ranges[2].max.x - rig->clip_ranges[2].min.x), 1e-5f);
+  EXPECT_EQ(ranges[0].max, glm::vec3(0.0f));
+}
+
+TEST(PoseAOBake, BitIdenticalAtOneAndTwoThreads) {
+  Walker w;
+  const SkinnedPoseAO s = quick();
+  std::vector<std::vector<std::byte>> payloads;
+  for (unsigned threads : {1u, 2u}) {
+    ThreadPool pool(threads);
+    JobContext jobs(&pool);
+    MemoryBudget budget;
+    auto data = bake_pose_ao(*w.world, w.mesh, s, 3, jobs, budget);
+    ASSERT_TRUE(data) << data.error().message;
+    payloads.push_back(write_pose_ao_chunk(*data).payload);
+  }
+  EXPECT_EQ(payloads[0], payloads[1]);
+}
+
+// Held-out AO error of the model and of the two baselines, over random poses of a different seed.
+struct HeldOut {
+  double linear = 0, bind = 0, mean = 0;
+};
+HeldOut held_out(Walker& w, const PoseAOData& data, const SkinnedPoseAO& s, std::size_t poses) {
+  auto rig = make_pose_rig(*w.world, w.mesh, "walker").value();
+  auto tracer = PoseAOTracer::create(w.world->get<Mesh>(w.mesh).data, rig.joint_count(), "walker").value();
+  const std::vector<JointRange> ranges = pose_ranges(rig, s);
+  JobContext jobs;
+  HeldOut e;
+  const std::size_t n = data.vertex_count;
+  std::vector<float> ref(n), model(n), f;
+  for (std::size_t p = 0; p < poses; ++p) {
+    const std::vector<glm::mat4> m = skinning_matrices(rig, random_pose(rig, ranges, 777, p));
+    EXPECT_TRUE(tracer.trace(m, 64, 99, jobs, ref));
+    pose_features(rig.parents, m, f);
+    evaluate_pose_ao(data, f, model);
+    for (std::size_t v = 0; v < n; ++v) {
+      e.linear += std::pow(model[v] - ref[v], 2.0);
+      e.bind += std::pow(data.bind_ao[v] - ref[v], 2.0);
+      e.mean += std::pow(data.mean_ao[v] - ref[v], 2.0);
+    }
+  }
+  const double count = static_cast<double>(poses * n);
+  e.linear = std::sqrt(e.linear / count);
+  e.bind = std::sqrt(e.bind / count);
+  e.mean = std::sqrt(e.mean / count);
+  return e;
+}
+
+TEST(PoseAOBake, BeatsBothBaselinesOnHeldOutPoses) {
+  Walker w;
+  SkinnedPoseAO s = quick();
+  s.reference_poses = 80;
+  s.rays_per_vertex = 32;
+  JobContext jobs;
+  MemoryBudget budget;
+  auto data = bake_pose_ao(*w.world, w.mesh, s, 1, jobs, budget);
+  ASSERT_TRUE(data) << data.error().message;
+  EXPECT_EQ(data->poses, 84u);
+  const HeldOut e = held_out(w, *data, s, 8);
+  EXPECT_LT(e.linear, std::min(e.bind, e.mean)) << e.linear << " " << e.bind << " " << e.mean;
+}
+
+TEST(PoseAOExtremes, AJointThatNeverMovesDoesNotBlowUp) {
+  Walker w;
+  SkinnedPoseAO s = quick();
+  s.lambda = 0.0f;  // no regularisation to hide behind
+  s.locality = 4;
+  s.clip_poses = 0;
+  s.joint_ranges.assign(8, JointRange{glm::vec3(-0.4f), glm::vec3(0.4f)});
+  s.joint_ranges[6] = JointRange{};  // the left arm never moves
+  JobContext jobs;
+  MemoryBudget budget;
+  auto data = bake_pose_ao(*w.world, w.mesh, s, 5, jobs, budget);
+  ASSERT_TRUE(data) << data.error().message;
+  for (const PoseAOGroup& g : data->groups)
+    for (std::uint32_t k = 0; k < g.joint_count; ++k) EXPECT_NE(g.joints[k], 6u);
+  for (float c : data->coefficients) EXPECT_TRUE(std::isfinite(c) && std::abs(c) < 100.0f) << c;
+  EXPECT_LT(data->training_rmse, 0.1f);
+  // Far outside the training range (every joint turned by 2.5 rad): AO stays in [0, 1].
+  auto rig = make_pose_rig(*w.world, w.mesh, "walker").value();
+  std::vector<JointRange> far(8, JointRange{glm::vec3(2.5f), glm::vec3(2.5f)});
+  std::vector<float> f, ao(data->vertex_count);
+  pose_features(rig.parents, skinning_matrices(rig, random_pose(rig, far, 1, 0)), f);
+  evaluate_pose_ao(*data, f, ao);
+  for (float a : ao) EXPECT_TRUE(a >= 0.0f && a <= 1.0f) << a;
+}
+
+TEST(PoseAOExtremes, FewerPosesThanCoefficientsWarnsAndStillFits) {
+  Walker w;
+  SkinnedPoseAO s = quick();
+  s.reference_poses = 12;
+  s.clip_poses = 0;
+  s.locality = 4;
+  JobContext jobs;
+  MemoryBudget budget;
+  std::vector<std::string> warnings;
+  auto data = bake_pose_ao(*w.world, w.mesh, s, 2, jobs, budget, &warnings);
+  ASSERT_TRUE(data) << data.error().message;
+  EXPECT_EQ(data->locality, 1u);  // 1 + 9 x 1 <= 12 poses
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("locality reduced"), std::string::npos);
+  for (float c : data->coefficients) EXPECT_TRUE(std::isfinite(c));
+  const auto lines = describe_pose_ao_chunk(write_pose_ao_chunk(*data));
+  EXPECT_NE(lines.back().find("warning"), std::string::npos);
+}
+
+TEST(PoseAOExtremes, VerticesWithoutSkinWeightsFollowTheMesh) {
+  Walker w;
+  // The head (the last 162 vertices, an icosphere on the spine) loses its weights.
+  auto mesh = std::make_shared<MeshData>(w.data());
+  const std::size_t n = mesh->positions.size(), head = n - 162;
+  for (std::size_t v = head; v < n; ++v) mesh->weights[v] = glm::vec4(0.0f);
+  w.world->patch<Mesh>(w.mesh).data = mesh;
+  SkinnedPoseAO s = quick();
+  JobContext jobs;
+  MemoryBudget budget;
+  auto data = bake_pose_ao(*w.world, w.mesh, s, 4, jobs, budget);
+  ASSERT_TRUE(data) << data.error().message;
+  // The head stays where it was (not collapsed onto the origin): open above, as in the bind pose,
+  // and the same in every pose (nothing moving comes near it).
+  auto rig = make_pose_rig(*w.world, w.mesh, "walker").value();
+  std::vector<float> f, ao(n);
+  pose_features(rig.parents, skinning_matrices(rig, clip_pose(rig, 0, 0.3f)), f);
+  evaluate_pose_ao(*data, f, ao);
+  for (std::size_t v = head; v < n; ++v) {
+    EXPECT_NEAR(data->bind_ao[v], data->mean_ao[v], 0.1f) << v;
+    EXPECT_NEAR(ao[v], data->bind_ao[v], 0.1f) << v;
+  }
+}
+
+// The walker scaled by s: mesh, inverse binds, joint translations and the clip's translations.
+void scale_walker(Walker& w, float s) {
+  auto mesh = std::make_shared<MeshData>(w.data());
+  for (glm::vec3& p : mesh->positions) p *= s;
+  mesh->bounds.min *= s;
+  mesh->bounds.max *= s;
+  w.world->patch<Mesh>(w.mesh).data = mesh;
+  Skin& skin = w.world->get<Skin>(w.mesh);
+  for (glm::mat4& m : skin.inverse_bind) m[3] = glm::vec4(glm::vec3(m[3]) * s, 1.0f);
+  for (Entity j : skin.joints) w.world->patch<Transform>(j).translation *= s;
+  w.world->view<Animator>().each([&](Entity, Animator& a) {
+    auto clips = std::make_shared<std::vector<AnimationClip>>(*a.clips);
+    for (AnimationClip& c : *clips)
+      for (AnimationChannel& ch : c.channels)
+        if (ch.path == AnimationChannel::Path::Translation)
+          for (glm::vec4& v : ch.values) v *= s;
+    a.clips = clips;
+  });
+  update_world_transforms(*w.world);
+  update_skin_poses(*w.world);
+}
+
+TEST(PoseAOExtremes, ScaleByMilliAndTenThousandGivesTheSameAO) {
+  SkinnedPoseAO s = quick();
+  s.reference_poses = 20;
+  std::vector<PoseAOData> baked;
+  for (float scale : {1.0f, 1e-3f, 1e4f}) {
+    Walker w;
+    if (scale != 1.0f) scale_walker(w, scale);
+    JobContext jobs;
+    MemoryBudget budget;
+    auto data = bake_pose_ao(*w.world, w.mesh, s, 6, jobs, budget);
+    ASSERT_TRUE(data) << scale << ": " << data.error().message;
+    baked.push_back(std::move(*data));
+  }
+  for (std::size_t i = 1; i < baked.size(); ++i) {
+    double diff = 0.0, worst = 0.0;
+    for (std::size_t v = 0; v < baked[0].vertex_count; ++v) {
+      const double d = std::abs(double(baked[i].mean_ao[v]) - baked[0].mean_ao[v]);
+      diff += d;
+      worst = std::max(worst, std::abs(double(baked[i].bind_ao[v]) - baked[0].bind_ao[v]));
+    }
+    EXPECT_LT(diff / baked[0].vertex_count, 2e-3) << i;
+    EXPECT_LT(worst, 0.13) << i;  // a ray or two of 16 may flip at a grazing contact
+    EXPECT_NEAR(baked[i].training_rmse, baked[0].training_rmse, 5e-3f) << i;
+  }
+}
+
+TEST(PoseAOBake, BudgetAndCancel) {
+  Walker w;
+  JobContext jobs;
+  MemoryBudget tiny(1024);
+  auto data = bake_pose_ao(*w.world, w.mesh, quick(), 1, jobs, tiny);
+  ASSERT_FALSE(data);
+  EXPECT_EQ(data.error().code, ErrorCode::OutOfBudget);
+  CancelToken cancel;
+  cancel.cancel();
+  JobContext cancelled(nullptr, {}, &cancel);
+  MemoryBudget budget;
+  auto none = bake_pose_ao(*w.world, w.mesh, quick(), 1, cancelled, budget);
+  ASSERT_FALSE(none);
+  EXPECT_EQ(none.error().code, ErrorCode::Cancelled);
+  EXPECT_EQ(budget.reserved(), 0u);
+}
+
+TEST(PoseAOBake, BakeWorldAttachAndTheSystemFollowTheWalkCycle) {
+  Walker w;
+  World& world = *w.world;
+  register_scene_systems(world);
+  register_pose_ao(world);
+  EXPECT_EQ(add_default_pose_ao(world, Preset::Draft), 1u);
+  EXPECT_EQ(add_default_pose_ao(world, Preset::Draft), 0u);
+  SkinnedPoseAO& s = world.patch<SkinnedPoseAO>(w.mesh);
+  s = quick();
+  world.update(0.0);
+  JobContext jobs;
+  auto baked = bake_world(world, {"poseao"}, BakeSettings{}, jobs);
+  ASSERT_TRUE(baked) << baked.error().message;
+  ASSERT_EQ(baked->file.chunks.size(), 1u);
+  EXPECT_EQ(baked->file.chunks[0].label, "poseao:" + std::to_string(w.mesh.index));
+  ASSERT_TRUE(world.get<SkinnedPoseAO>(w.mesh).data);
+
+  // A fresh component loads the chunk.
+  world.patch<SkinnedPoseAO>(w.mesh).data.reset();
+  ASSERT_TRUE(attach_pose_ao(world, baked->file));
+  ASSERT_TRUE(world.get<SkinnedPoseAO>(w.mesh).data);
+
+  // Two times of the walk cycle: the AO differs, and stays in [0, 1].
+  world.update(0.25);
+  const std::vector<float> a = world.get<PoseAOValues>(w.mesh).ao;
+  world.update(0.5);
+  const std::vector<float> b = world.get<PoseAOValues>(w.mesh).ao;
+  ASSERT_EQ(a.size(), w.data().positions.size());
+  double change = 0.0;
+  for (std::size_t v = 0; v < a.size(); ++v) {
+    EXPECT_TRUE(a[v] >= 0.0f && a[v] <= 1.0f);
+    change = std::max(change, std::abs(double(a[v]) - b[v]));
+  }
+  EXPECT_GT(change, 0.05);
+
+  // A chunk for an entity without the component is refused.
+  world.remove<SkinnedPoseAO>(w.mesh);
+  auto refused = attach_pose_ao(world, baked->file);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::NotFound);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -120,7 +120,7 @@ struct PoseAOTraining {
 
 // Fits the per-vertex linear models to the first `poses` poses of `training` (all when 0).
 // Locality as SkinnedPoseAO::locality over `mesh`'s weights and the rig's bones; a joint whose
-// features are constant over those poses is never selected. When the poses are fewer than the
+// features are constant (within 1e-5) over those poses is never selected. When the poses are fewer than the
 // coefficients (poses < 1 + 9 k) k is reduced to fit and a warning is logged and appended to
 // `warnings`. Normal equations per joint set in double, Cholesky with a pivot floor (1e-9 of the
 // trace), so rank-deficient data (a joint that never moves, collinear parameters, lambda = 0)
