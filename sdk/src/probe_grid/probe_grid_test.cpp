@@ -12,6 +12,7 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/packing.hpp>
+#include <glm/gtc/quaternion.hpp>
 
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
@@ -357,6 +358,52 @@ TEST(ProbeGridSystem, BlendsByPriorityAndBorderDistanceAndUpdatesOnlyWhatChanged
   EXPECT_GT(w.get<ProbeLit>(deep).updated_tick, before);
   EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(deep), up).x, 5.0f, 1e-4f);
   EXPECT_TRUE(w.get<ProbeLit>(outside).covered);
+}
+
+// A character's origin is at its feet: with a mesh the receiver takes its lighting at the centre of
+// the mesh's bounds instead (through its transform, rotation included); without one, at its origin.
+// The grid holds E = 3 + y (linear: trilinear interpolation is exact), so the value names the point.
+TEST(ProbeGridSystem, ReceiversWithAMeshTakeTheirLightingAtTheBoundsCentre) {
+  World w;
+  register_transform_systems(w);
+  register_probe_grid_system(w);
+  IrradianceProbeGrid g = box_grid({-4, -4, -4}, {4, 4, 4}, {3, 3, 3});
+  g.data = std::make_shared<const ProbeGridData>(synthetic(g, ProbeShOrder::L1, [](glm::vec3 p, int c) {
+    return c == 0 ? glm::vec3(3.0f + p.y) / 0.28209479f : glm::vec3(0.0f);
+  }));
+  const Entity grid = w.create();
+  w.add<IrradianceProbeGrid>(grid, g);
+  w.add<Transform>(grid);
+  // A 1.8 m tall body standing on its origin: bounds y in [0, 1.8], centre 0.9 m up.
+  MeshData body = make_box({0.3f, 0.9f, 0.3f});
+  for (glm::vec3& v : body.positions) v.y += 0.9f;
+  compute_bounds(body);
+  const Entity character = add_receiver(w, {1, -2, 0});
+  w.add<Mesh>(character, Mesh{std::make_shared<const MeshData>(body)});
+  const Entity bare = add_receiver(w, {1, -2, 0});
+  w.update(0.016);
+  const glm::vec3 up(0, 1, 0);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(character), up).x, 3.0f - 2.0f + 0.9f, 1e-4f);
+  EXPECT_NEAR(glm::distance(w.get<ProbeLit>(character).position, glm::vec3(1.0f, -1.1f, 0.0f)), 0.0f, 1e-5f);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(bare), up).x, 3.0f - 2.0f, 1e-4f);
+  EXPECT_EQ(w.get<ProbeLit>(bare).position, glm::vec3(1.0f, -2.0f, 0.0f));
+  // Lying on its side (90 degrees about z): the centre is 0.9 m along -x, at the origin's height.
+  w.patch<Transform>(character).rotation = glm::angleAxis(1.5707964f, glm::vec3(0, 0, 1));
+  w.update(0.016);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(character), up).x, 3.0f - 2.0f, 1e-4f);
+  EXPECT_NEAR(w.get<ProbeLit>(character).position.x, 1.0f - 0.9f, 1e-5f);
+  // A new mesh (same transform) updates the receiver.
+  const std::uint64_t before = w.get<ProbeLit>(character).updated_tick;
+  w.update(0.016);
+  EXPECT_EQ(w.get<ProbeLit>(character).updated_tick, before);
+  w.patch<Transform>(character).rotation = glm::quat(1, 0, 0, 0);
+  w.update(0.016);
+  MeshData tall = body;
+  for (glm::vec3& v : tall.positions) v.y *= 2.0f;
+  compute_bounds(tall);
+  w.patch<Mesh>(character).data = std::make_shared<const MeshData>(tall);
+  w.update(0.016);
+  EXPECT_NEAR(probe_lit_irradiance(w.get<ProbeLit>(character), up).x, 3.0f - 2.0f + 1.8f, 1e-4f);
 }
 
 TEST(ProbeGridDefault, CoversTheStaticGeometryInsetAndIsAddedOnce) {

@@ -46,6 +46,14 @@ float coverage(const ActiveGrid& g, glm::vec3 x) {
 
 }  // namespace
 
+glm::vec3 probe_lit_position(const World& world, Entity e) {
+  const glm::mat4& m = world.get<WorldTransform>(e).matrix;
+  const Mesh* mesh = world.try_get<Mesh>(e);
+  if (mesh == nullptr || !mesh->data || mesh->data->bounds.empty()) return glm::vec3(m[3]);
+  const Aabb& b = mesh->data->bounds;
+  return glm::vec3(m * glm::vec4(0.5f * (b.min + b.max), 1.0f));
+}
+
 std::size_t update_probe_lighting(World& world, std::uint64_t since) {
   // The grids with data, by descending priority then entity index (a deterministic order).
   std::vector<ActiveGrid> grids;
@@ -67,13 +75,14 @@ std::size_t update_probe_lighting(World& world, std::uint64_t since) {
   // The receivers to update: all when a grid changed, else those that moved or are new.
   std::vector<Entity> receivers;
   world.view<ProbeLit, WorldTransform>().each([&](Entity e, ProbeLit&, WorldTransform&) {
-    if (grids_changed || world.changed_tick<WorldTransform>(e) > since || world.changed_tick<ProbeLit>(e) > since)
+    if (grids_changed || world.changed_tick<WorldTransform>(e) > since || world.changed_tick<ProbeLit>(e) > since ||
+        (world.has<Mesh>(e) && world.changed_tick<Mesh>(e) > since))
       receivers.push_back(e);
   });
 
   std::vector<std::pair<const ActiveGrid*, float>> covering;
   for (Entity e : receivers) {
-    const glm::vec3 x(world.get<WorldTransform>(e).matrix[3]);
+    const glm::vec3 x = probe_lit_position(world, e);
     // Blend: each covering grid takes its fade of the weight the higher-priority grids left; the
     // last (lowest-priority) covering grid takes all that is left.
     covering.clear();
@@ -90,6 +99,7 @@ std::size_t update_probe_lighting(World& world, std::uint64_t since) {
     }
     ProbeLit& lit = world.patch<ProbeLit>(e);
     lit.covered = !covering.empty();
+    lit.position = x;
     lit.irradiance = sum;
     lit.order = l2 ? ProbeShOrder::L2 : ProbeShOrder::L1;
     lit.updated_tick = world.tick();

@@ -94,10 +94,11 @@ struct IrradianceProbeGrid {
 // Receiver component: an entity (character, moving prop) lit by the probe grids. Written by the
 // probe-grid system when the entity moved or a grid changed.
 struct ProbeLit {
-  SH9rgb irradiance;            // irradiance SH at the entity's origin (zero when no grid covers it)
+  SH9rgb irradiance;            // irradiance SH at `position` (zero when no grid covers it)
   ProbeShOrder order = ProbeShOrder::L2;  // how many coefficients are meaningful
   bool covered = false;         // some grid covers the entity's position
   std::uint64_t updated_tick = 0;  // the World tick of the last update
+  glm::vec3 position{0.0f};     // world point the lighting was taken at (probe_lit_position)
 };
 
 // E(n) of a receiver, >= 0 per channel. Cost: ~40 flops.

@@ -12,8 +12,14 @@
 
 namespace penumbra {
 
-// Gives every ProbeLit entity with a WorldTransform its irradiance at its origin, but only the
-// entities whose WorldTransform or ProbeLit changed after tick `since`, or all of them when any
+// Where a receiver takes its lighting: the centre of its Mesh's bounds through its WorldTransform
+// when it has a mesh with bounds (a character's middle rather than its feet; for a skinned mesh the
+// bind pose's bounds), else its origin. Precondition: `e` has a WorldTransform. Cost: O(1).
+// Thread-safe for concurrent reads of the World.
+glm::vec3 probe_lit_position(const World& world, Entity e);
+
+// Gives every ProbeLit entity with a WorldTransform its irradiance at probe_lit_position, but only
+// the entities whose WorldTransform, ProbeLit or Mesh changed after tick `since`, or all when any
 // grid (IrradianceProbeGrid or its WorldTransform) changed or was removed after `since`. Where
 // grids overlap, the covering grids are taken by descending priority (then entity index); each
 // takes fade x (what is left) of the weight, fade = clamp(distance to its border / blend
