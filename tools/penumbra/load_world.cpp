@@ -1,6 +1,7 @@
 #include "load_world.h"
 #include "penumbra/ao_field/ao_field_baker.h"
 #include "penumbra/bake/vertex_ao.h"
+#include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/probe_grid/probe_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
@@ -13,6 +14,7 @@ void register_modules(World& world) {
   register_vertex_ao(world);
   register_probe_grid(world);
   register_ao_field(world);
+  register_pose_ao(world);
 }
 
 Status load_world(World& world, std::string_view scene, Preset preset) {
@@ -20,6 +22,8 @@ Status load_world(World& world, std::string_view scene, Preset preset) {
   auto loaded = load_scene(world, scene);
   if (!loaded) return loaded.error();
   world.update(0.0);
+  // Every skinned mesh (built-in or glTF) gets pose-AO settings unless it brings its own.
+  add_default_pose_ao(world, preset);
   // The built-in scenes (made by the scene layer, below the lighting modules) get a probe grid over
   // their static geometry; glTF scenes bring their own lighting components.
   if (scene.starts_with("builtin:")) {
