@@ -3,9 +3,28 @@
 // Mirrors the World into GPU resources (sync), then records a frame into a command buffer
 // (record) that draws into a RenderTarget. Passes: shadow maps for the shadowed lights, then one
 // forward pass (GPU skinning, base colour textures, direct light with filtered shadow maps,
-// indirect diffuse from the probe grid per pixel, AO fields per pixel, pose-AO / vertex AO as a
-// vertex attribute), then tone mapping. A pass whose data the scene lacks is skipped and costs
-// nothing. The layouts shared with the GLSL in shaders/ are defined once, in shaders/shared/.
+// indirect diffuse from the probe grid per pixel, pose-AO / vertex AO as a vertex attribute,
+// emission, tone mapping in the same pass). A pass whose data the scene lacks is skipped and costs
+// nothing. The layouts shared with the GLSL in shaders/ are defined once, in shaders/shared/layout.h.
+//
+// Light models (as bake/light_sampling.h): directional illuminance, point/spot intensity with the
+// KHR_lights_punctual range window and smooth cone; a Rect light of radiance L and area A is drawn
+// as a Lambertian point emitter at its centre, intensity L A cos(theta) towards its front, with a
+// six-face (cube) shadow map, so its shadows are hard-edged where the real area light's are soft.
+// Shadow maps: directional orthographic over the bounds of every mesh, spot perspective over the
+// outer cone, point and rect six 90-degree faces; 3x3 PCF over the 2x2 comparison filter. Emissive
+// meshes cast no shadows (an emitter would occlude its own light).
+// Indirect: L = albedo / pi x E_probe(x, n) x AO, E_probe the trilinear SH of the highest-priority
+// baked IrradianceProbeGrid (ties: lowest entity index), as evaluate() in probe_grid.h. The probe
+// baker stores direct + indirect light, so Lit counts direct light twice where a grid covers.
+// Tone mapping: exposure, then the ACES filmic fit of Narkowicz (2015), then sRGB.
+//
+// Changes to the draft: sync/render_image take a mutable World (views need one; nothing is
+// written); DebugView gains Position, Normal and Irradiance (linear data views for tests and the
+// editor); render_frame() renders without read-back (what `penumbra render --frames` times);
+// VertexAoAttribute is the per-vertex AO hook. One frame in flight: record() rewrites the
+// per-frame buffers, so the previous frame's submission must have finished (Swapchain::acquire
+// and render_image wait for it).
 #pragma once
 
 #include <cstdint>
@@ -29,9 +48,14 @@ enum class DebugView : std::uint8_t {
   IndirectOnly,   // probe-grid irradiance x albedo (x AO)
   AoOnly,         // the product of every AO term as grey
   Albedo,         // base colour x texture
-  ProbeValidity,  // the probe grid's interpolated validity as a colour ramp
+  ProbeValidity,  // the probe grid's interpolated validity: red (0) to green (1); blue without a grid
+  Position,       // world position (linear data, not tone mapped)
+  Normal,         // world normal, facing the camera (linear data)
+  Irradiance,     // E_probe(x, n) in W/m^2, exposed and tone mapped (linear in a float target)
 };
-// "lit", "direct", "indirect", "ao", "albedo", "validity"; nullopt-like error for anything else.
+inline constexpr int kDebugViewCount = 9;
+// "lit", "direct", "indirect", "ao", "albedo", "validity", "position", "normal", "irradiance";
+// InvalidArgument listing the names for anything else.
 Result<DebugView> parse_debug_view(std::string_view name);
 std::string_view debug_view_name(DebugView view);
 
@@ -43,7 +67,14 @@ struct CameraView {
 // The CameraView of a Camera entity at its WorldTransform, for a target of the given aspect.
 CameraView camera_view(const World& world, Entity camera, float aspect);
 // A camera that frames the bounds of every mesh, looking from the front and above.
-CameraView framing_camera_view(const World& world, float aspect);
+CameraView framing_camera_view(World& world, float aspect);
+
+// The per-vertex AO hook: one value in [0, 1] per vertex of the entity's MeshData (1 = open),
+// multiplied into the indirect light. Written by whoever computes it (vertex-AO bakes, pose-AO);
+// entities without it get 1. Ignored when the size does not match the mesh.
+struct VertexAoAttribute {
+  std::vector<float> ao;
+};
 
 struct RenderSettings {
   DebugView view = DebugView::Lit;
@@ -70,7 +101,9 @@ struct Image {
   std::vector<std::uint8_t> rgba8;  // when read as 8-bit
   std::vector<float> rgba32f;       // when read as float
 };
-// PNG (8-bit) or OpenEXR (float) by extension; atomic (temporary file, then rename).
+// PNG (8-bit; from rgba8) or OpenEXR (32-bit float RGBA; from rgba32f) by the extension of `path`;
+// atomic (temporary file, then rename). Errors name the path and the fix (unknown extension, the
+// image lacks the pixels the format needs, the directory is not writable).
 Status write_image(const Image& image, const std::string& path);
 
 struct FrameStats {
@@ -88,7 +121,8 @@ class Renderer {
 
   // Uploads what changed since the last call (meshes, materials, textures, lights, skin poses,
   // baked lighting data attached to components). Call after world.update(), before record().
-  Status sync(const World& world);
+  // Cost: O(entities) plus uploads of new meshes/textures/grids. Not thread-safe.
+  Status sync(World& world);
 
   // Records shadow passes, the forward pass and tone mapping into `cmd` for `target`.
   // Precondition: sync() was called for this frame. Not thread-safe.
@@ -97,9 +131,13 @@ class Renderer {
 
   // Convenience for tools and tests: an offscreen frame of size width x height, submitted, waited
   // and read back (8-bit tone-mapped, or float linear when `linear_float`).
-  Result<Image> render_image(const World& world, const CameraView& camera, std::uint32_t width,
+  // Errors: a zero or larger-than-16384 size, and any sync() error.
+  Result<Image> render_image(World& world, const CameraView& camera, std::uint32_t width,
                              std::uint32_t height, const RenderSettings& settings,
                              bool linear_float = false);
+  // The same frame without the read-back (sync, record, submit, wait): what frame timings measure.
+  Status render_frame(World& world, const CameraView& camera, std::uint32_t width, std::uint32_t height,
+                      const RenderSettings& settings);
 
   const FrameStats& stats() const;
 

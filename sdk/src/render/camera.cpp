@@ -1,0 +1,79 @@
+// Debug view names and camera views (Vulkan clip conventions: y down, depth 0..1).
+#include <array>
+#include <cmath>
+#include <string>
+
+#include <glm/ext/matrix_clip_space.hpp>
+#include <glm/ext/matrix_transform.hpp>
+#include <glm/gtc/matrix_inverse.hpp>
+
+#include "penumbra/ecs/transform.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+namespace {
+
+constexpr std::array<std::string_view, kDebugViewCount> kViewNames = {
+    "lit", "direct", "indirect", "ao", "albedo", "validity", "position", "normal", "irradiance"};
+
+// Right-handed perspective to Vulkan clip space (depth 0..1, y pointing down the image).
+glm::mat4 vulkan_perspective(float yfov, float aspect, float znear, float zfar) {
+  glm::mat4 p = glm::perspectiveRH_ZO(yfov, aspect, znear, zfar);
+  p[1][1] = -p[1][1];
+  return p;
+}
+
+}  // namespace
+
+Result<DebugView> parse_debug_view(std::string_view name) {
+  std::string all;
+  for (std::size_t i = 0; i < kViewNames.size(); ++i) {
+    if (kViewNames[i] == name) return static_cast<DebugView>(i);
+    all += (i ? ", " : "") + std::string(kViewNames[i]);
+  }
+  return make_error(ErrorCode::InvalidArgument, "unknown view '" + std::string(name) + "'; use one of " + all);
+}
+
+std::string_view debug_view_name(DebugView view) {
+  const auto i = static_cast<std::size_t>(view);
+  return i < kViewNames.size() ? kViewNames[i] : std::string_view("unknown");
+}
+
+CameraView camera_view(const World& world, Entity camera, float aspect) {
+  CameraView v;
+  const auto* cam = world.try_get<Camera>(camera);
+  const auto* wt = world.try_get<WorldTransform>(camera);
+  const Camera c = cam ? *cam : Camera{};
+  const glm::mat4 camera_to_world = wt ? wt->matrix : glm::mat4(1.0f);
+  v.position = glm::vec3(camera_to_world[3]);
+  v.view = glm::affineInverse(camera_to_world);
+  v.projection = vulkan_perspective(c.yfov, c.aspect > 0.0f ? c.aspect : aspect, c.znear, c.zfar);
+  return v;
+}
+
+CameraView framing_camera_view(World& world, float aspect) {
+  Aabb bounds;
+  world.view<const Mesh, const WorldTransform>().each([&](const Mesh& mesh, const WorldTransform& wt) {
+    if (!mesh.data || mesh.data->bounds.empty()) return;
+    const Aabb& b = mesh.data->bounds;
+    for (int i = 0; i < 8; ++i) {
+      const glm::vec3 corner((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y, (i & 4) ? b.max.z : b.min.z);
+      bounds.extend(glm::vec3(wt.matrix * glm::vec4(corner, 1.0f)));
+    }
+  });
+  if (bounds.empty()) bounds.extend(glm::vec3(0.0f));
+  const glm::vec3 centre = bounds.center();
+  const float radius = std::max(0.5f * glm::length(bounds.extent()), 0.01f);
+  const float yfov = 0.8f;
+  // From the front (+Z) and above, far enough that the bounding sphere fits the vertical field.
+  const float distance = radius / std::sin(0.5f * yfov);
+  const glm::vec3 eye = centre + distance * glm::normalize(glm::vec3(0.0f, 0.45f, 1.0f));
+  CameraView v;
+  v.position = eye;
+  v.view = glm::lookAtRH(eye, centre, glm::vec3(0.0f, 1.0f, 0.0f));
+  v.projection = vulkan_perspective(yfov, aspect, distance * 0.01f, distance + 2.0f * radius);
+  return v;
+}
+
+}  // namespace penumbra

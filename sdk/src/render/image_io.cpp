@@ -1,0 +1,88 @@
+// write_image: PNG through stb_image_write, OpenEXR (32-bit float RGBA) through OpenEXR; both
+// written to a temporary file that is renamed over the destination.
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <system_error>
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+
+#include "penumbra/render/renderer.h"
+
+#include "stb_image_write.h"  // implementation in Debian's libstb
+
+namespace penumbra {
+namespace {
+
+bool ends_with(const std::string& s, std::string_view suffix) {
+  if (s.size() < suffix.size()) return false;
+  for (std::size_t i = 0; i < suffix.size(); ++i) {
+    const char c = s[s.size() - suffix.size() + i];
+    if (std::tolower(static_cast<unsigned char>(c)) != suffix[i]) return false;
+  }
+  return true;
+}
+
+Status write_exr(const Image& image, const std::string& path) {
+  try {
+    const int w = static_cast<int>(image.width), h = static_cast<int>(image.height);
+    Imf::Header header(w, h);
+    for (const char* c : {"R", "G", "B", "A"}) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    Imf::OutputFile file(path.c_str(), header);
+    Imf::FrameBuffer fb;
+    const std::size_t xs = 4 * sizeof(float), ys = xs * image.width;
+    char* base = const_cast<char*>(reinterpret_cast<const char*>(image.rgba32f.data()));
+    const char* names[4] = {"R", "G", "B", "A"};
+    for (std::size_t c = 0; c < 4; ++c) fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys));
+    file.setFrameBuffer(fb);
+    file.writePixels(h);
+  } catch (const std::exception& e) {
+    return make_error(ErrorCode::Io, path + ": cannot write OpenEXR: " + e.what());
+  }
+  return {};
+}
+
+}  // namespace
+
+Status write_image(const Image& image, const std::string& path) {
+  const bool png = ends_with(path, ".png"), exr = ends_with(path, ".exr");
+  if (!png && !exr) {
+    return make_error(ErrorCode::InvalidArgument, path + ": unknown image type; use a .png or .exr file name");
+  }
+  const std::size_t pixels = std::size_t{image.width} * image.height;
+  if (pixels == 0) return make_error(ErrorCode::InvalidArgument, path + ": the image is empty");
+  if (png && image.rgba8.size() != pixels * 4) {
+    return make_error(ErrorCode::InvalidArgument, path + ": PNG needs an 8-bit image; render without linear_float or write .exr");
+  }
+  if (exr && image.rgba32f.size() != pixels * 4) {
+    return make_error(ErrorCode::InvalidArgument, path + ": OpenEXR needs a float image; render with linear_float or write .png");
+  }
+  // Atomic: write "<path>.tmp<ext>", then rename.
+  const std::string tmp = path + (png ? ".tmp.png" : ".tmp.exr");
+  Status written;
+  if (png) {
+    const int stride = static_cast<int>(image.width * 4);
+    if (!stbi_write_png(tmp.c_str(), static_cast<int>(image.width), static_cast<int>(image.height), 4,
+                        image.rgba8.data(), stride)) {
+      written = make_error(ErrorCode::Io, path + ": cannot write the PNG; check that the directory exists and is writable");
+    }
+  } else {
+    written = write_exr(image, tmp);
+  }
+  std::error_code ec;
+  if (!written.ok()) {
+    std::filesystem::remove(tmp, ec);
+    return written;
+  }
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    return make_error(ErrorCode::Io, path + ": cannot replace the file (" + ec.message() + ")");
+  }
+  return {};
+}
+
+}  // namespace penumbra

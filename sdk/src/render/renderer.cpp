@@ -1,0 +1,998 @@
+// The forward renderer: World -> GPU resources (sync), shadow passes + one forward pass (record).
+#include "penumbra/render/renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <unordered_map>
+
+#include <glm/ext/matrix_clip_space.hpp>
+#include <glm/ext/matrix_transform.hpp>
+#include <glm/ext/vector_uint4_sized.hpp>
+
+#include "penumbra/bake/integrators.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/scene/components.h"
+#include "shared/layout.h"
+#include "spirv.h"
+#include "vk_util.h"
+
+namespace penumbra {
+
+using render_detail::Allocator;
+using render_detail::Buffer;
+using render_detail::image_barrier;
+using render_detail::ImageResource;
+using render_detail::vk_struct;
+
+namespace {
+
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr std::uint32_t kMaxMaterialSets = 1024;
+constexpr std::uint32_t kMaxImageSize = 16384;
+
+// One interleaved vertex (binding 0); the AO attribute is binding 1.
+struct GpuVertex {
+  glm::vec3 position;
+  glm::vec3 normal;
+  glm::vec2 uv;
+  glm::u16vec4 joints;
+  glm::vec4 weights;
+};
+
+struct GpuMesh {
+  std::shared_ptr<const MeshData> source;  // keeps the key alive
+  Buffer vertices, indices;
+  std::uint32_t index_count = 0, vertex_count = 0;
+};
+struct GpuTexture {
+  std::shared_ptr<const Texture> source;
+  ImageResource image;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+};
+struct Draw {
+  const GpuMesh* mesh = nullptr;
+  VkBuffer ao = VK_NULL_HANDLE;  // per-vertex AO, or the shared buffer of ones
+  VkDescriptorSet material = VK_NULL_HANDLE;
+  gpu::DrawPush push{};
+  bool casts_shadow = true;
+};
+
+VkShaderModule make_module(VkDevice device, std::string_view name) {
+  const auto words = render_detail::spirv(name);
+  auto info = vk_struct<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
+  info.codeSize = words.size() * 4;
+  info.pCode = words.data();
+  VkShaderModule module = VK_NULL_HANDLE;
+  if (words.empty() || vkCreateShaderModule(device, &info, nullptr, &module) != VK_SUCCESS) return VK_NULL_HANDLE;
+  return module;
+}
+
+bool is_float_format(VkFormat f) {
+  return f == VK_FORMAT_R32G32B32A32_SFLOAT || f == VK_FORMAT_R16G16B16A16_SFLOAT;
+}
+bool is_unorm_format(VkFormat f) {
+  return f == VK_FORMAT_R8G8B8A8_UNORM || f == VK_FORMAT_B8G8R8A8_UNORM || f == VK_FORMAT_A2B10G10R10_UNORM_PACK32;
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+  Device* device = nullptr;
+  VkDevice vk = VK_NULL_HANDLE;
+  std::unique_ptr<Allocator> alloc;
+  FrameStats stats;
+
+  VkDescriptorSetLayout frame_layout = VK_NULL_HANDLE, material_layout = VK_NULL_HANDLE;
+  VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
+  VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE;
+  std::map<VkFormat, VkPipeline> forward_pipelines;
+  VkPipeline shadow_pipeline = VK_NULL_HANDLE;
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  VkDescriptorSet frame_set = VK_NULL_HANDLE;
+  VkSampler texture_sampler = VK_NULL_HANDLE, probe_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE;
+
+  // Assets and per-frame data.
+  std::unordered_map<const MeshData*, GpuMesh> meshes;
+  std::unordered_map<const Texture*, GpuTexture> textures;
+  GpuTexture white;
+  std::unordered_map<std::uint32_t, Buffer> vertex_ao;  // by entity index
+  Buffer ones;                                          // AO = 1 for entities without the attribute
+  std::vector<Draw> draws;
+  std::vector<gpu::GpuLight> lights;
+  std::vector<glm::mat4> shadow_matrices;
+  std::vector<glm::mat4> joints;
+  Aabb bounds;
+  Buffer frame_buffer, light_buffer, shadow_matrix_buffer, joint_buffer;
+
+  // Probe grid.
+  std::shared_ptr<const ProbeGridData> probe;
+  ImageResource probe_textures[PENUMBRA_PROBE_TEXTURES];
+  ImageResource probe_validity;
+  ImageResource dummy_3d;
+
+  // Targets.
+  ImageResource depth;
+  std::uint32_t depth_width = 0, depth_height = 0;
+  ImageResource shadow_map;
+  std::vector<VkImageView> shadow_layer_views;
+  std::uint32_t shadow_size = 0, shadow_layers = 0;
+  bool shadow_initialised = false;
+  ImageResource offscreen;
+  VkFormat offscreen_format = VK_FORMAT_UNDEFINED;
+  std::uint32_t offscreen_width = 0, offscreen_height = 0;
+  Buffer readback;
+  bool descriptors_dirty = true;
+
+  ~Impl() {
+    if (!vk) return;
+    vkDeviceWaitIdle(vk);
+    for (auto& [k, m] : meshes) { alloc->destroy(m.vertices); alloc->destroy(m.indices); }
+    for (auto& [k, t] : textures) alloc->destroy(t.image);
+    alloc->destroy(white.image);
+    for (auto& [k, b] : vertex_ao) alloc->destroy(b);
+    for (Buffer* b : {&ones, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
+    for (auto& t : probe_textures) alloc->destroy(t);
+    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &shadow_map, &offscreen}) alloc->destroy(*i);
+    for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
+    for (auto& [f, p] : forward_pipelines) vkDestroyPipeline(vk, p, nullptr);
+    if (shadow_pipeline) vkDestroyPipeline(vk, shadow_pipeline, nullptr);
+    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert}) if (m) vkDestroyShaderModule(vk, m, nullptr);
+    for (VkSampler s : {texture_sampler, probe_sampler, shadow_sampler}) if (s) vkDestroySampler(vk, s, nullptr);
+    if (pool) vkDestroyDescriptorPool(vk, pool, nullptr);
+    if (pipeline_layout) vkDestroyPipelineLayout(vk, pipeline_layout, nullptr);
+    if (frame_layout) vkDestroyDescriptorSetLayout(vk, frame_layout, nullptr);
+    if (material_layout) vkDestroyDescriptorSetLayout(vk, material_layout, nullptr);
+  }
+
+  Status init();
+  Result<VkPipeline> forward_pipeline(VkFormat format);
+  Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
+  Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
+                      VkDeviceSize size);
+  Result<GpuTexture*> texture(const std::shared_ptr<const Texture>& tex);
+  Result<const GpuMesh*> mesh(const std::shared_ptr<const MeshData>& data);
+  Status ensure_host_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage);
+  Status sync_probe_grid(World& world);
+  void plan_shadows(const std::vector<WorldLight>& world_lights);
+  Status ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size);
+  void write_descriptors();
+  Status record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
+                const RenderSettings& settings);
+  Status offscreen_frame(const CameraView& camera, std::uint32_t width, std::uint32_t height,
+                         const RenderSettings& settings, bool linear_float, bool read, Image* out);
+};
+
+Status Renderer::Impl::init() {
+  vk = device->device();
+  alloc = std::make_unique<Allocator>(device->physical_device(), vk);
+
+  // Descriptor set layouts: set 0 per frame, set 1 per material.
+  const VkShaderStageFlags both = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+  const VkDescriptorSetLayoutBinding frame_bindings[] = {
+      {PENUMBRA_BINDING_FRAME, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, both, nullptr},
+      {PENUMBRA_BINDING_LIGHTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_SHADOW_MATRICES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, both, nullptr},
+      {PENUMBRA_BINDING_JOINTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT, nullptr},
+      {PENUMBRA_BINDING_SHADOW_MAP, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_PROBE_SH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES,
+       VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_PROBE_VALIDITY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+  };
+  auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+  layout_info.bindingCount = std::size(frame_bindings);
+  layout_info.pBindings = frame_bindings;
+  const VkDescriptorSetLayoutBinding material_binding = {PENUMBRA_BINDING_BASE_COLOR,
+                                                         VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
+                                                         VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  auto material_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+  material_info.bindingCount = 1;
+  material_info.pBindings = &material_binding;
+  const VkPushConstantRange push{both, 0, sizeof(gpu::DrawPush)};
+  if (vkCreateDescriptorSetLayout(vk, &layout_info, nullptr, &frame_layout) != VK_SUCCESS ||
+      vkCreateDescriptorSetLayout(vk, &material_info, nullptr, &material_layout) != VK_SUCCESS) {
+    return make_error(ErrorCode::Internal, "Renderer: cannot create descriptor set layouts");
+  }
+  const VkDescriptorSetLayout set_layouts[] = {frame_layout, material_layout};
+  auto pl_info = vk_struct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+  pl_info.setLayoutCount = 2;
+  pl_info.pSetLayouts = set_layouts;
+  pl_info.pushConstantRangeCount = 1;
+  pl_info.pPushConstantRanges = &push;
+  if (vkCreatePipelineLayout(vk, &pl_info, nullptr, &pipeline_layout) != VK_SUCCESS) {
+    return make_error(ErrorCode::Internal, "Renderer: cannot create the pipeline layout");
+  }
+
+  // Descriptor pool: the frame set and one set per texture.
+  const VkDescriptorPoolSize sizes[] = {
+      {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3},
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES + 2 + kMaxMaterialSets},
+  };
+  auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+  pool_info.maxSets = 1 + kMaxMaterialSets;
+  pool_info.poolSizeCount = std::size(sizes);
+  pool_info.pPoolSizes = sizes;
+  if (vkCreateDescriptorPool(vk, &pool_info, nullptr, &pool) != VK_SUCCESS) {
+    return make_error(ErrorCode::Internal, "Renderer: cannot create the descriptor pool");
+  }
+  auto set_info = vk_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+  set_info.descriptorPool = pool;
+  set_info.descriptorSetCount = 1;
+  set_info.pSetLayouts = &frame_layout;
+  if (vkAllocateDescriptorSets(vk, &set_info, &frame_set) != VK_SUCCESS) {
+    return make_error(ErrorCode::Internal, "Renderer: cannot allocate the frame descriptor set");
+  }
+
+  // Samplers: textures (linear, repeat), probe grid (trilinear, clamp), shadow map (comparison).
+  auto sampler = vk_struct<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
+  sampler.magFilter = VK_FILTER_LINEAR;
+  sampler.minFilter = VK_FILTER_LINEAR;
+  sampler.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  sampler.maxLod = 0.0f;
+  VkResult r = vkCreateSampler(vk, &sampler, nullptr, &texture_sampler);
+  sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &probe_sampler);
+  sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  sampler.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
+  sampler.compareEnable = VK_TRUE;
+  sampler.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+  if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &shadow_sampler);
+  if (r != VK_SUCCESS) return make_error(ErrorCode::Internal, "Renderer: cannot create samplers");
+
+  forward_vert = make_module(vk, "forward.vert");
+  forward_frag = make_module(vk, "forward.frag");
+  shadow_vert = make_module(vk, "shadow.vert");
+  if (!forward_vert || !forward_frag || !shadow_vert) {
+    return make_error(ErrorCode::Internal, "Renderer: the embedded SPIR-V is missing or invalid; rebuild the SDK");
+  }
+
+  // Defaults: a white texture, a 1x1x1 3D texture for an absent probe grid, the per-frame buffers.
+  const std::uint8_t white_texel[4] = {255, 255, 255, 255};
+  auto image = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+  image.imageType = VK_IMAGE_TYPE_2D;
+  image.format = VK_FORMAT_R8G8B8A8_SRGB;
+  image.extent = {1, 1, 1};
+  image.mipLevels = 1;
+  image.arrayLayers = 1;
+  image.samples = VK_SAMPLE_COUNT_1_BIT;
+  image.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  PENUMBRA_TRY(upload_image(white.image, image, VK_IMAGE_VIEW_TYPE_2D, white_texel, 4));
+  auto alloc_set = set_info;
+  alloc_set.pSetLayouts = &material_layout;
+  if (vkAllocateDescriptorSets(vk, &alloc_set, &white.set) != VK_SUCCESS) {
+    return make_error(ErrorCode::Internal, "Renderer: cannot allocate a material descriptor set");
+  }
+  VkDescriptorImageInfo white_info{texture_sampler, white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  auto write = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+  write.dstSet = white.set;
+  write.dstBinding = PENUMBRA_BINDING_BASE_COLOR;
+  write.descriptorCount = 1;
+  write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  write.pImageInfo = &white_info;
+  vkUpdateDescriptorSets(vk, 1, &write, 0, nullptr);
+  const float zero[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  image.imageType = VK_IMAGE_TYPE_3D;
+  image.format = VK_FORMAT_R32G32B32A32_SFLOAT;
+  PENUMBRA_TRY(upload_image(dummy_3d, image, VK_IMAGE_VIEW_TYPE_3D, zero, sizeof zero));
+  PENUMBRA_TRY(ensure_host_buffer(frame_buffer, sizeof(gpu::FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT));
+  return {};
+}
+
+Status Renderer::Impl::ensure_host_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage) {
+  size = std::max<VkDeviceSize>(size, 256);
+  if (b.buffer && b.size >= size) return {};
+  vkDeviceWaitIdle(vk);  // the old buffer may be in use by the previous frame
+  alloc->destroy(b);
+  auto created = alloc->create_buffer(size + size / 2, usage, true);
+  if (!created) return created.error();
+  b = *created;
+  descriptors_dirty = true;
+  return {};
+}
+
+Status Renderer::Impl::upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage) {
+  auto staging = alloc->create_buffer(size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+  if (!staging) return staging.error();
+  std::memcpy(staging->mapped, data, size);
+  auto created = alloc->create_buffer(size, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+  if (!created) {
+    alloc->destroy(*staging);
+    return created.error();
+  }
+  dst = *created;
+  const VkBuffer src = staging->buffer, to = dst.buffer;
+  Status s = device->submit_and_wait([&](VkCommandBuffer cmd) {
+    const VkBufferCopy region{0, 0, size};
+    vkCmdCopyBuffer(cmd, src, to, 1, &region);
+  });
+  alloc->destroy(*staging);
+  return s;
+}
+
+Status Renderer::Impl::upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type,
+                                    const void* data, VkDeviceSize size) {
+  auto created = alloc->create_image(info, type, VK_IMAGE_ASPECT_COLOR_BIT);
+  if (!created) return created.error();
+  dst = *created;
+  auto staging = alloc->create_buffer(size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+  if (!staging) return staging.error();
+  std::memcpy(staging->mapped, data, size);
+  const VkBuffer src = staging->buffer;
+  const VkImage image = dst.image;
+  Status s = device->submit_and_wait([&](VkCommandBuffer cmd) {
+    image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
+                  VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = info.extent;
+    vkCmdCopyBufferToImage(cmd, src, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_COPY_BIT,
+                  VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+  });
+  alloc->destroy(*staging);
+  return s;
+}
+
+Result<const GpuMesh*> Renderer::Impl::mesh(const std::shared_ptr<const MeshData>& data) {
+  if (auto it = meshes.find(data.get()); it != meshes.end()) return &it->second;
+  const MeshData& m = *data;
+  std::vector<GpuVertex> vertices(m.positions.size());
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    GpuVertex& v = vertices[i];
+    v.position = m.positions[i];
+    v.normal = i < m.normals.size() ? m.normals[i] : glm::vec3(0.0f, 1.0f, 0.0f);
+    v.uv = i < m.uvs.size() ? m.uvs[i] : glm::vec2(0.0f);
+    v.joints = i < m.joints.size() ? m.joints[i] : glm::u16vec4(0);
+    v.weights = i < m.weights.size() ? m.weights[i] : glm::vec4(0.0f);
+  }
+  GpuMesh g;
+  g.source = data;
+  g.vertex_count = static_cast<std::uint32_t>(vertices.size());
+  g.index_count = static_cast<std::uint32_t>(m.indices.size());
+  if (vertices.empty() || m.indices.empty()) return make_error(ErrorCode::InvalidInput, "mesh '" + m.name + "' is empty");
+  PENUMBRA_TRY(upload_buffer(g.vertices, vertices.data(), vertices.size() * sizeof(GpuVertex),
+                             VK_BUFFER_USAGE_VERTEX_BUFFER_BIT));
+  PENUMBRA_TRY(upload_buffer(g.indices, m.indices.data(), m.indices.size() * sizeof(std::uint32_t),
+                             VK_BUFFER_USAGE_INDEX_BUFFER_BIT));
+  return &(meshes[data.get()] = std::move(g));
+}
+
+Result<GpuTexture*> Renderer::Impl::texture(const std::shared_ptr<const Texture>& tex) {
+  if (!tex || tex->width <= 0 || tex->height <= 0 ||
+      tex->rgba8.size() != std::size_t(tex->width) * std::size_t(tex->height) * 4) {
+    return &white;
+  }
+  if (auto it = textures.find(tex.get()); it != textures.end()) return &it->second;
+  if (textures.size() + 1 >= kMaxMaterialSets) {
+    return make_error(ErrorCode::OutOfBudget, "Renderer: more than " + std::to_string(kMaxMaterialSets) +
+                                                  " textures; merge textures into atlases");
+  }
+  GpuTexture g;
+  g.source = tex;
+  auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+  info.imageType = VK_IMAGE_TYPE_2D;
+  info.format = VK_FORMAT_R8G8B8A8_SRGB;
+  info.extent = {static_cast<std::uint32_t>(tex->width), static_cast<std::uint32_t>(tex->height), 1};
+  info.mipLevels = 1;
+  info.arrayLayers = 1;
+  info.samples = VK_SAMPLE_COUNT_1_BIT;
+  info.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  PENUMBRA_TRY(upload_image(g.image, info, VK_IMAGE_VIEW_TYPE_2D, tex->rgba8.data(), tex->rgba8.size()));
+  auto set_info = vk_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+  set_info.descriptorPool = pool;
+  set_info.descriptorSetCount = 1;
+  set_info.pSetLayouts = &material_layout;
+  if (vkAllocateDescriptorSets(vk, &set_info, &g.set) != VK_SUCCESS) {
+    alloc->destroy(g.image);
+    return make_error(ErrorCode::Internal, "Renderer: cannot allocate a material descriptor set");
+  }
+  VkDescriptorImageInfo image_info{texture_sampler, g.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  auto write = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+  write.dstSet = g.set;
+  write.dstBinding = PENUMBRA_BINDING_BASE_COLOR;
+  write.descriptorCount = 1;
+  write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  write.pImageInfo = &image_info;
+  vkUpdateDescriptorSets(vk, 1, &write, 0, nullptr);
+  return &(textures[tex.get()] = std::move(g));
+}
+
+Status Renderer::Impl::sync_probe_grid(World& world) {
+  // The highest-priority baked grid; ties go to the lowest entity index.
+  std::shared_ptr<const ProbeGridData> best;
+  int best_priority = 0;
+  for (Entity e : world.view<const IrradianceProbeGrid>().sorted_entities()) {
+    const auto& grid = world.get<IrradianceProbeGrid>(e);
+    if (!grid.data || (best && grid.priority <= best_priority)) continue;
+    best = grid.data;
+    best_priority = grid.priority;
+  }
+  if (best == probe) return {};
+  vkDeviceWaitIdle(vk);
+  for (auto& t : probe_textures) alloc->destroy(t);
+  alloc->destroy(probe_validity);
+  probe = best;
+  descriptors_dirty = true;
+  if (!probe) return {};
+
+  // The probe_grid.h GPU layout (float32: the sampler's trilinear filter is the CPU's interpolation).
+  const ProbeGridTextures packed = pack_probe_grid_textures(*probe, ProbeTexelFormat::RGBA32F);
+  auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+  info.imageType = VK_IMAGE_TYPE_3D;
+  info.format = VK_FORMAT_R32G32B32A32_SFLOAT;
+  info.extent = {packed.extent.x, packed.extent.y, packed.extent.z};
+  info.mipLevels = 1;
+  info.arrayLayers = 1;
+  info.samples = VK_SAMPLE_COUNT_1_BIT;
+  info.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  const std::size_t texture_bytes = probe->node_count() * packed.texel_bytes();
+  for (std::uint32_t t = 0; t < packed.textures && t < PENUMBRA_PROBE_TEXTURES; ++t) {
+    PENUMBRA_TRY(upload_image(probe_textures[t], info, VK_IMAGE_VIEW_TYPE_3D, packed.data.data() + t * texture_bytes,
+                              texture_bytes));
+  }
+  info.format = VK_FORMAT_R32_SFLOAT;
+  std::vector<float> validity = probe->validity;
+  validity.resize(probe->node_count(), 0.0f);
+  return upload_image(probe_validity, info, VK_IMAGE_VIEW_TYPE_3D, validity.data(), validity.size() * sizeof(float));
+}
+
+// Shadow views: directional 1 orthographic layer fitted to the scene bounds, spot 1 perspective
+// layer over the outer cone, point and rect 6 cube faces (+X, -X, +Y, -Y, +Z, -Z as cube_face()).
+void Renderer::Impl::plan_shadows(const std::vector<WorldLight>& world_lights) {
+  lights.clear();
+  shadow_matrices.clear();
+  const glm::vec3 centre = bounds.empty() ? glm::vec3(0.0f) : bounds.center();
+  const float radius = bounds.empty() ? 1.0f : std::max(0.5f * glm::length(bounds.extent()), 0.01f);
+  auto far_from = [&](glm::vec3 p) { return glm::length(p - centre) + radius; };
+  for (const WorldLight& wl : world_lights) {
+    const Light& l = wl.light;
+    gpu::GpuLight g{};
+    const glm::vec3 dir = glm::normalize(wl.direction);
+    int type = PENUMBRA_LIGHT_POINT;
+    float area = 0.0f;
+    switch (l.type) {
+      case Light::Type::Directional: type = PENUMBRA_LIGHT_DIRECTIONAL; break;
+      case Light::Type::Point: type = PENUMBRA_LIGHT_POINT; break;
+      case Light::Type::Spot: type = PENUMBRA_LIGHT_SPOT; break;
+      case Light::Type::Rect:
+        type = PENUMBRA_LIGHT_RECT;
+        area = 4.0f * glm::length(glm::cross(wl.half_x, wl.half_y));
+        break;
+    }
+    g.position_type = glm::vec4(wl.position, float(type));
+    g.direction_range = glm::vec4(dir, l.range);
+    g.color = glm::vec4(l.color * l.intensity, area);
+    g.cone_shadow = glm::vec4(std::cos(l.outer_cone_angle), std::cos(l.inner_cone_angle),
+                              float(shadow_matrices.size()), 1.0f);
+    const glm::vec3 up = std::abs(dir.y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+    if (type == PENUMBRA_LIGHT_DIRECTIONAL) {
+      const glm::vec3 eye = centre - dir * (radius * 1.05f);
+      shadow_matrices.push_back(glm::orthoRH_ZO(-radius, radius, -radius, radius, 0.0f, radius * 2.1f) *
+                                glm::lookAtRH(eye, centre, up));
+    } else if (type == PENUMBRA_LIGHT_SPOT) {
+      const float fov = std::min(2.0f * l.outer_cone_angle + 0.1f, 3.0f);
+      const float zfar = l.range > 0.0f ? l.range : far_from(wl.position);
+      shadow_matrices.push_back(glm::perspectiveRH_ZO(fov, 1.0f, zfar * 1e-3f, zfar) *
+                                glm::lookAtRH(wl.position, wl.position + dir, up));
+    } else {
+      static const glm::vec3 kFaces[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+      static const glm::vec3 kUps[6] = {{0, 1, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}};
+      const float zfar = l.range > 0.0f ? l.range : far_from(wl.position);
+      for (int f = 0; f < 6; ++f) {
+        shadow_matrices.push_back(glm::perspectiveRH_ZO(glm::radians(90.0f), 1.0f, zfar * 1e-3f, zfar) *
+                                  glm::lookAtRH(wl.position, wl.position + kFaces[f], kUps[f]));
+      }
+      g.cone_shadow.w = 6.0f;
+    }
+    lights.push_back(g);
+  }
+}
+
+Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size) {
+  if (!depth.image || depth_width != width || depth_height != height) {
+    vkDeviceWaitIdle(vk);
+    alloc->destroy(depth);
+    auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = kDepthFormat;
+    info.extent = {width, height, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = 1;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
+    auto created = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_DEPTH_BIT);
+    if (!created) return created.error();
+    depth = *created;
+    depth_width = width;
+    depth_height = height;
+  }
+  const auto layers = std::max<std::uint32_t>(1, static_cast<std::uint32_t>(shadow_matrices.size()));
+  if (!shadow_map.image || shadow_size != shadow_map_size || shadow_layers != layers) {
+    vkDeviceWaitIdle(vk);
+    for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
+    shadow_layer_views.clear();
+    alloc->destroy(shadow_map);
+    auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = kDepthFormat;
+    info.extent = {shadow_map_size, shadow_map_size, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = layers;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+    auto created = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D_ARRAY, VK_IMAGE_ASPECT_DEPTH_BIT);
+    if (!created) return created.error();
+    shadow_map = *created;
+    for (std::uint32_t i = 0; i < layers; ++i) {
+      auto view = vk_struct<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
+      view.image = shadow_map.image;
+      view.viewType = VK_IMAGE_VIEW_TYPE_2D;
+      view.format = kDepthFormat;
+      view.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
+      VkImageView v = VK_NULL_HANDLE;
+      if (vkCreateImageView(vk, &view, nullptr, &v) != VK_SUCCESS) {
+        return make_error(ErrorCode::Internal, "Renderer: cannot create a shadow map view");
+      }
+      shadow_layer_views.push_back(v);
+    }
+    shadow_size = shadow_map_size;
+    shadow_layers = layers;
+    shadow_initialised = false;
+    descriptors_dirty = true;
+  }
+  return {};
+}
+
+void Renderer::Impl::write_descriptors() {
+  if (!descriptors_dirty) return;
+  descriptors_dirty = false;
+  const VkDescriptorBufferInfo frame_info{frame_buffer.buffer, 0, sizeof(gpu::FrameUniforms)};
+  const VkDescriptorBufferInfo light_info{light_buffer.buffer, 0, VK_WHOLE_SIZE};
+  const VkDescriptorBufferInfo matrix_info{shadow_matrix_buffer.buffer, 0, VK_WHOLE_SIZE};
+  const VkDescriptorBufferInfo joint_info{joint_buffer.buffer, 0, VK_WHOLE_SIZE};
+  const VkDescriptorImageInfo shadow_info{shadow_sampler, shadow_map.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo probe_info[PENUMBRA_PROBE_TEXTURES];
+  for (int t = 0; t < PENUMBRA_PROBE_TEXTURES; ++t) {
+    const VkImageView v = probe_textures[t].view ? probe_textures[t].view : dummy_3d.view;
+    probe_info[t] = {probe_sampler, v, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  }
+  const VkDescriptorImageInfo validity_info{probe_sampler, probe_validity.view ? probe_validity.view : dummy_3d.view,
+                                            VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkWriteDescriptorSet writes[7];
+  auto buffer_write = [&](int i, std::uint32_t binding, VkDescriptorType type, const VkDescriptorBufferInfo* info) {
+    writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+    writes[i].dstSet = frame_set;
+    writes[i].dstBinding = binding;
+    writes[i].descriptorCount = 1;
+    writes[i].descriptorType = type;
+    writes[i].pBufferInfo = info;
+  };
+  auto image_write = [&](int i, std::uint32_t binding, std::uint32_t count, const VkDescriptorImageInfo* info) {
+    writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+    writes[i].dstSet = frame_set;
+    writes[i].dstBinding = binding;
+    writes[i].descriptorCount = count;
+    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    writes[i].pImageInfo = info;
+  };
+  buffer_write(0, PENUMBRA_BINDING_FRAME, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, &frame_info);
+  buffer_write(1, PENUMBRA_BINDING_LIGHTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &light_info);
+  buffer_write(2, PENUMBRA_BINDING_SHADOW_MATRICES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &matrix_info);
+  buffer_write(3, PENUMBRA_BINDING_JOINTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &joint_info);
+  image_write(4, PENUMBRA_BINDING_SHADOW_MAP, 1, &shadow_info);
+  image_write(5, PENUMBRA_BINDING_PROBE_SH, PENUMBRA_PROBE_TEXTURES, probe_info);
+  image_write(6, PENUMBRA_BINDING_PROBE_VALIDITY, 1, &validity_info);
+  vkUpdateDescriptorSets(vk, 7, writes, 0, nullptr);
+}
+
+// Graphics pipelines for dynamic rendering: the forward pass per colour format, the shadow pass.
+Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format) {
+  const bool shadow = format == VK_FORMAT_UNDEFINED;
+  if (shadow && shadow_pipeline) return shadow_pipeline;
+  if (!shadow) {
+    if (auto it = forward_pipelines.find(format); it != forward_pipelines.end()) return it->second;
+  }
+  VkPipelineShaderStageCreateInfo stages[2];
+  for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = shadow ? shadow_vert : forward_vert;
+  stages[0].pName = "main";
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = forward_frag;
+  stages[1].pName = "main";
+
+  const VkVertexInputBindingDescription bindings[] = {
+      {0, sizeof(GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX},
+      {1, sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX},
+  };
+  const VkVertexInputAttributeDescription forward_attributes[] = {
+      {0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(GpuVertex, position)},
+      {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(GpuVertex, normal)},
+      {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(GpuVertex, uv)},
+      {3, 0, VK_FORMAT_R16G16B16A16_UINT, offsetof(GpuVertex, joints)},
+      {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(GpuVertex, weights)},
+      {5, 1, VK_FORMAT_R32_SFLOAT, 0},
+  };
+  const VkVertexInputAttributeDescription shadow_attributes[] = {
+      {0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(GpuVertex, position)},
+      {3, 0, VK_FORMAT_R16G16B16A16_UINT, offsetof(GpuVertex, joints)},
+      {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(GpuVertex, weights)},
+  };
+  auto vertex_input = vk_struct<VkPipelineVertexInputStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
+  vertex_input.vertexBindingDescriptionCount = shadow ? 1 : 2;
+  vertex_input.pVertexBindingDescriptions = bindings;
+  vertex_input.vertexAttributeDescriptionCount = shadow ? std::size(shadow_attributes) : std::size(forward_attributes);
+  vertex_input.pVertexAttributeDescriptions = shadow ? shadow_attributes : forward_attributes;
+  auto assembly = vk_struct<VkPipelineInputAssemblyStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
+  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  auto viewport = vk_struct<VkPipelineViewportStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO);
+  viewport.viewportCount = 1;
+  viewport.scissorCount = 1;
+  auto raster = vk_struct<VkPipelineRasterizationStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  raster.cullMode = VK_CULL_MODE_NONE;  // two-sided: open scenes (Cornell's front, thin walls)
+  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  raster.lineWidth = 1.0f;
+  raster.depthBiasEnable = shadow ? VK_TRUE : VK_FALSE;  // slope-scaled bias against shadow acne
+  raster.depthBiasConstantFactor = 1.5f;
+  raster.depthBiasSlopeFactor = 2.0f;
+  auto multisample = vk_struct<VkPipelineMultisampleStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
+  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  auto depth_state = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
+  depth_state.depthTestEnable = VK_TRUE;
+  depth_state.depthWriteEnable = VK_TRUE;
+  depth_state.depthCompareOp = VK_COMPARE_OP_LESS;
+  VkPipelineColorBlendAttachmentState blend_attachment{};
+  blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
+                                    VK_COLOR_COMPONENT_A_BIT;
+  auto blend = vk_struct<VkPipelineColorBlendStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
+  blend.attachmentCount = shadow ? 0 : 1;
+  blend.pAttachments = &blend_attachment;
+  const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  auto dynamic = vk_struct<VkPipelineDynamicStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO);
+  dynamic.dynamicStateCount = 2;
+  dynamic.pDynamicStates = dynamic_states;
+  auto rendering = vk_struct<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
+  rendering.colorAttachmentCount = shadow ? 0 : 1;
+  rendering.pColorAttachmentFormats = &format;
+  rendering.depthAttachmentFormat = kDepthFormat;
+
+  auto info = vk_struct<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
+  info.pNext = &rendering;
+  info.stageCount = shadow ? 1 : 2;
+  info.pStages = stages;
+  info.pVertexInputState = &vertex_input;
+  info.pInputAssemblyState = &assembly;
+  info.pViewportState = &viewport;
+  info.pRasterizationState = &raster;
+  info.pMultisampleState = &multisample;
+  info.pDepthStencilState = &depth_state;
+  info.pColorBlendState = &blend;
+  info.pDynamicState = &dynamic;
+  info.layout = pipeline_layout;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateGraphicsPipelines(vk, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline); r != VK_SUCCESS) {
+    return make_error(ErrorCode::Unsupported, std::string("Renderer: cannot create a pipeline for colour format ") +
+                                                  std::to_string(int(format)) + " (" + vk_result_name(r) + ")");
+  }
+  if (shadow) {
+    shadow_pipeline = pipeline;
+  } else {
+    forward_pipelines[format] = pipeline;
+  }
+  return pipeline;
+}
+
+Renderer::Renderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Renderer::~Renderer() = default;
+
+Result<std::unique_ptr<Renderer>> Renderer::create(Device& device) {
+  auto impl = std::make_unique<Impl>();
+  impl->device = &device;
+  PENUMBRA_TRY(impl->init());
+  return std::unique_ptr<Renderer>(new Renderer(std::move(impl)));
+}
+
+const FrameStats& Renderer::stats() const { return impl_->stats; }
+
+Status Renderer::sync(World& world) {
+  Impl& r = *impl_;
+  const auto start = std::chrono::steady_clock::now();
+  r.draws.clear();
+  r.joints.clear();
+  r.bounds = Aabb{};
+  std::uint32_t max_vertices = 0;
+
+  // Draws in entity order: mesh, material texture, skin pose, per-vertex AO.
+  const std::vector<Entity> entities = world.view<const Mesh, const WorldTransform>().sorted_entities();
+  for (Entity e : entities) {
+    const Mesh& m = world.get<Mesh>(e);
+    if (!m.data || m.data->positions.empty() || m.data->indices.empty()) continue;
+    auto gm = r.mesh(m.data);
+    if (!gm) return gm.error();
+    const auto* material = world.try_get<Material>(e);
+    const Material mat = material ? *material : Material{};
+    auto tex = r.texture(mat.base_color_texture);
+    if (!tex) return tex.error();
+    Draw d;
+    d.mesh = *gm;
+    d.material = (*tex)->set;
+    d.push.model = world.get<WorldTransform>(e).matrix;
+    d.push.base_color = mat.base_color;
+    d.push.emissive = glm::vec4(mat.emissive, 0.0f);
+    d.casts_shadow = mat.emissive == glm::vec3(0.0f);
+    const auto* pose = world.try_get<SkinPose>(e);
+    if (pose && !pose->joint_matrices.empty() && !m.data->joints.empty()) {
+      d.push.draw = glm::uvec4(static_cast<std::uint32_t>(r.joints.size()), 1u, 0u, 0u);
+      r.joints.insert(r.joints.end(), pose->joint_matrices.begin(), pose->joint_matrices.end());
+    }
+    const auto* ao = world.try_get<VertexAoAttribute>(e);
+    if (ao && ao->ao.size() == m.data->positions.size()) {
+      Buffer& b = r.vertex_ao[e.index];
+      PENUMBRA_TRY(r.ensure_host_buffer(b, ao->ao.size() * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT));
+      std::memcpy(b.mapped, ao->ao.data(), ao->ao.size() * sizeof(float));
+      d.ao = b.buffer;
+    }
+    max_vertices = std::max(max_vertices, d.mesh->vertex_count);
+    for (int i = 0; i < 8; ++i) {
+      const Aabb& b = m.data->bounds;
+      const glm::vec3 c((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y, (i & 4) ? b.max.z : b.min.z);
+      r.bounds.extend(glm::vec3(d.push.model * glm::vec4(c, 1.0f)));
+    }
+    r.draws.push_back(d);
+  }
+
+  // The shared AO = 1 attribute, long enough for the largest mesh.
+  if (r.ones.size < VkDeviceSize{max_vertices} * sizeof(float)) {
+    PENUMBRA_TRY(r.ensure_host_buffer(r.ones, max_vertices * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT));
+    std::fill_n(static_cast<float*>(r.ones.mapped), r.ones.size / sizeof(float), 1.0f);
+  }
+  for (Draw& d : r.draws) {
+    if (!d.ao) d.ao = r.ones.buffer;
+  }
+
+  r.plan_shadows(gather_lights(world));
+  PENUMBRA_TRY(r.sync_probe_grid(world));
+  r.stats.draws = static_cast<std::uint32_t>(r.draws.size());
+  r.stats.cpu_record_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return {};
+}
+
+Status Renderer::record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
+                        const RenderSettings& settings) {
+  return impl_->record(cmd, target, camera, settings);
+}
+
+Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
+                              const RenderSettings& settings) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!target.image || !target.view || target.width == 0 || target.height == 0) {
+    return make_error(ErrorCode::InvalidArgument, "Renderer::record: the target has no image, view or size");
+  }
+  if (settings.shadow_map_size < 16 || settings.shadow_map_size > 8192) {
+    return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_map_size " + std::to_string(settings.shadow_map_size) +
+                                                      " is outside [16, 8192]");
+  }
+  auto pipeline = forward_pipeline(target.format);
+  if (!pipeline) return pipeline.error();
+  auto shadow = forward_pipeline(VK_FORMAT_UNDEFINED);
+  if (!shadow) return shadow.error();
+  PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size));
+
+  // Per-frame data.
+  PENUMBRA_TRY(ensure_host_buffer(light_buffer, std::max<std::size_t>(1, lights.size()) * sizeof(gpu::GpuLight),
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+  PENUMBRA_TRY(ensure_host_buffer(shadow_matrix_buffer, std::max<std::size_t>(1, shadow_matrices.size()) * sizeof(glm::mat4),
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+  PENUMBRA_TRY(ensure_host_buffer(joint_buffer, std::max<std::size_t>(1, joints.size()) * sizeof(glm::mat4),
+                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+  std::memcpy(light_buffer.mapped, lights.data(), lights.size() * sizeof(gpu::GpuLight));
+  std::memcpy(shadow_matrix_buffer.mapped, shadow_matrices.data(), shadow_matrices.size() * sizeof(glm::mat4));
+  std::memcpy(joint_buffer.mapped, joints.data(), joints.size() * sizeof(glm::mat4));
+  const bool shadows = settings.shadows && !shadow_matrices.empty();
+  gpu::FrameUniforms frame{};
+  frame.view_proj = camera.projection * camera.view;
+  frame.camera_exposure = glm::vec4(camera.position, settings.exposure);
+  std::uint32_t flags = 0;
+  if (probe) flags |= PENUMBRA_FLAG_PROBE_GRID;
+  if (shadows) flags |= PENUMBRA_FLAG_SHADOWS;
+  if (is_float_format(target.format)) flags |= PENUMBRA_FLAG_LINEAR;
+  if (is_unorm_format(target.format)) flags |= PENUMBRA_FLAG_ENCODE_SRGB;
+  frame.params = glm::uvec4(static_cast<std::uint32_t>(settings.view), static_cast<std::uint32_t>(lights.size()), flags,
+                            probe && probe->sh_order == ProbeShOrder::L1 ? 2u : 3u);
+  if (probe) {
+    frame.probe_world_to_grid = probe->layout.world_to_grid;
+    frame.probe_resolution = glm::vec4(glm::vec3(probe->layout.resolution), 0.0f);
+  }
+  // Normal offset: about one shadow texel of the widest (directional) map.
+  const float radius = bounds.empty() ? 1.0f : 0.5f * glm::length(bounds.extent());
+  frame.shadow_params = glm::vec4(1.0f / float(settings.shadow_map_size), 0.0f,
+                                  2.0f * radius / float(settings.shadow_map_size), 0.0f);
+  std::memcpy(frame_buffer.mapped, &frame, sizeof frame);
+  write_descriptors();
+
+  auto draw_all = [&](bool shadow_pass, std::uint32_t layer) {
+    for (const Draw& d : draws) {
+      if (shadow_pass && !d.casts_shadow) continue;
+      gpu::DrawPush push = d.push;
+      push.draw.z = layer;
+      const VkBuffer buffers[2] = {d.mesh->vertices.buffer, d.ao};
+      const VkDeviceSize offsets[2] = {0, 0};
+      vkCmdBindVertexBuffers(cmd, 0, shadow_pass ? 1 : 2, buffers, offsets);
+      vkCmdBindIndexBuffer(cmd, d.mesh->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+      if (!shadow_pass) vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
+      vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                         sizeof push, &push);
+      vkCmdDrawIndexed(cmd, d.mesh->index_count, 1, 0, 0, 0);
+    }
+  };
+  auto set_viewport = [&](std::uint32_t w, std::uint32_t h) {
+    const VkViewport vp{0.0f, 0.0f, float(w), float(h), 0.0f, 1.0f};
+    const VkRect2D scissor{{0, 0}, {w, h}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+  };
+
+  // Shadow passes: one depth-only pass per shadow layer.
+  const VkImageLayout shadow_from = shadow_initialised ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 0, 1, &frame_set, 0, nullptr);
+  if (shadows) {
+    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, shadow_from, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
+                  VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
+                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *shadow);
+    set_viewport(shadow_size, shadow_size);
+    for (std::uint32_t layer = 0; layer < shadow_matrices.size(); ++layer) {
+      auto depth_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+      depth_attachment.imageView = shadow_layer_views[layer];
+      depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      depth_attachment.clearValue.depthStencil = {1.0f, 0};
+      auto info = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
+      info.renderArea = {{0, 0}, {shadow_size, shadow_size}};
+      info.layerCount = 1;
+      info.pDepthAttachment = &depth_attachment;
+      vkCmdBeginRendering(cmd, &info);
+      draw_all(true, layer);
+      vkCmdEndRendering(cmd);
+    }
+    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    shadow_initialised = true;
+  } else if (!shadow_initialised) {
+    // Unused this frame, but bound: give it a valid layout once.
+    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
+                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    shadow_initialised = true;
+  }
+
+  // Forward pass into the target.
+  image_barrier(cmd, target.image, VK_IMAGE_ASPECT_COLOR_BIT, target.layout, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, 0,
+                VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+  image_barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, 0,
+                VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
+  auto color_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+  color_attachment.imageView = target.view;
+  color_attachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  color_attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  color_attachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}};
+  auto depth_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+  depth_attachment.imageView = depth.view;
+  depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depth_attachment.clearValue.depthStencil = {1.0f, 0};
+  auto info = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
+  info.renderArea = {{0, 0}, {target.width, target.height}};
+  info.layerCount = 1;
+  info.colorAttachmentCount = 1;
+  info.pColorAttachments = &color_attachment;
+  info.pDepthAttachment = &depth_attachment;
+  vkCmdBeginRendering(cmd, &info);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *pipeline);
+  set_viewport(target.width, target.height);
+  draw_all(false, 0);
+  vkCmdEndRendering(cmd);
+  if (target.final_layout != VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL) {
+    image_barrier(cmd, target.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                  target.final_layout, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                  VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                  VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  }
+  stats.gpu_bytes = alloc->bytes();
+  stats.cpu_record_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return {};
+}
+
+Status Renderer::Impl::offscreen_frame(const CameraView& camera, std::uint32_t width,
+                                       std::uint32_t height, const RenderSettings& settings, bool linear_float,
+                                       bool read, Image* out) {
+  if (width == 0 || height == 0 || width > kMaxImageSize || height > kMaxImageSize) {
+    return make_error(ErrorCode::InvalidArgument, "Renderer: image size " + std::to_string(width) + "x" +
+                                                      std::to_string(height) + " is outside 1..16384");
+  }
+  const VkFormat format = linear_float ? VK_FORMAT_R32G32B32A32_SFLOAT : VK_FORMAT_R8G8B8A8_SRGB;
+  if (!offscreen.image || offscreen_format != format || offscreen_width != width || offscreen_height != height) {
+    vkDeviceWaitIdle(vk);
+    alloc->destroy(offscreen);
+    auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = format;
+    info.extent = {width, height, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = 1;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    auto created = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
+    if (!created) return created.error();
+    offscreen = *created;
+    offscreen_format = format;
+    offscreen_width = width;
+    offscreen_height = height;
+  }
+  const VkDeviceSize texel = linear_float ? 16 : 4;
+  const VkDeviceSize bytes = VkDeviceSize{width} * height * texel;
+  if (read) PENUMBRA_TRY(ensure_host_buffer(readback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT));
+  RenderTarget target;
+  target.image = offscreen.image;
+  target.view = offscreen.view;
+  target.format = format;
+  target.width = width;
+  target.height = height;
+  target.layout = VK_IMAGE_LAYOUT_UNDEFINED;
+  target.final_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  Status recorded;
+  PENUMBRA_TRY(device->submit_and_wait([&](VkCommandBuffer cmd) {
+    recorded = record(cmd, target, camera, settings);
+    if (!recorded.ok() || !read) return;
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {width, height, 1};
+    vkCmdCopyImageToBuffer(cmd, offscreen.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1, &region);
+  }));
+  PENUMBRA_TRY(recorded);
+  if (!read) return {};
+  out->width = width;
+  out->height = height;
+  if (linear_float) {
+    out->rgba32f.resize(std::size_t{width} * height * 4);
+    std::memcpy(out->rgba32f.data(), readback.mapped, bytes);
+  } else {
+    out->rgba8.resize(std::size_t{width} * height * 4);
+    std::memcpy(out->rgba8.data(), readback.mapped, bytes);
+  }
+  return {};
+}
+
+Result<Image> Renderer::render_image(World& world, const CameraView& camera, std::uint32_t width,
+                                     std::uint32_t height, const RenderSettings& settings, bool linear_float) {
+  PENUMBRA_TRY(sync(world));
+  Image image;
+  PENUMBRA_TRY(impl_->offscreen_frame(camera, width, height, settings, linear_float, true, &image));
+  return image;
+}
+
+Status Renderer::render_frame(World& world, const CameraView& camera, std::uint32_t width, std::uint32_t height,
+                              const RenderSettings& settings) {
+  PENUMBRA_TRY(sync(world));
+  return impl_->offscreen_frame(camera, width, height, settings, false, false, nullptr);
+}
+
+}  // namespace penumbra
