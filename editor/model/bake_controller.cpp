@@ -1,0 +1,203 @@
+// Background bakes over a World snapshot (bake_controller.h).
+#include "bake_controller.h"
+
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+
+#include "load_world.h"
+#include "penumbra/ao_field/ao_field.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra::editor {
+
+namespace {
+
+template <class C>
+void copy_component(World& from, World& to, Entity src, Entity dst) {
+  if (const C* c = from.try_get<C>(src)) to.add<C>(dst, *c);
+}
+
+// A World with the same entity indices as `src` holding what the bakers read. Lighting components
+// are copied for every entity, or only for `only` when it is not empty.
+std::unique_ptr<World> snapshot(World& src, const std::vector<Entity>& only) {
+  auto dst = std::make_unique<World>();
+  cli::register_modules(*dst);
+  // Recreate the index space: create up to the highest live index, then free the gaps.
+  std::vector<Entity> live;
+  src.view<WorldTransform>().each([&](Entity e, WorldTransform&) { live.push_back(e); });
+  src.view<Mesh>().each([&](Entity e, Mesh&) { live.push_back(e); });
+  src.view<Light>().each([&](Entity e, Light&) { live.push_back(e); });
+  std::uint32_t count = 0;
+  for (Entity e : live) count = std::max(count, e.index + 1);
+  std::vector<Entity> made(count);
+  std::vector<bool> keep(count, false);
+  for (Entity e : live) keep[e.index] = true;
+  for (std::uint32_t i = 0; i < count; ++i) made[i] = dst->create();
+  for (std::uint32_t i = 0; i < count; ++i)
+    if (!keep[i]) dst->destroy(made[i]);
+
+  const auto selected = [&](Entity e) {
+    return only.empty() || std::find(only.begin(), only.end(), e) != only.end();
+  };
+  for (std::uint32_t i = 0; i < count; ++i) {
+    if (!keep[i]) continue;
+    const Entity s = src.handle(i);
+    const Entity d = made[i];
+    copy_component<Transform>(src, *dst, s, d);
+    copy_component<WorldTransform>(src, *dst, s, d);
+    copy_component<Mesh>(src, *dst, s, d);
+    copy_component<Material>(src, *dst, s, d);
+    copy_component<Light>(src, *dst, s, d);
+    copy_component<Static>(src, *dst, s, d);
+    copy_component<Name>(src, *dst, s, d);
+    if (selected(s)) {
+      copy_component<IrradianceProbeGrid>(src, *dst, s, d);
+      copy_component<AOFieldCaster>(src, *dst, s, d);
+    }
+  }
+  return dst;
+}
+
+}  // namespace
+
+const char* to_string(BakeStatus::State state) {
+  switch (state) {
+    case BakeStatus::State::Idle: return "idle";
+    case BakeStatus::State::Running: return "running";
+    case BakeStatus::State::Done: return "done";
+    case BakeStatus::State::Failed: return "failed";
+    case BakeStatus::State::Cancelled: return "cancelled";
+  }
+  return "idle";
+}
+
+std::vector<std::string> bakers_for(World& world, Entity e) {
+  std::vector<std::string> names;
+  if (world.has<IrradianceProbeGrid>(e)) names.push_back("probes");
+  if (world.has<AOFieldCaster>(e)) names.push_back("aofields");
+  return names;
+}
+
+BakeController::~BakeController() {
+  cancel();
+  join();
+}
+
+Status BakeController::start(Document& doc, const BakeRequest& request) {
+  if (running())
+    return make_error(ErrorCode::InvalidArgument, "a bake is already running; cancel it or wait for it to finish");
+  join();  // a finished worker that poll() has not collected: its outcome is dropped
+  World& world = doc.world();
+  for (Entity e : request.entities)
+    if (!world.alive(e))
+      return make_error(ErrorCode::InvalidArgument, "bake: entity #" + std::to_string(e.index) +
+                                                        " no longer exists; select the entities again");
+  const auto& registry = world.resource<BakerRegistry>();
+  for (const std::string& name : request.bakers)
+    if (registry.find(name) == nullptr) {
+      std::string known;
+      for (const Baker& b : registry.all()) known += (known.empty() ? "" : ", ") + b.name;
+      return make_error(ErrorCode::NotFound, "bake: no baker named '" + name + "'; known bakers: " + known);
+    }
+  if (!request.entities.empty() && request.bakers.empty())
+    return make_error(ErrorCode::InvalidArgument,
+                      "bake selection: the selected entities have no lighting component to bake; select a probe grid "
+                      "or an AO-field caster");
+
+  std::shared_ptr<World> snap = snapshot(world, request.entities);
+  {
+    std::lock_guard lock(mutex_);
+    status_ = BakeStatus{};
+    status_.state = BakeStatus::State::Running;
+    finished_ = false;
+  }
+  cancel_ = std::make_unique<CancelToken>();
+  document_ = &doc;
+  started_ = std::chrono::steady_clock::now();
+  worker_ = std::thread([this, snap, request, cancel = cancel_.get()] {
+    // Lower this thread's priority; the pool's threads inherit it.
+    if (request.low_priority) setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), 10);
+    ThreadPool pool(request.threads);
+    JobContext jobs(&pool, [this](const Progress& p) {
+      std::lock_guard lock(mutex_);
+      status_.stage_count = p.stage_count;
+      const auto i = static_cast<std::size_t>(std::max(p.stage_index, 1) - 1);
+      if (status_.stages.size() <= i) status_.stages.resize(i + 1);
+      status_.stages[i].name = std::string(p.stage);
+      status_.stages[i].fraction = p.fraction;
+    }, cancel);
+    Result<BakeResult> outcome = bake_world(*snap, request.bakers, request.settings, jobs);
+    std::lock_guard lock(mutex_);
+    outcome_.emplace(std::move(outcome));
+    finished_ = true;
+  });
+  return {};
+}
+
+void BakeController::cancel() {
+  if (cancel_) cancel_->cancel();
+}
+
+bool BakeController::running() const {
+  std::lock_guard lock(mutex_);
+  return worker_.joinable() && !finished_;
+}
+
+void BakeController::join() {
+  if (worker_.joinable()) worker_.join();
+}
+
+void BakeController::wait() { join(); }
+
+bool BakeController::poll(Document& doc) {
+  {
+    std::lock_guard lock(mutex_);
+    if (!finished_ || !outcome_) {
+      if (status_.state == BakeStatus::State::Running)
+        status_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+      return false;
+    }
+  }
+  join();
+  std::optional<Result<BakeResult>> outcome;
+  {
+    std::lock_guard lock(mutex_);
+    outcome.swap(outcome_);
+  }
+  BakeStatus next = status();
+  next.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  if (!outcome->ok()) {
+    const Error& e = outcome->error();
+    next.state = e.code == ErrorCode::Cancelled ? BakeStatus::State::Cancelled : BakeStatus::State::Failed;
+    next.error = e.message;
+  } else if (&doc != document_) {
+    next.state = BakeStatus::State::Failed;
+    next.error = "the document was replaced while baking; bake again";
+  } else {
+    BakeResult& r = outcome->value();
+    next.report = r.report;
+    for (const BakeChunk& c : r.file.chunks) next.bytes += c.payload.size();
+    // Swap the results in: the lighting systems and the renderer pick the patched components up.
+    if (Status s = doc.attach(std::move(r.file)); !s) {
+      next.state = BakeStatus::State::Failed;
+      next.error = "the bake finished but its results do not fit the scene any more (" + s.error().message + ")";
+    } else {
+      next.state = BakeStatus::State::Done;
+    }
+  }
+  std::lock_guard lock(mutex_);
+  status_ = std::move(next);
+  return true;
+}
+
+BakeStatus BakeController::status() const {
+  std::lock_guard lock(mutex_);
+  return status_;
+}
+
+}  // namespace penumbra::editor

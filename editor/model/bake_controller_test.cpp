@@ -1,0 +1,169 @@
+// Background bakes: a real bake of a built-in scene finishes and attaches, matches a foreground
+// bake bit for bit, can be cancelled, and leaves the live World usable while it runs.
+#include "bake_controller.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "editor_model.h"
+#include "load_world.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra::editor {
+namespace {
+
+std::filesystem::path temp_path(const char* name) {
+  return std::filesystem::temp_directory_path() / ("penumbra_editor_" + std::to_string(::getpid()) + "_" + name);
+}
+
+TEST(BakeController, BakesInTheBackgroundAndAttachesOnPoll) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  Document& doc = *model.document();
+  const Entity grid = *doc.find("probe grid");
+  ASSERT_TRUE(model.bake({"probes"}).ok());
+  // The live World keeps running while the bake works on its snapshot.
+  const Entity crate = *doc.find("crate");
+  int frames = 0;
+  while (model.bakes().running()) {
+    doc.world().patch<Transform>(crate).translation.x += 0.001f;
+    doc.world().update(1.0 / 60.0);
+    EXPECT_EQ(doc.world().get<IrradianceProbeGrid>(grid).data, nullptr);  // nothing swapped in yet
+    ++frames;
+  }
+  EXPECT_GT(frames, 0);
+  ASSERT_TRUE(model.poll());
+  const BakeStatus status = model.bakes().status();
+  ASSERT_EQ(status.state, BakeStatus::State::Done) << status.error;
+  EXPECT_GT(status.seconds, 0.0);
+  ASSERT_EQ(status.report.items.size(), 1u);
+  EXPECT_EQ(status.report.items[0].baker, "probes");
+  EXPECT_EQ(status.bytes, status.report.items[0].bytes);
+  // Per-stage progress: the ray scene and the probe stages, each complete.
+  ASSERT_GE(status.stages.size(), 3u);
+  EXPECT_EQ(status.stages[0].name, "ray scene");
+  EXPECT_EQ(status.stages[1].name, "probe samples");
+  for (const BakeStage& s : status.stages) EXPECT_EQ(s.fraction, 1.0) << s.name;
+  // The results are attached to the live component and kept for saving.
+  const auto& data = doc.world().get<IrradianceProbeGrid>(grid).data;
+  ASSERT_NE(data, nullptr);
+  EXPECT_EQ(data->entity_index, grid.index);
+  EXPECT_GT(data->valid_fraction(), 0.5f);
+  ASSERT_TRUE(doc.has_bake());
+  EXPECT_EQ(doc.baked().chunks.size(), 1u);
+  EXPECT_FALSE(model.poll());  // collected once
+}
+
+TEST(BakeController, MatchesAForegroundBakeBitForBit) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  model.bake_settings.seed = 7;
+  model.bake_threads = 2;
+  ASSERT_TRUE(model.bake({}).ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
+
+  World world;
+  ASSERT_TRUE(cli::load_world(world, "builtin:cornell", Preset::Draft).ok());
+  JobContext serial;
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  settings.seed = 7;
+  auto direct = bake_world(world, {}, settings, serial);
+  ASSERT_TRUE(direct.ok()) << direct.error().message;
+  const BakeFile& mine = model.document()->baked();
+  EXPECT_EQ(mine.input_hash, direct->file.input_hash);
+  ASSERT_EQ(mine.chunks.size(), direct->file.chunks.size());
+  for (std::size_t i = 0; i < mine.chunks.size(); ++i) {
+    EXPECT_EQ(mine.chunks[i].type, direct->file.chunks[i].type);
+    EXPECT_EQ(mine.chunks[i].label, direct->file.chunks[i].label);
+    EXPECT_TRUE(mine.chunks[i].payload == direct->file.chunks[i].payload) << mine.chunks[i].label;
+  }
+}
+
+TEST(BakeController, CancelStopsTheBakeAndAttachesNothing) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::High).ok());
+  model.bake_settings.preset = Preset::High;
+  const Entity grid = *model.document()->find("probe grid");
+  ASSERT_TRUE(model.bake({"probes"}).ok());
+  // A second bake while one runs is refused.
+  auto busy = model.bake({"probes"});
+  ASSERT_FALSE(busy.ok());
+  EXPECT_NE(busy.error().message.find("already running"), std::string::npos);
+  model.bakes().cancel();
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  EXPECT_EQ(model.bakes().status().state, BakeStatus::State::Cancelled) << model.bakes().status().error;
+  EXPECT_EQ(model.document()->world().get<IrradianceProbeGrid>(grid).data, nullptr);
+  EXPECT_FALSE(model.document()->has_bake());
+}
+
+TEST(BakeController, SelectionBakesOnlyTheSelectedComponent) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  Document& doc = *model.document();
+  // Nothing selected, or an entity without a lighting component: refused with the fix.
+  auto none = model.bake_selection();
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.error().message.find("nothing is selected"), std::string::npos);
+  auto light = doc.world().view<Light>().sorted_entities();
+  ASSERT_FALSE(light.empty());
+  doc.select(light[0]);
+  auto wrong = model.bake_selection();
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.error().message.find("no lighting component"), std::string::npos);
+  auto unknown = model.bake({"lightmaps"});
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.error().message.find("known bakers: "), std::string::npos);
+
+  const Entity grid = *doc.find("probe grid");
+  doc.select(grid);
+  ASSERT_TRUE(model.bake_selection().ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
+  ASSERT_EQ(doc.baked().chunks.size(), 1u);
+  EXPECT_EQ(doc.baked().chunks[0].label, "probes:" + std::to_string(grid.index));
+}
+
+TEST(BakeController, SavedBakeLoadsIntoAFreshDocument) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  const auto path = temp_path("cornell.pbake");
+  auto nothing = model.document()->save_bake(path);
+  ASSERT_FALSE(nothing.ok());
+  EXPECT_NE(nothing.error().message.find("nothing is baked yet"), std::string::npos);
+  ASSERT_TRUE(model.bake({"probes"}).ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  ASSERT_TRUE(model.document()->save_bake(path).ok());
+
+  auto fresh = Document::open("builtin:cornell", Preset::Draft);
+  ASSERT_TRUE(fresh.ok());
+  ASSERT_TRUE((*fresh)->open_bake(path).ok());
+  const Entity grid = *(*fresh)->find("probe grid");
+  const auto& loaded = (*fresh)->world().get<IrradianceProbeGrid>(grid).data;
+  const auto& baked = model.document()->world().get<IrradianceProbeGrid>(grid).data;
+  ASSERT_NE(loaded, nullptr);
+  ASSERT_NE(baked, nullptr);
+  EXPECT_TRUE(loaded->coefficients == baked->coefficients);
+  std::filesystem::remove(path);
+  // A missing file is an error naming it; the document is unchanged.
+  auto missing = (*fresh)->open_bake(path);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find(path.string()), std::string::npos) << missing.error().message;
+}
+
+}  // namespace
+}  // namespace penumbra::editor

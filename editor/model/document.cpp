@@ -1,0 +1,138 @@
+// The open document (document.h).
+#include "document.h"
+
+#include <charconv>
+#include <cstdio>
+#include <fstream>
+#include <unistd.h>
+
+#include "load_world.h"
+#include "penumbra/ao_field/ao_field_baker.h"
+#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra::editor {
+
+namespace {
+
+// Every module's "attach baked chunks to components" entry point; vertex AO has none (its chunk
+// is kept in the file only).
+using AttachFn = Status (*)(World&, const BakeFile&);
+constexpr AttachFn kAttachers[] = {attach_probe_grids, attach_ao_fields};
+
+}  // namespace
+
+Result<std::unique_ptr<Document>> Document::open(std::string_view source, Preset preset) {
+  std::unique_ptr<Document> doc(new Document);
+  doc->source_ = std::string(source);
+  if (Status s = cli::load_world(doc->world_, source, preset); !s)
+    return Error{s.error().code, "open " + std::string(source) + ": " + s.error().message};
+  // The default grid of a built-in scene gets a name so that scripts and the hierarchy can refer to it.
+  for (Entity e : doc->world_.view<IrradianceProbeGrid>().sorted_entities())
+    if (!doc->world_.has<Name>(e)) doc->world_.add<Name>(e, Name{"probe grid"});
+  return doc;
+}
+
+Result<Entity> Document::find(std::string_view ref) {
+  if (ref.starts_with("#")) {
+    std::uint32_t index = 0;
+    const auto [end, ec] = std::from_chars(ref.data() + 1, ref.data() + ref.size(), index);
+    const Entity e = ec == std::errc() && end == ref.data() + ref.size() ? world_.find_entity(index) : Entity::null();
+    if (!e) return make_error(ErrorCode::NotFound, "no entity " + std::string(ref) + "; use #INDEX of a live entity");
+    return e;
+  }
+  std::string names;
+  int listed = 0;
+  for (Entity e : world_.view<Name>().sorted_entities()) {
+    const std::string& n = world_.get<Name>(e).value;
+    if (n == ref) return e;
+    if (listed < 12 && names.find("'" + n + "'") == std::string::npos) {
+      names += (names.empty() ? "'" : ", '") + n + "'";
+      ++listed;
+    }
+  }
+  return make_error(ErrorCode::NotFound,
+                    "no entity named '" + std::string(ref) + "' in " + source_ + "; names include " + names);
+}
+
+std::string Document::label(Entity e) {
+  if (const Name* n = world_.try_get<Name>(e); n && !n->value.empty()) return n->value;
+  std::string out = "#";
+  out += std::to_string(e.index);
+  return out;
+}
+
+Status Document::attach(BakeFile file) {
+  for (AttachFn fn : kAttachers) PENUMBRA_TRY(fn(world_, file));
+  // Keep the chunks: replace those of the same type and label.
+  for (BakeChunk& chunk : file.chunks) {
+    bool replaced = false;
+    for (BakeChunk& kept : baked_.chunks)
+      if (kept.type == chunk.type && kept.label == chunk.label) {
+        kept = std::move(chunk);
+        replaced = true;
+        break;
+      }
+    if (!replaced) baked_.chunks.push_back(std::move(chunk));
+  }
+  baked_.input_hash = file.input_hash;
+  baked_.sdk_version = file.sdk_version;
+  return {};
+}
+
+Status Document::open_bake(const std::filesystem::path& path) {
+  auto file = read_bake_file(path);
+  if (!file) return file.error();
+  for (AttachFn fn : kAttachers)
+    if (Status s = fn(world_, *file); !s)
+      return Error{s.error().code, path.string() + ": " + s.error().message};
+  baked_ = std::move(*file);
+  return {};
+}
+
+Status Document::save_bake(const std::filesystem::path& path) const {
+  if (baked_.chunks.empty())
+    return make_error(ErrorCode::InvalidArgument,
+                      "save " + path.string() + ": nothing is baked yet; bake or open a .pbake first");
+  BakeFile out = baked_;
+  out.format_version = kPbakeFormatVersion;
+  out.sdk_version.clear();  // written as this SDK's
+  return write_bake_file(path, out);
+}
+
+Status Document::save_edits(const std::filesystem::path& path) {
+  std::string text = "# Penumbra editor edits: replay with penumbra-editor --script " + path.filename().string() + "\n";
+  text += "open " + source_ + "\n";
+  for (std::size_t i = 0; i < undo_.position(); ++i) {
+    const Edit& edit = undo_.entry(i);
+    if (!world_.alive(edit.entity)) continue;
+    for (const FieldChange& c : edit.changes)
+      text += "set #" + std::to_string(edit.entity.index) + " " + c.field->component + "." + c.field->name + " " +
+              format_field_value(*c.field, c.after) + "\n";
+  }
+  return write_text_file(path, text);
+}
+
+Status write_text_file(const std::filesystem::path& path, std::string_view text) {
+  const std::filesystem::path tmp = path.string() + ".tmp-" + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) return make_error(ErrorCode::Io, path.string() + ": cannot write in this directory; check that it exists and is writable");
+    out.write(text.data(), static_cast<std::streamsize>(text.size()));
+    out.flush();
+    if (!out) {
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      return make_error(ErrorCode::Io, path.string() + ": the write failed (disk full?)");
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    return make_error(ErrorCode::Io, path.string() + ": cannot replace the file: " + ec.message());
+  }
+  return {};
+}
+
+}  // namespace penumbra::editor

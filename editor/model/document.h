@@ -1,0 +1,66 @@
+// The open document: the World of one scene (a built-in or a glTF file) set up with every module,
+// the selection, the undo stack and the baked data attached to it (.pbake in and out).
+// Not thread-safe: the main thread owns it; bakes work on a snapshot (bake_controller.h).
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/bake/pbake.h"
+#include "penumbra/ecs/world.h"
+#include "undo.h"
+
+namespace penumbra::editor {
+
+class Document {
+ public:
+  // Loads `source` ("builtin:NAME" or a .gltf/.glb path) into a new World with every module's
+  // systems and bakers (the tool's load_world; built-in scenes get a default probe grid with
+  // `preset`, named "probe grid"). Errors name the source and say how to fix it.
+  static Result<std::unique_ptr<Document>> open(std::string_view source, Preset preset = Preset::Medium);
+
+  World& world() { return world_; }
+  const std::string& source() const { return source_; }
+  UndoStack& undo() { return undo_; }
+
+  Entity selection() const { return selection_; }
+  void select(Entity e) { selection_ = world_.alive(e) ? e : Entity::null(); }
+
+  // "NAME" (the first entity with that Name in index order) or "#INDEX". NotFound names the
+  // reference and lists a few names.
+  Result<Entity> find(std::string_view ref);
+  // The entity's Name, or "#INDEX" when it has none.
+  std::string label(Entity e);
+
+  // Attaches a bake's chunks to the components they belong to (every module's attach function) and
+  // keeps them: chunks replace kept ones of the same type and label, the others stay (a bake of
+  // the selection updates only its chunks). Errors name the chunk; nothing is kept then.
+  Status attach(BakeFile file);
+  // Reads and attaches a .pbake file (replacing what was kept).
+  Status open_bake(const std::filesystem::path& path);
+  // Writes what is kept, atomically. InvalidArgument when nothing was baked or loaded yet.
+  Status save_bake(const std::filesystem::path& path) const;
+  const BakeFile& baked() const { return baked_; }
+  bool has_bake() const { return !baked_.chunks.empty(); }
+
+  // Writes a script that re-creates this document: `open SOURCE` then one `set` per field edit that
+  // is applied (undo position), so a built-in scene's edits can be saved and replayed. Atomic.
+  Status save_edits(const std::filesystem::path& path);
+
+ private:
+  Document() = default;
+
+  World world_;
+  std::string source_;
+  Entity selection_;
+  UndoStack undo_;
+  BakeFile baked_;
+};
+
+// Writes `text` to `path` atomically (temporary file in the same directory, then rename).
+Status write_text_file(const std::filesystem::path& path, std::string_view text);
+
+}  // namespace penumbra::editor

@@ -1,0 +1,412 @@
+// The field table (fields.h): one entry per editable member, built from member pointers.
+#include "fields.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <type_traits>
+
+#include <glm/gtc/quaternion.hpp>
+
+#include "penumbra/ao_field/ao_field.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra::editor {
+
+namespace {
+
+// Converts a member's type to and from the FieldValue alternative that holds it.
+template <class M>
+FieldValue to_value(const M& m) {
+  if constexpr (std::is_same_v<M, bool> || std::is_same_v<M, float> || std::is_same_v<M, glm::vec2> ||
+                std::is_same_v<M, glm::vec3> || std::is_same_v<M, glm::quat>)
+    return m;
+  else if constexpr (std::is_enum_v<M>)
+    return static_cast<std::int64_t>(m);
+  else
+    return static_cast<std::int64_t>(m);
+}
+template <class M>
+M from_value(const FieldValue& v) {
+  if constexpr (std::is_same_v<M, bool> || std::is_same_v<M, float> || std::is_same_v<M, glm::vec2> ||
+                std::is_same_v<M, glm::vec3> || std::is_same_v<M, glm::quat>)
+    return std::get<M>(v);
+  else
+    return static_cast<M>(std::get<std::int64_t>(v));
+}
+
+template <class C>
+std::function<bool(World&, Entity)> has() {
+  return [](World& w, Entity e) { return w.has<C>(e); };
+}
+
+// A field for member `ptr` of component C.
+template <class C, class M>
+FieldDesc member(const char* name, FieldKind kind, M C::*ptr, double min = -1e30, double max = 1e30,
+                 float speed = 0.01f) {
+  FieldDesc f;
+  f.component = std::string(component_name(component_id<C>()));
+  f.name = name;
+  f.kind = kind;
+  f.min = min;
+  f.max = max;
+  f.speed = speed;
+  f.present = has<C>();
+  f.get = [ptr](World& w, Entity e) { return to_value(w.get<C>(e).*ptr); };
+  f.set = [ptr](World& w, Entity e, const FieldValue& v) { w.patch<C>(e).*ptr = from_value<M>(v); };
+  return f;
+}
+
+FieldDesc with_choices(FieldDesc f, std::vector<std::string> choices) {
+  f.choices = std::move(choices);
+  f.min = 0;
+  f.max = static_cast<double>(f.choices.size() - 1);
+  return f;
+}
+
+FieldDesc read_only(FieldDesc f) {
+  f.read_only = true;
+  f.set = nullptr;
+  return f;
+}
+
+std::vector<FieldDesc> build_fields() {
+  std::vector<FieldDesc> t;
+  constexpr double kBig = 1e30;
+  // Transform (ecs): the local TRS.
+  t.push_back(member("translation", FieldKind::Vec3, &Transform::translation, -1e6, 1e6, 0.02f));
+  t.push_back(member("rotation", FieldKind::Rotation, &Transform::rotation));
+  t.push_back(member("scale", FieldKind::Vec3, &Transform::scale, 1e-6, 1e6, 0.01f));
+
+  // Light (scene).
+  t.push_back(with_choices(member("type", FieldKind::Enum, &Light::type), {"directional", "point", "spot", "rect"}));
+  t.push_back(member("color", FieldKind::Color, &Light::color, 0.0, kBig));
+  t.push_back(member("intensity", FieldKind::Float, &Light::intensity, 0.0, kBig, 0.05f));
+  t.push_back(member("range", FieldKind::Float, &Light::range, 0.0, kBig, 0.05f));
+  t.push_back(member("inner_cone_angle", FieldKind::Float, &Light::inner_cone_angle, 0.0, 3.1415926, 0.005f));
+  t.push_back(member("outer_cone_angle", FieldKind::Float, &Light::outer_cone_angle, 0.0, 3.1415926, 0.005f));
+  t.push_back(member("size", FieldKind::Vec2, &Light::size, 0.0, kBig, 0.01f));
+
+  // Material (scene): base colour split into RGB and alpha.
+  {
+    FieldDesc f;
+    f.component = "Material";
+    f.name = "base_color";
+    f.kind = FieldKind::Color;
+    f.min = 0.0;
+    f.max = 1.0;
+    f.present = has<Material>();
+    f.get = [](World& w, Entity e) { return FieldValue(glm::vec3(w.get<Material>(e).base_color)); };
+    f.set = [](World& w, Entity e, const FieldValue& v) {
+      Material& m = w.patch<Material>(e);
+      m.base_color = glm::vec4(std::get<glm::vec3>(v), m.base_color.a);
+    };
+    t.push_back(std::move(f));
+    FieldDesc a;
+    a.component = "Material";
+    a.name = "alpha";
+    a.kind = FieldKind::Float;
+    a.min = 0.0;
+    a.max = 1.0;
+    a.present = has<Material>();
+    a.get = [](World& w, Entity e) { return FieldValue(w.get<Material>(e).base_color.a); };
+    a.set = [](World& w, Entity e, const FieldValue& v) { w.patch<Material>(e).base_color.a = std::get<float>(v); };
+    t.push_back(std::move(a));
+  }
+  t.push_back(member("emissive", FieldKind::Color, &Material::emissive, 0.0, kBig));
+  t.push_back(member("double_sided", FieldKind::Bool, &Material::double_sided));
+
+  // Camera (scene).
+  t.push_back(member("yfov", FieldKind::Float, &Camera::yfov, 0.01, 3.1, 0.005f));
+  t.push_back(member("aspect", FieldKind::Float, &Camera::aspect, 0.0, 100.0));
+  t.push_back(member("znear", FieldKind::Float, &Camera::znear, 1e-6, kBig, 0.001f));
+  t.push_back(member("zfar", FieldKind::Float, &Camera::zfar, 1e-5, kBig, 1.0f));
+
+  // Animator (scene).
+  t.push_back(member("clip", FieldKind::Count, &Animator::clip, 0.0, 1e9));
+  t.push_back(member("time", FieldKind::Float, &Animator::time, 0.0, kBig));
+  t.push_back(member("speed", FieldKind::Float, &Animator::speed, -100.0, 100.0));
+  t.push_back(member("loop", FieldKind::Bool, &Animator::loop));
+  t.push_back(member("playing", FieldKind::Bool, &Animator::playing));
+
+  // IrradianceProbeGrid (probe_grid): the box as two corners, the quality knobs, blending.
+  {
+    FieldDesc lo;
+    lo.component = "IrradianceProbeGrid";
+    lo.name = "box_min";
+    lo.kind = FieldKind::Vec3;
+    lo.min = -1e6;
+    lo.max = 1e6;
+    lo.speed = 0.02f;
+    lo.present = has<IrradianceProbeGrid>();
+    lo.get = [](World& w, Entity e) { return FieldValue(w.get<IrradianceProbeGrid>(e).box.min); };
+    lo.set = [](World& w, Entity e, const FieldValue& v) {
+      w.patch<IrradianceProbeGrid>(e).box.min = std::get<glm::vec3>(v);
+    };
+    FieldDesc hi = lo;
+    hi.name = "box_max";
+    hi.get = [](World& w, Entity e) { return FieldValue(w.get<IrradianceProbeGrid>(e).box.max); };
+    hi.set = [](World& w, Entity e, const FieldValue& v) {
+      w.patch<IrradianceProbeGrid>(e).box.max = std::get<glm::vec3>(v);
+    };
+    t.push_back(std::move(lo));
+    t.push_back(std::move(hi));
+  }
+  t.push_back(member("spacing", FieldKind::Float, &IrradianceProbeGrid::spacing, 1e-3, 1e6, 0.01f));
+  t.push_back(with_choices(member("sh_order", FieldKind::Enum, &IrradianceProbeGrid::sh_order), {"L1", "L2"}));
+  // The enum's values start at 1 (L1 = 1): map the choice index onto them.
+  t.back().get = [](World& w, Entity e) {
+    return FieldValue(std::int64_t{w.get<IrradianceProbeGrid>(e).sh_order == ProbeShOrder::L1 ? 0 : 1});
+  };
+  t.back().set = [](World& w, Entity e, const FieldValue& v) {
+    w.patch<IrradianceProbeGrid>(e).sh_order = std::get<std::int64_t>(v) == 0 ? ProbeShOrder::L1 : ProbeShOrder::L2;
+  };
+  t.push_back(with_choices(member("sampling", FieldKind::Enum, &IrradianceProbeGrid::sampling),
+                           {"point", "supersampled", "fitted"}));
+  t.push_back(member("samples_per_node", FieldKind::Count, &IrradianceProbeGrid::samples_per_node, 1.0, 1e6, 0.2f));
+  t.push_back(member("rays_per_sample", FieldKind::Count, &IrradianceProbeGrid::rays_per_sample, 1.0, 1e6, 0.2f));
+  t.push_back(member("bounces", FieldKind::Count, &IrradianceProbeGrid::bounces, 0.0, 64.0, 0.05f));
+  t.push_back(member("hit_samples", FieldKind::Count, &IrradianceProbeGrid::hit_samples, 2.0, 1e6, 0.1f));
+  t.push_back(member("back_face_threshold", FieldKind::Float, &IrradianceProbeGrid::back_face_threshold, 0.0, 1.0,
+                     0.005f));
+  t.push_back(member("deringing_window", FieldKind::Float, &IrradianceProbeGrid::deringing_window, 0.0, 100.0));
+  t.push_back(member("priority", FieldKind::Int, &IrradianceProbeGrid::priority, -1e9, 1e9, 0.1f));
+  t.push_back(member("blend_distance", FieldKind::Float, &IrradianceProbeGrid::blend_distance, 0.0, 1e6));
+
+  // ProbeLit (probe_grid): written by the probe-grid system.
+  t.push_back(read_only(member("covered", FieldKind::Bool, &ProbeLit::covered)));
+
+  // AOFieldCaster / AOFieldReceiver (ao_field).
+  t.push_back(member("resolution", FieldKind::Count, &AOFieldCaster::resolution, 1.0, 256.0, 0.1f));
+  t.push_back(member("radial_samples", FieldKind::Count, &AOFieldCaster::radial_samples, 3.0, 1024.0, 0.2f));
+  t.push_back(member("rays_per_sample", FieldKind::Count, &AOFieldCaster::rays_per_sample, 16.0, 1e6, 1.0f));
+  t.push_back(member("falloff_distance", FieldKind::Float, &AOFieldCaster::falloff_distance, 0.0, 1e6));
+  t.push_back(member("fade_start", FieldKind::Float, &AOFieldCaster::fade_start, 1e-3, 0.999, 0.005f));
+  t.push_back(member("inside_occlusion", FieldKind::Float, &AOFieldCaster::inside_occlusion, 0.0, 1.0, 0.005f));
+  t.push_back(member("inside_exponent", FieldKind::Float, &AOFieldCaster::inside_exponent, 1e-3, 100.0));
+  t.push_back(member("normal", FieldKind::Vec3, &AOFieldReceiver::normal, -1.0, 1.0));
+  t.push_back(read_only(member("occlusion", FieldKind::Float, &AOFieldReceiver::occlusion, 0.0, 1.0)));
+  return t;
+}
+
+// Splits "1, 2 3" into numbers; false on anything else.
+bool parse_numbers(std::string_view text, std::vector<double>& out) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    while (i < text.size() && (text[i] == ' ' || text[i] == ',' || text[i] == '\t')) ++i;
+    if (i == text.size()) break;
+    double v = 0.0;
+    const auto [end, ec] = std::from_chars(text.data() + i, text.data() + text.size(), v);
+    if (ec != std::errc()) return false;
+    out.push_back(v);
+    i = static_cast<std::size_t>(end - text.data());
+    if (i < text.size() && text[i] != ' ' && text[i] != ',' && text[i] != '\t') return false;
+  }
+  return true;
+}
+
+std::string kind_help(const FieldDesc& f) {
+  switch (f.kind) {
+    case FieldKind::Bool: return "true or false";
+    case FieldKind::Int: return "an integer";
+    case FieldKind::Count: return "a whole number";
+    case FieldKind::Enum: {
+      std::string s = "one of";
+      for (const auto& c : f.choices) s += " " + c;
+      return s;
+    }
+    case FieldKind::Float: return "a number";
+    case FieldKind::Vec2: return "two numbers (x y)";
+    case FieldKind::Vec3: return "three numbers (x y z)";
+    case FieldKind::Color: return "three numbers (r g b)";
+    case FieldKind::Rotation: return "three Euler angles in degrees (x y z)";
+  }
+  return "a value";
+}
+
+std::string range_text(const FieldDesc& f) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "[%g, %g]", f.min, f.max);
+  return buf;
+}
+
+}  // namespace
+
+std::span<const FieldDesc> editable_fields() {
+  static const std::vector<FieldDesc> fields = build_fields();
+  return fields;
+}
+
+const FieldDesc* find_field(std::string_view component, std::string_view field) {
+  for (const FieldDesc& f : editable_fields())
+    if (f.component == component && f.name == field) return &f;
+  return nullptr;
+}
+
+std::vector<std::string> field_components() {
+  std::vector<std::string> out;
+  for (const FieldDesc& f : editable_fields())
+    if (out.empty() || out.back() != f.component) out.push_back(f.component);
+  return out;
+}
+
+Result<FieldValue> parse_field_value(const FieldDesc& f, std::string_view text) {
+  const std::string where = f.component + "." + f.name + ": '" + std::string(text) + "' is not ";
+  const auto bad = [&] { return make_error(ErrorCode::InvalidArgument, where + kind_help(f)); };
+  FieldValue value;
+  if (f.kind == FieldKind::Bool) {
+    if (text == "true" || text == "1") value = true;
+    else if (text == "false" || text == "0") value = false;
+    else return bad();
+  } else if (f.kind == FieldKind::Enum) {
+    bool found = false;
+    for (std::size_t i = 0; i < f.choices.size(); ++i)
+      if (f.choices[i] == text) {
+        value = static_cast<std::int64_t>(i);
+        found = true;
+      }
+    if (!found) return bad();
+  } else {
+    std::vector<double> n;
+    if (!parse_numbers(text, n)) return bad();
+    switch (f.kind) {
+      case FieldKind::Int:
+      case FieldKind::Count:
+        if (n.size() != 1 || n[0] != std::floor(n[0]) || std::abs(n[0]) > 9e15) return bad();
+        value = static_cast<std::int64_t>(n[0]);
+        break;
+      case FieldKind::Float:
+        if (n.size() != 1) return bad();
+        value = static_cast<float>(n[0]);
+        break;
+      case FieldKind::Vec2:
+        if (n.size() != 2) return bad();
+        value = glm::vec2(static_cast<float>(n[0]), static_cast<float>(n[1]));
+        break;
+      case FieldKind::Vec3:
+      case FieldKind::Color:
+        if (n.size() != 3) return bad();
+        value = glm::vec3(static_cast<float>(n[0]), static_cast<float>(n[1]), static_cast<float>(n[2]));
+        break;
+      case FieldKind::Rotation:
+        if (n.size() != 3 || !std::isfinite(n[0]) || !std::isfinite(n[1]) || !std::isfinite(n[2])) return bad();
+        value = glm::quat(glm::radians(glm::vec3(static_cast<float>(n[0]), static_cast<float>(n[1]),
+                                                 static_cast<float>(n[2]))));
+        break;
+      default: return bad();
+    }
+  }
+  PENUMBRA_TRY(check_field_value(f, value));
+  return value;
+}
+
+Status check_field_value(const FieldDesc& f, const FieldValue& value) {
+  const std::string where = f.component + "." + f.name + ": ";
+  const auto in_range = [&](double v) { return std::isfinite(v) && v >= f.min && v <= f.max; };
+  const auto out_of_range = [&] {
+    return make_error(ErrorCode::InvalidArgument,
+                      where + "the value is outside " + range_text(f) + "; give a finite value in that range");
+  };
+  const auto wrong_type = [&] {
+    return make_error(ErrorCode::InvalidArgument, where + "the value is not " + kind_help(f));
+  };
+  switch (f.kind) {
+    case FieldKind::Bool: return std::holds_alternative<bool>(value) ? Status{} : wrong_type();
+    case FieldKind::Int:
+    case FieldKind::Count:
+    case FieldKind::Enum:
+      if (!std::holds_alternative<std::int64_t>(value)) return wrong_type();
+      return in_range(static_cast<double>(std::get<std::int64_t>(value))) ? Status{} : out_of_range();
+    case FieldKind::Float:
+      if (!std::holds_alternative<float>(value)) return wrong_type();
+      return in_range(std::get<float>(value)) ? Status{} : out_of_range();
+    case FieldKind::Vec2: {
+      if (!std::holds_alternative<glm::vec2>(value)) return wrong_type();
+      const glm::vec2 v = std::get<glm::vec2>(value);
+      return in_range(v.x) && in_range(v.y) ? Status{} : out_of_range();
+    }
+    case FieldKind::Vec3:
+    case FieldKind::Color: {
+      if (!std::holds_alternative<glm::vec3>(value)) return wrong_type();
+      const glm::vec3 v = std::get<glm::vec3>(value);
+      return in_range(v.x) && in_range(v.y) && in_range(v.z) ? Status{} : out_of_range();
+    }
+    case FieldKind::Rotation: {
+      if (!std::holds_alternative<glm::quat>(value)) return wrong_type();
+      const glm::quat q = std::get<glm::quat>(value);
+      const float len = glm::length(q);
+      return std::isfinite(len) && std::abs(len - 1.0f) < 1e-3f
+                 ? Status{}
+                 : make_error(ErrorCode::InvalidArgument, where + "the rotation is not a unit quaternion");
+    }
+  }
+  return wrong_type();
+}
+
+std::string format_field_value(const FieldDesc& f, const FieldValue& value) {
+  char buf[160];
+  switch (f.kind) {
+    case FieldKind::Bool: return std::get<bool>(value) ? "true" : "false";
+    case FieldKind::Enum: {
+      const auto i = static_cast<std::size_t>(std::get<std::int64_t>(value));
+      return i < f.choices.size() ? f.choices[i] : std::to_string(i);
+    }
+    case FieldKind::Int:
+    case FieldKind::Count: return std::to_string(std::get<std::int64_t>(value));
+    case FieldKind::Float: std::snprintf(buf, sizeof buf, "%.9g", static_cast<double>(std::get<float>(value))); break;
+    case FieldKind::Vec2: {
+      const glm::vec2 v = std::get<glm::vec2>(value);
+      std::snprintf(buf, sizeof buf, "%.9g %.9g", static_cast<double>(v.x), static_cast<double>(v.y));
+      break;
+    }
+    case FieldKind::Vec3:
+    case FieldKind::Color: {
+      const glm::vec3 v = std::get<glm::vec3>(value);
+      std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g", static_cast<double>(v.x), static_cast<double>(v.y),
+                    static_cast<double>(v.z));
+      break;
+    }
+    case FieldKind::Rotation: {
+      const glm::vec3 d = glm::degrees(glm::eulerAngles(std::get<glm::quat>(value)));
+      std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g", static_cast<double>(d.x), static_cast<double>(d.y),
+                    static_cast<double>(d.z));
+      break;
+    }
+  }
+  return buf;
+}
+
+std::span<const ComponentPreset> component_presets() {
+  static const std::vector<ComponentPreset> presets = [] {
+    std::vector<ComponentPreset> p;
+    p.push_back({"probes", "IrradianceProbeGrid", has<IrradianceProbeGrid>(), [](World& w, Entity e, Preset q) {
+                   IrradianceProbeGrid& g = w.patch<IrradianceProbeGrid>(e);
+                   IrradianceProbeGrid next = IrradianceProbeGrid::preset(q);
+                   next.box = g.box;
+                   next.resolution = g.resolution;
+                   next.priority = g.priority;
+                   next.blend_distance = g.blend_distance;
+                   next.data = g.data;
+                   g = std::move(next);
+                 }});
+    p.push_back({"aofields", "AOFieldCaster", has<AOFieldCaster>(), [](World& w, Entity e, Preset q) {
+                   AOFieldCaster& c = w.patch<AOFieldCaster>(e);
+                   AOFieldCaster next = AOFieldCaster::preset(q);
+                   next.falloff_distance = c.falloff_distance;
+                   next.data = c.data;
+                   c = std::move(next);
+                 }});
+    return p;
+  }();
+  return presets;
+}
+
+const ComponentPreset* find_preset(std::string_view technique) {
+  for (const ComponentPreset& p : component_presets())
+    if (p.technique == technique) return &p;
+  return nullptr;
+}
+
+}  // namespace penumbra::editor

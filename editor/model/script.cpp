@@ -1,0 +1,249 @@
+// Script parsing and replay (script.h).
+#include "script.h"
+
+#include <charconv>
+#include <fstream>
+#include <sstream>
+
+namespace penumbra::editor {
+
+namespace {
+
+// Splits a line into words; "double quotes" group words. False on an unterminated quote.
+bool split_words(std::string_view line, std::vector<std::string>& words) {
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+    if (i == line.size()) break;
+    std::string word;
+    if (line[i] == '"') {
+      const std::size_t end = line.find('"', i + 1);
+      if (end == std::string_view::npos) return false;
+      word = std::string(line.substr(i + 1, end - i - 1));
+      i = end + 1;
+    } else {
+      while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') word += line[i++];
+    }
+    words.push_back(std::move(word));
+  }
+  return true;
+}
+
+bool parse_int(std::string_view text, long long& out) {
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc() && end == text.data() + text.size();
+}
+bool parse_number(std::string_view text, double& out) {
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc() && end == text.data() + text.size();
+}
+
+// The arity and argument rules of each verb; "" when the action is well formed.
+std::string check_action(const ScriptAction& a) {
+  const std::size_t n = a.args.size();
+  const std::string& v = a.verb;
+  const auto preset_ok = [](const std::string& s) { return parse_preset(s).ok(); };
+  if (v == "open") {
+    if (n < 1 || n > 2 || (n == 2 && !preset_ok(a.args[1])))
+      return "'open' takes a scene (builtin:NAME or a .gltf/.glb path) and an optional preset (draft, medium, high)";
+  } else if (v == "open-bake" || v == "save-bake" || v == "save-edits" || v == "screenshot") {
+    if (n != 1) return "'" + v + "' takes one PATH";
+  } else if (v == "select") {
+    if (n != 1) return "'select' takes one entity: its Name (quoted when it has blanks) or #INDEX";
+  } else if (v == "set") {
+    if (n < 3) return "'set' takes an entity, COMPONENT.FIELD and a value, e.g. set lamp Light.intensity 40";
+    const std::size_t dot = a.args[1].find('.');
+    if (dot == std::string::npos)
+      return "'set': '" + a.args[1] + "' is not COMPONENT.FIELD (e.g. Transform.translation)";
+    const FieldDesc* f = find_field(a.args[1].substr(0, dot), a.args[1].substr(dot + 1));
+    if (f == nullptr) return "'set': no editable field " + a.args[1] + "; the inspector lists the fields";
+    if (f->read_only) return "'set': " + a.args[1] + " is written by the runtime and cannot be set";
+    std::string value;
+    for (std::size_t i = 2; i < n; ++i) value += (i > 2 ? " " : "") + a.args[i];
+    if (auto parsed = parse_field_value(*f, value); !parsed) return "'set': " + parsed.error().message;
+  } else if (v == "preset") {
+    if (n != 3) return "'preset' takes an entity, a technique and a preset, e.g. preset \"probe grid\" probes draft";
+    if (find_preset(a.args[1]) == nullptr) {
+      std::string known;
+      for (const auto& p : component_presets()) known += (known.empty() ? "" : ", ") + p.technique;
+      return "'preset': unknown technique '" + a.args[1] + "'; use " + known;
+    }
+    if (!preset_ok(a.args[2])) return "'preset': unknown preset '" + a.args[2] + "'; use draft, medium or high";
+  } else if (v == "bake") {
+    if (n < 1 || n > 2 || a.args[0].empty() || (n == 2 && !preset_ok(a.args[1])))
+      return "'bake' takes all, selection or baker names (comma-separated, e.g. probes), then an optional preset "
+             "(draft, medium, high)";
+  } else if (v == "undo" || v == "redo" || v == "cancel" || v == "wait") {
+    if (n != 0) return "'" + v + "' takes no arguments";
+  } else if (v == "frames") {
+    long long k = 0;
+    if (n != 1 || !parse_int(a.args[0], k) || k < 1 || k > 1000000) return "'frames' takes a count from 1 to 1000000";
+  } else if (v == "orbit") {
+    double x = 0.0;
+    bool ok = n == 2 || n == 3;
+    for (const auto& s : a.args) ok = ok && parse_number(s, x);
+    if (!ok) return "'orbit' takes YAW and PITCH in degrees and an optional DISTANCE in metres";
+  } else if (v == "view") {
+    if (n != 1) return "'view' takes a debug view: lit, direct, indirect, ao, albedo or validity";
+  } else if (v == "quit") {
+    long long k = 0;
+    if (n > 1 || (n == 1 && (!parse_int(a.args[0], k) || k < 0 || k > 255)))
+      return "'quit' takes an optional exit code from 0 to 255";
+  } else {
+    return "unknown action '" + v +
+           "'; actions: open, open-bake, save-bake, save-edits, select, set, preset, undo, redo, bake, cancel, wait, "
+           "frames, screenshot, orbit, view, quit";
+  }
+  return {};
+}
+
+std::vector<std::string> split_commas(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+}  // namespace
+
+Result<Script> parse_script(std::string_view text, std::string_view name) {
+  Script script;
+  script.name = std::string(name);
+  int line_no = 0;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    const std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line_no;
+    std::vector<std::string> words;
+    const std::string where = std::string(name) + ":" + std::to_string(line_no) + ": ";
+    if (!split_words(line, words))
+      return make_error(ErrorCode::InvalidArgument, where + "unterminated quote; close it with \"");
+    if (words.empty() || words[0].starts_with("#")) continue;
+    ScriptAction action{words[0], {words.begin() + 1, words.end()}, line_no};
+    if (const std::string problem = check_action(action); !problem.empty())
+      return make_error(ErrorCode::InvalidArgument, where + problem);
+    script.actions.push_back(std::move(action));
+  }
+  return script;
+}
+
+Result<Script> load_script(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    return make_error(ErrorCode::NotFound, path.string() + ": cannot open the script; check the path");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) return make_error(ErrorCode::Io, path.string() + ": reading the script failed");
+  return parse_script(buffer.str(), path.filename().string());
+}
+
+ScriptRunner::ScriptRunner(Script script, ViewportFn viewport)
+    : script_(std::move(script)), viewport_(std::move(viewport)) {}
+
+Status ScriptRunner::step(EditorModel& model) {
+  while (!finished()) {
+    const ScriptAction& a = script_.actions[next_];
+    bool wait_here = false;
+    const bool yields = a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view";
+    if (Status s = run(model, a, wait_here); !s) {
+      next_ = script_.actions.size();
+      exit_code_ = 1;
+      return Error{s.error().code, script_.name + ":" + std::to_string(a.line) + ": " + a.verb + ": " +
+                                       s.error().message};
+    }
+    if (wait_here) return {};
+    ++next_;
+    if (yields) return {};  // the viewport shows the change in the next frame
+  }
+  return {};
+}
+
+Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_here) {
+  const auto& args = a.args;
+  if (a.verb == "open") return model.open(args[0], args.size() == 2 ? *parse_preset(args[1]) : Preset::Medium);
+  if (a.verb == "quit") {
+    quit_ = true;
+    exit_code_ = args.empty() ? 0 : std::stoi(args[0]);
+    return {};
+  }
+  if (a.verb == "frames") {
+    if (frames_left_ < 0) frames_left_ = std::stoi(args[0]);
+    wait_here = frames_left_-- > 0;
+    if (!wait_here) frames_left_ = -1;
+    return {};
+  }
+  if (a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view") {
+    if (!viewport_) return make_error(ErrorCode::Unsupported, "needs the window (run without --headless)");
+    return viewport_(a);
+  }
+
+  Document* doc = model.document();
+  if (doc == nullptr) return make_error(ErrorCode::InvalidArgument, "no scene is open; start with 'open SCENE'");
+  World& world = doc->world();
+  if (a.verb == "open-bake") return doc->open_bake(args[0]);
+  if (a.verb == "save-bake") return doc->save_bake(args[0]);
+  if (a.verb == "save-edits") return doc->save_edits(args[0]);
+  if (a.verb == "select") {
+    auto e = doc->find(args[0]);
+    if (!e) return e.error();
+    doc->select(*e);
+    return {};
+  }
+  if (a.verb == "set") {
+    auto e = doc->find(args[0]);
+    if (!e) return e.error();
+    const std::size_t dot = args[1].find('.');
+    const FieldDesc* f = find_field(args[1].substr(0, dot), args[1].substr(dot + 1));
+    std::string value;
+    for (std::size_t i = 2; i < args.size(); ++i) value += (i > 2 ? " " : "") + args[i];
+    auto parsed = parse_field_value(*f, value);
+    if (!parsed) return parsed.error();
+    return doc->undo().set(world, *e, *f, *parsed);
+  }
+  if (a.verb == "preset") {
+    auto e = doc->find(args[0]);
+    if (!e) return e.error();
+    const ComponentPreset* p = find_preset(args[1]);
+    if (!p->present(world, *e))
+      return make_error(ErrorCode::InvalidArgument,
+                        "'" + args[0] + "' has no " + p->component + " component; select one that has");
+    const Preset q = *parse_preset(args[2]);
+    const Entity entity = *e;
+    return doc->undo().record(world, entity, p->component, "preset " + args[1] + " " + args[2],
+                              [&] { p->apply(world, entity, q); });
+  }
+  if (a.verb == "undo") {
+    if (!doc->undo().undo(world)) return make_error(ErrorCode::InvalidArgument, "nothing to undo");
+    return {};
+  }
+  if (a.verb == "redo") {
+    if (!doc->undo().redo(world)) return make_error(ErrorCode::InvalidArgument, "nothing to redo");
+    return {};
+  }
+  if (a.verb == "bake") {
+    if (args.size() == 2) model.bake_settings.preset = *parse_preset(args[1]);
+    if (args[0] == "selection") return model.bake_selection();
+    return model.bake(args[0] == "all" ? std::vector<std::string>{} : split_commas(args[0]));
+  }
+  if (a.verb == "cancel") {
+    model.bakes().cancel();
+    return {};
+  }
+  if (a.verb == "wait") {
+    model.poll();
+    if (model.bakes().running()) {
+      wait_here = true;
+      return {};
+    }
+    const BakeStatus status = model.bakes().status();
+    if (status.state == BakeStatus::State::Failed)
+      return make_error(ErrorCode::InvalidInput, "the bake failed: " + status.error);
+    return {};
+  }
+  return make_error(ErrorCode::Internal, "unhandled action '" + a.verb + "'");
+}
+
+}  // namespace penumbra::editor

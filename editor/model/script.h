@@ -1,0 +1,76 @@
+// Scripted mode (`penumbra-editor --script FILE`): a line-by-line list of editor actions that tests
+// and demos replay through the same model functions as the UI.
+//
+//   open SOURCE [draft|medium|high]     builtin:NAME or a glTF path (preset of the default grid)
+//   open-bake PATH | save-bake PATH     read and attach / write the document's .pbake
+//   save-edits PATH                     the document's edits as a script
+//   select REF                          REF: an entity Name or #INDEX
+//   set REF COMPONENT.FIELD VALUE...    e.g. set lamp Light.intensity 40; undoable
+//   preset REF TECHNIQUE PRESET         e.g. preset "probe grid" probes draft
+//   undo | redo
+//   bake all|selection|BAKER[,BAKER...] [draft|medium|high]   starts a background bake
+//   cancel                              cancels the running bake
+//   wait                                until the running bake ends; fails the script if it failed
+//   frames N                            lets N frames run
+//   screenshot PATH | orbit YAW PITCH [DISTANCE] | view DEBUGVIEW   viewport actions (window only)
+//   quit [CODE]
+// Words are separated by blanks; "double quotes" group words; # starts a comment line.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "editor_model.h"
+
+namespace penumbra::editor {
+
+struct ScriptAction {
+  std::string verb;                // e.g. "set"
+  std::vector<std::string> args;   // the words after it
+  int line = 0;                    // 1-based line in the script
+};
+
+struct Script {
+  std::string name;  // file name for messages
+  std::vector<ScriptAction> actions;
+};
+
+// Parses a script. Errors (InvalidArgument) name the script, the line and the fix, e.g.
+//   "demo.txt:3: 'bake' takes all, selection or baker names, then an optional preset".
+Result<Script> parse_script(std::string_view text, std::string_view name);
+// Reads and parses a script file (NotFound / Io name the path).
+Result<Script> load_script(const std::filesystem::path& path);
+
+// Replays a script against an EditorModel. step() runs actions until one has to wait for frames
+// (wait, frames, and the viewport actions, which take effect at the next frame), then returns;
+// call it once per frame. Viewport actions go to `viewport` (Unsupported without one); `quit`
+// ends the script.
+class ScriptRunner {
+ public:
+  using ViewportFn = std::function<Status(const ScriptAction&)>;
+  ScriptRunner(Script script, ViewportFn viewport = {});
+
+  // Errors carry "NAME:LINE: " before the action's message; the script stops there.
+  Status step(EditorModel& model);
+  bool finished() const { return next_ >= script_.actions.size() || quit_; }
+  bool quit_requested() const { return quit_; }
+  int exit_code() const { return exit_code_; }
+  // The action that step() is waiting on, or nullptr.
+  const ScriptAction* current() const { return next_ < script_.actions.size() ? &script_.actions[next_] : nullptr; }
+
+ private:
+  Status run(EditorModel& model, const ScriptAction& action, bool& blocked);
+
+  Script script_;
+  ViewportFn viewport_;
+  std::size_t next_ = 0;
+  int frames_left_ = -1;  // for `frames N`: -1 when not counting
+  bool quit_ = false;
+  int exit_code_ = 0;
+};
+
+}  // namespace penumbra::editor

@@ -1,0 +1,170 @@
+// The script parser (every malformed line is reported with its line) and the runner on the model.
+#include "script.h"
+
+#include <gtest/gtest.h>
+
+#include "penumbra/scene/components.h"
+
+namespace penumbra::editor {
+namespace {
+
+TEST(Script, ParsesEveryActionAndSkipsComments) {
+  const char* text =
+      "# a demo\n"
+      "open builtin:courtyard draft\n"
+      "\n"
+      "select \"probe grid\"\n"
+      "set lamp Light.intensity 40\n"
+      "set crate Transform.translation 1, 0.4, 2\n"
+      "preset \"probe grid\" probes draft\n"
+      "bake probes,aofields medium\n"
+      "bake selection\n"
+      "wait\n"
+      "frames 3\n"
+      "orbit 30 -15 12\n"
+      "view indirect\n"
+      "screenshot out.png\n"
+      "save-bake out.pbake\n"
+      "undo\n"
+      "redo\n"
+      "cancel\n"
+      "quit 0\n";
+  auto script = parse_script(text, "demo.txt");
+  ASSERT_TRUE(script.ok()) << script.error().message;
+  ASSERT_EQ(script->actions.size(), 17u);
+  EXPECT_EQ(script->actions[0].verb, "open");
+  EXPECT_EQ(script->actions[0].line, 2);
+  EXPECT_EQ(script->actions[1].args[0], "probe grid");
+  EXPECT_EQ(script->actions[3].args.size(), 5u);
+  EXPECT_EQ(script->actions.back().line, 19);
+}
+
+TEST(Script, BadLinesNameTheLineAndTheFix) {
+  struct Case {
+    const char* line;
+    const char* expect;  // part of the message
+  };
+  const Case cases[] = {
+      {"explode now", "unknown action 'explode'"},
+      {"open", "'open' takes a scene"},
+      {"open builtin:cornell ultra", "optional preset"},
+      {"select", "'select' takes one entity"},
+      {"select \"probe grid", "unterminated quote"},
+      {"set lamp Light.intensity", "'set' takes an entity"},
+      {"set lamp intensity 4", "is not COMPONENT.FIELD"},
+      {"set lamp Light.wattage 4", "no editable field Light.wattage"},
+      {"set lamp Light.intensity bright", "Light.intensity: 'bright' is not a number"},
+      {"set lamp Light.intensity -3", "outside [0,"},
+      {"set x ProbeLit.covered true", "written by the runtime"},
+      {"preset grid lightmaps draft", "unknown technique 'lightmaps'"},
+      {"preset grid probes ultra", "unknown preset 'ultra'"},
+      {"bake", "'bake' takes all, selection or baker names"},
+      {"bake all ultra", "optional preset"},
+      {"wait 3", "'wait' takes no arguments"},
+      {"frames 0", "'frames' takes a count"},
+      {"orbit left up", "'orbit' takes YAW and PITCH"},
+      {"quit 300", "exit code"},
+  };
+  for (const Case& c : cases) {
+    const std::string text = "open builtin:cornell\n# comment\n" + std::string(c.line) + "\nquit\n";
+    auto script = parse_script(text, "t.txt");
+    ASSERT_FALSE(script.ok()) << c.line;
+    EXPECT_EQ(script.error().code, ErrorCode::InvalidArgument);
+    const std::string& m = script.error().message;
+    EXPECT_TRUE(m.starts_with("t.txt:3: ")) << m;
+    EXPECT_NE(m.find(c.expect), std::string::npos) << c.line << " -> " << m;
+  }
+}
+
+TEST(Script, LoadScriptNamesAMissingFile) {
+  auto script = load_script("/nonexistent/dir/demo.txt");
+  ASSERT_FALSE(script.ok());
+  EXPECT_EQ(script.error().code, ErrorCode::NotFound);
+  EXPECT_NE(script.error().message.find("/nonexistent/dir/demo.txt"), std::string::npos);
+}
+
+TEST(ScriptRunner, EditsUndoAndSelectionOnTheModel) {
+  auto script = parse_script(
+      "open builtin:courtyard\n"
+      "select lamp\n"
+      "set lamp Light.intensity 40\n"
+      "set lamp Light.color 1 0 0\n"
+      "undo\n"
+      "frames 2\n"
+      "quit 3\n"
+      "set lamp Light.intensity 1\n",
+      "run.txt");
+  ASSERT_TRUE(script.ok()) << script.error().message;
+  ScriptRunner runner(std::move(*script));
+  EditorModel model;
+  int steps = 0;
+  while (!runner.finished()) {
+    ASSERT_TRUE(runner.step(model).ok());
+    ++steps;
+  }
+  EXPECT_EQ(steps, 3);  // `frames 2` holds the script for two frames
+  EXPECT_TRUE(runner.quit_requested());
+  EXPECT_EQ(runner.exit_code(), 3);
+  Document& doc = *model.document();
+  const Entity lamp = *doc.find("lamp");
+  EXPECT_EQ(doc.selection(), lamp);
+  EXPECT_EQ(doc.world().get<Light>(lamp).intensity, 40.0f);        // the line after quit did not run
+  EXPECT_EQ(doc.world().get<Light>(lamp).color, glm::vec3(1.0f, 0.8f, 0.6f));  // undone
+}
+
+TEST(ScriptRunner, RunTimeErrorsNameTheLineAndStopTheScript) {
+  EditorModel model;
+  {
+    ScriptRunner runner(*parse_script("select lamp\n", "a.txt"));
+    auto s = runner.step(model);
+    ASSERT_FALSE(s.ok());
+    EXPECT_EQ(s.error().message, "a.txt:1: select: no scene is open; start with 'open SCENE'");
+    EXPECT_TRUE(runner.finished());
+    EXPECT_EQ(runner.exit_code(), 1);
+  }
+  {
+    ScriptRunner runner(*parse_script("open builtin:cornell\nselect nobody\nquit\n", "b.txt"));
+    auto s = runner.step(model);
+    ASSERT_FALSE(s.ok());
+    EXPECT_TRUE(s.error().message.starts_with("b.txt:2: select: no entity named 'nobody'")) << s.error().message;
+  }
+  {
+    ScriptRunner runner(*parse_script("open builtin:nowhere\n", "c.txt"));
+    auto s = runner.step(model);
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.error().message.find("c.txt:1: open: "), std::string::npos);
+    EXPECT_NE(s.error().message.find("courtyard"), std::string::npos) << s.error().message;  // lists valid names
+  }
+  {
+    // Viewport actions need a window; without one they fail naming the line.
+    ScriptRunner runner(*parse_script("open builtin:cornell\nscreenshot x.png\n", "d.txt"));
+    auto s = runner.step(model);
+    ASSERT_FALSE(s.ok());
+    EXPECT_TRUE(s.error().message.starts_with("d.txt:2: screenshot: needs the window")) << s.error().message;
+  }
+  {
+    ScriptRunner runner(*parse_script("open builtin:cornell\nundo\n", "e.txt"));
+    auto s = runner.step(model);
+    ASSERT_FALSE(s.ok());
+    EXPECT_EQ(s.error().message, "e.txt:2: undo: nothing to undo");
+  }
+}
+
+TEST(ScriptRunner, ViewportActionsGoToTheHostOneFrameEach) {
+  std::vector<std::string> seen;
+  ScriptRunner runner(*parse_script("open builtin:cornell\norbit 10 20\nview albedo\nquit\n", "v.txt"),
+                      [&](const ScriptAction& a) {
+                        seen.push_back(a.verb);
+                        return Status{};
+                      });
+  EditorModel model;
+  ASSERT_TRUE(runner.step(model).ok());
+  EXPECT_EQ(seen, std::vector<std::string>{"orbit"});
+  ASSERT_TRUE(runner.step(model).ok());
+  EXPECT_EQ(seen, (std::vector<std::string>{"orbit", "view"}));
+  ASSERT_TRUE(runner.step(model).ok());
+  EXPECT_TRUE(runner.quit_requested());
+}
+
+}  // namespace
+}  // namespace penumbra::editor

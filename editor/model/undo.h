@@ -1,0 +1,62 @@
+// Undo and redo of component edits: each entry holds the before and after values of the fields it
+// changed (fields.h), so undoing writes the old values back through the same setters.
+// Consecutive edits of one field of one entity made with `merge` (a drag in progress) become one
+// entry that keeps the first before-value, until end_merge() (the drag ended) or another edit.
+// Not thread-safe: use it with its World on the main thread.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "fields.h"
+
+namespace penumbra::editor {
+
+struct FieldChange {
+  const FieldDesc* field = nullptr;
+  FieldValue before, after;
+};
+
+struct Edit {
+  Entity entity;
+  std::string label;  // for the Edit menu, e.g. "set Light.intensity"
+  std::vector<FieldChange> changes;
+};
+
+class UndoStack {
+ public:
+  // Sets `field` of `entity` to `value` and records it. InvalidArgument (naming the field) for a
+  // stale entity, a missing component, a read-only field or a bad value; nothing changes then.
+  Status set(World& world, Entity entity, const FieldDesc& field, const FieldValue& value, bool merge = false);
+  // Runs `mutate` (which changes fields of `component` on `entity`) and records the fields whose
+  // values changed as one entry labelled `label`. For presets and other multi-field edits.
+  Status record(World& world, Entity entity, std::string_view component, std::string label,
+                const std::function<void()>& mutate);
+
+  // Writes the before-values of the latest entry back / the after-values of the next undone one.
+  // False when there is nothing to undo/redo or the entity no longer has the component (the entry
+  // is then dropped).
+  bool undo(World& world);
+  bool redo(World& world);
+  // The next merged edit starts a new entry.
+  void end_merge() { merging_ = false; }
+  void clear();
+
+  bool can_undo() const { return position_ > 0; }
+  bool can_redo() const { return position_ < entries_.size(); }
+  // Entries up to position() are applied; those after it were undone.
+  std::size_t size() const { return entries_.size(); }
+  std::size_t position() const { return position_; }
+  const Edit& entry(std::size_t i) const { return entries_[i]; }
+
+ private:
+  void push(Edit edit);
+
+  std::vector<Edit> entries_;
+  std::size_t position_ = 0;
+  bool merging_ = false;
+};
+
+}  // namespace penumbra::editor
