@@ -1,0 +1,317 @@
+// `penumbra bench pose-ao`: skinned pose-AO (P5, Kontkanen & Aila 2006) against ray-traced AO of
+// held-out poses, on CesiumMan (../shared/assets, skipped with a note when absent) and on the
+// courtyard's walker.
+//
+// Per character: one set of reference poses (random, each joint independently within its clip
+// range widened by 25%, then 16 walk-cycle frames) is traced once, in batches, so that the bake
+// time of the first N poses is measured; the linear model is fitted to the first N random poses
+// plus the clip frames for each N, locality and lambda. Held-out poses: random poses of another
+// seed and walk-cycle frames between the training frames, traced with more rays (their binomial
+// standard error per vertex, averaged, is ref_stderr). Baselines from the same bake: bind-pose AO
+// and the AO averaged over the reference poses. Models are evaluated as stored (16-bit
+// coefficients, after a chunk round trip); a note gives what the halves cost against floats.
+// ns_per_vertex: pose parameters + evaluate_pose_ao per frame on one thread, over the vertices.
+// Goals (issue 7): linear RMSE <= 0.7x the better baseline on CesiumMan; <= 5 ns per vertex.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bench.h"
+#include "penumbra/core/jobs.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/pose_ao_baker.h"
+#include "penumbra/scene/animation.h"
+#include "penumbra/scene/builtin.h"
+
+namespace penumbra::bench {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+struct Character {
+  std::string name;
+  std::unique_ptr<World> world = std::make_unique<World>();
+  Entity mesh;
+};
+
+Result<Character> load_character(const std::string& name, const std::string& spec) {
+  Character c;
+  c.name = name;
+  auto loaded = load_scene(*c.world, spec);
+  if (!loaded) return loaded.error();
+  update_world_transforms(*c.world);
+  update_skin_poses(*c.world);
+  // The skinned mesh with the most vertices.
+  std::size_t most = 0;
+  for (Entity e : c.world->view<Skin, Mesh>().sorted_entities()) {
+    const auto& data = c.world->get<Mesh>(e).data;
+    if (data && data->positions.size() > most && data->joints.size() == data->positions.size()) {
+      most = data->positions.size();
+      c.mesh = e;
+    }
+  }
+  if (!c.mesh) return make_error(ErrorCode::InvalidInput, spec + ": no skinned mesh");
+  return c;
+}
+
+// Reference AO of the held-out poses.
+struct HeldOut {
+  std::vector<std::vector<float>> features, ao;  // per pose
+  std::vector<bool> walk;                        // a walk-cycle frame (else random)
+  double stderr_mean = 0.0;
+};
+
+struct Errors {
+  double rmse = 0, mae = 0, max = 0;
+};
+Errors errors(const HeldOut& h, const std::function<void(const std::vector<float>&, std::vector<float>&)>& predict,
+              int which) {  // which: 0 all, 1 random, 2 walk
+  Errors e;
+  std::size_t n = 0;
+  std::vector<float> out;
+  for (std::size_t p = 0; p < h.ao.size(); ++p) {
+    if ((which == 1 && h.walk[p]) || (which == 2 && !h.walk[p])) continue;
+    out.assign(h.ao[p].size(), 0.0f);
+    predict(h.features[p], out);
+    for (std::size_t v = 0; v < out.size(); ++v) {
+      const double d = std::abs(double(out[v]) - h.ao[p][v]);
+      e.rmse += d * d;
+      e.mae += d;
+      e.max = std::max(e.max, d);
+      ++n;
+    }
+  }
+  e.rmse = std::sqrt(e.rmse / double(std::max<std::size_t>(n, 1)));
+  e.mae /= double(std::max<std::size_t>(n, 1));
+  return e;
+}
+
+Result<Report> run(const Options& options) {
+  ThreadPool pool(options.threads);
+  JobContext jobs(&pool);
+  const bool quick = options.quick;
+  const std::vector<std::size_t> pose_counts =
+      quick ? std::vector<std::size_t>{50, 100, 250} : std::vector<std::size_t>{50, 100, 250, 500, 1000};
+  const std::vector<std::uint32_t> localities = quick ? std::vector<std::uint32_t>{1, 2, 4} : std::vector<std::uint32_t>{0, 1, 2, 3, 4};
+  const std::vector<float> lambdas = quick ? std::vector<float>{1e-4f, 1e-2f} : std::vector<float>{0.0f, 1e-4f, 1e-2f, 1e-1f};
+  const std::uint32_t rays = quick ? 32 : 64, ref_rays = quick ? 128 : 512;
+  const std::size_t held_random = quick ? 6 : 24, held_walk = quick ? 6 : 16;
+  constexpr std::uint32_t kClipFrames = 16;
+  const SkinnedPoseAO defaults;  // locality 4, lambda 1e-3, margin 0.25
+
+  std::vector<std::pair<std::string, std::string>> specs;
+  const std::string cesium = std::string(PENUMBRA_SHARED_DIR) + "/assets/CesiumMan.glb";
+  Report report;
+  if (std::filesystem::exists(cesium)) specs.emplace_back("CesiumMan", cesium);
+  else report.notes.push_back("CesiumMan: " + cesium + " not found; its rows and goal are skipped");
+  specs.emplace_back("walker", "builtin:courtyard");
+
+  report.columns = {"character", "method", "poses", "locality", "lambda", "bake_s", "bytes_per_vertex",
+                    "ns_per_vertex", "rmse", "mae", "max_err", "ref_stderr", "curve"};
+  report.plot = {"pose-AO: held-out RMSE against reference poses", "reference poses (random + 16 walk frames)",
+                 "RMSE of AO on held-out poses", 2, 8, 12, true, false, false};
+  const auto verdict = [](bool pass) { return std::string(pass ? "PASS" : "FAIL"); };
+  double goal_ratio = -1.0, worst_ns = 0.0;
+
+  for (const auto& [name, spec] : specs) {
+    auto c = load_character(name, spec);
+    if (!c) return c.error();
+    World& world = *c->world;
+    const auto mesh = world.get<Mesh>(c->mesh).data;
+    auto rig = make_pose_rig(world, c->mesh, name);
+    if (!rig) return rig.error();
+    auto tracer = PoseAOTracer::create(mesh, rig->joint_count(), name);
+    if (!tracer) return tracer.error();
+    const std::size_t V = mesh->positions.size();
+    const std::vector<JointRange> ranges = pose_ranges(*rig, defaults);
+
+    // Training: random poses in batches (timed), then the clip frames.
+    PoseAOTraining tr;
+    tr.vertex_count = V;
+    tr.joint_count = rig->joint_count();
+    tr.bind_ao.resize(V);
+    auto t0 = std::chrono::steady_clock::now();
+    PENUMBRA_TRY(tracer->trace(std::vector<glm::mat4>(rig->joint_count(), glm::mat4(1.0f)), rays, 1, jobs, tr.bind_ao));
+    const double bind_s = seconds_since(t0);
+    double trace_s = bind_s;
+    std::vector<double> trace_seconds;  // time of the first pose_counts[i] random poses + bind
+    for (std::size_t n : pose_counts) {
+      t0 = std::chrono::steady_clock::now();
+      for (std::size_t p = tr.poses(); p < n; ++p)
+        PENUMBRA_TRY(tr.add_pose(*tracer, *rig, random_pose(*rig, ranges, 1, p), rays, 1, jobs));
+      trace_s += seconds_since(t0);
+      trace_seconds.push_back(trace_s);
+    }
+    PoseAOTraining clips;  // the walk frames, appended to each subset
+    clips.vertex_count = V;
+    clips.joint_count = rig->joint_count();
+    t0 = std::chrono::steady_clock::now();
+    for (std::size_t ci = 0; ci < rig->clips.size(); ++ci)
+      for (std::uint32_t k = 0; k < kClipFrames; ++k)
+        PENUMBRA_TRY(clips.add_pose(*tracer, *rig,
+                                    clip_pose(*rig, ci, rig->clips[ci]->duration * (float(k) + 0.5f) / float(kClipFrames)),
+                                    rays, 1, jobs));
+    const double clip_s = seconds_since(t0);
+    const auto subset = [&](std::size_t n) {
+      PoseAOTraining s;
+      s.vertex_count = V;
+      s.joint_count = tr.joint_count;
+      s.bind_ao = tr.bind_ao;
+      const std::size_t F = tr.joint_count * kPoseFeaturesPerJoint;
+      s.features.assign(tr.features.begin(), tr.features.begin() + std::ptrdiff_t(n * F));
+      s.ao.assign(tr.ao.begin(), tr.ao.begin() + std::ptrdiff_t(n * V));
+      s.features.insert(s.features.end(), clips.features.begin(), clips.features.end());
+      s.ao.insert(s.ao.end(), clips.ao.begin(), clips.ao.end());
+      return s;
+    };
+
+    // Held-out poses: random (another seed) and walk frames at the training frames' edges.
+    HeldOut held;
+    std::vector<float> se(V), ao(V), f;
+    double se_sum = 0.0;
+    const auto add_held = [&](const Pose& pose, bool walk) -> Status {
+      const std::vector<glm::mat4> m = skinning_matrices(*rig, pose);
+      PENUMBRA_TRY(tracer->trace(m, ref_rays, 1000, jobs, ao, se));
+      pose_features(rig->parents, m, f);
+      held.features.push_back(f);
+      held.ao.push_back(ao);
+      held.walk.push_back(walk);
+      for (float s : se) se_sum += s;
+      return {};
+    };
+    for (std::size_t p = 0; p < held_random; ++p) PENUMBRA_TRY(add_held(random_pose(*rig, ranges, 2024, p), false));
+    for (std::size_t ci = 0; ci < rig->clips.size(); ++ci)
+      for (std::size_t k = 0; k < held_walk; ++k)
+        PENUMBRA_TRY(add_held(clip_pose(*rig, ci, rig->clips[ci]->duration * float(k) / float(held_walk)), true));
+    held.stderr_mean = se_sum / double(held.ao.size() * V);
+
+    const auto row = [&](const std::string& method, std::size_t poses, std::string locality, std::string lambda,
+                         double bake_s, double bytes, double ns, const Errors& e, const std::string& curve) {
+      report.rows.push_back({name, method, std::to_string(poses), std::move(locality), std::move(lambda), fmt(bake_s),
+                             fmt(bytes), fmt(ns), fmt(e.rmse), fmt(e.mae), fmt(e.max), fmt(held.stderr_mean), curve});
+    };
+    const Errors bind_err = errors(held, [&](const std::vector<float>&, std::vector<float>& out) { out = tr.bind_ao; }, 0);
+
+    // Per-frame cost per locality (one thread): parameters once, then every vertex.
+    std::vector<double> ns_by_locality(kPoseAOMaxLocality + 1, 0.0);
+    // Fit, store as halves, evaluate; returns the stored model's errors.
+    struct Fit {
+      PoseAOData data;
+      double fit_s = 0;
+    };
+    const auto fit = [&](std::size_t n, std::uint32_t locality, float lambda) -> Result<Fit> {
+      SkinnedPoseAO s = defaults;
+      s.locality = locality;
+      s.lambda = lambda;
+      s.rays_per_vertex = rays;
+      const PoseAOTraining sub = subset(n);
+      const auto start = std::chrono::steady_clock::now();
+      auto data = fit_pose_ao(sub, *rig, *mesh, s, 0, jobs, nullptr, name);
+      if (!data) return data.error();
+      const double fit_s = seconds_since(start);
+      auto stored = read_pose_ao_chunk(write_pose_ao_chunk(*data));
+      if (!stored) return stored.error();
+      return Fit{std::move(*stored), fit_s};
+    };
+    const auto predict = [](const PoseAOData& d) {
+      return [&d](const std::vector<float>& features, std::vector<float>& out) { evaluate_pose_ao(d, features, out); };
+    };
+    const auto measure_ns = [&](const PoseAOData& d) {
+      std::vector<float> out(V), features = held.features.front();
+      const std::vector<glm::mat4> m = skinning_matrices(*rig, random_pose(*rig, ranges, 5, 0));
+      const std::vector<Measurement> r = run_cases(
+          {{"pose-ao", [&](benchmark::State& state) {
+              for (auto _ : state) {
+                pose_features(d.joint_parents, m, features);
+                evaluate_pose_ao(d, features, out);
+                benchmark::DoNotOptimize(out.data());
+              }
+            }}},
+          quick ? 0.05 : 0.2, 3);
+      return r[0].ns_per_iteration / double(V);
+    };
+
+    for (std::size_t i = 0; i < pose_counts.size(); ++i) {
+      const std::size_t n = pose_counts[i];
+      const std::size_t total = n + clips.poses();
+      const double bake_base = trace_seconds[i] + clip_s;
+      // The mean baseline of these poses.
+      auto main = fit(n, defaults.locality, defaults.lambda);
+      if (!main) return main.error();
+      const PoseAOData& d = main->data;
+      if (ns_by_locality[defaults.locality] == 0.0) ns_by_locality[defaults.locality] = measure_ns(d);
+      const Errors lin = errors(held, predict(d), 0);
+      const Errors mean = errors(held, [&](const std::vector<float>&, std::vector<float>& out) { out = d.mean_ao; }, 0);
+      row("linear", total, std::to_string(d.locality), fmt(defaults.lambda), bake_base + main->fit_s, d.bytes_per_vertex(),
+          ns_by_locality[defaults.locality], lin, name + " linear");
+      row("mean", total, "-", "-", bake_base, 2.0, 0.0, mean, name + " pose average");
+      row("bind", total, "-", "-", bind_s, 2.0, 0.0, bind_err, name + " bind pose");
+
+      if (i + 1 == pose_counts.size()) {
+        // Goal and notes at the largest pose count.
+        const Errors lin_r = errors(held, predict(d), 1), lin_w = errors(held, predict(d), 2);
+        const Errors mean_r = errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = d.mean_ao; }, 1);
+        const Errors mean_w = errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = d.mean_ao; }, 2);
+        const Errors bind_r = errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = tr.bind_ao; }, 1);
+        const Errors bind_w = errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = tr.bind_ao; }, 2);
+        const double better = std::min(mean.rmse, bind_err.rmse);
+        report.notes.push_back(name + " (" + std::to_string(V) + " vertices, " + std::to_string(rig->joint_count()) +
+                               " joints), " + std::to_string(total) + " poses: held-out RMSE random/walk: linear " +
+                               fmt(lin_r.rmse, 3) + "/" + fmt(lin_w.rmse, 3) + ", pose average " + fmt(mean_r.rmse, 3) +
+                               "/" + fmt(mean_w.rmse, 3) + ", bind pose " + fmt(bind_r.rmse, 3) + "/" +
+                               fmt(bind_w.rmse, 3) + "; linear/better baseline " + fmt(lin.rmse / better, 3) +
+                               " (reference standard error " + fmt(held.stderr_mean, 2) + ")");
+        if (name == "CesiumMan") goal_ratio = lin.rmse / better;
+        // What the 16-bit coefficients cost: the float fit against the stored one.
+        SkinnedPoseAO s = defaults;
+        s.rays_per_vertex = rays;
+        auto exact = fit_pose_ao(subset(n), *rig, *mesh, s, 0, jobs, nullptr, name);
+        if (!exact) return exact.error();
+        double worst = 0.0;
+        std::vector<float> a(V), b(V);
+        for (const auto& features : held.features) {
+          evaluate_pose_ao(*exact, features, a);
+          evaluate_pose_ao(d, features, b);
+          for (std::size_t v = 0; v < V; ++v) worst = std::max(worst, double(std::abs(a[v] - b[v])));
+        }
+        report.notes.push_back(name + ": 16-bit coefficients change the AO by at most " + fmt(worst, 2) +
+                               " against float ones on the held-out poses (" + fmt(d.bytes_per_vertex(), 3) +
+                               " B per vertex stored)");
+        // Locality and lambda sweeps at this pose count.
+        for (std::uint32_t k : localities)
+          for (float lambda : lambdas) {
+            if (k == defaults.locality && lambda == defaults.lambda) continue;
+            auto sweep = fit(n, k, lambda);
+            if (!sweep) return sweep.error();
+            if (ns_by_locality[k] == 0.0) ns_by_locality[k] = measure_ns(sweep->data);
+            row("linear", total, std::to_string(sweep->data.locality), fmt(lambda), bake_base + sweep->fit_s,
+                sweep->data.bytes_per_vertex(), ns_by_locality[k], errors(held, predict(sweep->data), 0),
+                name + " sweeps at " + std::to_string(total) + " poses");
+          }
+      }
+    }
+    worst_ns = std::max(worst_ns, ns_by_locality[defaults.locality]);
+  }
+
+  if (goal_ratio >= 0.0)
+    report.notes.push_back("goal: CesiumMan held-out RMSE, linear (locality 4, lambda 1e-3) / better baseline = " +
+                           fmt(goal_ratio, 3) + " (<= 0.7: " + verdict(goal_ratio <= 0.7) + ")");
+  report.notes.push_back("goal: per-frame CPU cost " + fmt(worst_ns, 3) + " ns per vertex on one thread, locality 4 (<= 5: " +
+                         verdict(worst_ns <= 5.0) + ")");
+  return report;
+}
+
+}  // namespace
+
+PENUMBRA_BENCH("pose-ao", "skinned pose-AO: held-out error vs ray-traced AO against bind-pose and pose-averaged AO, "
+               "by reference poses, locality and lambda; bake s, bytes and ns per vertex", run);
+
+}  // namespace penumbra::bench
