@@ -44,5 +44,6 @@ ProgressCallback terminal_progress();
 int cmd_info(Args args);
 int cmd_bake(Args args);
 int cmd_bench(Args args);
+int cmd_render(Args args);
 
 }  // namespace penumbra::cli

@@ -18,6 +18,12 @@ Commands:
       scene with the same settings is not baked again unless --force is given.
   info FILE.pbake
       Show the file's version, input hash, chunks, their sizes and what they hold.
+  render SCENE [--bake FILE] -o OUT.png|OUT.exr [--width W] [--height H] [--camera NAME] [--time T]
+         [--frames N] [--view V] [--exposure E]
+      Render SCENE with the Vulkan renderer (lavapipe without a GPU) at W x H (default 1280x720),
+      with the lighting data of FILE.pbake, at animation time T seconds. --frames N first renders N
+      frames and prints the median, 5th and 95th percentile frame time. V: lit (default), direct,
+      indirect, ao, albedo, validity, position, normal, irradiance.
   bench NAME [--quick] [--out DIR] [--threads N]
       Run a benchmark: print its table, write DIR/NAME.csv and the plot DIR/NAME.png (DIR defaults to
       bench-results). 'penumbra bench --list' names them.
@@ -48,6 +54,7 @@ int main(int argc, char** argv) {
   if (command == "bake") return penumbra::cli::cmd_bake(std::move(args));
   if (command == "info") return penumbra::cli::cmd_info(std::move(args));
   if (command == "bench") return penumbra::cli::cmd_bench(std::move(args));
+  if (command == "render") return penumbra::cli::cmd_render(std::move(args));
   std::fprintf(stderr, "penumbra: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return penumbra::cli::kUsage;
 }
