@@ -29,6 +29,7 @@ Status load_world(World& world, std::string_view scene, Preset preset) {
   if (scene.starts_with("builtin:")) {
     auto grid = add_default_probe_grid(world, preset);
     if (!grid) return grid.error();
+    add_default_ao_field_casters(world, preset);  // the movable crates cast AO fields
     world.update(0.0);
   }
   return {};

@@ -428,6 +428,27 @@ void register_ao_field(World& world) {
   register_ao_field_system(world);
 }
 
+std::size_t add_default_ao_field_casters(World& world, Preset preset) {
+  std::size_t added = 0;
+  for (Entity e : world.view<Mesh, WorldTransform>().sorted_entities()) {
+    if (!world.get<Mesh>(e).data) continue;
+    const bool is_static = world.has<Static>(e), skinned = world.has<Skin>(e);
+    if (!is_static && !skinned && !world.has<AOFieldCaster>(e)) {
+      const AOFieldCaster caster = AOFieldCaster::preset(preset);
+      if (validate_ao_field_caster(caster, world.get<WorldTransform>(e).matrix, "ao field").ok()) {
+        world.add<AOFieldCaster>(e, caster);
+        ++added;
+      }
+    }
+    if ((is_static || skinned) && !world.has<AOFieldReceiver>(e)) {
+      AOFieldReceiver r;
+      r.mode = is_static ? AOFieldReceiver::Mode::Surface : AOFieldReceiver::Mode::Entity;
+      world.add<AOFieldReceiver>(e, r);
+    }
+  }
+  return added;
+}
+
 Status attach_ao_fields(World& world, const BakeFile& file) {
   for (const BakeChunk& chunk : file.chunks) {
     if (chunk.type != kChunkType) continue;

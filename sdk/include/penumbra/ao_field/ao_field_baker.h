@@ -22,6 +22,7 @@
 //      along Upsilon_k, with a small pull towards the origin for parallel lines.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -60,6 +61,14 @@ std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk);
 // matrix (non-uniform scale is rejected naming the entity); the data is also attached to the
 // components; and the "ao-field" system (ao_field_system.h). The one call the tool and games make.
 void register_ao_field(World& world);
+
+// Gives a scene made without lighting components (the built-in scenes) its AO fields: every rigid
+// movable mesh (a Mesh with data and a WorldTransform, neither Static nor skinned, with no
+// AOFieldCaster yet, whose world matrix passes validate_ao_field_caster) gets
+// AOFieldCaster::preset(preset); every Static mesh gets a Surface receiver (the renderer's
+// per-pixel pass) and every skinned mesh an Entity receiver (normal +Y: the walker's feet), unless
+// they have an AOFieldReceiver. Returns the number of casters added. Cost: O(entities).
+std::size_t add_default_ao_field_casters(World& world, Preset preset);
 
 // Attaches the AOFC chunks of `file` to the AOFieldCaster components of the same entity index.
 // Fails with InvalidInput for a corrupt chunk and NotFound when the entity has no caster.
