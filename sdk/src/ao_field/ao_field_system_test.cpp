@@ -10,8 +10,11 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "penumbra/ao_field/ao_field_baker.h"
+#include "penumbra/bake/baker.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/scene/builtin.h"
 #include "penumbra/scene/mesh.h"
+#include "penumbra/scene/animation.h"
 
 namespace penumbra {
 namespace {
@@ -96,6 +99,47 @@ TEST(AOFieldSystem, ManyCastersStayInRangeAndTheSystemRuns) {
   EXPECT_LE(o, 1.0f);
   EXPECT_GT(o, 0.99f);  // 300 overlapping crates darken it almost fully (the rule's known bias)
   EXPECT_GT(w.get<AOFieldReceiver>(r).updated_tick, 0u);
+}
+
+TEST(AOFieldSystem, CourtyardCratesCastOnTheWalker) {
+  World w;
+  register_ao_field(w);
+  register_scene_systems(w);
+  ASSERT_TRUE(load_builtin(w, "courtyard").ok());
+  w.update(0.0);
+  EXPECT_EQ(add_default_ao_field_casters(w, Preset::Draft), 4u);  // the four crates
+  EXPECT_EQ(add_default_ao_field_casters(w, Preset::Draft), 0u);  // only once
+  std::size_t surfaces = 0, entities = 0;
+  w.view<AOFieldReceiver>().each([&](Entity e, AOFieldReceiver& r) {
+    if (r.mode == AOFieldReceiver::Mode::Surface) {
+      EXPECT_TRUE(w.has<Static>(e));
+      ++surfaces;
+    } else {
+      EXPECT_TRUE(w.has<Skin>(e));
+      ++entities;
+    }
+  });
+  EXPECT_GT(surfaces, 10u);
+  EXPECT_EQ(entities, 1u);  // the walker
+  JobContext jobs;
+  auto result = bake_world(w, {"aofields"}, BakeSettings{}, jobs);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  EXPECT_EQ(result->file.chunks.size(), 4u);
+  // The walker's occlusion from the crates; then one crate is set down beside it: darker.
+  Entity walker, crate;
+  w.view<AOFieldReceiver>().each([&](Entity e, AOFieldReceiver& r) {
+    if (r.mode == AOFieldReceiver::Mode::Entity) walker = e;
+  });
+  w.view<AOFieldCaster>().each([&](Entity e, AOFieldCaster&) { crate = e; });
+  w.update(0.016);
+  const float before = w.get<AOFieldReceiver>(walker).occlusion;
+  EXPECT_GE(before, 0.0f);
+  const glm::vec3 feet(w.get<WorldTransform>(walker).matrix[3]);
+  w.patch<Transform>(crate).translation = feet + glm::vec3(0.55f, 0.4f, 0.0f);
+  w.update(0.016);
+  const float after = w.get<AOFieldReceiver>(walker).occlusion;
+  EXPECT_GT(after, before + 0.05f) << before;
+  EXPECT_LE(after, 1.0f);
 }
 
 }  // namespace
