@@ -88,7 +88,7 @@ double cap_occlusion_small(double cos_alpha, double cos_beta) {
 // The closed form tabulated over omega in [0, 4 pi] x cos(beta) in [-1, 1] for bilinear lookups
 // (the runtime's "table" option of docs/algorithms.md, P2). Built once, on first use.
 struct CapTable {
-  static constexpr int kSize = 128;  // intervals per axis
+  static constexpr int kSize = kCapTableIntervals;  // intervals per axis
   std::vector<float> values;         // (kSize + 1)^2, omega-major
   CapTable() : values(static_cast<std::size_t>((kSize + 1) * (kSize + 1))) {
     for (int i = 0; i <= kSize; ++i)
@@ -439,6 +439,8 @@ float cap_occlusion(float omega, float cos_beta) {
   if (cos_alpha < 0.0) return static_cast<float>(1.0 - cap_occlusion_small(-cos_alpha, -cb));
   return static_cast<float>(cap_occlusion_small(cos_alpha, cb));
 }
+
+std::span<const float> cap_occlusion_table_values() { return cap_table().values; }
 
 float cap_occlusion_table(float omega, float cos_beta) { return cap_lookup(cap_table().values.data(), omega, cos_beta); }
 

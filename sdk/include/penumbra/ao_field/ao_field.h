@@ -167,6 +167,12 @@ float cap_occlusion(float omega, float cos_beta);
 // (ao_field_test measures it). Cost: ~5 ns. Thread-safe.
 float cap_occlusion_table(float omega, float cos_beta);
 
+// The table behind cap_occlusion_table: (kCapTableIntervals + 1)^2 values, value (i, j) at
+// [i * (kCapTableIntervals + 1) + j] is cap_occlusion(4 pi i / K, -1 + 2 j / K). For the GPU
+// layout (ao_field_gpu.h). Thread-safe.
+inline constexpr int kCapTableIntervals = 128;
+std::span<const float> cap_occlusion_table_values();
+
 // The occlusion a caster's field casts at world point x with unit world normal n, given the
 // caster entity's current world matrix (rotation, translation, uniform scale). Result in [0, 1];
 // 0 for a field that is not valid(). Cost: one 4x4 inverse plus evaluate_local. Thread-safe.
