@@ -24,6 +24,10 @@ layout(location = 3) in float in_ao;
 
 layout(location = 0) out vec4 out_color;
 
+// The debug view is a specialisation constant (one pipeline per view): llvmpipe runs shaders as
+// SIMD with masks, so a run-time switch would pay for every view's code on every pixel.
+layout(constant_id = 0) const uint kView = PENUMBRA_VIEW_LIT;
+
 const float kPi = 3.14159265358979323846;
 
 // 3x3 PCF over the hardware 2x2 comparison filter: the lit fraction at world point p.
@@ -107,19 +111,23 @@ vec3 probe_uvw(vec3 p) {
 // probe_grid.cpp; basis and signs of core/sh.h).
 vec3 probe_irradiance(vec3 p, vec3 n) {
   vec3 uvw = probe_uvw(p);
-  float s[28];
-  int textures = frame.params.w == 3u ? 7 : 3;
-  for (int t = 0; t < 7; ++t) {
-    vec4 v = t < textures ? texture(probe_sh[t], uvw) : vec4(0.0);
-    s[4 * t] = v.x; s[4 * t + 1] = v.y; s[4 * t + 2] = v.z; s[4 * t + 3] = v.w;
-  }
+  // Slot s of the 27: channel s % 3 of coefficient s / 3 (constant sampler indices, no dynamic indexing).
+  vec4 t0 = texture(probe_sh[0], uvw), t1 = texture(probe_sh[1], uvw), t2 = texture(probe_sh[2], uvw);
+  vec3 c[4];
+  c[0] = t0.xyz;
+  c[1] = vec3(t0.w, t1.xy);
+  c[2] = vec3(t1.zw, t2.x);
+  c[3] = t2.yzw;
   const float kY0 = 0.28209479177387814, kY1 = 0.48860251190291992;
   const float kY2a = 1.09254843059207907, kY2b = 0.31539156525252005, kY2c = 0.54627421529603959;
   float y[9] = float[9](kY0, -kY1 * n.y, kY1 * n.z, -kY1 * n.x, kY2a * n.x * n.y, -kY2a * n.y * n.z,
                         kY2b * (3.0 * n.z * n.z - 1.0), -kY2a * n.x * n.z, kY2c * (n.x * n.x - n.y * n.y));
-  int count = frame.params.w == 3u ? 9 : 4;
-  vec3 e = vec3(0.0);
-  for (int c = 0; c < count; ++c) e += vec3(s[3 * c], s[3 * c + 1], s[3 * c + 2]) * y[c];
+  vec3 e = c[0] * y[0] + c[1] * y[1] + c[2] * y[2] + c[3] * y[3];
+  if (frame.params.w == 3u) {  // L2: four more textures
+    vec4 t3 = texture(probe_sh[3], uvw), t4 = texture(probe_sh[4], uvw), t5 = texture(probe_sh[5], uvw);
+    vec4 t6 = texture(probe_sh[6], uvw);
+    e += vec3(t3.xyz) * y[4] + vec3(t3.w, t4.xy) * y[5] + vec3(t4.zw, t5.x) * y[6] + t5.yzw * y[7] + t6.xyz * y[8];
+  }
   return max(e, vec3(0.0));
 }
 
@@ -138,7 +146,7 @@ void main() {
   vec3 albedo = push.base_color.rgb * texture(base_color_texture, in_uv).rgb;
   bool has_probe = (frame.params.z & PENUMBRA_FLAG_PROBE_GRID) != 0u;
   float ao = in_ao;
-  uint view = frame.params.x;
+  const uint view = kView;
 
   vec3 color;
   bool scene_referred = true;  // radiance to expose and tone map, or data to show as is

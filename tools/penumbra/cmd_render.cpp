@@ -1,5 +1,5 @@
 // penumbra render SCENE [--bake FILE] -o OUT.png|OUT.exr [--width W] [--height H] [--camera NAME]
-//                       [--time T] [--frames N] [--view V] [--exposure E]
+//                       [--time T] [--frames N] [--view V] [--exposure E] [--shadow-map S]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -69,6 +69,7 @@ int cmd_render(Args args) {
   auto frames_text = args.take("--frames");
   auto view_text = args.take("--view");
   auto exposure_text = args.take("--exposure");
+  auto shadow_text = args.take("--shadow-map");
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
   if (args.rest().size() != 1 || args.rest()[0].starts_with("-")) {
     return fail(kUsage, "render takes one SCENE (builtin:NAME or a .gltf/.glb path) and -o OUT.png|OUT.exr");
@@ -103,6 +104,12 @@ int cmd_render(Args args) {
     auto v = parse_debug_view(*view_text);
     if (!v) return fail(kUsage, "--view: " + v.error().message);
     settings.view = *v;
+  }
+  if (shadow_text) {
+    auto v = parse_count("--shadow-map", *shadow_text);
+    if (!v || *v > 8192) return fail(kUsage, "--shadow-map must be 0 (no shadows) or a size in 16..8192");
+    settings.shadows = *v > 0;
+    if (*v > 0) settings.shadow_map_size = static_cast<std::uint32_t>(*v);
   }
   if (exposure_text) {
     auto v = parse_number(*exposure_text);

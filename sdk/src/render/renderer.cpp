@@ -89,7 +89,7 @@ struct Renderer::Impl {
   VkDescriptorSetLayout frame_layout = VK_NULL_HANDLE, material_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE;
-  std::map<VkFormat, VkPipeline> forward_pipelines;
+  std::map<std::pair<VkFormat, std::uint32_t>, VkPipeline> forward_pipelines;  // by format and view
   VkPipeline shadow_pipeline = VK_NULL_HANDLE;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
@@ -149,7 +149,7 @@ struct Renderer::Impl {
   }
 
   Status init();
-  Result<VkPipeline> forward_pipeline(VkFormat format);
+  Result<VkPipeline> forward_pipeline(VkFormat format, std::uint32_t view);
   Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
   Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
                       VkDeviceSize size);
@@ -594,12 +594,15 @@ void Renderer::Impl::write_descriptors() {
 }
 
 // Graphics pipelines for dynamic rendering: the forward pass per colour format, the shadow pass.
-Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format) {
+// The forward pipeline's fragment stage is specialised on the debug view (constant_id 0).
+Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32_t view) {
   const bool shadow = format == VK_FORMAT_UNDEFINED;
   if (shadow && shadow_pipeline) return shadow_pipeline;
   if (!shadow) {
-    if (auto it = forward_pipelines.find(format); it != forward_pipelines.end()) return it->second;
+    if (auto it = forward_pipelines.find({format, view}); it != forward_pipelines.end()) return it->second;
   }
+  const VkSpecializationMapEntry view_entry{0, 0, sizeof(std::uint32_t)};
+  const VkSpecializationInfo specialization{1, &view_entry, sizeof view, &view};
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
@@ -608,6 +611,7 @@ Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format) {
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = forward_frag;
   stages[1].pName = "main";
+  stages[1].pSpecializationInfo = &specialization;
 
   const VkVertexInputBindingDescription bindings[] = {
       {0, sizeof(GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX},
@@ -686,7 +690,7 @@ Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format) {
   if (shadow) {
     shadow_pipeline = pipeline;
   } else {
-    forward_pipelines[format] = pipeline;
+    forward_pipelines[{format, view}] = pipeline;
   }
   return pipeline;
 }
@@ -781,9 +785,9 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_map_size " + std::to_string(settings.shadow_map_size) +
                                                       " is outside [16, 8192]");
   }
-  auto pipeline = forward_pipeline(target.format);
+  auto pipeline = forward_pipeline(target.format, static_cast<std::uint32_t>(settings.view));
   if (!pipeline) return pipeline.error();
-  auto shadow = forward_pipeline(VK_FORMAT_UNDEFINED);
+  auto shadow = forward_pipeline(VK_FORMAT_UNDEFINED, 0);
   if (!shadow) return shadow.error();
   PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size));
 
