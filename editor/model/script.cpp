@@ -85,6 +85,8 @@ std::string check_action(const ScriptAction& a) {
     if (!ok) return "'orbit' takes YAW and PITCH in degrees and an optional DISTANCE in metres";
   } else if (v == "view") {
     if (n != 1) return "'view' takes a debug view: lit, direct, indirect, ao, albedo or validity";
+  } else if (v == "ui") {
+    if (n != 1 || (a.args[0] != "on" && a.args[0] != "off")) return "'ui' takes on or off (the panels over the viewport)";
   } else if (v == "quit") {
     long long k = 0;
     if (n > 1 || (n == 1 && (!parse_int(a.args[0], k) || k < 0 || k > 255)))
@@ -92,7 +94,7 @@ std::string check_action(const ScriptAction& a) {
   } else {
     return "unknown action '" + v +
            "'; actions: open, open-bake, save-bake, save-edits, select, set, preset, undo, redo, bake, cancel, wait, "
-           "frames, screenshot, orbit, view, quit";
+           "frames, screenshot, orbit, view, ui, quit";
   }
   return {};
 }
@@ -147,7 +149,7 @@ Status ScriptRunner::step(EditorModel& model) {
   while (!finished()) {
     const ScriptAction& a = script_.actions[next_];
     bool wait_here = false;
-    const bool yields = a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view";
+    const bool yields = a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view" || a.verb == "ui";
     if (Status s = run(model, a, wait_here); !s) {
       next_ = script_.actions.size();
       exit_code_ = 1;
@@ -175,7 +177,7 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
     if (!wait_here) frames_left_ = -1;
     return {};
   }
-  if (a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view") {
+  if (a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view" || a.verb == "ui") {
     if (!viewport_) return make_error(ErrorCode::Unsupported, "needs the window (run without --headless)");
     return viewport_(a);
   }

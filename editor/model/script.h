@@ -12,7 +12,8 @@
 //   cancel                              cancels the running bake
 //   wait                                until the running bake ends; fails the script if it failed
 //   frames N                            lets N frames run
-//   screenshot PATH | orbit YAW PITCH [DISTANCE] | view DEBUGVIEW   viewport actions (window only)
+//   screenshot PATH | orbit YAW PITCH [DISTANCE] | view DEBUGVIEW | ui on|off
+//                                       viewport actions (window only; ui hides/shows the panels and overlays)
 //   quit [CODE]
 // Words are separated by blanks; "double quotes" group words; # starts a comment line.
 #pragma once

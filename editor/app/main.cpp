@@ -1,0 +1,249 @@
+// penumbra-editor: the interactive editor, and its scripted mode for tests and demos.
+//
+//   penumbra-editor [SCENE] [--script FILE] [--validation] [--size WxH] [--present fifo|mailbox|immediate]
+//
+// The loop: poll events, collect finished bakes, step the script, update the World, draw the
+// panels, render the viewport and the UI, present. At exit it prints the frame times (median and
+// 95th percentile, split by whether a bake was running) and, with --validation, fails when the
+// validation layer reported anything.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#define GLFW_INCLUDE_VULKAN
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_vulkan.h>
+#include <imgui.h>
+
+#include "camera_control.h"
+#include "overlays.h"
+#include "panels.h"
+#include "script.h"
+#include "viewport.h"
+
+namespace penumbra::editor {
+namespace {
+
+struct Options {
+  std::string scene = "builtin:courtyard";
+  std::string script;
+  bool validation = false;
+  int width = 1280, height = 720;
+  VkPresentModeKHR present = VK_PRESENT_MODE_FIFO_KHR;
+};
+
+int usage(const char* message) {
+  std::fprintf(stderr,
+               "penumbra-editor: %s\nusage: penumbra-editor [SCENE] [--script FILE] [--validation] [--size WxH] "
+               "[--present fifo|mailbox|immediate]\n",
+               message);
+  return 2;
+}
+
+// Mouse and keyboard to the camera, when ImGui does not want them.
+void camera_input(GLFWwindow* window, CameraControl& camera, double dt) {
+  const ImGuiIO& io = ImGui::GetIO();
+  if (!io.WantCaptureMouse) {
+    const glm::vec2 delta(io.MouseDelta.x, io.MouseDelta.y);
+    if (ImGui::IsMouseDown(ImGuiMouseButton_Left)) camera.rotate(delta);
+    if (ImGui::IsMouseDown(ImGuiMouseButton_Middle)) camera.pan(delta);
+    if (io.MouseWheel != 0.0f) camera.zoom(io.MouseWheel);
+  }
+  if (!io.WantCaptureKeyboard && camera.mode() == CameraControl::Mode::Fly) {
+    glm::vec3 m(0.0f);
+    if (glfwGetKey(window, GLFW_KEY_W) == GLFW_PRESS) m.z += 1;
+    if (glfwGetKey(window, GLFW_KEY_S) == GLFW_PRESS) m.z -= 1;
+    if (glfwGetKey(window, GLFW_KEY_D) == GLFW_PRESS) m.x += 1;
+    if (glfwGetKey(window, GLFW_KEY_A) == GLFW_PRESS) m.x -= 1;
+    if (glfwGetKey(window, GLFW_KEY_E) == GLFW_PRESS) m.y += 1;
+    if (glfwGetKey(window, GLFW_KEY_Q) == GLFW_PRESS) m.y -= 1;
+    camera.move(m * static_cast<float>(dt) * 0.3f * camera.radius);
+  }
+}
+
+int run(const Options& options) {
+  // The script first: a bad script is reported before any window opens.
+  std::optional<ScriptRunner> runner;
+  UiState ui;
+  std::string pending_screenshot;
+  if (!options.script.empty()) {
+    auto script = load_script(options.script);
+    if (!script) {
+      std::fprintf(stderr, "penumbra-editor: %s\n", script.error().message.c_str());
+      return 1;
+    }
+    runner.emplace(std::move(*script), [&](const ScriptAction& a) -> Status {
+      if (a.verb == "screenshot") {
+        pending_screenshot = a.args[0];
+      } else if (a.verb == "orbit") {
+        const float dist = a.args.size() == 3 ? std::stof(a.args[2]) : 0.0f;
+        ui.camera.set_orbit(glm::radians(std::stof(a.args[0])), glm::radians(std::stof(a.args[1])), dist);
+      } else if (a.verb == "ui") {
+        ui.show_ui = a.args[0] == "on";
+      } else if (a.verb == "view") {
+        auto v = parse_debug_view(a.args[0]);
+        if (!v) return v.error();
+        ui.render.view = *v;
+      }
+      return {};
+    });
+  }
+
+  if (!glfwInit()) {
+    std::fprintf(stderr, "penumbra-editor: cannot open a window (no X display?); run under xvfb-run -a\n");
+    return 1;
+  }
+  glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
+  GLFWwindow* window = glfwCreateWindow(options.width, options.height, "Penumbra editor", nullptr, nullptr);
+  if (!window) {
+    std::fprintf(stderr, "penumbra-editor: glfwCreateWindow failed\n");
+    glfwTerminate();
+    return 1;
+  }
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // the layout is the code's, not a file's
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForVulkan(window, true);
+  int exit_code = 0;
+  {
+    ViewportOptions vo;
+    vo.validation = options.validation;
+    vo.present_mode = options.present;
+    auto viewport = Viewport::create(window, vo);
+    if (!viewport) {
+      std::fprintf(stderr, "penumbra-editor: %s\n", viewport.error().message.c_str());
+      exit_code = 1;
+    } else {
+      EditorModel model;
+      if (!runner) {
+        if (Status s = model.open(options.scene); !s) {
+          std::fprintf(stderr, "penumbra-editor: %s\n", s.error().message.c_str());
+          exit_code = 1;
+        }
+      }
+      std::string opened_source;
+      auto last = std::chrono::steady_clock::now();
+      bool quit = exit_code != 0;
+      while (!quit && !glfwWindowShouldClose(window)) {
+        const auto start = std::chrono::steady_clock::now();
+        const double dt = std::chrono::duration<double>(start - last).count();
+        last = start;
+        glfwPollEvents();
+        const bool baking = model.bakes().running();
+        if (model.poll() && model.bakes().status().state != BakeStatus::State::Done)
+          ui.message = "bake " + std::string(to_string(model.bakes().status().state)) + ": " + model.bakes().status().error;
+        if (runner) {
+          if (Status s = runner->step(model); !s) {
+            std::fprintf(stderr, "penumbra-editor: %s\n", s.error().message.c_str());
+            exit_code = 1;
+            break;
+          }
+          if (runner->quit_requested() || runner->finished()) {
+            quit = true;
+            exit_code = runner->exit_code();
+          }
+        }
+        if (!model.document()) {
+          if (runner) continue;  // the script has not opened a scene yet
+          break;
+        }
+        Document& doc = *model.document();
+        if (doc.source() != opened_source) {
+          ui.camera.frame(world_bounds(doc.world()));
+          opened_source = doc.source();
+        }
+        doc.world().update(dt);
+
+        ImGui_ImplVulkan_NewFrame();
+        ImGui_ImplGlfw_NewFrame();
+        ImGui::NewFrame();
+        camera_input(window, ui.camera, dt);
+        draw_panels(model, ui);
+        const VkExtent2D extent = (*viewport)->extent();
+        const glm::vec2 size(static_cast<float>(extent.width), static_cast<float>(extent.height));
+        const CameraView camera = ui.camera.view(size.x / std::max(size.y, 1.0f));
+        if (ui.show_ui) draw_probe_overlay(doc.world(), camera, size, ui.overlay, ImGui::GetBackgroundDrawList());
+        ImGui::Render();
+
+        Image shot;
+        const bool capture = !pending_screenshot.empty();
+        if (Status s = (*viewport)->draw(doc.world(), camera, ui.render, ImGui::GetDrawData(), capture ? &shot : nullptr);
+            !s) {
+          std::fprintf(stderr, "penumbra-editor: frame: %s\n", s.error().message.c_str());
+          exit_code = 1;
+          break;
+        }
+        ui.renderer_stats = (*viewport)->renderer().stats();
+        if (capture) {
+          if (Status s = write_image(shot, pending_screenshot); !s) {
+            std::fprintf(stderr, "penumbra-editor: screenshot: %s\n", s.error().message.c_str());
+            exit_code = 1;
+            break;
+          }
+          pending_screenshot.clear();
+        } else {
+          // Frame time: everything from polling to present, screenshots (PNG encoding) excluded.
+          ui.frames.add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(),
+                        baking);
+        }
+      }
+      model.bakes().cancel();
+      model.bakes().wait();
+      const FrameSummary idle = summarise(ui.frames.idle_ms), bake = summarise(ui.frames.baking_ms);
+      const VkExtent2D extent = (*viewport)->extent();
+      std::printf("frame ms at %ux%u on %s: idle median %.1f p95 %.1f max %.1f (%zu frames); during bakes median "
+                  "%.1f p95 %.1f max %.1f (%zu frames)\n",
+                  extent.width, extent.height, (*viewport)->device().name().c_str(), idle.median, idle.p95, idle.max,
+                  idle.frames, bake.median, bake.p95, bake.max, bake.frames);
+      if (options.validation) {
+        const std::uint32_t messages = (*viewport)->device().validation_messages();
+        std::printf("validation messages: %u\n", messages);
+        if (messages > 0) {
+          std::fprintf(stderr, "penumbra-editor: the validation layer reported %u messages; the last: %s\n", messages,
+                       (*viewport)->device().last_validation_message().c_str());
+          exit_code = 1;
+        }
+      }
+    }
+  }
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window);
+  glfwTerminate();
+  return exit_code;
+}
+
+}  // namespace
+}  // namespace penumbra::editor
+
+int main(int argc, char** argv) {
+  penumbra::editor::Options options;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (a == "--script" && has_value) {
+      options.script = argv[++i];
+    } else if (a == "--validation") {
+      options.validation = true;
+    } else if (a == "--size" && has_value) {
+      if (std::sscanf(argv[++i], "%dx%d", &options.width, &options.height) != 2 || options.width < 64 ||
+          options.height < 64 || options.width > 16384 || options.height > 16384)
+        return penumbra::editor::usage("--size takes WxH, e.g. 1280x720");
+    } else if (a == "--present" && has_value) {
+      const std::string m = argv[++i];
+      if (m == "fifo") options.present = VK_PRESENT_MODE_FIFO_KHR;
+      else if (m == "mailbox") options.present = VK_PRESENT_MODE_MAILBOX_KHR;
+      else if (m == "immediate") options.present = VK_PRESENT_MODE_IMMEDIATE_KHR;
+      else return penumbra::editor::usage("--present takes fifo, mailbox or immediate");
+    } else if (a.starts_with("-")) {
+      return penumbra::editor::usage(("unknown option or missing value: " + a).c_str());
+    } else {
+      options.scene = a;
+    }
+  }
+  return penumbra::editor::run(options);
+}

@@ -1,0 +1,440 @@
+// The editor's panels (panels.h): hierarchy, inspector, bake, stats, visualisation, menus.
+#include "panels.h"
+
+#include <algorithm>
+#include <cinttypes>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <glm/gtc/quaternion.hpp>
+#include <imgui.h>
+
+#include "penumbra/ao_field/ao_field.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/scene/builtin.h"
+
+namespace penumbra::editor {
+
+void FrameTimes::add(double ms, bool baking) {
+  (baking ? baking_ms : idle_ms).push_back(ms);
+  recent_ms.push_back(static_cast<float>(ms));
+  if (recent_ms.size() > 240) recent_ms.pop_front();
+}
+
+FrameSummary summarise(std::vector<double> ms) {
+  FrameSummary s;
+  s.frames = ms.size();
+  if (ms.empty()) return s;
+  std::sort(ms.begin(), ms.end());
+  const auto at = [&](double q) { return ms[std::min(ms.size() - 1, static_cast<std::size_t>(q * double(ms.size() - 1) + 0.5))]; };
+  s.median = at(0.5);
+  s.p95 = at(0.95);
+  s.max = ms.back();
+  return s;
+}
+
+CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column) {
+  CostPlot plot;
+  plot.path = path;
+  plot.x_label = x_column;
+  plot.y_label = y_column;
+  std::ifstream in(path);
+  if (!in) {
+    plot.error = path + ": no bench results; run `penumbra bench probe-grid` to make them";
+    return plot;
+  }
+  const auto split = [](const std::string& line) {
+    std::vector<std::string> cells;
+    std::stringstream s(line);
+    for (std::string c; std::getline(s, c, ',');) cells.push_back(c);
+    return cells;
+  };
+  std::string line;
+  std::getline(in, line);
+  const auto header = split(line);
+  const auto xi = std::find(header.begin(), header.end(), x_column) - header.begin();
+  const auto yi = std::find(header.begin(), header.end(), y_column) - header.begin();
+  if (xi == static_cast<std::ptrdiff_t>(header.size()) || yi == static_cast<std::ptrdiff_t>(header.size())) {
+    plot.error = path + ": no columns '" + x_column + "' and '" + y_column + "'; is it a probe-grid bench CSV?";
+    return plot;
+  }
+  while (std::getline(in, line)) {
+    const auto cells = split(line);
+    if (cells.size() != header.size()) continue;
+    char* end = nullptr;
+    const float x = std::strtof(cells[static_cast<std::size_t>(xi)].c_str(), &end);
+    const float y = std::strtof(cells[static_cast<std::size_t>(yi)].c_str(), &end);
+    if (!std::isfinite(x) || !std::isfinite(y)) continue;
+    std::string label;
+    for (std::size_t i = 0; i < std::min<std::size_t>(4, cells.size()); ++i) label += (i ? " " : "") + cells[i];
+    plot.labels.push_back(label);
+    plot.x.push_back(x);
+    plot.y.push_back(y);
+  }
+  if (plot.x.empty()) plot.error = path + ": no rows with numbers";
+  return plot;
+}
+
+namespace {
+
+void report(UiState& ui, const Status& s, const std::string& done = {}) {
+  ui.message = s ? done : s.error().message;
+}
+
+// --- Hierarchy ---------------------------------------------------------------------------------
+
+void hierarchy_node(Document& doc, Entity e) {
+  World& w = doc.world();
+  const Children* kids = w.try_get<Children>(e);
+  const bool leaf = kids == nullptr || kids->entities.empty();
+  ImGuiTreeNodeFlags flags = ImGuiTreeNodeFlags_OpenOnArrow | ImGuiTreeNodeFlags_SpanAvailWidth;
+  if (leaf) flags |= ImGuiTreeNodeFlags_Leaf | ImGuiTreeNodeFlags_NoTreePushOnOpen;
+  if (doc.selection() == e) flags |= ImGuiTreeNodeFlags_Selected;
+  std::string label = doc.label(e);
+  if (w.has<Light>(e)) label += "  [light]";
+  if (w.has<IrradianceProbeGrid>(e)) label += "  [probes]";
+  if (w.has<AOFieldCaster>(e)) label += "  [ao field]";
+  const bool open = ImGui::TreeNodeEx(reinterpret_cast<void*>(static_cast<std::uintptr_t>(e.index) + 1), flags, "%s",
+                                      label.c_str());
+  if (ImGui::IsItemClicked()) doc.select(e);
+  if (open && !leaf) {
+    for (Entity c : kids->entities)
+      if (w.alive(c)) hierarchy_node(doc, c);
+    ImGui::TreePop();
+  }
+}
+
+void hierarchy_panel(Document& doc) {
+  ImGui::SetNextWindowPos(ImVec2(0, 20), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(250, 330), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Scene");
+  ImGui::TextDisabled("%s, %zu entities", doc.source().c_str(), doc.world().entity_count());
+  World& w = doc.world();
+  std::vector<Entity> roots;
+  for (std::uint32_t i = 0, seen = 0; seen < w.entity_count() && i < (1u << 24); ++i) {
+    const Entity e = w.find_entity(i);
+    if (!e) continue;
+    ++seen;
+    const Parent* p = w.try_get<Parent>(e);
+    if (p == nullptr || !w.alive(p->entity)) roots.push_back(e);
+  }
+  for (Entity e : roots) hierarchy_node(doc, e);
+  ImGui::End();
+}
+
+// --- Inspector ---------------------------------------------------------------------------------
+
+// One widget for one field; edits go through the undo stack (drags merge until released).
+void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
+  World& w = doc.world();
+  FieldValue v = f.get(w, e);
+  bool changed = false;
+  const std::string id = f.name + "##" + f.component;
+  if (f.read_only) ImGui::BeginDisabled();
+  switch (f.kind) {
+    case FieldKind::Bool: changed = ImGui::Checkbox(id.c_str(), &std::get<bool>(v)); break;
+    case FieldKind::Int:
+    case FieldKind::Count: {
+      const auto lo = static_cast<std::int64_t>(f.min), hi = static_cast<std::int64_t>(f.max);
+      changed = ImGui::DragScalar(id.c_str(), ImGuiDataType_S64, &std::get<std::int64_t>(v), f.speed, &lo, &hi);
+      break;
+    }
+    case FieldKind::Enum: {
+      auto& i = std::get<std::int64_t>(v);
+      const std::size_t current = static_cast<std::size_t>(i);
+      if (ImGui::BeginCombo(id.c_str(), current < f.choices.size() ? f.choices[current].c_str() : "?")) {
+        for (std::size_t c = 0; c < f.choices.size(); ++c)
+          if (ImGui::Selectable(f.choices[c].c_str(), c == current)) {
+            i = static_cast<std::int64_t>(c);
+            changed = true;
+          }
+        ImGui::EndCombo();
+      }
+      break;
+    }
+    case FieldKind::Float: {
+      const float lo = static_cast<float>(std::max(f.min, -1e9)), hi = static_cast<float>(std::min(f.max, 1e9));
+      changed = ImGui::DragFloat(id.c_str(), &std::get<float>(v), f.speed, lo, hi, "%.4g");
+      break;
+    }
+    case FieldKind::Vec2: changed = ImGui::DragFloat2(id.c_str(), &std::get<glm::vec2>(v).x, f.speed); break;
+    case FieldKind::Vec3: changed = ImGui::DragFloat3(id.c_str(), &std::get<glm::vec3>(v).x, f.speed); break;
+    case FieldKind::Color:
+      changed = ImGui::ColorEdit3(id.c_str(), &std::get<glm::vec3>(v).x, ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
+      break;
+    case FieldKind::Rotation: {
+      glm::vec3 degrees = glm::degrees(glm::eulerAngles(std::get<glm::quat>(v)));
+      if (ImGui::DragFloat3(id.c_str(), &degrees.x, 0.5f)) {
+        v = glm::quat(glm::radians(degrees));
+        changed = true;
+      }
+      break;
+    }
+  }
+  if (f.read_only) ImGui::EndDisabled();
+  if (changed) {
+    if (Status s = doc.undo().set(w, e, f, v, /*merge=*/true); !s) ui.message = s.error().message;
+  }
+  if (ImGui::IsItemDeactivatedAfterEdit()) doc.undo().end_merge();
+}
+
+void baked_summary(World& w, Entity e) {
+  if (const auto* g = w.try_get<IrradianceProbeGrid>(e)) {
+    if (g->data) {
+      const ProbeGridData& d = *g->data;
+      ImGui::Text("baked: %ux%ux%u nodes, %s, %.0f%% valid, %s", d.layout.resolution.x, d.layout.resolution.y,
+                  d.layout.resolution.z, to_string(d.sampling), 100.0 * d.valid_fraction(), format_bytes(d.bytes()).c_str());
+    } else {
+      ImGui::TextDisabled("not baked");
+    }
+  }
+  if (const auto* c = w.try_get<AOFieldCaster>(e)) {
+    if (c->data) ImGui::Text("baked: %u^2 x 6 texels, %s", c->data->resolution, format_bytes(c->data->bytes()).c_str());
+    else ImGui::TextDisabled("not baked");
+  }
+}
+
+void inspector_panel(Document& doc, UiState& ui) {
+  ImGui::SetNextWindowPos(ImVec2(980, 20), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(300, 420), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Inspector");
+  World& w = doc.world();
+  const Entity e = doc.selection();
+  if (!w.alive(e)) {
+    ImGui::TextDisabled("Select an entity in the Scene panel.");
+    ImGui::End();
+    return;
+  }
+  ImGui::Text("%s  (#%u)", doc.label(e).c_str(), e.index);
+  if (const Mesh* m = w.try_get<Mesh>(e); m && m->data)
+    ImGui::TextDisabled("Mesh '%s': %zu triangles, %s%s", m->data->name.c_str(), m->data->triangle_count(),
+                        format_bytes(m->data->bytes()).c_str(), w.has<Static>(e) ? ", static" : "");
+  if (const ProbeLit* lit = w.try_get<ProbeLit>(e)) {
+    const glm::vec3 up = probe_lit_irradiance(*lit, glm::vec3(0, 1, 0));
+    ImGui::TextDisabled("ProbeLit: E(up) = %.3g %.3g %.3g W/m^2%s", up.x, up.y, up.z, lit->covered ? "" : " (no grid)");
+  }
+  for (const std::string& component : field_components()) {
+    const FieldDesc* first = nullptr;
+    for (const FieldDesc& f : editable_fields())
+      if (f.component == component) {
+        first = &f;
+        break;
+      }
+    if (!first->present(w, e)) continue;
+    if (!ImGui::CollapsingHeader(component.c_str(), ImGuiTreeNodeFlags_DefaultOpen)) continue;
+    for (const ComponentPreset& p : component_presets()) {
+      if (p.component != component) continue;
+      ImGui::TextUnformatted("preset");
+      for (Preset q : {Preset::Draft, Preset::Medium, Preset::High}) {
+        ImGui::SameLine();
+        if (ImGui::SmallButton(to_string(q))) {
+          const Status s = doc.undo().record(w, e, component, std::string("preset ") + to_string(q),
+                                             [&] { p.apply(w, e, q); });
+          report(ui, s);
+        }
+      }
+      baked_summary(w, e);
+    }
+    for (const FieldDesc& f : editable_fields())
+      if (f.component == component) field_widget(doc, e, f, ui);
+  }
+  ImGui::End();
+}
+
+// --- Bake --------------------------------------------------------------------------------------
+
+void bake_panel(EditorModel& model, UiState& ui) {
+  ImGui::SetNextWindowPos(ImVec2(0, 350), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(250, 250), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Bake");
+  int preset = static_cast<int>(model.bake_settings.preset);
+  ImGui::Combo("preset", &preset, "draft\0medium\0high\0");
+  model.bake_settings.preset = static_cast<Preset>(preset);
+  const bool running = model.bakes().running();
+  if (running) ImGui::BeginDisabled();
+  if (ImGui::Button("Bake everything")) report(ui, model.bake({}), "bake started");
+  ImGui::SameLine();
+  if (ImGui::Button("Bake selection")) report(ui, model.bake_selection(), "bake started");
+  if (running) ImGui::EndDisabled();
+  if (!running) ImGui::BeginDisabled();
+  ImGui::SameLine();
+  if (ImGui::Button("Cancel")) model.bakes().cancel();
+  if (!running) ImGui::EndDisabled();
+
+  const BakeStatus s = model.bakes().status();
+  ImGui::Text("%s  %.2f s", to_string(s.state), s.seconds);
+  for (std::size_t i = 0; i < s.stages.size(); ++i) {
+    char overlay[96];
+    std::snprintf(overlay, sizeof overlay, "%zu/%d %s", i + 1, s.stage_count, s.stages[i].name.c_str());
+    ImGui::ProgressBar(static_cast<float>(s.stages[i].fraction), ImVec2(-1, 0), overlay);
+  }
+  if (s.state == BakeStatus::State::Done) {
+    ImGui::Text("%s in %.2f s", format_bytes(s.bytes).c_str(), s.seconds);
+    ImGui::TextDisabled("ray scene %.3f s, %zu triangles", s.report.ray_scene_seconds, s.report.triangles);
+    for (const auto& item : s.report.items)
+      ImGui::TextDisabled("%s: %.2f s, %s", item.baker.c_str(), item.seconds, format_bytes(item.bytes).c_str());
+  }
+  if (!s.error.empty()) ImGui::TextWrapped("%s", s.error.c_str());
+  ImGui::End();
+}
+
+// --- Stats -------------------------------------------------------------------------------------
+
+void stats_panel(EditorModel& model, UiState& ui) {
+  ImGui::SetNextWindowPos(ImVec2(980, 440), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(300, 260), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Stats");
+  const std::vector<float> recent(ui.frames.recent_ms.begin(), ui.frames.recent_ms.end());
+  const float last = recent.empty() ? 0.0f : recent.back();
+  ImGui::Text("frame %.1f ms, renderer record %.2f ms, %u draws", last, ui.renderer_stats.cpu_record_ms,
+              ui.renderer_stats.draws);
+  if (!recent.empty()) ImGui::PlotLines("##frames", recent.data(), static_cast<int>(recent.size()), 0, "frame ms", 0.0f, 100.0f, ImVec2(-1, 40));
+  ImGui::Text("GPU memory %s", format_bytes(ui.renderer_stats.gpu_bytes).c_str());
+  if (ImGui::BeginTable("systems", 2, ImGuiTableFlags_RowBg)) {
+    for (const SystemInfo& sys : model.document()->world().systems()) {
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(sys.name.c_str());
+      ImGui::TableNextColumn();
+      ImGui::Text("%.3f ms", sys.last_ms);
+    }
+    ImGui::EndTable();
+  }
+  const Document& doc = *model.document();
+  if (doc.has_bake()) {
+    ImGui::Separator();
+    for (const BakeChunk& c : doc.baked().chunks)
+      ImGui::Text("%s %-14s %s", fourcc_to_string(c.type).c_str(), c.label.c_str(), format_bytes(c.payload.size()).c_str());
+  }
+  ImGui::End();
+}
+
+// --- Visualisation -----------------------------------------------------------------------------
+
+void view_panel(UiState& ui) {
+  ImGui::SetNextWindowPos(ImVec2(260, 560), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(460, 150), ImGuiCond_FirstUseEver);
+  ImGui::Begin("View");
+  int view = static_cast<int>(ui.render.view);
+  if (ImGui::Combo("debug view", &view, "lit\0direct\0indirect\0ao\0albedo\0validity\0position\0normal\0irradiance\0"))
+    ui.render.view = static_cast<DebugView>(view);
+  ImGui::DragFloat("exposure", &ui.render.exposure, 0.01f, 0.01f, 100.0f);
+  int mode = ui.camera.mode() == CameraControl::Mode::Orbit ? 0 : 1;
+  if (ImGui::Combo("camera", &mode, "orbit (drag, wheel, middle-drag)\0fly (drag, WASD QE)\0"))
+    ui.camera.set_mode(mode == 0 ? CameraControl::Mode::Orbit : CameraControl::Mode::Fly);
+  ImGui::Checkbox("probes", &ui.overlay.probes);
+  ImGui::SameLine();
+  ImGui::Checkbox("invalid probes", &ui.overlay.invalid);
+  ImGui::SameLine();
+  ImGui::Checkbox("grid bounds", &ui.overlay.bounds);
+  ImGui::End();
+}
+
+void plot_panel(UiState& ui) {
+  ImGui::SetNextWindowPos(ImVec2(730, 560), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(240, 150), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Error vs cost");
+  ImGui::InputText("csv", ui.bench_path, sizeof ui.bench_path);
+  if (ImGui::Button("Load") || (ui.plot.path.empty() && ui.plot.error.empty()))
+    ui.plot = read_cost_plot(ui.bench_path, "bake_s", "rmse");
+  if (!ui.plot.error.empty()) {
+    ImGui::TextWrapped("%s", ui.plot.error.c_str());
+  } else {
+    // A scatter plot of rmse against bake seconds, log-log, hovered point labelled.
+    const ImVec2 origin = ImGui::GetCursorScreenPos();
+    const ImVec2 size(ImGui::GetContentRegionAvail().x, std::max(ImGui::GetContentRegionAvail().y, 40.0f));
+    ImDrawList* dl = ImGui::GetWindowDrawList();
+    dl->AddRectFilled(origin, ImVec2(origin.x + size.x, origin.y + size.y), IM_COL32(20, 20, 24, 255));
+    const auto [xmin, xmax] = std::minmax_element(ui.plot.x.begin(), ui.plot.x.end());
+    const auto [ymin, ymax] = std::minmax_element(ui.plot.y.begin(), ui.plot.y.end());
+    const auto lg = [](float v) { return std::log10(std::max(v, 1e-9f)); };
+    const float x0 = lg(*xmin), x1 = std::max(lg(*xmax), x0 + 1e-3f), y0 = lg(*ymin), y1 = std::max(lg(*ymax), y0 + 1e-3f);
+    const ImVec2 mouse = ImGui::GetIO().MousePos;
+    for (std::size_t i = 0; i < ui.plot.x.size(); ++i) {
+      const ImVec2 p(origin.x + 4 + (lg(ui.plot.x[i]) - x0) / (x1 - x0) * (size.x - 8),
+                     origin.y + size.y - 4 - (lg(ui.plot.y[i]) - y0) / (y1 - y0) * (size.y - 8));
+      dl->AddCircleFilled(p, 3.0f, IM_COL32(90, 180, 255, 255));
+      if (std::abs(mouse.x - p.x) < 4 && std::abs(mouse.y - p.y) < 4)
+        ImGui::SetTooltip("%s\n%s %.4g, %s %.4g", ui.plot.labels[i].c_str(), ui.plot.x_label.c_str(), ui.plot.x[i],
+                          ui.plot.y_label.c_str(), ui.plot.y[i]);
+    }
+    ImGui::Dummy(size);
+  }
+  ImGui::End();
+}
+
+// --- Menus and status --------------------------------------------------------------------------
+
+void menu_bar(EditorModel& model, UiState& ui) {
+  Document& doc = *model.document();
+  if (!ImGui::BeginMainMenuBar()) return;
+  if (ImGui::BeginMenu("File")) {
+    for (const std::string& name : builtin_scene_names())
+      if (ImGui::MenuItem(("Open builtin:" + name).c_str())) {
+        report(ui, model.open("builtin:" + name), "opened builtin:" + name);
+        if (model.document()) ui.camera.frame(world_bounds(model.document()->world()));
+        ImGui::EndMenu();
+        ImGui::EndMainMenuBar();
+        return;
+      }
+    ImGui::Separator();
+    ImGui::InputText("scene", ui.scene_path, sizeof ui.scene_path);
+    if (ImGui::MenuItem("Open scene (glTF or builtin:NAME)")) {
+      report(ui, model.open(ui.scene_path), std::string("opened ") + ui.scene_path);
+      ui.camera.frame(world_bounds(model.document()->world()));
+      ImGui::EndMenu();
+      ImGui::EndMainMenuBar();
+      return;
+    }
+    if (ImGui::MenuItem("Save edits as script")) report(ui, doc.save_edits(ui.edits_path), "saved edits");
+    ImGui::InputText("edits", ui.edits_path, sizeof ui.edits_path);
+    ImGui::Separator();
+    ImGui::InputText(".pbake", ui.bake_path, sizeof ui.bake_path);
+    if (ImGui::MenuItem("Open .pbake")) report(ui, doc.open_bake(ui.bake_path), std::string("loaded ") + ui.bake_path);
+    if (ImGui::MenuItem("Save .pbake", nullptr, false, doc.has_bake()))
+      report(ui, doc.save_bake(ui.bake_path), std::string("saved ") + ui.bake_path);
+    ImGui::EndMenu();
+  }
+  if (ImGui::BeginMenu("Edit")) {
+    if (ImGui::MenuItem("Undo", "Ctrl+Z", false, doc.undo().can_undo())) doc.undo().undo(doc.world());
+    if (ImGui::MenuItem("Redo", "Ctrl+Y", false, doc.undo().can_redo())) doc.undo().redo(doc.world());
+    ImGui::EndMenu();
+  }
+  ImGui::EndMainMenuBar();
+}
+
+void status_bar(const UiState& ui) {
+  const ImGuiViewport* vp = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(ImVec2(vp->Pos.x, vp->Pos.y + vp->Size.y - 22));
+  ImGui::SetNextWindowSize(ImVec2(vp->Size.x, 22));
+  ImGui::Begin("##status", nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoInputs | ImGuiWindowFlags_NoSavedSettings |
+                   ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoBringToFrontOnFocus);
+  ImGui::TextUnformatted(ui.message.c_str());
+  ImGui::End();
+}
+
+}  // namespace
+
+void draw_panels(EditorModel& model, UiState& ui) {
+  if (!model.document() || !ui.show_ui) return;
+  menu_bar(model, ui);
+  Document& doc = *model.document();
+  // Keyboard undo/redo when no text field has focus.
+  const ImGuiIO& io = ImGui::GetIO();
+  if (io.KeyCtrl && !io.WantTextInput) {
+    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Z))) doc.undo().undo(doc.world());
+    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Y))) doc.undo().redo(doc.world());
+  }
+  hierarchy_panel(doc);
+  inspector_panel(doc, ui);
+  bake_panel(model, ui);
+  stats_panel(model, ui);
+  view_panel(ui);
+  plot_panel(ui);
+  status_bar(ui);
+}
+
+}  // namespace penumbra::editor

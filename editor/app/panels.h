@@ -1,0 +1,58 @@
+// The editor's Dear ImGui panels: plain functions over the model and the UI state (the caller's
+// loop stays in control). Each panel is one window at a fixed default place in a 1280x720 layout.
+#pragma once
+
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "camera_control.h"
+#include "editor_model.h"
+#include "overlays.h"
+#include "penumbra/render/renderer.h"
+
+namespace penumbra::editor {
+
+// Frame times of the last few seconds, split by whether a bake was running.
+struct FrameTimes {
+  std::vector<double> idle_ms, baking_ms;  // every frame of the session
+  std::deque<float> recent_ms;             // the last 240 frames, for the plot
+  void add(double ms, bool baking);
+};
+// Median and 95th percentile of `ms` (0 when empty).
+struct FrameSummary {
+  double median = 0.0, p95 = 0.0, max = 0.0;
+  std::size_t frames = 0;
+};
+FrameSummary summarise(std::vector<double> ms);
+
+// Error against cost of one technique's presets, from a bench CSV (bench/*.csv).
+struct CostPlot {
+  std::string path;                // the CSV read
+  std::string x_label, y_label;    // column names
+  std::vector<std::string> labels; // row labels (first column)
+  std::vector<float> x, y;
+  std::string error;               // why there is no plot
+};
+// Reads the columns named `x_column` and `y_column` of a bench CSV; rows with non-numbers skipped.
+CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column);
+
+struct UiState {
+  CameraControl camera;
+  RenderSettings render;
+  ProbeOverlay overlay;
+  bool show_ui = true;
+  FrameTimes frames;
+  FrameStats renderer_stats;
+  std::string message;  // the last error or notice, shown in the status bar
+  char scene_path[512] = "builtin:courtyard";
+  char bake_path[512] = "scene.pbake";
+  char edits_path[512] = "edits.txt";
+  char bench_path[512] = "bench-out/probe-grid.csv";
+  CostPlot plot;
+};
+
+// Every panel, the menu bar and the status bar.
+void draw_panels(EditorModel& model, UiState& ui);
+
+}  // namespace penumbra::editor

@@ -1,0 +1,356 @@
+// Window output: renderer + ImGui render pass + swapchain + read-back (viewport.h).
+#include "viewport.h"
+
+#include <cstring>
+#include <unordered_map>
+#include <vector>
+
+#define GLFW_INCLUDE_VULKAN
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_vulkan.h>
+#include <imgui.h>
+
+namespace penumbra::editor {
+
+namespace {
+
+Error vk_error(const char* what, VkResult r) {
+  return make_error(ErrorCode::Internal, std::string("viewport: ") + what + " failed (VkResult " +
+                                             std::to_string(static_cast<int>(r)) + ")");
+}
+
+// A zeroed Vulkan info struct with its sType set.
+template <class T>
+T vk_struct(VkStructureType type) {
+  T s{};
+  s.sType = type;
+  return s;
+}
+
+void check_imgui_vk(VkResult) {}  // failures show up as validation messages and in the frame's result
+
+}  // namespace
+
+struct Viewport::Impl {
+  GLFWwindow* window = nullptr;
+  std::unique_ptr<Device> device;
+  std::unique_ptr<Swapchain> swapchain;
+  std::unique_ptr<Renderer> renderer;
+  VkDevice vk = VK_NULL_HANDLE;
+  VkCommandPool pool = VK_NULL_HANDLE;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkDescriptorPool imgui_pool = VK_NULL_HANDLE;
+  // The UI pass loads the renderer's image; one pass ends ready to present, the other ready to copy.
+  VkRenderPass ui_pass = VK_NULL_HANDLE, ui_pass_capture = VK_NULL_HANDLE;
+  std::unordered_map<VkImageView, VkFramebuffer> framebuffers;
+  VkExtent2D framebuffer_extent{0, 0};
+  bool imgui_ready = false;
+  // Read-back buffer (host visible), grown on demand.
+  VkBuffer readback = VK_NULL_HANDLE;
+  VkDeviceMemory readback_memory = VK_NULL_HANDLE;
+  VkDeviceSize readback_size = 0;
+
+  ~Impl() {
+    if (vk) vkDeviceWaitIdle(vk);
+    if (imgui_ready) ImGui_ImplVulkan_Shutdown();
+    destroy_framebuffers();
+    if (readback) vkDestroyBuffer(vk, readback, nullptr);
+    if (readback_memory) vkFreeMemory(vk, readback_memory, nullptr);
+    if (ui_pass) vkDestroyRenderPass(vk, ui_pass, nullptr);
+    if (ui_pass_capture) vkDestroyRenderPass(vk, ui_pass_capture, nullptr);
+    if (imgui_pool) vkDestroyDescriptorPool(vk, imgui_pool, nullptr);
+    if (pool) vkDestroyCommandPool(vk, pool, nullptr);
+    renderer.reset();
+    swapchain.reset();
+    device.reset();
+  }
+
+  void destroy_framebuffers() {
+    for (auto& [view, fb] : framebuffers) vkDestroyFramebuffer(vk, fb, nullptr);
+    framebuffers.clear();
+  }
+
+  Result<VkRenderPass> make_ui_pass(VkImageLayout final_layout) {
+    VkAttachmentDescription color{};
+    color.format = swapchain->format();
+    color.samples = VK_SAMPLE_COUNT_1_BIT;
+    color.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;  // the renderer's frame stays underneath
+    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    color.initialLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    color.finalLayout = final_layout;
+    VkAttachmentReference ref{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+    VkSubpassDescription subpass{};
+    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+    subpass.colorAttachmentCount = 1;
+    subpass.pColorAttachments = &ref;
+    // The renderer's colour writes happen before the UI blends over them.
+    VkSubpassDependency dep{};
+    dep.srcSubpass = VK_SUBPASS_EXTERNAL;
+    dep.dstSubpass = 0;
+    dep.srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    dep.dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    dep.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    dep.dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    VkSubpassDependency out{};
+    out.srcSubpass = 0;
+    out.dstSubpass = VK_SUBPASS_EXTERNAL;
+    out.srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    out.dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
+    out.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    out.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    const VkSubpassDependency deps[] = {dep, out};
+    auto info = vk_struct<VkRenderPassCreateInfo>(VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO);
+    info.attachmentCount = 1;
+    info.pAttachments = &color;
+    info.subpassCount = 1;
+    info.pSubpasses = &subpass;
+    info.dependencyCount = 2;
+    info.pDependencies = deps;
+    VkRenderPass pass = VK_NULL_HANDLE;
+    if (VkResult r = vkCreateRenderPass(vk, &info, nullptr, &pass); r != VK_SUCCESS) return vk_error("vkCreateRenderPass", r);
+    return pass;
+  }
+
+  Result<VkFramebuffer> framebuffer(const RenderTarget& t) {
+    if (framebuffer_extent.width != t.width || framebuffer_extent.height != t.height) {
+      destroy_framebuffers();
+      framebuffer_extent = {t.width, t.height};
+    }
+    if (auto it = framebuffers.find(t.view); it != framebuffers.end()) return it->second;
+    auto info = vk_struct<VkFramebufferCreateInfo>(VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO);
+    info.renderPass = ui_pass;
+    info.attachmentCount = 1;
+    info.pAttachments = &t.view;
+    info.width = t.width;
+    info.height = t.height;
+    info.layers = 1;
+    VkFramebuffer fb = VK_NULL_HANDLE;
+    if (VkResult r = vkCreateFramebuffer(vk, &info, nullptr, &fb); r != VK_SUCCESS) return vk_error("vkCreateFramebuffer", r);
+    framebuffers.emplace(t.view, fb);
+    return fb;
+  }
+
+  Status ensure_readback(VkDeviceSize size) {
+    if (readback_size >= size) return {};
+    if (readback) vkDestroyBuffer(vk, readback, nullptr);
+    if (readback_memory) vkFreeMemory(vk, readback_memory, nullptr);
+    readback = VK_NULL_HANDLE;
+    readback_memory = VK_NULL_HANDLE;
+    readback_size = 0;
+    auto info = vk_struct<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
+    info.size = size;
+    info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    if (VkResult r = vkCreateBuffer(vk, &info, nullptr, &readback); r != VK_SUCCESS) return vk_error("vkCreateBuffer", r);
+    VkMemoryRequirements req;
+    vkGetBufferMemoryRequirements(vk, readback, &req);
+    VkPhysicalDeviceMemoryProperties props;
+    vkGetPhysicalDeviceMemoryProperties(device->physical_device(), &props);
+    const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    std::uint32_t type = UINT32_MAX;
+    for (std::uint32_t i = 0; i < props.memoryTypeCount && type == UINT32_MAX; ++i)
+      if ((req.memoryTypeBits & (1u << i)) && (props.memoryTypes[i].propertyFlags & want) == want) type = i;
+    if (type == UINT32_MAX)
+      return make_error(ErrorCode::Unsupported, "viewport: the device has no host-visible memory for a screenshot");
+    auto alloc = vk_struct<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex = type;
+    if (VkResult r = vkAllocateMemory(vk, &alloc, nullptr, &readback_memory); r != VK_SUCCESS)
+      return vk_error("vkAllocateMemory", r);
+    vkBindBufferMemory(vk, readback, readback_memory, 0);
+    readback_size = size;
+    return {};
+  }
+
+  Status resize() {
+    int w = 0, h = 0;
+    glfwGetFramebufferSize(window, &w, &h);
+    if (w <= 0 || h <= 0) return {};  // minimised
+    destroy_framebuffers();
+    return swapchain->resize(static_cast<std::uint32_t>(w), static_cast<std::uint32_t>(h));
+  }
+};
+
+Viewport::Viewport(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {
+  device_ = impl_->device.get();
+  renderer_ = impl_->renderer.get();
+}
+Viewport::~Viewport() = default;
+
+VkExtent2D Viewport::extent() const { return impl_->swapchain->extent(); }
+
+Result<std::unique_ptr<Viewport>> Viewport::create(GLFWwindow* window, const ViewportOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  impl->window = window;
+  DeviceOptions device_options;
+  device_options.validation = options.validation;
+  device_options.swapchain = true;
+  std::uint32_t count = 0;
+  const char** extensions = glfwGetRequiredInstanceExtensions(&count);
+  if (extensions == nullptr)
+    return make_error(ErrorCode::Unsupported, "viewport: GLFW found no Vulkan loader for window surfaces; install "
+                                              "libvulkan1 and a driver (mesa-vulkan-drivers)");
+  for (std::uint32_t i = 0; i < count; ++i) device_options.instance_extensions.emplace_back(extensions[i]);
+  auto device = Device::create(device_options);
+  if (!device) return device.error();
+  impl->device = std::move(*device);
+  impl->vk = impl->device->device();
+
+  VkSurfaceKHR surface = VK_NULL_HANDLE;
+  if (VkResult r = glfwCreateWindowSurface(impl->device->instance(), window, nullptr, &surface); r != VK_SUCCESS)
+    return vk_error("glfwCreateWindowSurface", r);
+  int w = 0, h = 0;
+  glfwGetFramebufferSize(window, &w, &h);
+  SwapchainOptions swap_options;
+  swap_options.present_mode = options.present_mode;
+  auto swapchain = Swapchain::create(*impl->device, surface, static_cast<std::uint32_t>(std::max(w, 1)),
+                                     static_cast<std::uint32_t>(std::max(h, 1)), swap_options);
+  if (!swapchain) return swapchain.error();
+  impl->swapchain = std::move(*swapchain);
+  auto renderer = Renderer::create(*impl->device);
+  if (!renderer) return renderer.error();
+  impl->renderer = std::move(*renderer);
+
+  // Command buffer for the frames (one in flight).
+  auto pool_info = vk_struct<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
+  pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pool_info.queueFamilyIndex = impl->device->queue_family();
+  if (VkResult r = vkCreateCommandPool(impl->vk, &pool_info, nullptr, &impl->pool); r != VK_SUCCESS)
+    return vk_error("vkCreateCommandPool", r);
+  auto cmd_info = vk_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+  cmd_info.commandPool = impl->pool;
+  cmd_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cmd_info.commandBufferCount = 1;
+  if (VkResult r = vkAllocateCommandBuffers(impl->vk, &cmd_info, &impl->cmd); r != VK_SUCCESS)
+    return vk_error("vkAllocateCommandBuffers", r);
+
+  // ImGui's Vulkan backend: a descriptor pool for its font texture and its render pass.
+  const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 16}};
+  auto dp = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+  dp.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
+  dp.maxSets = 16;
+  dp.poolSizeCount = 1;
+  dp.pPoolSizes = sizes;
+  if (VkResult r = vkCreateDescriptorPool(impl->vk, &dp, nullptr, &impl->imgui_pool); r != VK_SUCCESS)
+    return vk_error("vkCreateDescriptorPool", r);
+  auto pass = impl->make_ui_pass(VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+  if (!pass) return pass.error();
+  impl->ui_pass = *pass;
+  auto capture_pass = impl->make_ui_pass(VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+  if (!capture_pass) return capture_pass.error();
+  impl->ui_pass_capture = *capture_pass;
+
+  ImGui_ImplVulkan_InitInfo init{};
+  init.Instance = impl->device->instance();
+  init.PhysicalDevice = impl->device->physical_device();
+  init.Device = impl->vk;
+  init.QueueFamily = impl->device->queue_family();
+  init.Queue = impl->device->queue();
+  init.DescriptorPool = impl->imgui_pool;
+  init.MinImageCount = std::max(2u, impl->swapchain->image_count());
+  init.ImageCount = std::max(2u, impl->swapchain->image_count());
+  init.MSAASamples = VK_SAMPLE_COUNT_1_BIT;
+  init.CheckVkResultFn = check_imgui_vk;
+  if (!ImGui_ImplVulkan_Init(&init, impl->ui_pass))
+    return make_error(ErrorCode::Internal, "viewport: ImGui_ImplVulkan_Init failed");
+  impl->imgui_ready = true;
+  PENUMBRA_TRY(impl->device->submit_and_wait([](VkCommandBuffer c) { ImGui_ImplVulkan_CreateFontsTexture(c); }));
+  ImGui_ImplVulkan_DestroyFontUploadObjects();
+  return std::unique_ptr<Viewport>(new Viewport(std::move(impl)));
+}
+
+Status Viewport::draw(World& world, const CameraView& camera, const RenderSettings& settings, ImDrawData* ui,
+                      Image* capture) {
+  Impl& m = *impl_;
+  if (m.swapchain->out_of_date()) PENUMBRA_TRY(m.resize());
+  auto acquired = m.swapchain->acquire();
+  if (!acquired) {
+    if (m.swapchain->out_of_date()) return m.resize();
+    return acquired.error();
+  }
+  RenderTarget target = *acquired;
+  PENUMBRA_TRY(m.renderer->sync(world));
+
+  vkResetCommandBuffer(m.cmd, 0);
+  auto begin = vk_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vkBeginCommandBuffer(m.cmd, &begin);
+  // The scene: the renderer leaves the image ready for the UI pass to load.
+  target.final_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  if (Status s = m.renderer->record(m.cmd, target, camera, settings); !s) {
+    vkEndCommandBuffer(m.cmd);
+    return s;
+  }
+  // The UI on top, in its own render pass.
+  auto fb = m.framebuffer(target);
+  if (!fb) {
+    vkEndCommandBuffer(m.cmd);
+    return fb.error();
+  }
+  auto rp = vk_struct<VkRenderPassBeginInfo>(VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO);
+  rp.renderPass = capture ? m.ui_pass_capture : m.ui_pass;
+  rp.framebuffer = *fb;
+  rp.renderArea.extent = {target.width, target.height};
+  vkCmdBeginRenderPass(m.cmd, &rp, VK_SUBPASS_CONTENTS_INLINE);
+  if (ui) ImGui_ImplVulkan_RenderDrawData(ui, m.cmd);
+  vkCmdEndRenderPass(m.cmd);
+
+  const VkDeviceSize bytes = VkDeviceSize{target.width} * target.height * 4;
+  if (capture) {
+    if (Status s = m.ensure_readback(bytes); !s) {
+      vkEndCommandBuffer(m.cmd);
+      return s;
+    }
+    // Copy the finished frame out, then hand the image to the presentation engine.
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {target.width, target.height, 1};
+    vkCmdCopyImageToBuffer(m.cmd, target.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, m.readback, 1, &region);
+    auto to_present = vk_struct<VkImageMemoryBarrier>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER);
+    to_present.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    to_present.dstAccessMask = 0;
+    to_present.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    to_present.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    to_present.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    to_present.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    to_present.image = target.image;
+    to_present.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    auto to_host = vk_struct<VkBufferMemoryBarrier>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER);
+    to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    to_host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    to_host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    to_host.buffer = m.readback;
+    to_host.size = bytes;
+    vkCmdPipelineBarrier(m.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1, &to_host,
+                         1, &to_present);
+  }
+  if (VkResult r = vkEndCommandBuffer(m.cmd); r != VK_SUCCESS) return vk_error("vkEndCommandBuffer", r);
+  const Status presented = m.swapchain->present(m.cmd);
+  if (!presented && !m.swapchain->out_of_date()) return presented;
+
+  if (capture) {
+    vkQueueWaitIdle(m.device->queue());
+    void* mapped = nullptr;
+    if (VkResult r = vkMapMemory(m.vk, m.readback_memory, 0, bytes, 0, &mapped); r != VK_SUCCESS)
+      return vk_error("vkMapMemory", r);
+    capture->width = target.width;
+    capture->height = target.height;
+    capture->rgba32f.clear();
+    capture->rgba8.resize(static_cast<std::size_t>(bytes));
+    std::memcpy(capture->rgba8.data(), mapped, capture->rgba8.size());
+    vkUnmapMemory(m.vk, m.readback_memory);
+    // Swapchain images are BGRA on most surfaces: swizzle to RGBA and make alpha opaque.
+    const bool bgra = target.format == VK_FORMAT_B8G8R8A8_SRGB || target.format == VK_FORMAT_B8G8R8A8_UNORM;
+    for (std::size_t i = 0; i < capture->rgba8.size(); i += 4) {
+      if (bgra) std::swap(capture->rgba8[i], capture->rgba8[i + 2]);
+      capture->rgba8[i + 3] = 255;
+    }
+  }
+  return {};
+}
+
+}  // namespace penumbra::editor

@@ -1,0 +1,55 @@
+// The editor's window output: the shared Device with the window's surface, the Swapchain, the
+// Renderer drawing the World into each swapchain image, then Dear ImGui in its own VkRenderPass on
+// top (ImGui 1.86's Vulkan backend needs one), and an optional read-back of the finished frame
+// (screenshots, taken from the swapchain image before it is presented).
+// Main thread only; one frame in flight (the Swapchain waits for the previous one).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include <vulkan/vulkan.h>
+
+#include "penumbra/core/result.h"
+#include "penumbra/render/device.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/render/swapchain.h"
+
+struct GLFWwindow;
+struct ImDrawData;
+
+namespace penumbra::editor {
+
+struct ViewportOptions {
+  bool validation = false;  // the Khronos validation layer; messages are counted by the Device
+  VkPresentModeKHR present_mode = VK_PRESENT_MODE_FIFO_KHR;
+};
+
+class Viewport {
+ public:
+  // Creates the Device (with GLFW's instance extensions), the window surface, the Swapchain, the
+  // Renderer and ImGui's Vulkan backend (the ImGui context and its GLFW backend must exist).
+  static Result<std::unique_ptr<Viewport>> create(GLFWwindow* window, const ViewportOptions& options);
+  ~Viewport();
+  Viewport(const Viewport&) = delete;
+  Viewport& operator=(const Viewport&) = delete;
+
+  // Draws one frame: sync + record of the World, then `ui` on top, then present. With `capture`,
+  // the presented image is also read back into capture->rgba8 (RGBA, sRGB-encoded). A resized
+  // window recreates the swapchain and skips the frame (returns success).
+  Status draw(World& world, const CameraView& camera, const RenderSettings& settings, ImDrawData* ui,
+              Image* capture = nullptr);
+
+  Device& device() { return *device_; }
+  Renderer& renderer() { return *renderer_; }
+  VkExtent2D extent() const;
+
+ private:
+  struct Impl;
+  explicit Viewport(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+  Device* device_ = nullptr;
+  Renderer* renderer_ = nullptr;
+};
+
+}  // namespace penumbra::editor
