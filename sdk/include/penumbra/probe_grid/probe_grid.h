@@ -35,8 +35,10 @@ enum class ProbeShOrder : std::uint8_t { L1 = 1, L2 = 2 };     // 4 or 9 coeffic
 //   Supersampled: the tent-weighted average over the node's support in the domain of interest
 //     (Kontkanen & Laine 2006).
 //   Fitted: the least-squares values that minimise the trilinear reconstruction error over the
-//     domain of interest, from the same samples as Supersampled (a sharper reconstruction at thin
-//     walls; see sdk/src/probe_grid/probe_fit.h).
+//     domain of interest inside the box, from tent samples like Supersampled's (folded into the
+//     box at its faces): a sharper reconstruction at thin walls; see sdk/src/probe_grid/probe_fit.h.
+//   No mode makes a trilinear field jump inside a cell: at a thin wall with open space on both
+//   sides the leak stays above ~0.6x point sampling's (the probe-grid bench's step model).
 enum class ProbeSampling : std::uint8_t { Point, Supersampled, Fitted };
 const char* to_string(ProbeShOrder order);    // "L1", "L2"
 const char* to_string(ProbeSampling sampling);  // "point", "supersampled", "fitted"
