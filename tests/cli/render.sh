@@ -1,0 +1,19 @@
+# penumbra render writes a PNG/EXR of the right size, times frames, and fails clearly on bad input.
+source "$(dirname "$0")/lib.sh"
+expect_exit 0 "$PENUMBRA" bake builtin:cornell -o "$scratch/c.pbake" --preset draft
+expect_exit 0 "$PENUMBRA" render builtin:cornell --bake "$scratch/c.pbake" -o "$scratch/c.png" --width 96 --height 64
+[ -s "$scratch/c.png" ] || fail "no PNG written"
+# PNG header: width and height are the big-endian words at bytes 16..23.
+size=$(od -An -tu1 -j16 -N8 "$scratch/c.png" | tr -s ' ')
+[ "$size" = " 0 0 0 96 0 0 0 64" ] || fail "PNG size is '$size', expected 96x64"
+expect_exit 0 "$PENUMBRA" render builtin:cornell -o "$scratch/c.exr" --width 32 --height 24 --view irradiance --frames 3
+expect_output "median"; expect_output "p95"
+head -c 4 "$scratch/c.exr" | od -An -tx1 | grep -q "76 2f 31 01" || fail "not an OpenEXR file"
+expect_exit 1 "$PENUMBRA" render builtin:nosuch -o "$scratch/x.png"; expect_output "nosuch"
+[ -e "$scratch/x.png" ] && fail "a failed render left a file behind"
+expect_exit 1 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --camera nope; expect_output "nope"; expect_output "cameras:"
+expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.bmp"; expect_output ".png"
+expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --view shiny; expect_output "albedo"
+expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --width 0
+expect_exit 1 "$PENUMBRA" render builtin:cornell --bake "$scratch/missing.pbake" -o "$scratch/x.png"; expect_output "missing.pbake"
+finish
