@@ -104,7 +104,7 @@ TEST(AOFieldGpu, BufferEvaluationMatchesTheCpu) {
     if (cpu > 0.01f) ++shaded;
   }
   RecordProperty("max_abs_difference", std::to_string(worst));
-  EXPECT_LT(worst, 1e-4);
+  EXPECT_LT(worst, 2e-5);  // measured 1e-6
   EXPECT_GT(shaded, 300);  // the points do fall within the casters' reach
 }
 
