@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include <glm/mat3x3.hpp>
 
@@ -93,9 +94,56 @@ void pose_features(std::span<const std::int32_t> parents, std::span<const glm::m
   }
 }
 
+namespace {
+
+// Four float lanes (the GCC/Clang vector extension: one SSE register on x86-64, NEON on ARM).
+typedef float Lanes __attribute__((vector_size(16)));
+constexpr std::size_t kLanes = 4;
+inline Lanes load(const float* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline Lanes clamp01(Lanes x) {
+  const Lanes zero{}, one = zero + 1.0f;
+  x = x < zero ? zero : x;
+  return x > one ? one : x;
+}
+
+// One group: ao[order[i]] = clamp(t_i . theta, 0, 1). Coefficient c of the group's vertices is
+// contiguous, so a block of 16 vertices keeps its sums in four registers while the coefficients
+// stream past (four 4-lane multiply-adds per coefficient); the tail is scalar.
+void evaluate_group(const float* t, std::size_t n, std::uint32_t count, const float* theta,
+                    const std::uint32_t* order, float* ao) {
+  constexpr std::size_t kBlock = 4 * kLanes;
+  std::size_t i = 0;
+  for (; i + kBlock <= n; i += kBlock) {
+    Lanes a0 = load(t + i), a1 = load(t + i + kLanes), a2 = load(t + i + 2 * kLanes), a3 = load(t + i + 3 * kLanes);
+    for (std::uint32_t c = 1; c < count; ++c) {
+      const Lanes w = Lanes{} + theta[c];
+      const float* tc = t + std::size_t{c} * n + i;
+      a0 += w * load(tc);
+      a1 += w * load(tc + kLanes);
+      a2 += w * load(tc + 2 * kLanes);
+      a3 += w * load(tc + 3 * kLanes);
+    }
+    // Clamp in the lanes, then scatter to mesh vertex order.
+    float out[kBlock];
+    const Lanes sums[4] = {clamp01(a0), clamp01(a1), clamp01(a2), clamp01(a3)};
+    std::memcpy(out, sums, sizeof out);
+    for (std::size_t b = 0; b < kBlock; ++b) ao[order[i + b]] = out[b];
+  }
+  for (; i < n; ++i) {
+    float acc = t[i];
+    for (std::uint32_t c = 1; c < count; ++c) acc += theta[c] * t[std::size_t{c} * n + i];
+    ao[order[i]] = std::clamp(acc, 0.0f, 1.0f);
+  }
+}
+
+}  // namespace
+
 void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao) {
   constexpr std::uint32_t kMaxCoefficients = pose_ao_coefficients(kPoseAOMaxLocality);
-  std::vector<float> sums;  // one group's AO before clamping, in group order
   for (const PoseAOGroup& g : data.groups) {
     // Gather theta_local once per group: [1, f_j1 .. f_jk].
     float theta[kMaxCoefficients];
@@ -103,19 +151,8 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
     for (std::uint32_t k = 0; k < g.joint_count; ++k)
       for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e)
         theta[1 + kPoseFeaturesPerJoint * k + e] = features[std::size_t{g.joints[k]} * kPoseFeaturesPerJoint + e];
-    // t_v . theta over the group's vertices, coefficient by coefficient (vectorised over i).
-    const std::size_t n = g.count;
-    sums.resize(n);
-    float* __restrict acc = sums.data();
-    const float* __restrict t = data.coefficients.data() + g.coefficient_offset;
-    for (std::size_t i = 0; i < n; ++i) acc[i] = t[i];
-    for (std::uint32_t c = 1; c < g.coefficient_count(); ++c) {
-      const float w = theta[c];
-      const float* __restrict tc = t + std::size_t{c} * n;
-      for (std::size_t i = 0; i < n; ++i) acc[i] += w * tc[i];
-    }
-    const std::uint32_t* order = data.vertex_order.data() + g.first;
-    for (std::size_t i = 0; i < n; ++i) ao[order[i]] = std::clamp(acc[i], 0.0f, 1.0f);
+    evaluate_group(data.coefficients.data() + g.coefficient_offset, g.count, g.coefficient_count(), theta,
+                   data.vertex_order.data() + g.first, ao.data());
   }
 }
 
