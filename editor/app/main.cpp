@@ -1,6 +1,7 @@
 // penumbra-editor: the interactive editor, and its scripted mode for tests and demos.
 //
 //   penumbra-editor [SCENE] [--script FILE] [--validation] [--size WxH] [--present fifo|mailbox|immediate]
+//                   [--shadow-map SIZE]
 //
 // The loop: poll events, collect finished bakes, step the script, update the World, draw the
 // panels, render the viewport and the UI, present. At exit it prints the frame times (median and
@@ -33,12 +34,13 @@ struct Options {
   bool validation = false;
   int width = 1280, height = 720;
   VkPresentModeKHR present = VK_PRESENT_MODE_FIFO_KHR;
+  std::uint32_t shadow_map_size = 512;  // 0: no shadows (the View panel changes it too)
 };
 
 int usage(const char* message) {
   std::fprintf(stderr,
                "penumbra-editor: %s\nusage: penumbra-editor [SCENE] [--script FILE] [--validation] [--size WxH] "
-               "[--present fifo|mailbox|immediate]\n",
+               "[--present fifo|mailbox|immediate] [--shadow-map SIZE]\n",
                message);
   return 2;
 }
@@ -68,6 +70,8 @@ int run(const Options& options) {
   // The script first: a bad script is reported before any window opens.
   std::optional<ScriptRunner> runner;
   UiState ui;
+  ui.render.shadows = options.shadow_map_size > 0;
+  ui.render.shadow_map_size = std::max(options.shadow_map_size, 64u);
   std::string pending_screenshot;
   if (!options.script.empty()) {
     auto script = load_script(options.script);
@@ -188,7 +192,7 @@ int run(const Options& options) {
         } else {
           // Frame time: everything from polling to present, screenshots (PNG encoding) excluded.
           ui.frames.add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(),
-                        baking);
+                        baking, (*viewport)->times());
         }
       }
       model.bakes().cancel();
@@ -199,6 +203,11 @@ int run(const Options& options) {
                   "%.1f p95 %.1f max %.1f (%zu frames)\n",
                   extent.width, extent.height, (*viewport)->device().name().c_str(), idle.median, idle.p95, idle.max,
                   idle.frames, bake.median, bake.p95, bake.max, bake.frames);
+      const FrameSummary wait = summarise(ui.frames.wait_ms), record = summarise(ui.frames.record_ms),
+                         present = summarise(ui.frames.present_ms);
+      std::printf("  medians of the parts: waiting for the previous frame %.1f ms, sync + record %.1f ms, submit + "
+                  "present %.1f ms\n",
+                  wait.median, record.median, present.median);
       if (options.validation) {
         const std::uint32_t messages = (*viewport)->device().validation_messages();
         std::printf("validation messages: %u\n", messages);
@@ -233,6 +242,11 @@ int main(int argc, char** argv) {
       if (std::sscanf(argv[++i], "%dx%d", &options.width, &options.height) != 2 || options.width < 64 ||
           options.height < 64 || options.width > 16384 || options.height > 16384)
         return penumbra::editor::usage("--size takes WxH, e.g. 1280x720");
+    } else if (a == "--shadow-map" && has_value) {
+      char* end = nullptr;
+      const unsigned long n = std::strtoul(argv[++i], &end, 10);
+      if (*end != '\0' || n > 8192) return penumbra::editor::usage("--shadow-map takes a size up to 8192 (0: no shadows)");
+      options.shadow_map_size = static_cast<std::uint32_t>(n);
     } else if (a == "--present" && has_value) {
       const std::string m = argv[++i];
       if (m == "fifo") options.present = VK_PRESENT_MODE_FIFO_KHR;

@@ -18,8 +18,11 @@
 
 namespace penumbra::editor {
 
-void FrameTimes::add(double ms, bool baking) {
+void FrameTimes::add(double ms, bool baking, const ViewportTimes& parts) {
   (baking ? baking_ms : idle_ms).push_back(ms);
+  wait_ms.push_back(parts.wait_ms);
+  record_ms.push_back(parts.record_ms);
+  present_ms.push_back(parts.present_ms);
   recent_ms.push_back(static_cast<float>(ms));
   if (recent_ms.size() > 240) recent_ms.pop_front();
 }
@@ -289,8 +292,10 @@ void stats_panel(EditorModel& model, UiState& ui) {
   ImGui::Begin("Stats");
   const std::vector<float> recent(ui.frames.recent_ms.begin(), ui.frames.recent_ms.end());
   const float last = recent.empty() ? 0.0f : recent.back();
-  ImGui::Text("frame %.1f ms, renderer record %.2f ms, %u draws", last, ui.renderer_stats.cpu_record_ms,
-              ui.renderer_stats.draws);
+  if (!ui.frames.wait_ms.empty())
+    ImGui::Text("frame %.1f ms: GPU wait %.1f, record %.1f, submit+present %.1f", last, ui.frames.wait_ms.back(),
+                ui.frames.record_ms.back(), ui.frames.present_ms.back());
+  ImGui::Text("renderer record %.2f ms, %u draws", ui.renderer_stats.cpu_record_ms, ui.renderer_stats.draws);
   if (!recent.empty()) ImGui::PlotLines("##frames", recent.data(), static_cast<int>(recent.size()), 0, "frame ms", 0.0f, 100.0f, ImVec2(-1, 40));
   ImGui::Text("GPU memory %s", format_bytes(ui.renderer_stats.gpu_bytes).c_str());
   if (ImGui::BeginTable("systems", 2, ImGuiTableFlags_RowBg)) {
@@ -321,6 +326,10 @@ void view_panel(UiState& ui) {
   if (ImGui::Combo("debug view", &view, "lit\0direct\0indirect\0ao\0albedo\0validity\0position\0normal\0irradiance\0"))
     ui.render.view = static_cast<DebugView>(view);
   ImGui::DragFloat("exposure", &ui.render.exposure, 0.01f, 0.01f, 100.0f);
+  ImGui::Checkbox("shadows", &ui.render.shadows);
+  ImGui::SameLine();
+  int shadow = static_cast<int>(ui.render.shadow_map_size);
+  if (ImGui::InputInt("shadow map", &shadow, 256)) ui.render.shadow_map_size = static_cast<std::uint32_t>(std::clamp(shadow, 64, 4096));
   int mode = ui.camera.mode() == CameraControl::Mode::Orbit ? 0 : 1;
   if (ImGui::Combo("camera", &mode, "orbit (drag, wheel, middle-drag)\0fly (drag, WASD QE)\0"))
     ui.camera.set_mode(mode == 0 ? CameraControl::Mode::Orbit : CameraControl::Mode::Fly);

@@ -9,6 +9,7 @@
 #include "camera_control.h"
 #include "editor_model.h"
 #include "overlays.h"
+#include "viewport.h"
 #include "penumbra/render/renderer.h"
 
 namespace penumbra::editor {
@@ -16,8 +17,9 @@ namespace penumbra::editor {
 // Frame times of the last few seconds, split by whether a bake was running.
 struct FrameTimes {
   std::vector<double> idle_ms, baking_ms;  // every frame of the session
+  std::vector<double> wait_ms, record_ms, present_ms;  // the viewport's parts of each frame (viewport.h)
   std::deque<float> recent_ms;             // the last 240 frames, for the plot
-  void add(double ms, bool baking);
+  void add(double ms, bool baking, const ViewportTimes& parts);
 };
 // Median and 95th percentile of `ms` (0 when empty).
 struct FrameSummary {

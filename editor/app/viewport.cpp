@@ -1,6 +1,7 @@
 // Window output: renderer + ImGui render pass + swapchain + read-back (viewport.h).
 #include "viewport.h"
 
+#include <chrono>
 #include <cstring>
 #include <unordered_map>
 #include <vector>
@@ -264,8 +265,15 @@ Result<std::unique_ptr<Viewport>> Viewport::create(GLFWwindow* window, const Vie
 Status Viewport::draw(World& world, const CameraView& camera, const RenderSettings& settings, ImDrawData* ui,
                       Image* capture) {
   Impl& m = *impl_;
+  using Clock = std::chrono::steady_clock;
+  const auto ms_since = [](Clock::time_point t) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+  };
   if (m.swapchain->out_of_date()) PENUMBRA_TRY(m.resize());
+  auto t = Clock::now();
   auto acquired = m.swapchain->acquire();
+  times_.wait_ms = ms_since(t);
+  t = Clock::now();
   if (!acquired) {
     if (m.swapchain->out_of_date()) return m.resize();
     return acquired.error();
@@ -329,6 +337,8 @@ Status Viewport::draw(World& world, const CameraView& camera, const RenderSettin
                          1, &to_present);
   }
   if (VkResult r = vkEndCommandBuffer(m.cmd); r != VK_SUCCESS) return vk_error("vkEndCommandBuffer", r);
+  times_.record_ms = ms_since(t);
+  t = Clock::now();
   const Status presented = m.swapchain->present(m.cmd);
   if (!presented && !m.swapchain->out_of_date()) return presented;
 
@@ -350,6 +360,7 @@ Status Viewport::draw(World& world, const CameraView& camera, const RenderSettin
       capture->rgba8[i + 3] = 255;
     }
   }
+  times_.present_ms = ms_since(t);
   return {};
 }
 

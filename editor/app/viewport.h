@@ -25,6 +25,13 @@ struct ViewportOptions {
   VkPresentModeKHR present_mode = VK_PRESENT_MODE_FIFO_KHR;
 };
 
+// Where the last frame's time went, in milliseconds.
+struct ViewportTimes {
+  double wait_ms = 0.0;     // acquire: waiting for the previous frame's GPU work (lavapipe: the rasteriser)
+  double record_ms = 0.0;   // renderer sync + record, UI record
+  double present_ms = 0.0;  // submit + present (+ read-back when capturing)
+};
+
 class Viewport {
  public:
   // Creates the Device (with GLFW's instance extensions), the window surface, the Swapchain, the
@@ -43,6 +50,7 @@ class Viewport {
   Device& device() { return *device_; }
   Renderer& renderer() { return *renderer_; }
   VkExtent2D extent() const;
+  const ViewportTimes& times() const { return times_; }
 
  private:
   struct Impl;
@@ -50,6 +58,7 @@ class Viewport {
   std::unique_ptr<Impl> impl_;
   Device* device_ = nullptr;
   Renderer* renderer_ = nullptr;
+  ViewportTimes times_;
 };
 
 }  // namespace penumbra::editor

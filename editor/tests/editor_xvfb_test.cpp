@@ -1,0 +1,155 @@
+// The real editor under xvfb-run with the validation layer: open builtin:courtyard, bake the probe
+// grid through the Bake panel's "Bake selection" action, wait, save screenshots (read back from the
+// swapchain image) and the .pbake, then check both: the file loads and holds the grid, and the
+// viewport changed where the lighting did (the indirect view marks those pixels) and nowhere else.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "penumbra/bake/pbake.h"
+#include "penumbra/probe_grid/probe_baker.h"
+#include "stb_image.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Png {
+  int width = 0, height = 0;
+  std::vector<unsigned char> rgb;
+  float luminance(int x, int y) const {
+    const unsigned char* p = &rgb[3 * (static_cast<std::size_t>(y) * width + x)];
+    return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2];
+  }
+};
+
+Png load_png(const fs::path& path) {
+  Png png;
+  int channels = 0;
+  unsigned char* data = stbi_load(path.c_str(), &png.width, &png.height, &channels, 3);
+  if (data) {
+    png.rgb.assign(data, data + static_cast<std::size_t>(png.width) * png.height * 3);
+    stbi_image_free(data);
+  }
+  return png;
+}
+
+std::string run_command(const std::string& command, int& status) {
+  std::string out;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) {
+    status = -1;
+    return out;
+  }
+  char buf[512];
+  while (fgets(buf, sizeof buf, pipe)) out += buf;
+  status = pclose(pipe);
+  return out;
+}
+
+TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
+  ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
+  const fs::path dir = fs::temp_directory_path() / ("penumbra_editor_xvfb_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string d = dir.string();
+  {
+    std::ofstream script(dir / "bake.txt");
+    script << "open builtin:courtyard draft\n"
+              "frames 3\n"
+              "ui off\n"
+              "screenshot " << d << "/before.png\n"
+              "ui on\n"
+              "select \"probe grid\"\n"
+              "bake selection draft\n"
+              "wait\n"
+              "frames 2\n"
+              "ui off\n"
+              "screenshot " << d << "/after.png\n"
+              "view indirect\n"
+              "screenshot " << d << "/indirect.png\n"
+              "view lit\n"
+              "ui on\n"
+              "frames 2\n"
+              "screenshot " << d << "/editor.png\n"
+              "save-bake " << d << "/courtyard.pbake\n"
+              "quit\n";
+  }
+  // lavapipe unless the caller chose a driver.
+  const char* driver = std::getenv("VK_DRIVER_FILES");
+  const std::string env = driver ? "" : "VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json ";
+  int status = 0;
+  const std::string output = run_command(env + "xvfb-run -a -s '-screen 0 1280x720x24' " PENUMBRA_EDITOR_PATH
+                                               " --validation --size 1280x720 --script " + d + "/bake.txt 2>&1",
+                                         status);
+  std::printf("%s", output.c_str());
+  ASSERT_EQ(status, 0) << output;  // includes: no validation message
+  EXPECT_NE(output.find("validation messages: 0"), std::string::npos);
+
+  // The .pbake loads and holds the courtyard's probe grid.
+  auto file = penumbra::read_bake_file(dir / "courtyard.pbake");
+  ASSERT_TRUE(file.ok()) << file.error().message;
+  const penumbra::BakeChunk* chunk = file->find(penumbra::fourcc("PRBG"));
+  ASSERT_NE(chunk, nullptr);
+  auto grid = penumbra::read_probe_grid_chunk(*chunk);
+  ASSERT_TRUE(grid.ok()) << grid.error().message;
+  EXPECT_GT(grid->valid_fraction(), 0.5f);
+
+  // The screenshots: the whole window, read back from the swapchain.
+  const Png before = load_png(dir / "before.png"), after = load_png(dir / "after.png");
+  const Png indirect = load_png(dir / "indirect.png"), editor = load_png(dir / "editor.png");
+  for (const Png* p : {&before, &after, &indirect, &editor}) {
+    ASSERT_EQ(p->width, 1280);
+    ASSERT_EQ(p->height, 720);
+  }
+  // Where the baked indirect light shows, the lit view got brighter; where it does not (the black
+  // background), nothing changed.
+  double lit_change = 0.0, dark_change = 0.0;
+  std::size_t lit = 0, dark = 0, brighter = 0;
+  for (int y = 0; y < 720; ++y)
+    for (int x = 0; x < 1280; ++x) {
+      const float change = after.luminance(x, y) - before.luminance(x, y);
+      if (indirect.luminance(x, y) > 24.0f) {
+        lit_change += change;
+        brighter += change > 2.0f;
+        ++lit;
+      } else if (indirect.luminance(x, y) < 1.0f && before.luminance(x, y) < 1.0f) {
+        dark_change += std::abs(change);
+        ++dark;
+      }
+    }
+  std::printf("lit pixels %zu: mean change %+.1f, %.0f%% brighter; background pixels %zu: mean |change| %.3f\n", lit,
+              lit_change / double(lit), 100.0 * double(brighter) / double(lit), dark, dark_change / double(dark));
+  ASSERT_GT(lit, 50000u);   // the courtyard covers a good part of the window
+  ASSERT_GT(dark, 50000u);  // and the background the rest
+  EXPECT_GT(lit_change / double(lit), 8.0);
+  EXPECT_GT(double(brighter) / double(lit), 0.6);
+  EXPECT_LT(dark_change / double(dark), 0.5);
+  // The editor screenshot shows the panels (not just the viewport): it differs from the bare one.
+  double ui_diff = 0.0;
+  for (int y = 0; y < 720; ++y)
+    for (int x = 0; x < 1280; ++x) ui_diff += std::abs(editor.luminance(x, y) - after.luminance(x, y));
+  EXPECT_GT(ui_diff / (1280.0 * 720.0), 5.0);
+  fs::remove_all(dir);
+}
+
+TEST(EditorXvfb, ABadScriptFailsNamingTheLineBeforeAnyWindowOpens) {
+  const fs::path path = fs::temp_directory_path() / ("penumbra_editor_bad_" + std::to_string(::getpid()) + ".txt");
+  {
+    std::ofstream script(path);
+    script << "open builtin:courtyard\nbake everything ultra\n";
+  }
+  int status = 0;
+  // No display is needed: the script is checked first.
+  const std::string output = run_command("DISPLAY= " PENUMBRA_EDITOR_PATH " --script " + path.string() + " 2>&1", status);
+  EXPECT_NE(status, 0);
+  EXPECT_NE(output.find(path.filename().string() + ":2: 'bake' takes"), std::string::npos) << output;
+  fs::remove(path);
+}
+
+}  // namespace
