@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <string>
 
 #include "penumbra/bake/baker.h"
 #include "penumbra/ecs/transform.h"
@@ -75,6 +77,35 @@ TEST(PoseAORig, MatchesTheAnimationSystem) {
   const std::vector<JointRange> ranges = pose_ranges(*rig, quick());
   EXPECT_NEAR(ranges[2].max.x - ranges[2].min.x, 1.5f * (rig->clip_ranges[2].max.x - rig->clip_ranges[2].min.x), 1e-5f);
   EXPECT_EQ(ranges[0].max, glm::vec3(0.0f));
+}
+
+TEST(PoseAORig, CesiumManMatchesTheAnimationSystem) {
+  const std::string path = std::string(PENUMBRA_SHARED_DIR) + "/assets/CesiumMan.glb";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (the shared assets are not checked out)";
+  World world;
+  ASSERT_TRUE(load_scene(world, path));
+  update_world_transforms(world);
+  update_skin_poses(world);
+  Entity mesh;
+  world.view<Skin, Mesh>().each([&](Entity e, Skin&, Mesh&) { mesh = e; });
+  ASSERT_TRUE(mesh);
+  auto rig = make_pose_rig(world, mesh, "CesiumMan");
+  ASSERT_TRUE(rig) << rig.error().message;
+  EXPECT_EQ(rig->joint_count(), 19u);
+  ASSERT_EQ(rig->clips.size(), 1u);
+  for (const glm::mat4& m : skinning_matrices(*rig, rig->bind)) expect_near_matrix(m, glm::mat4(1.0f), 1e-4f);
+  const AnimationClip& clip = *rig->clips[0];
+  for (float t : {0.2f, 0.9f * clip.duration}) {
+    apply_clip(world, clip, t);
+    update_world_transforms(world);
+    update_skin_poses(world);
+    const std::vector<glm::mat4> mine = skinning_matrices(*rig, clip_pose(*rig, 0, t));
+    for (std::size_t j = 0; j < mine.size(); ++j)
+      expect_near_matrix(mine[j], world.get<SkinPose>(mesh).joint_matrices[j], 1e-4f);
+  }
+  std::size_t animated = 0;
+  for (bool a : rig->animated) animated += a ? 1 : 0;
+  EXPECT_GT(animated, 10u);
 }
 
 TEST(PoseAOBake, BitIdenticalAtOneAndTwoThreads) {
