@@ -167,7 +167,7 @@ struct Prepared {
   float f[3];
   for (int k = 0; k < 3; ++k) {
     const float u = std::copysign(std::sqrt(std::abs(p[k]) * inv_far), p[k]);  // the warp's inverse
-    const float g = std::clamp((u + 1.0f) * 0.5f * last, 0.0f, last);
+    const float g = std::min(std::max((u + 1.0f) * 0.5f * last, 0.0f), last);
     i0[k] = std::min(static_cast<std::uint32_t>(g), size - 2);
     f[k] = g - static_cast<float>(i0[k]);
   }
@@ -201,15 +201,16 @@ struct Prepared {
   return std::min(std::max(0.0f, a * fade), 1.0f);
 }
 
-// ---- The radial-fit batch on AVX2: eight receivers per step -------------------------------------
-// The same steps as occlusion() with the same operations in the same order (no fused
-// multiply-adds), so that its results equal the scalar path's; chosen at run time when the CPU
-// has AVX2 (the gathers of the texels and the table are what makes it pay).
+// ---- The batch on AVX2: eight receivers per step ---------------------------------------------
+// The same steps as occlusion() with the same float operations in the same order (no fused
+// multiply-adds), so that its results equal the one-at-a-time path's bit for bit; chosen at run
+// time when the CPU has AVX2 (the gathers of texels, grid vertices and table values are what make
+// it pay).
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PENUMBRA_AO_FIELD_AVX2 1
-
 #define PENUMBRA_AVX2 [[gnu::target("avx2"), gnu::always_inline]] inline
+
 PENUMBRA_AVX2 __m256 S(float v) { return _mm256_set1_ps(v); }
 PENUMBRA_AVX2 __m256 mul(__m256 a, __m256 b) { return _mm256_mul_ps(a, b); }
 PENUMBRA_AVX2 __m256 add(__m256 a, __m256 b) { return _mm256_add_ps(a, b); }
@@ -217,26 +218,23 @@ PENUMBRA_AVX2 __m256 sub(__m256 a, __m256 b) { return _mm256_sub_ps(a, b); }
 PENUMBRA_AVX2 __m256 dot3(__m256 ax, __m256 ay, __m256 az, __m256 bx, __m256 by, __m256 bz) {
   return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ax, bx), _mm256_mul_ps(ay, by)), _mm256_mul_ps(az, bz));
 }
+// std::min(std::max(v, 0), hi) for non-NaN v.
+PENUMBRA_AVX2 __m256 clamp0(__m256 v, float hi) { return _mm256_min_ps(_mm256_max_ps(v, S(0.0f)), S(hi)); }
 
 // Row i of m times (a, b, c), in glm's order.
 PENUMBRA_AVX2 __m256 row(const glm::mat3& m, int i, __m256 a, __m256 b, __m256 c) {
   return add(add(mul(S(m[0][i]), a), mul(S(m[1][i]), b)), mul(S(m[2][i]), c));
 }
 
-// The bilinear interpolation of float k of the four texels at float offsets i00..i11.
-PENUMBRA_AVX2 __m256 bilinear(const float* texels, int k, __m256i i00, __m256i i01, __m256i i10, __m256i i11,
-                               __m256 w00, __m256 w01, __m256 w10, __m256 w11) {
-  const __m256i kk = _mm256_set1_epi32(k);
-  const __m256 g00 = _mm256_i32gather_ps(texels, _mm256_add_epi32(i00, kk), 4);
-  const __m256 g01 = _mm256_i32gather_ps(texels, _mm256_add_epi32(i01, kk), 4);
-  const __m256 g10 = _mm256_i32gather_ps(texels, _mm256_add_epi32(i10, kk), 4);
-  const __m256 g11 = _mm256_i32gather_ps(texels, _mm256_add_epi32(i11, kk), 4);
-  return add(add(add(mul(w00, g00), mul(w01, g01)), mul(w10, g10)), mul(w11, g11));
-}
+// Eight receivers after step 1: p = x - centre and the unit normal in the caster's frame, r, 1 / r,
+// and the lane masks. Lanes that are not live (beyond r_far, at the centre, not finite) carry
+// p = (1, 0, 0), a safe lookup whose result is replaced.
+struct Lanes {
+  __m256 px, py, pz, nx, ny, nz, r, inv_r, live, at_centre, normal_ok;
+};
 
-// Eight receivers: world points x[0..8), unit world normals n[0..8), open[0..8) *= 1 - A.
-[[gnu::target("avx2")]] void radial_batch8(const Prepared& pr, const glm::mat3& m, glm::vec3 offset,
-                                            const glm::vec3* x, const glm::vec3* n, float* open) {
+PENUMBRA_AVX2 Lanes load_lanes(const Prepared& pr, const glm::mat3& m, glm::vec3 offset, const glm::vec3* x,
+                               const glm::vec3* n) {
   const AOFieldData& f = pr.field;
   alignas(32) float buf[6][8];
   for (int i = 0; i < 8; ++i) {
@@ -245,55 +243,115 @@ PENUMBRA_AVX2 __m256 bilinear(const float* texels, int k, __m256i i00, __m256i i
   }
   const __m256 X = _mm256_load_ps(buf[0]), Y = _mm256_load_ps(buf[1]), Z = _mm256_load_ps(buf[2]);
   const __m256 NX = _mm256_load_ps(buf[3]), NY = _mm256_load_ps(buf[4]), NZ = _mm256_load_ps(buf[5]);
-  // The world-to-local transform (mat3 x vec3 + offset, as glm orders it) and the normal.
+  Lanes l;
+  // The world-to-local transform (mat3 x vec3 + offset) and the renormalised normal.
   const __m256 lx = add(row(m, 0, X, Y, Z), S(offset.x)), ly = add(row(m, 1, X, Y, Z), S(offset.y)),
                lz = add(row(m, 2, X, Y, Z), S(offset.z));
-  __m256 nx = row(m, 0, NX, NY, NZ), ny = row(m, 1, NX, NY, NZ), nz = row(m, 2, NX, NY, NZ);
-  const __m256 nlen2 = dot3(nx, ny, nz, nx, ny, nz);
+  l.nx = row(m, 0, NX, NY, NZ);
+  l.ny = row(m, 1, NX, NY, NZ);
+  l.nz = row(m, 2, NX, NY, NZ);
+  const __m256 nlen2 = dot3(l.nx, l.ny, l.nz, l.nx, l.ny, l.nz);
   const __m256 ninv = _mm256_div_ps(S(1.0f), _mm256_sqrt_ps(nlen2));
-  nx = mul(nx, ninv); ny = mul(ny, ninv); nz = mul(nz, ninv);
-  const __m256 normal_ok = _mm256_and_ps(_mm256_cmp_ps(nlen2, S(0.0f), _CMP_GT_OQ),
-                                         _mm256_cmp_ps(nlen2, S(std::numeric_limits<float>::infinity()), _CMP_LT_OQ));
+  l.nx = mul(l.nx, ninv);
+  l.ny = mul(l.ny, ninv);
+  l.nz = mul(l.nz, ninv);
+  l.normal_ok = _mm256_and_ps(_mm256_cmp_ps(nlen2, S(0.0f), _CMP_GT_OQ),
+                              _mm256_cmp_ps(nlen2, S(std::numeric_limits<float>::infinity()), _CMP_LT_OQ));
   // Step 1.
-  __m256 px = sub(lx, S(f.centre.x)), py = sub(ly, S(f.centre.y)), pz = sub(lz, S(f.centre.z));
+  const __m256 px = sub(lx, S(f.centre.x)), py = sub(ly, S(f.centre.y)), pz = sub(lz, S(f.centre.z));
   const __m256 r2 = dot3(px, py, pz, px, py, pz);
-  const __m256 in_reach = _mm256_cmp_ps(r2, S(pr.r_far2), _CMP_LT_OQ);
-  const __m256 at_centre = _mm256_cmp_ps(r2, S(0.0f), _CMP_EQ_OQ);
-  const __m256 live = _mm256_andnot_ps(at_centre, in_reach);
-  // Lanes that are not live look up along +X (any safe direction); their result is replaced.
-  px = _mm256_blendv_ps(S(1.0f), px, live);
-  py = _mm256_and_ps(py, live);
-  pz = _mm256_and_ps(pz, live);
-  const __m256 rr2 = _mm256_blendv_ps(S(1.0f), r2, live);
-  const __m256 r = _mm256_sqrt_ps(rr2), inv_r = _mm256_div_ps(S(1.0f), r);
-  // Step 2: the face and (s, t).
+  l.at_centre = _mm256_cmp_ps(r2, S(0.0f), _CMP_EQ_OQ);
+  l.live = _mm256_andnot_ps(l.at_centre, _mm256_cmp_ps(r2, S(pr.r_far2), _CMP_LT_OQ));
+  l.px = _mm256_blendv_ps(S(1.0f), px, l.live);
+  l.py = _mm256_and_ps(py, l.live);
+  l.pz = _mm256_and_ps(pz, l.live);
+  l.r = _mm256_sqrt_ps(_mm256_blendv_ps(S(1.0f), r2, l.live));
+  l.inv_r = _mm256_div_ps(S(1.0f), l.r);
+  return l;
+}
+
+// cos(beta) = n . axis / |axis|, or -n . p / r when the axis is zero.
+PENUMBRA_AVX2 __m256 cos_beta8(const Lanes& l, __m256 ax, __m256 ay, __m256 az) {
+  const __m256 len2 = dot3(ax, ay, az, ax, ay, az);
+  const __m256 along = _mm256_div_ps(dot3(l.nx, l.ny, l.nz, ax, ay, az), _mm256_sqrt_ps(len2));
+  const __m256 radial = mul(sub(S(0.0f), dot3(l.nx, l.ny, l.nz, l.px, l.py, l.pz)), l.inv_r);
+  return _mm256_blendv_ps(radial, along, _mm256_cmp_ps(len2, S(0.0f), _CMP_GT_OQ));
+}
+
+// Step 3: cap_lookup on eight lanes.
+PENUMBRA_AVX2 __m256 cap8(const float* table, __m256 omega, __m256 cos_beta) {
+  constexpr int kN = CapTable::kSize;
+  const float nf = static_cast<float>(kN);
+  const __m256 u = clamp0(mul(omega, S(nf / (4.0f * std::numbers::pi_v<float>))), nf);
+  const __m256 v = clamp0(mul(add(cos_beta, S(1.0f)), S(0.5f * nf)), nf);
+  const __m256i i = _mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(kN - 1));
+  const __m256i j = _mm256_min_epi32(_mm256_cvttps_epi32(v), _mm256_set1_epi32(kN - 1));
+  const __m256 fu = sub(u, _mm256_cvtepi32_ps(i)), fv = sub(v, _mm256_cvtepi32_ps(j));
+  const __m256i q0 = _mm256_add_epi32(_mm256_mullo_epi32(i, _mm256_set1_epi32(kN + 1)), j);
+  const __m256i q1 = _mm256_add_epi32(q0, _mm256_set1_epi32(kN + 1));
+  const __m256i one = _mm256_set1_epi32(1);
+  const __m256 v00 = _mm256_i32gather_ps(table, q0, 4), v01 = _mm256_i32gather_ps(table, _mm256_add_epi32(q0, one), 4);
+  const __m256 v10 = _mm256_i32gather_ps(table, q1, 4), v11 = _mm256_i32gather_ps(table, _mm256_add_epi32(q1, one), 4);
+  const __m256 a0 = add(v00, mul(sub(v01, v00), fv)), a1 = add(v10, mul(sub(v11, v10), fv));
+  return add(a0, mul(sub(a1, a0), fu));
+}
+
+// Step 5 and the product: open *= 1 - A for the lanes with a usable normal.
+PENUMBRA_AVX2 void store_open(const Prepared& pr, const Lanes& l, __m256 a, float* open) {
+  const AOFieldData& f = pr.field;
+  const __m256 one = S(1.0f);
+  const __m256 fade = _mm256_min_ps(mul(sub(S(f.r_far), l.r), S(pr.fade_scale)), one);
+  __m256 result = _mm256_min_ps(_mm256_max_ps(mul(a, fade), S(0.0f)), one);
+  result = _mm256_blendv_ps(_mm256_and_ps(S(f.inside_occlusion), l.at_centre), result, l.live);
+  const __m256 factor = _mm256_blendv_ps(one, sub(one, result), l.normal_ok);
+  _mm256_storeu_ps(open, mul(_mm256_loadu_ps(open), factor));
+}
+
+// The bilinear interpolation of float k of the four texels at float offsets i00..i11.
+PENUMBRA_AVX2 __m256 bilinear(const float* texels, int k, __m256i i00, __m256i i01, __m256i i10, __m256i i11,
+                              __m256 w00, __m256 w01, __m256 w10, __m256 w11) {
+  const __m256i kk = _mm256_set1_epi32(k);
+  const __m256 g00 = _mm256_i32gather_ps(texels, _mm256_add_epi32(i00, kk), 4);
+  const __m256 g01 = _mm256_i32gather_ps(texels, _mm256_add_epi32(i01, kk), 4);
+  const __m256 g10 = _mm256_i32gather_ps(texels, _mm256_add_epi32(i10, kk), 4);
+  const __m256 g11 = _mm256_i32gather_ps(texels, _mm256_add_epi32(i11, kk), 4);
+  return add(add(add(mul(w00, g00), mul(w01, g01)), mul(w10, g10)), mul(w11, g11));
+}
+
+// Steps 2-5 of a RadialFit field (inside_exponent 2) for eight receivers.
+[[gnu::target("avx2")]] void radial_batch8(const Prepared& pr, const glm::mat3& m, glm::vec3 offset,
+                                           const glm::vec3* x, const glm::vec3* n, float* open) {
+  const AOFieldData& f = pr.field;
+  const Lanes l = load_lanes(pr, m, offset, x, n);
+  // Step 2: the face and (s, t), then the texels.
   const __m256 sign = S(-0.0f);
-  const __m256 ax = _mm256_andnot_ps(sign, px), ay = _mm256_andnot_ps(sign, py), az = _mm256_andnot_ps(sign, pz);
+  const __m256 ax = _mm256_andnot_ps(sign, l.px), ay = _mm256_andnot_ps(sign, l.py), az = _mm256_andnot_ps(sign, l.pz);
   const __m256 mx = _mm256_and_ps(_mm256_cmp_ps(ax, ay, _CMP_GE_OQ), _mm256_cmp_ps(ax, az, _CMP_GE_OQ));
   const __m256 my = _mm256_andnot_ps(mx, _mm256_cmp_ps(ay, az, _CMP_GE_OQ));
-  const __m256 major = _mm256_blendv_ps(_mm256_blendv_ps(pz, py, my), px, mx);
+  const __m256 major = _mm256_blendv_ps(_mm256_blendv_ps(l.pz, l.py, my), l.px, mx);
   const __m256 inv = _mm256_div_ps(S(1.0f), _mm256_andnot_ps(sign, major));
-  const __m256 s = mul(_mm256_blendv_ps(_mm256_blendv_ps(px, pz, my), py, mx), inv);
-  const __m256 t = mul(_mm256_blendv_ps(_mm256_blendv_ps(py, px, my), pz, mx), inv);
+  const __m256 s = mul(_mm256_blendv_ps(_mm256_blendv_ps(l.px, l.pz, my), l.py, mx), inv);
+  const __m256 t = mul(_mm256_blendv_ps(_mm256_blendv_ps(l.py, l.px, my), l.pz, mx), inv);
   const __m256i face = _mm256_add_epi32(
       _mm256_blendv_epi8(_mm256_blendv_epi8(_mm256_set1_epi32(4), _mm256_set1_epi32(2), _mm256_castps_si256(my)),
                          _mm256_set1_epi32(0), _mm256_castps_si256(mx)),
       _mm256_srli_epi32(_mm256_castps_si256(major), 31));
   const int res = static_cast<int>(f.resolution);
   const float resf = static_cast<float>(res), last = static_cast<float>(res - 1);
-  const __m256 u = _mm256_min_ps(_mm256_max_ps(sub(mul(mul(S(0.5f), add(s, S(1.0f))), S(resf)), S(0.5f)), S(0.0f)), S(last));
-  const __m256 v = _mm256_min_ps(_mm256_max_ps(sub(mul(mul(S(0.5f), add(t, S(1.0f))), S(resf)), S(0.5f)), S(0.0f)), S(last));
+  const __m256 u = clamp0(sub(mul(mul(S(0.5f), add(s, S(1.0f))), S(resf)), S(0.5f)), last);
+  const __m256 v = clamp0(sub(mul(mul(S(0.5f), add(t, S(1.0f))), S(resf)), S(0.5f)), last);
   const __m256i u0 = _mm256_cvttps_epi32(u), v0 = _mm256_cvttps_epi32(v);
   const __m256i u1 = _mm256_min_epi32(_mm256_add_epi32(u0, _mm256_set1_epi32(1)), _mm256_set1_epi32(res - 1));
   const __m256i v1 = _mm256_min_epi32(_mm256_add_epi32(v0, _mm256_set1_epi32(1)), _mm256_set1_epi32(res - 1));
   const __m256 fu = sub(u, _mm256_cvtepi32_ps(u0)), fv = sub(v, _mm256_cvtepi32_ps(v0));
   const __m256i base = _mm256_mullo_epi32(face, _mm256_set1_epi32(res * res));
-  const __m256i vres0 = _mm256_mullo_epi32(v0, _mm256_set1_epi32(res)), vres1 = _mm256_mullo_epi32(v1, _mm256_set1_epi32(res));
+  const __m256i row0 = _mm256_add_epi32(base, _mm256_mullo_epi32(v0, _mm256_set1_epi32(res)));
+  const __m256i row1 = _mm256_add_epi32(base, _mm256_mullo_epi32(v1, _mm256_set1_epi32(res)));
   const __m256i seven = _mm256_set1_epi32(7);
-  const __m256i i00 = _mm256_mullo_epi32(_mm256_add_epi32(_mm256_add_epi32(base, vres0), u0), seven);
-  const __m256i i01 = _mm256_mullo_epi32(_mm256_add_epi32(_mm256_add_epi32(base, vres0), u1), seven);
-  const __m256i i10 = _mm256_mullo_epi32(_mm256_add_epi32(_mm256_add_epi32(base, vres1), u0), seven);
-  const __m256i i11 = _mm256_mullo_epi32(_mm256_add_epi32(_mm256_add_epi32(base, vres1), u1), seven);
+  const __m256i i00 = _mm256_mullo_epi32(_mm256_add_epi32(row0, u0), seven);
+  const __m256i i01 = _mm256_mullo_epi32(_mm256_add_epi32(row0, u1), seven);
+  const __m256i i10 = _mm256_mullo_epi32(_mm256_add_epi32(row1, u0), seven);
+  const __m256i i11 = _mm256_mullo_epi32(_mm256_add_epi32(row1, u1), seven);
   const __m256 one = S(1.0f);
   const __m256 w00 = mul(sub(one, fu), sub(one, fv)), w01 = mul(fu, sub(one, fv)), w10 = mul(sub(one, fu), fv),
                w11 = mul(fu, fv);
@@ -301,50 +359,66 @@ PENUMBRA_AVX2 __m256 bilinear(const float* texels, int k, __m256i i00, __m256i i
   const float* texels = &f.texels[0].a;
   __m256 g[7];
   for (int k = 0; k < 7; ++k) g[k] = bilinear(texels, k, i00, i01, i10, i11, w00, w01, w10, w11);
-  const __m256 ta = g[0], tb = g[1], tc = g[2], tr0 = g[3], cx = g[4], cy = g[5], cz = g[6];
-  const __m256 rc = _mm256_max_ps(tr0, r);  // std::max(r, r0): r0 when r < r0, else r
+  const __m256 ta = g[0], tb = g[1], tc = g[2], tr0 = g[3];
+  const __m256 rc = _mm256_max_ps(tr0, l.r);  // std::max(r, r0)
   const __m256 denom = add(mul(add(mul(ta, rc), tb), rc), tc);
   const __m256 capped = _mm256_min_ps(_mm256_div_ps(one, denom), S(4.0f * std::numbers::pi_v<float>));
   const __m256 omega = _mm256_and_ps(capped, _mm256_cmp_ps(denom, S(0.0f), _CMP_GT_OQ));
-  const __m256 k = mul(rc, inv_r);
-  const __m256 axx = sub(cx, mul(k, px)), axy = sub(cy, mul(k, py)), axz = sub(cz, mul(k, pz));
-  const __m256 len2 = dot3(axx, axy, axz, axx, axy, axz);
-  const __m256 cb_axis = _mm256_div_ps(dot3(nx, ny, nz, axx, axy, axz), _mm256_sqrt_ps(len2));
-  const __m256 cb_radial = mul(sub(S(0.0f), dot3(nx, ny, nz, px, py, pz)), inv_r);
-  const __m256 cos_beta = _mm256_blendv_ps(cb_radial, cb_axis, _mm256_cmp_ps(len2, S(0.0f), _CMP_GT_OQ));
-  // Step 3: the table.
-  constexpr int kN = CapTable::kSize;
-  const __m256 nf = S(static_cast<float>(kN));
-  const __m256 tu = _mm256_min_ps(_mm256_max_ps(mul(omega, S(static_cast<float>(kN) / (4.0f * std::numbers::pi_v<float>))), S(0.0f)), nf);
-  const __m256 tv = _mm256_min_ps(_mm256_max_ps(mul(add(cos_beta, one), S(0.5f * static_cast<float>(kN))), S(0.0f)), nf);
-  const __m256i ti = _mm256_min_epi32(_mm256_cvttps_epi32(tu), _mm256_set1_epi32(kN - 1));
-  const __m256i tj = _mm256_min_epi32(_mm256_cvttps_epi32(tv), _mm256_set1_epi32(kN - 1));
-  const __m256 tfu = sub(tu, _mm256_cvtepi32_ps(ti)), tfv = sub(tv, _mm256_cvtepi32_ps(tj));
-  const __m256i t0 = _mm256_add_epi32(_mm256_mullo_epi32(ti, _mm256_set1_epi32(kN + 1)), tj);
-  const __m256i t1 = _mm256_add_epi32(t0, _mm256_set1_epi32(kN + 1));
-  const __m256i step = _mm256_set1_epi32(1);
-  const __m256 q00 = _mm256_i32gather_ps(pr.table, t0, 4), q01 = _mm256_i32gather_ps(pr.table, _mm256_add_epi32(t0, step), 4);
-  const __m256 q10 = _mm256_i32gather_ps(pr.table, t1, 4), q11 = _mm256_i32gather_ps(pr.table, _mm256_add_epi32(t1, step), 4);
-  const __m256 a0 = add(q00, mul(sub(q01, q00), tfv)), a1 = add(q10, mul(sub(q11, q10), tfv));
-  __m256 a = add(a0, mul(sub(a1, a0), tfu));
+  const __m256 k = mul(rc, l.inv_r);
+  const __m256 cos_beta = cos_beta8(l, sub(g[4], mul(k, l.px)), sub(g[5], mul(k, l.py)), sub(g[6], mul(k, l.pz)));
+  __m256 a = cap8(pr.table, omega, cos_beta);
   // Step 4 (inside_exponent 2; the caller takes the scalar path otherwise).
   const __m256 A0 = S(f.inside_occlusion);
-  const __m256 q = _mm256_div_ps(r, tr0);
-  const __m256 blended = add(A0, mul(sub(a, A0), mul(q, q)));
-  a = _mm256_blendv_ps(a, blended, _mm256_cmp_ps(r, tr0, _CMP_LT_OQ));
-  // Step 5.
-  const __m256 fade = _mm256_min_ps(mul(sub(S(f.r_far), r), S(pr.fade_scale)), one);
-  __m256 result = _mm256_min_ps(_mm256_max_ps(mul(a, fade), S(0.0f)), one);
-  result = _mm256_blendv_ps(_mm256_and_ps(A0, at_centre), result, live);
-  // open *= 1 - A for the lanes with a usable normal.
-  const __m256 factor = _mm256_blendv_ps(one, sub(one, result), normal_ok);
-  _mm256_storeu_ps(open, mul(_mm256_loadu_ps(open), factor));
+  const __m256 q = _mm256_div_ps(l.r, tr0);
+  a = _mm256_blendv_ps(a, add(A0, mul(sub(a, A0), mul(q, q))), _mm256_cmp_ps(l.r, tr0, _CMP_LT_OQ));
+  store_open(pr, l, a, open);
+}
+
+// Steps 2-5 of a Grid field for eight receivers.
+[[gnu::target("avx2")]] void grid_batch8(const Prepared& pr, const glm::mat3& m, glm::vec3 offset,
+                                         const glm::vec3* x, const glm::vec3* n, float* open) {
+  const AOFieldData& f = pr.field;
+  const Lanes l = load_lanes(pr, m, offset, x, n);
+  const int size = static_cast<int>(f.grid_size);
+  const float last = static_cast<float>(size - 1);
+  const __m256 sign = S(-0.0f);
+  __m256i i0[3];
+  __m256 fr[3];
+  const __m256 p[3] = {l.px, l.py, l.pz};
+  for (int k = 0; k < 3; ++k) {
+    // The warp's inverse: u = sign(p) sqrt(|p| / r_far).
+    const __m256 mag = _mm256_sqrt_ps(mul(_mm256_andnot_ps(sign, p[k]), S(pr.inv_far)));
+    const __m256 u = _mm256_or_ps(mag, _mm256_and_ps(sign, p[k]));
+    const __m256 gk = clamp0(mul(mul(add(u, S(1.0f)), S(0.5f)), S(last)), last);
+    i0[k] = _mm256_min_epi32(_mm256_cvttps_epi32(gk), _mm256_set1_epi32(size - 2));
+    fr[k] = sub(gk, _mm256_cvtepi32_ps(i0[k]));
+  }
+  const __m256i base = _mm256_add_epi32(
+      _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(i0[2], _mm256_set1_epi32(size)), i0[1]),
+                         _mm256_set1_epi32(size)),
+      i0[0]);
+  const __m256i four = _mm256_set1_epi32(4);
+  static_assert(sizeof(AOFieldGridNode) == 4 * sizeof(float));
+  const float* nodes = &f.nodes[0].omega;
+  const __m256 one = S(1.0f);
+  __m256 omega = S(0.0f), dx = S(0.0f), dy = S(0.0f), dz = S(0.0f);
+  for (int corner = 0; corner < 8; ++corner) {
+    const int cx = corner & 1, cy = (corner >> 1) & 1, cz = corner >> 2;
+    const __m256 w = mul(mul(cx ? fr[0] : sub(one, fr[0]), cy ? fr[1] : sub(one, fr[1])), cz ? fr[2] : sub(one, fr[2]));
+    const __m256i at = _mm256_mullo_epi32(_mm256_add_epi32(base, _mm256_set1_epi32(cx + cy * size + cz * size * size)), four);
+    omega = add(omega, mul(w, _mm256_i32gather_ps(nodes, at, 4)));
+    dx = add(dx, mul(w, _mm256_i32gather_ps(nodes + 1, at, 4)));
+    dy = add(dy, mul(w, _mm256_i32gather_ps(nodes + 2, at, 4)));
+    dz = add(dz, mul(w, _mm256_i32gather_ps(nodes + 3, at, 4)));
+  }
+  store_open(pr, l, cap8(pr.table, omega, cos_beta8(l, dx, dy, dz)), open);
 }
 
 bool has_avx2() {
   static const bool yes = __builtin_cpu_supports("avx2");
   return yes;
 }
+
 #undef PENUMBRA_AVX2
 #endif
 
@@ -458,8 +532,10 @@ void accumulate_open(const AOFieldData& field, const glm::mat4& world_to_local, 
   const Prepared pr(field);
   std::size_t i = 0;
 #ifdef PENUMBRA_AO_FIELD_AVX2
-  if (!pr.grid && field.inside_exponent == 2.0f && has_avx2())
-    for (; i + 8 <= count; i += 8) radial_batch8(pr, linear, offset, &x[i], &n[i], &open[i]);
+  if (has_avx2() && (pr.grid || field.inside_exponent == 2.0f)) {
+    const auto batch = pr.grid ? grid_batch8 : radial_batch8;
+    for (; i + 8 <= count; i += 8) batch(pr, linear, offset, &x[i], &n[i], &open[i]);
+  }
 #endif
   for (; i < count; ++i) {
     const glm::vec3 nl = linear * n[i];

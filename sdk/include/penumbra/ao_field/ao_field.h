@@ -199,10 +199,10 @@ float evaluate_local(const AOFieldData& field, glm::vec3 x, glm::vec3 n);
 // normal n[i]), open[i] *= 1 - A_i, with A_i the caster's occlusion there (evaluate_local after
 // world_to_local, the inverse of the caster's world matrix; the normal is renormalised; a zero or
 // non-finite normal leaves open[i] alone). Processes min of the three lengths. On CPUs with AVX2,
-// RadialFit fields with inside_exponent 2 go eight receivers at a time through the same steps in
-// the same float operations (bit-identical to the one-at-a-time path; ao_field_test checks it).
-// Cost (one core, the ao-field bench): ~15 ns per receiver for a RadialFit field with AVX2,
-// ~40-55 ns one at a time (Grid fields, no AVX2). Thread-safe for distinct `open`.
+// Grid fields and RadialFit fields with inside_exponent 2 go eight receivers at a time through the
+// same steps in the same float operations (bit-identical to one at a time; ao_field_grid_test
+// checks it). Cost (one core, the ao-field bench's eval_ns): ~15-30 ns per receiver with AVX2,
+// ~40-90 ns one at a time. Thread-safe for distinct `open`.
 void accumulate_open(const AOFieldData& field, const glm::mat4& world_to_local, std::span<const glm::vec3> x,
                      std::span<const glm::vec3> n, std::span<float> open);
 
