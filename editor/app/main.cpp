@@ -1,7 +1,7 @@
 // penumbra-editor: the interactive editor, and its scripted mode for tests and demos.
 //
 //   penumbra-editor [SCENE] [--script FILE] [--validation] [--size WxH] [--present fifo|mailbox|immediate]
-//                   [--shadow-map SIZE]
+//                   [--shadow-map SIZE] [--render-scale S]
 //
 // The loop: poll events, collect finished bakes, step the script, update the World, draw the
 // panels, render the viewport and the UI, present. At exit it prints the frame times (median and
@@ -35,12 +35,13 @@ struct Options {
   int width = 1280, height = 720;
   VkPresentModeKHR present = VK_PRESENT_MODE_FIFO_KHR;
   std::uint32_t shadow_map_size = 512;  // 0: no shadows (the View panel changes it too)
+  float render_scale = 1.0f;            // of the 3D view (the View panel changes it too)
 };
 
 int usage(const char* message) {
   std::fprintf(stderr,
                "penumbra-editor: %s\nusage: penumbra-editor [SCENE] [--script FILE] [--validation] [--size WxH] "
-               "[--present fifo|mailbox|immediate] [--shadow-map SIZE]\n",
+               "[--present fifo|mailbox|immediate] [--shadow-map SIZE] [--render-scale S]\n",
                message);
   return 2;
 }
@@ -122,6 +123,8 @@ int run(const Options& options) {
       std::fprintf(stderr, "penumbra-editor: %s\n", viewport.error().message.c_str());
       exit_code = 1;
     } else {
+      (*viewport)->set_render_scale(options.render_scale);
+      ui.render_scale = options.render_scale;
       EditorModel model;
       if (!runner) {
         if (Status s = model.open(options.scene); !s) {
@@ -172,6 +175,7 @@ int run(const Options& options) {
         const CameraView camera = ui.camera.view(size.x / std::max(size.y, 1.0f));
         if (ui.show_ui) draw_probe_overlay(doc.world(), camera, size, ui.overlay, ImGui::GetBackgroundDrawList());
         ImGui::Render();
+        (*viewport)->set_render_scale(ui.render_scale);
 
         Image shot;
         const bool capture = !pending_screenshot.empty();
@@ -199,9 +203,9 @@ int run(const Options& options) {
       model.bakes().wait();
       const FrameSummary idle = summarise(ui.frames.idle_ms), bake = summarise(ui.frames.baking_ms);
       const VkExtent2D extent = (*viewport)->extent();
-      std::printf("frame ms at %ux%u on %s: idle median %.1f p95 %.1f max %.1f (%zu frames); during bakes median "
+      std::printf("frame ms at %ux%u (3D view x%.2f) on %s: idle median %.1f p95 %.1f max %.1f (%zu frames); during bakes median "
                   "%.1f p95 %.1f max %.1f (%zu frames)\n",
-                  extent.width, extent.height, (*viewport)->device().name().c_str(), idle.median, idle.p95, idle.max,
+                  extent.width, extent.height, static_cast<double>(ui.render_scale), (*viewport)->device().name().c_str(), idle.median, idle.p95, idle.max,
                   idle.frames, bake.median, bake.p95, bake.max, bake.frames);
       const FrameSummary wait = summarise(ui.frames.wait_ms), record = summarise(ui.frames.record_ms),
                          present = summarise(ui.frames.present_ms);
@@ -242,6 +246,11 @@ int main(int argc, char** argv) {
       if (std::sscanf(argv[++i], "%dx%d", &options.width, &options.height) != 2 || options.width < 64 ||
           options.height < 64 || options.width > 16384 || options.height > 16384)
         return penumbra::editor::usage("--size takes WxH, e.g. 1280x720");
+    } else if (a == "--render-scale" && has_value) {
+      char* end = nullptr;
+      options.render_scale = std::strtof(argv[++i], &end);
+      if (*end != '\0' || !(options.render_scale >= 0.25f && options.render_scale <= 1.0f))
+        return penumbra::editor::usage("--render-scale takes a number from 0.25 to 1");
     } else if (a == "--shadow-map" && has_value) {
       char* end = nullptr;
       const unsigned long n = std::strtoul(argv[++i], &end, 10);

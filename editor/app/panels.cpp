@@ -326,6 +326,7 @@ void view_panel(UiState& ui) {
   if (ImGui::Combo("debug view", &view, "lit\0direct\0indirect\0ao\0albedo\0validity\0position\0normal\0irradiance\0"))
     ui.render.view = static_cast<DebugView>(view);
   ImGui::DragFloat("exposure", &ui.render.exposure, 0.01f, 0.01f, 100.0f);
+  ImGui::SliderFloat("3D resolution", &ui.render_scale, 0.25f, 1.0f, "x%.2f");
   ImGui::Checkbox("shadows", &ui.render.shadows);
   ImGui::SameLine();
   int shadow = static_cast<int>(ui.render.shadow_map_size);

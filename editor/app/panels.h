@@ -44,6 +44,7 @@ struct UiState {
   RenderSettings render;
   ProbeOverlay overlay;
   bool show_ui = true;
+  float render_scale = 1.0f;  // of the 3D view (Viewport::set_render_scale)
   FrameTimes frames;
   FrameStats renderer_stats;
   std::string message;  // the last error or notice, shown in the status bar

@@ -1,6 +1,7 @@
 // Window output: renderer + ImGui render pass + swapchain + read-back (viewport.h).
 #include "viewport.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <unordered_map>
@@ -46,6 +47,12 @@ struct Viewport::Impl {
   std::unordered_map<VkImageView, VkFramebuffer> framebuffers;
   VkExtent2D framebuffer_extent{0, 0};
   bool imgui_ready = false;
+  // The scaled 3D view: its own colour image, blitted up to the swapchain image.
+  float render_scale = 1.0f;
+  VkImage scaled = VK_NULL_HANDLE;
+  VkDeviceMemory scaled_memory = VK_NULL_HANDLE;
+  VkImageView scaled_view = VK_NULL_HANDLE;
+  VkExtent2D scaled_extent{0, 0};
   // Read-back buffer (host visible), grown on demand.
   VkBuffer readback = VK_NULL_HANDLE;
   VkDeviceMemory readback_memory = VK_NULL_HANDLE;
@@ -55,6 +62,7 @@ struct Viewport::Impl {
     if (vk) vkDeviceWaitIdle(vk);
     if (imgui_ready) ImGui_ImplVulkan_Shutdown();
     destroy_framebuffers();
+    destroy_scaled();
     if (readback) vkDestroyBuffer(vk, readback, nullptr);
     if (readback_memory) vkFreeMemory(vk, readback_memory, nullptr);
     if (ui_pass) vkDestroyRenderPass(vk, ui_pass, nullptr);
@@ -64,6 +72,60 @@ struct Viewport::Impl {
     renderer.reset();
     swapchain.reset();
     device.reset();
+  }
+
+  void destroy_scaled() {
+    if (scaled_view) vkDestroyImageView(vk, scaled_view, nullptr);
+    if (scaled) vkDestroyImage(vk, scaled, nullptr);
+    if (scaled_memory) vkFreeMemory(vk, scaled_memory, nullptr);
+    scaled_view = VK_NULL_HANDLE;
+    scaled = VK_NULL_HANDLE;
+    scaled_memory = VK_NULL_HANDLE;
+    scaled_extent = {0, 0};
+  }
+
+  Result<std::uint32_t> memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags want) {
+    VkPhysicalDeviceMemoryProperties props;
+    vkGetPhysicalDeviceMemoryProperties(device->physical_device(), &props);
+    for (std::uint32_t i = 0; i < props.memoryTypeCount; ++i)
+      if ((type_bits & (1u << i)) && (props.memoryTypes[i].propertyFlags & want) == want) return i;
+    return make_error(ErrorCode::Unsupported, "viewport: the device has no memory type for the view's images");
+  }
+
+  Status ensure_scaled(std::uint32_t width, std::uint32_t height) {
+    if (scaled && scaled_extent.width == width && scaled_extent.height == height) return {};
+    vkDeviceWaitIdle(vk);
+    destroy_scaled();
+    auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = swapchain->format();
+    info.extent = {width, height, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = 1;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    info.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    if (VkResult r = vkCreateImage(vk, &info, nullptr, &scaled); r != VK_SUCCESS) return vk_error("vkCreateImage", r);
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(vk, scaled, &req);
+    auto type = memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (!type) return type.error();
+    auto alloc = vk_struct<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex = *type;
+    if (VkResult r = vkAllocateMemory(vk, &alloc, nullptr, &scaled_memory); r != VK_SUCCESS)
+      return vk_error("vkAllocateMemory", r);
+    vkBindImageMemory(vk, scaled, scaled_memory, 0);
+    auto view = vk_struct<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
+    view.image = scaled;
+    view.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    view.format = info.format;
+    view.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    if (VkResult r = vkCreateImageView(vk, &view, nullptr, &scaled_view); r != VK_SUCCESS)
+      return vk_error("vkCreateImageView", r);
+    scaled_extent = {width, height};
+    return {};
   }
 
   void destroy_framebuffers() {
@@ -147,17 +209,11 @@ struct Viewport::Impl {
     if (VkResult r = vkCreateBuffer(vk, &info, nullptr, &readback); r != VK_SUCCESS) return vk_error("vkCreateBuffer", r);
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(vk, readback, &req);
-    VkPhysicalDeviceMemoryProperties props;
-    vkGetPhysicalDeviceMemoryProperties(device->physical_device(), &props);
-    const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-    std::uint32_t type = UINT32_MAX;
-    for (std::uint32_t i = 0; i < props.memoryTypeCount && type == UINT32_MAX; ++i)
-      if ((req.memoryTypeBits & (1u << i)) && (props.memoryTypes[i].propertyFlags & want) == want) type = i;
-    if (type == UINT32_MAX)
-      return make_error(ErrorCode::Unsupported, "viewport: the device has no host-visible memory for a screenshot");
+    auto type = memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    if (!type) return type.error();
     auto alloc = vk_struct<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
     alloc.allocationSize = req.size;
-    alloc.memoryTypeIndex = type;
+    alloc.memoryTypeIndex = *type;
     if (VkResult r = vkAllocateMemory(vk, &alloc, nullptr, &readback_memory); r != VK_SUCCESS)
       return vk_error("vkAllocateMemory", r);
     vkBindBufferMemory(vk, readback, readback_memory, 0);
@@ -181,6 +237,8 @@ Viewport::Viewport(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {
 Viewport::~Viewport() = default;
 
 VkExtent2D Viewport::extent() const { return impl_->swapchain->extent(); }
+void Viewport::set_render_scale(float scale) { impl_->render_scale = std::clamp(scale, 0.25f, 1.0f); }
+float Viewport::render_scale() const { return impl_->render_scale; }
 
 Result<std::unique_ptr<Viewport>> Viewport::create(GLFWwindow* window, const ViewportOptions& options) {
   auto impl = std::make_unique<Impl>();
@@ -285,11 +343,58 @@ Status Viewport::draw(World& world, const CameraView& camera, const RenderSettin
   auto begin = vk_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   vkBeginCommandBuffer(m.cmd, &begin);
-  // The scene: the renderer leaves the image ready for the UI pass to load.
-  target.final_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  if (Status s = m.renderer->record(m.cmd, target, camera, settings); !s) {
-    vkEndCommandBuffer(m.cmd);
-    return s;
+  if (m.render_scale >= 1.0f) {
+    // The scene straight into the swapchain image, left ready for the UI pass to load.
+    target.final_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    if (Status s = m.renderer->record(m.cmd, target, camera, settings); !s) {
+      vkEndCommandBuffer(m.cmd);
+      return s;
+    }
+  } else {
+    // The scene at the reduced size, then a linear blit up to the swapchain image.
+    const auto w = std::max(1u, static_cast<std::uint32_t>(static_cast<float>(target.width) * m.render_scale));
+    const auto h = std::max(1u, static_cast<std::uint32_t>(static_cast<float>(target.height) * m.render_scale));
+    if (Status s = m.ensure_scaled(w, h); !s) {
+      vkEndCommandBuffer(m.cmd);
+      return s;
+    }
+    RenderTarget small;
+    small.image = m.scaled;
+    small.view = m.scaled_view;
+    small.format = target.format;
+    small.width = w;
+    small.height = h;
+    small.layout = VK_IMAGE_LAYOUT_UNDEFINED;
+    small.final_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    if (Status s = m.renderer->record(m.cmd, small, camera, settings); !s) {
+      vkEndCommandBuffer(m.cmd);
+      return s;
+    }
+    auto to_dst = vk_struct<VkImageMemoryBarrier>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER);
+    to_dst.srcAccessMask = 0;
+    to_dst.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    to_dst.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    to_dst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    to_dst.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    to_dst.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    to_dst.image = target.image;
+    to_dst.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdPipelineBarrier(m.cmd, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                         nullptr, 0, nullptr, 1, &to_dst);
+    VkImageBlit blit{};
+    blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    blit.srcOffsets[1] = {static_cast<std::int32_t>(w), static_cast<std::int32_t>(h), 1};
+    blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    blit.dstOffsets[1] = {static_cast<std::int32_t>(target.width), static_cast<std::int32_t>(target.height), 1};
+    vkCmdBlitImage(m.cmd, m.scaled, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, target.image,
+                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
+    auto to_color = to_dst;
+    to_color.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    to_color.dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    to_color.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    to_color.newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    vkCmdPipelineBarrier(m.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, 0, 0,
+                         nullptr, 0, nullptr, 1, &to_color);
   }
   // The UI on top, in its own render pass.
   auto fb = m.framebuffer(target);

@@ -47,6 +47,12 @@ class Viewport {
   Status draw(World& world, const CameraView& camera, const RenderSettings& settings, ImDrawData* ui,
               Image* capture = nullptr);
 
+  // The 3D view is rendered at `scale` x the window size (0.25 to 1) into an image of its own and
+  // scaled up to the window with a linear blit; the UI stays at full resolution. On a CPU device
+  // the per-pixel shading dominates the frame, so 0.5 costs about a quarter of it.
+  void set_render_scale(float scale);
+  float render_scale() const;
+
   Device& device() { return *device_; }
   Renderer& renderer() { return *renderer_; }
   VkExtent2D extent() const;
