@@ -63,18 +63,46 @@ std::vector<Entity> caster_entities(World& world) {
   return out;
 }
 
+// True when two casters' settings bake the same field from the same mesh.
+bool same_settings(const AOFieldCaster& a, const AOFieldCaster& b) {
+  return a.representation == b.representation && a.resolution == b.resolution &&
+         a.radial_samples == b.radial_samples && a.rays_per_sample == b.rays_per_sample &&
+         a.supersample == b.supersample && a.grid_size == b.grid_size && a.falloff_distance == b.falloff_distance &&
+         a.fade_start == b.fade_start && a.inside_occlusion == b.inside_occlusion &&
+         a.inside_exponent == b.inside_exponent;
+}
+
 Result<std::vector<BakeChunk>> bake_fields(BakeInputs& in) {
   std::vector<BakeChunk> chunks;
+  // Casters that share a MeshData and settings (instances, e.g. the courtyard's crates) share the
+  // field of the first of them in entity order.
+  struct Baked {
+    const MeshData* mesh;
+    AOFieldCaster settings;
+    std::shared_ptr<const AOFieldData> data;
+  };
+  std::vector<Baked> baked;
   for (Entity e : caster_entities(in.world)) {
     const AOFieldCaster caster = in.world.get<AOFieldCaster>(e);
     const std::string context = caster_context(in.world, e);
     PENUMBRA_TRY(validate_ao_field_caster(caster, in.world.get<WorldTransform>(e).matrix, context));
-    auto data = bake_ao_field(caster, *in.world.get<Mesh>(e).data, in.settings.seed ^ e.index, in.jobs, in.budget,
-                              context);
-    if (!data) return data.error();
-    data->entity_index = e.index;
-    chunks.push_back(write_ao_field_chunk(*data));
-    in.world.patch<AOFieldCaster>(e).data = std::make_shared<const AOFieldData>(std::move(*data));
+    const MeshData* mesh = in.world.get<Mesh>(e).data.get();
+    const auto shared = std::find_if(baked.begin(), baked.end(), [&](const Baked& b) {
+      return b.mesh == mesh && same_settings(b.settings, caster);
+    });
+    AOFieldData data;
+    if (shared != baked.end()) {
+      data = *shared->data;
+    } else {
+      auto fresh = bake_ao_field(caster, *mesh, in.settings.seed ^ e.index, in.jobs, in.budget, context);
+      if (!fresh) return fresh.error();
+      data = std::move(*fresh);
+    }
+    data.entity_index = e.index;
+    chunks.push_back(write_ao_field_chunk(data));
+    auto ptr = std::make_shared<const AOFieldData>(std::move(data));
+    if (shared == baked.end()) baked.push_back({mesh, caster, ptr});
+    in.world.patch<AOFieldCaster>(e).data = std::move(ptr);
   }
   return chunks;
 }

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <memory>
 #include <vector>
 
@@ -125,6 +126,14 @@ TEST(AOFieldSystem, CourtyardCratesCastOnTheWalker) {
   auto result = bake_world(w, {"aofields"}, BakeSettings{}, jobs);
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_EQ(result->file.chunks.size(), 4u);
+  // The crates share one mesh and their settings: one bake, four chunks naming their entities.
+  std::vector<AOFieldData> fields;
+  for (const BakeChunk& c : result->file.chunks) fields.push_back(*read_ao_field_chunk(c));
+  for (const AOFieldData& f : fields) {
+    EXPECT_EQ(std::memcmp(f.texels.data(), fields[0].texels.data(), f.texels.size() * sizeof(AOFieldTexel)), 0);
+    EXPECT_TRUE(w.has<AOFieldCaster>(w.find_entity(f.entity_index)));
+  }
+  EXPECT_NE(fields[0].entity_index, fields[3].entity_index);
   // The walker's occlusion from the crates; then one crate is set down beside it: darker.
   Entity walker, crate;
   w.view<AOFieldReceiver>().each([&](Entity e, AOFieldReceiver& r) {

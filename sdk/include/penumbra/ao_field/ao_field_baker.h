@@ -65,7 +65,8 @@ std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk);
 
 // Registers the "aofields" baker: one AOFC chunk per entity with AOFieldCaster, Mesh and
 // WorldTransform (entity order), each baked in its mesh frame after validating the entity's world
-// matrix (non-uniform scale is rejected naming the entity); the data is also attached to the
+// matrix (non-uniform scale is rejected naming the entity; entities sharing a MeshData and
+// settings are baked once, the first in entity order); the data is also attached to the
 // components; and the "ao-field" system (ao_field_system.h). The one call the tool and games make.
 void register_ao_field(World& world);
 
