@@ -185,9 +185,64 @@ double hull_distance_of(const std::vector<glm::dvec3>& dirs, const std::vector<d
   return std::min(r0, radius);
 }
 
+// Vertices inside the caster's solid (every ray hits: Omega = 4 pi, no direction) would drag the
+// trilinear values of points just outside the surface towards full occlusion in a meaningless
+// direction; but the field is only evaluated outside the solid. So such vertices are filled
+// layer by layer inwards from the surface (a deterministic dilation): each takes the average,
+// over the axis directions with two known vertices in a row, of the linear extrapolation of
+// those two to its position (the field's slope carried across the surface), or without any, the
+// average of its known 6-neighbours; Omega is kept in [0, 4 pi] and |Omega Upsilon| <= Omega.
+void fill_inside_vertices(std::uint32_t size, const std::vector<double>& coord, std::vector<AOFieldGridNode>& nodes,
+                          std::vector<std::uint8_t> known) {
+  const std::size_t sz = std::size_t{size} * size;
+  const std::size_t stride[3] = {1, size, sz};
+  constexpr float kFourPi = 4.0f * std::numbers::pi_v<float>;
+  std::vector<std::pair<std::size_t, AOFieldGridNode>> layer;
+  for (std::uint32_t pass = 0; pass < size; ++pass) {
+    layer.clear();
+    for (std::size_t v = 0; v < nodes.size(); ++v) {
+      if (known[v]) continue;
+      const std::size_t idx[3] = {v % size, (v / size) % size, v / sz};
+      AOFieldGridNode linear{}, constant{};
+      int linear_count = 0, constant_count = 0;
+      for (int axis = 0; axis < 3; ++axis)
+        for (int dir = -1; dir <= 1; dir += 2) {
+          const std::size_t i = idx[axis];
+          if ((dir < 0 && i < 1) || (dir > 0 && i + 1 >= size)) continue;
+          const std::size_t n1 = dir < 0 ? v - stride[axis] : v + stride[axis];
+          if (!known[n1]) continue;
+          constant.omega += nodes[n1].omega;
+          constant.weighted_direction += nodes[n1].weighted_direction;
+          ++constant_count;
+          if ((dir < 0 && i < 2) || (dir > 0 && i + 2 >= size)) continue;
+          const std::size_t n2 = dir < 0 ? n1 - stride[axis] : n1 + stride[axis];
+          if (!known[n2]) continue;
+          const std::size_t i1 = dir < 0 ? i - 1 : i + 1, i2 = dir < 0 ? i - 2 : i + 2;
+          const float t = static_cast<float>((coord[i] - coord[i1]) / (coord[i1] - coord[i2]));
+          linear.omega += nodes[n1].omega + (nodes[n1].omega - nodes[n2].omega) * t;
+          linear.weighted_direction +=
+              nodes[n1].weighted_direction + (nodes[n1].weighted_direction - nodes[n2].weighted_direction) * t;
+          ++linear_count;
+        }
+      if (constant_count == 0) continue;
+      const AOFieldGridNode& sum = linear_count > 0 ? linear : constant;
+      const float inv = 1.0f / static_cast<float>(linear_count > 0 ? linear_count : constant_count);
+      AOFieldGridNode node{std::clamp(sum.omega * inv, 0.0f, kFourPi), sum.weighted_direction * inv};
+      const float len = glm::length(node.weighted_direction);
+      if (len > node.omega) node.weighted_direction *= node.omega / len;
+      layer.push_back({v, node});
+    }
+    if (layer.empty()) return;
+    for (const auto& [v, node] : layer) {
+      nodes[v] = node;
+      known[v] = 1;
+    }
+  }
+}
+
 // The grid representation (Malmer et al. 2007): Omega and Omega x Upsilon at every vertex that a
-// point within r_far can interpolate from (the others stay 0). Vertex v draws from
-// Rng::stream(seed, v).
+// point within r_far can interpolate from (the others stay 0), then the inside vertices filled
+// from outside. Vertex v draws from Rng::stream(seed, v).
 Status bake_grid(const AOFieldCaster& caster, const RayScene& scene, std::uint64_t seed, float tnear,
                  JobContext& jobs, AOFieldData& data) {
   const std::uint32_t size = caster.grid_size;
@@ -207,8 +262,9 @@ Status bake_grid(const AOFieldCaster& caster, const RayScene& scene, std::uint64
   data.nodes.assign(count, AOFieldGridNode{});
   const std::vector<glm::vec3> dirs = sphere_directions(caster.rays_per_sample);
   const glm::dvec3 centre(data.centre);
+  std::vector<std::uint8_t> known(count, 1);
   jobs.begin_stage("ao field", count);
-  return jobs.parallel_for(count, 256, [&](std::size_t begin, std::size_t end) {
+  PENUMBRA_TRY(jobs.parallel_for(count, 256, [&](std::size_t begin, std::size_t end) {
     for (std::size_t v = begin; v < end; ++v) {
       const std::size_t i = v % size, j = (v / size) % size, k = v / (std::size_t{size} * size);
       const glm::dvec3 span(near_span[i], near_span[j], near_span[k]);
@@ -221,8 +277,11 @@ Status bake_grid(const AOFieldCaster& caster, const RayScene& scene, std::uint64
       AOFieldGridNode& node = data.nodes[v];
       node.omega = static_cast<float>(omega);
       node.weighted_direction = len > 0.0 ? glm::vec3(omega * smp.sum / len) : glm::vec3(0.0f);
+      known[v] = smp.hits < caster.rays_per_sample ? 1 : 0;
     }
-  });
+  }));
+  fill_inside_vertices(size, coord, data.nodes, std::move(known));
+  return {};
 }
 
 }  // namespace

@@ -87,9 +87,16 @@ TEST(AOFieldGrid, SphereMatchesTheClosedForm) {
   RecordProperty("mae", std::to_string(sum / count));
   RecordProperty("max_err", std::to_string(worst));
   EXPECT_LE(sum / count, 0.02) << "max " << worst;
-  // Deep inside the solid every vertex around sees the caster all round: fully occluded.
-  for (float d : {0.2f, 0.5f})
-    EXPECT_GT(evaluate_local(field, field.centre + glm::vec3(0, d, 0), glm::vec3(0, 1, 0)), 0.99f) << d;
+  // Just outside the surface, facing it: the vertices inside the solid were extrapolated from
+  // outside (not 4 pi in no direction), so the cap is close there too: A = (R / d)^2. Within the
+  // first cell outside the surface (~0.37 R here) the grid is at its weakest (measured 0.08 low
+  // at d = 1.04, 0.04 at 1.1, 0.02 at 1.2).
+  for (int k = 0; k < 6; ++k) {
+    const glm::vec3 w = cube_direction(static_cast<std::uint32_t>(k), 0.21f, -0.37f);
+    EXPECT_NEAR(evaluate_local(field, field.centre + 1.04f * w, -w), 1.0f / (1.04f * 1.04f), 0.12f) << k;
+    EXPECT_NEAR(evaluate_local(field, field.centre + 1.1f * w, -w), 1.0f / (1.1f * 1.1f), 0.05f) << k;
+    EXPECT_NEAR(evaluate_local(field, field.centre + 1.2f * w, -w), 1.0f / (1.2f * 1.2f), 0.03f) << k;
+  }
 }
 
 TEST(AOFieldGrid, UnderATableWhereTheRadialFitBlends) {
@@ -208,14 +215,17 @@ TEST(AOFieldBatch, MatchesOneReceiverAtATimeBitForBit) {
     // 37 receivers (a tail after the batches of eight): random points inside and outside the
     // hull and the falloff, the centre itself, a zero normal.
     std::vector<glm::vec3> x, n;
+    std::vector<bool> in_solid;  // where a grid field has no meaning (its direction may flip)
     Rng rng = Rng::stream(8, 0);
     for (int i = 0; i < 37; ++i) {
       const glm::vec3 local = field.centre + field.r_far * 1.1f * rng.next_float() *
                                                  uniform_sphere({rng.next_float(), rng.next_float()});
+      in_solid.push_back(glm::all(glm::lessThan(glm::abs(local), glm::vec3(0.55f, 0.25f, 0.35f))));
       x.push_back(glm::vec3(world * glm::vec4(local, 1.0f)));
       n.push_back(uniform_sphere({rng.next_float(), rng.next_float()}));
     }
     x[3] = glm::vec3(world * glm::vec4(field.centre, 1.0f));
+    in_solid[3] = true;
     n[9] = glm::vec3(0.0f);
     std::vector<float> batch(x.size(), 0.75f);
     accumulate_open(field, to_local, x, n, batch);
@@ -224,12 +234,15 @@ TEST(AOFieldBatch, MatchesOneReceiverAtATimeBitForBit) {
       accumulate_open(field, to_local, std::span<const glm::vec3>(&x[i], 1), std::span<const glm::vec3>(&n[i], 1),
                       std::span<float>(&one, 1));
       EXPECT_EQ(std::memcmp(&one, &batch[i], sizeof(float)), 0) << i << ": " << one << " vs " << batch[i];
-      if (i != 9) {
+      if (i != 9 && !(field.representation == AOFieldRepresentation::Grid && in_solid[i])) {
         EXPECT_NEAR(1.0f - one / 0.75f, evaluate(field, world, x[i], n[i]), 1e-5f) << i;
       }
     }
     EXPECT_EQ(batch[9], 0.75f);  // a zero normal leaves the receiver alone
-    EXPECT_NEAR(batch[3], 0.75f * (1.0f - field.inside_occlusion), 1e-7f);
+    // At the centre (up to the transform's rounding) the radial fit blends to inside_occlusion.
+    if (field.representation == AOFieldRepresentation::RadialFit) {
+      EXPECT_NEAR(batch[3], 0.75f * (1.0f - field.inside_occlusion), 1e-6f);
+    }
   }
 }
 

@@ -45,7 +45,8 @@ enum class AOFieldRepresentation : std::uint32_t {
   RadialFit = 0,
   // Malmer et al. 2007: Omega and Omega x Upsilon at the vertices of a grid_size^3 grid over the
   // cube of half-size r_far around the centre (4 floats per vertex), trilinear. Larger; no fit and
-  // no hull, so concave casters are right inside their hull too.
+  // no hull, so concave casters are right inside their hull too; weakest within one cell of the
+  // caster's surface. Not meaningful inside the caster's solid (never a receiver of its own).
   Grid = 1,
 };
 const char* to_string(AOFieldRepresentation representation);  // "radial-fit", "grid"

@@ -25,7 +25,9 @@
 //      along Upsilon_k, with a small pull towards the origin for parallel lines.
 //
 // The Grid representation (Malmer et al. 2007) instead ray traces Omega and Upsilon the same way
-// at every vertex of the warped grid that a point within r_far interpolates from.
+// at every vertex of the warped grid that a point within r_far interpolates from; vertices inside
+// the caster's solid (every ray hits) are then extrapolated from outside, layer by layer, so that
+// points just outside the surface do not interpolate towards "4 pi in no direction".
 #pragma once
 
 #include <cstddef>
