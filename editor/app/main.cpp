@@ -35,7 +35,9 @@ struct Options {
   int width = 1280, height = 720;
   VkPresentModeKHR present = VK_PRESENT_MODE_FIFO_KHR;
   std::uint32_t shadow_map_size = 512;  // 0: no shadows (the View panel changes it too)
-  float render_scale = 1.0f;            // of the 3D view (the View panel changes it too)
+  // Of the 3D view (the View panel changes it too); 0: 0.5 on a CPU device (lavapipe), where the
+  // lit shader dominates the frame, else 1.
+  float render_scale = 0.0f;
 };
 
 int usage(const char* message) {
@@ -123,8 +125,9 @@ int run(const Options& options) {
       std::fprintf(stderr, "penumbra-editor: %s\n", viewport.error().message.c_str());
       exit_code = 1;
     } else {
-      (*viewport)->set_render_scale(options.render_scale);
-      ui.render_scale = options.render_scale;
+      ui.render_scale = options.render_scale > 0.0f ? options.render_scale
+                                                    : ((*viewport)->device().is_software() ? 0.5f : 1.0f);
+      (*viewport)->set_render_scale(ui.render_scale);
       EditorModel model;
       if (!runner) {
         if (Status s = model.open(options.scene); !s) {
@@ -173,7 +176,11 @@ int run(const Options& options) {
         const VkExtent2D extent = (*viewport)->extent();
         const glm::vec2 size(static_cast<float>(extent.width), static_cast<float>(extent.height));
         const CameraView camera = ui.camera.view(size.x / std::max(size.y, 1.0f));
-        if (ui.show_ui) draw_probe_overlay(doc.world(), camera, size, ui.overlay, ImGui::GetBackgroundDrawList());
+        ui.camera_now = camera;
+        if (ui.show_ui) {
+          if (ui.error_map) draw_error_map(*ui.error_map, size, ImGui::GetBackgroundDrawList());
+          draw_probe_overlay(doc.world(), camera, size, ui.overlay, ImGui::GetBackgroundDrawList());
+        }
         ImGui::Render();
         (*viewport)->set_render_scale(ui.render_scale);
 

@@ -81,6 +81,19 @@ CostPlot read_cost_plot(const std::string& path, const std::string& x_column, co
   return plot;
 }
 
+void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* dl) {
+  const float w = size.x / static_cast<float>(map.columns), h = size.y / static_cast<float>(map.rows);
+  for (std::uint32_t r = 0; r < map.rows; ++r)
+    for (std::uint32_t c = 0; c < map.columns; ++c) {
+      const float e = map.relative_error[std::size_t{r} * map.columns + c];
+      if (std::isnan(e)) continue;
+      const float t = std::clamp(e / 0.5f, 0.0f, 1.0f);  // 0 blue .. 0.5 and more red
+      const ImU32 colour = ImGui::ColorConvertFloat4ToU32(ImVec4(t, 0.2f * (1.0f - t), 1.0f - t, 0.55f));
+      dl->AddRectFilled(ImVec2(static_cast<float>(c) * w, static_cast<float>(r) * h),
+                        ImVec2(static_cast<float>(c + 1) * w, static_cast<float>(r + 1) * h), colour);
+    }
+}
+
 namespace {
 
 void report(UiState& ui, const Status& s, const std::string& done = {}) {
@@ -318,7 +331,7 @@ void stats_panel(EditorModel& model, UiState& ui) {
 
 // --- Visualisation -----------------------------------------------------------------------------
 
-void view_panel(UiState& ui) {
+void view_panel(EditorModel& model, UiState& ui) {
   ImGui::SetNextWindowPos(ImVec2(260, 560), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSize(ImVec2(460, 150), ImGuiCond_FirstUseEver);
   ImGui::Begin("View");
@@ -334,6 +347,26 @@ void view_panel(UiState& ui) {
   int mode = ui.camera.mode() == CameraControl::Mode::Orbit ? 0 : 1;
   if (ImGui::Combo("camera", &mode, "orbit (drag, wheel, middle-drag)\0fly (drag, WASD QE)\0"))
     ui.camera.set_mode(mode == 0 ? CameraControl::Mode::Orbit : CameraControl::Mode::Fly);
+  if (ui.error_job.running()) {
+    ImGui::Button("Error heat map: computing...");
+  } else if (ImGui::Button("Error heat map")) {
+    ErrorMapRequest request;
+    request.camera = ui.camera_now;
+    request.reference.samples = 64;
+    report(ui, ui.error_job.start(model.document()->world(), request), "computing the error map");
+  }
+  if (auto done = ui.error_job.take()) {
+    if (done->ok()) ui.error_map = std::move(done->value());
+    else ui.message = done->error().message;
+  }
+  if (ui.error_map) {
+    ImGui::SameLine();
+    ImGui::Text("mean |E_probe - E_ref| / E_ref %.1f%% over %u cells (reference noise %.1f%%, %.1f s)",
+                100.0 * ui.error_map->mean, ui.error_map->cells, 100.0 * ui.error_map->reference_noise,
+                ui.error_map->seconds);
+    ImGui::SameLine();
+    if (ImGui::SmallButton("clear")) ui.error_map.reset();
+  }
   ImGui::Checkbox("probes", &ui.overlay.probes);
   ImGui::SameLine();
   ImGui::Checkbox("invalid probes", &ui.overlay.invalid);
@@ -442,7 +475,7 @@ void draw_panels(EditorModel& model, UiState& ui) {
   inspector_panel(doc, ui);
   bake_panel(model, ui);
   stats_panel(model, ui);
-  view_panel(ui);
+  view_panel(model, ui);
   plot_panel(ui);
   status_bar(ui);
 }

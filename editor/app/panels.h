@@ -3,11 +3,13 @@
 #pragma once
 
 #include <deque>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "camera_control.h"
 #include "editor_model.h"
+#include "error_map.h"
 #include "overlays.h"
 #include "viewport.h"
 #include "penumbra/render/renderer.h"
@@ -53,7 +55,14 @@ struct UiState {
   char edits_path[512] = "edits.txt";
   char bench_path[512] = "bench-out/probe-grid.csv";
   CostPlot plot;
+  // The error heat map: computed on demand for the camera of the moment, shown until cleared.
+  ErrorMapJob error_job;
+  std::optional<ErrorMap> error_map;
+  CameraView camera_now;  // this frame's camera (the heat map's request)
 };
+
+// Draws the heat map's cells over the viewport (blue: exact, red: 50% or more off).
+void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* draw_list);
 
 // Every panel, the menu bar and the status bar.
 void draw_panels(EditorModel& model, UiState& ui);

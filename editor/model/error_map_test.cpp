@@ -1,0 +1,71 @@
+// The error heat map: in the furnace (closed form E = pi Le / (1 - rho) everywhere) a grid baked
+// with 2 bounces misses exactly the rho^3 of the light that takes more; without a bake it refuses;
+// the map is the same at any thread count.
+#include "error_map.h"
+
+#include <cmath>
+
+#include <glm/ext/matrix_clip_space.hpp>
+#include <glm/ext/matrix_transform.hpp>
+#include <gtest/gtest.h>
+
+#include "editor_model.h"
+#include "penumbra/scene/builtin.h"
+
+namespace penumbra::editor {
+namespace {
+
+CameraView inside_furnace() {
+  CameraView c;
+  c.position = glm::vec3(0.0f, 0.0f, 0.3f);
+  c.view = glm::lookAtRH(c.position, glm::vec3(0.0f, 0.0f, -1.0f), glm::vec3(0, 1, 0));
+  c.projection = glm::perspectiveRH_ZO(1.0f, 16.0f / 9.0f, 0.01f, 10.0f);
+  c.projection[1][1] = -c.projection[1][1];
+  return c;
+}
+
+TEST(ErrorMap, FurnaceGridMatchesTheReferenceWithinItsNoise) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:furnace", Preset::Medium).ok());
+  ErrorMapRequest request;
+  request.camera = inside_furnace();
+  request.columns = 16;
+  request.rows = 9;
+  request.reference.samples = 64;
+  JobContext serial;
+  auto unbaked = compute_error_map(model.document()->world(), request, serial);
+  ASSERT_FALSE(unbaked.ok());
+  EXPECT_NE(unbaked.error().message.find("bake the probe grid first"), std::string::npos);
+
+  model.bake_settings.preset = Preset::Medium;
+  ASSERT_TRUE(model.bake({"probes"}).ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
+
+  auto map = compute_error_map(model.document()->world(), request, serial);
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  EXPECT_EQ(map->relative_error.size(), 16u * 9u);
+  EXPECT_GT(map->cells, 100u);  // the camera sees the inside wall everywhere the grid covers
+  // The medium grid carries 2 bounces: pi Le (1 + rho + rho^2) against the reference's all-bounce
+  // pi Le / (1 - rho), a relative error of 1 - (1 - rho^3) = rho^3 = 0.125, up to both estimates' noise.
+  const float expected = kFurnaceAlbedo * kFurnaceAlbedo * kFurnaceAlbedo;
+  EXPECT_NEAR(map->mean, expected, 0.04f) << "reference noise " << map->reference_noise;
+  EXPECT_GT(map->reference_noise, 0.0f);
+
+  // Same map on two threads, through the background job.
+  ErrorMapJob job;
+  request.threads = 2;
+  ASSERT_TRUE(job.start(model.document()->world(), request).ok());
+  std::optional<Result<ErrorMap>> again;
+  while (!(again = job.take())) std::this_thread::yield();
+  ASSERT_TRUE(again->ok());
+  ASSERT_EQ((*again)->relative_error.size(), map->relative_error.size());
+  for (std::size_t i = 0; i < map->relative_error.size(); ++i) {
+    const float a = map->relative_error[i], b = (*again)->relative_error[i];
+    EXPECT_TRUE((std::isnan(a) && std::isnan(b)) || a == b) << i;
+  }
+}
+
+}  // namespace
+}  // namespace penumbra::editor
