@@ -60,7 +60,7 @@ std::uint64_t PoseAOData::bytes() const {
 double PoseAOData::bytes_per_vertex() const {
   if (vertex_count == 0) return 0.0;
   const double stored = 2.0 * static_cast<double>(coefficients.size()) + 4.0 * static_cast<double>(vertex_order.size()) +
-                        static_cast<double>(groups.size() * (kPoseAOMaxLocality * 2 + 4 * 3));
+                        static_cast<double>(groups.size() * (kPoseAOMaxLocality * 2 + 4 * 3 + 8));
   return stored / vertex_count;
 }
 
@@ -112,7 +112,7 @@ inline Lanes clamp01(Lanes x) {
 
 // One group: ao[order[i]] = clamp(t_i . theta, 0, 1). Coefficient c of the group's vertices is
 // contiguous, so a block of 16 vertices keeps its sums in four registers while the coefficients
-// stream past (four 4-lane multiply-adds per coefficient); the tail is scalar.
+// stream past (four 4-lane multiply-adds per coefficient); then blocks of 4, then at most 3 scalar.
 void evaluate_group(const float* t, std::size_t n, std::uint32_t count, const float* theta,
                     const std::uint32_t* order, float* ao) {
   constexpr std::size_t kBlock = 4 * kLanes;
@@ -132,6 +132,14 @@ void evaluate_group(const float* t, std::size_t n, std::uint32_t count, const fl
     const Lanes sums[4] = {clamp01(a0), clamp01(a1), clamp01(a2), clamp01(a3)};
     std::memcpy(out, sums, sizeof out);
     for (std::size_t b = 0; b < kBlock; ++b) ao[order[i + b]] = out[b];
+  }
+  for (; i + kLanes <= n; i += kLanes) {  // the rest of the group, 4 at a time
+    Lanes a = load(t + i);
+    for (std::uint32_t c = 1; c < count; ++c) a += (Lanes{} + theta[c]) * load(t + std::size_t{c} * n + i);
+    float out[kLanes];
+    a = clamp01(a);
+    std::memcpy(out, &a, sizeof out);
+    for (std::size_t b = 0; b < kLanes; ++b) ao[order[i + b]] = out[b];
   }
   for (; i < n; ++i) {
     float acc = t[i];

@@ -383,15 +383,32 @@ namespace {
 
 using JointSet = std::array<std::uint16_t, kPoseAOMaxLocality + 1>;  // joints ascending, then the count
 
-// Locality (algorithms.md P5): per vertex the joints whose rotation moves geometry near it, at
-// most k. Joint j's rotation moves its subtree against the rest of the character, so the distance
-// that matters is from v to the geometry on the other side: to the vertices outside subtree(j)
-// when v is inside it, else to those inside (bind pose, vertices by dominant joint, at most 2048
-// of them sampled). Skinning joints come first; roots (nothing outside) and joints that never
-// move are never chosen.
+// Locality (algorithms.md P5): per vertex at most k joints. Candidates are the joints whose
+// rotation can move geometry against the vertex: joint j's rotation moves its subtree against the
+// rest of the character, so j qualifies when there is geometry on the other side of it (roots
+// never do) and it moves in the reference poses. Among them the vertex takes its skinning joints
+// (by weight) and then the joints whose parameters alone explain most of its AO over the
+// reference poses (a 10-coefficient ridge fit per joint, one factorisation per joint), which
+// finds the joints whose bones come near the vertex in the poses that were traced. Vertices of
+// rare joint sets then join the large set that serves them best (see below).
 std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, const std::vector<bool>& moving,
-                                    std::uint32_t k) {
+                                    std::uint32_t k, const PoseAOTraining& training, std::size_t poses, double lambda) {
   const std::size_t n = mesh.positions.size(), joints = rig.joint_count();
+  const std::size_t F = joints * kPoseFeaturesPerJoint;
+  // One single-joint design [1, f_j] and factorisation per moving joint.
+  constexpr std::size_t kCols = pose_ao_coefficients(1);
+  std::vector<std::vector<double>> designs(joints);
+  std::vector<std::optional<pose_ao_detail::RidgeSolver>> alone(joints);
+  for (std::size_t j = 0; j < joints; ++j) {
+    if (!moving[j]) continue;
+    designs[j].resize(poses * kCols);
+    for (std::size_t p = 0; p < poses; ++p) {
+      designs[j][p * kCols] = 1.0;
+      for (std::size_t e = 0; e < kPoseFeaturesPerJoint; ++e)
+        designs[j][p * kCols + 1 + e] = static_cast<double>(training.features[p * F + j * kPoseFeaturesPerJoint + e]);
+    }
+    alone[j].emplace(designs[j], poses, kCols, lambda);
+  }
   const auto dominant = [&](std::size_t v) {
     std::size_t best = joints;
     float w = 0.0f;
@@ -411,9 +428,11 @@ std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, co
     sample_joint.push_back(dominant(u));
     sample_pos.push_back(mesh.positions[u]);
   }
-  std::vector<JointSet> sets(n);
+  // Per vertex and candidate joint: its skinning weight and the AO its parameters explain alone
+  // (-1 for a joint that is no candidate).
+  std::vector<float> weight_of(n * joints, 0.0f);
+  std::vector<double> explained_of(n * joints, -1.0);
   std::vector<float> nearest(joints + 1);
-  std::vector<std::pair<float, std::uint16_t>> ranked;
   for (std::size_t v = 0; v < n; ++v) {
     std::fill(nearest.begin(), nearest.end(), std::numeric_limits<float>::infinity());
     for (std::size_t u = 0; u < sample_pos.size(); ++u) {
@@ -421,7 +440,6 @@ std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, co
       nearest[sample_joint[u]] = std::min(nearest[sample_joint[u]], glm::dot(d, d));
     }
     const std::size_t own = dominant(v);
-    ranked.clear();
     for (std::size_t j = 0; j < joints; ++j) {
       if (!moving[j]) continue;
       const bool inside = in_subtree[j * (joints + 1) + own] != 0;
@@ -429,19 +447,55 @@ std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, co
       for (std::size_t i = 0; i <= joints; ++i)
         if ((in_subtree[j * (joints + 1) + i] != 0) != inside) d = std::min(d, nearest[i]);
       if (!std::isfinite(d)) continue;
-      bool skinning = false;
-      for (int c = 0; c < 4; ++c) skinning = skinning || (mesh.weights[v][c] > 0.0f && mesh.joints[v][c] == j);
-      ranked.emplace_back(skinning ? -1.0f : d, static_cast<std::uint16_t>(j));
+      for (int c = 0; c < 4; ++c)
+        if (mesh.joints[v][c] == j) weight_of[v * joints + j] += mesh.weights[v][c];
+      explained_of[v * joints + j] = alone[j]->explained(training.ao.data() + v, n);
     }
+  }
+  // How well a joint set serves vertex v: skinning weight covered first, then AO explained.
+  const auto value = [&](std::size_t v, const JointSet& set) {
+    std::pair<float, double> sum{0.0f, 0.0};
+    for (std::size_t i = 0; i < set[kPoseAOMaxLocality]; ++i) {
+      sum.first += weight_of[v * joints + set[i]];
+      sum.second += std::max(0.0, explained_of[v * joints + set[i]]);
+    }
+    return sum;
+  };
+
+  // Each vertex's own best set: skinning joints (heavier first), then by explained AO.
+  std::vector<JointSet> sets(n);
+  std::vector<std::pair<std::pair<float, double>, std::size_t>> ranked;
+  for (std::size_t v = 0; v < n; ++v) {
+    ranked.clear();
+    for (std::size_t j = 0; j < joints; ++j)
+      if (explained_of[v * joints + j] >= 0.0)
+        ranked.push_back({{-weight_of[v * joints + j], -explained_of[v * joints + j]}, j});
     std::sort(ranked.begin(), ranked.end());
     JointSet set{};
     const std::size_t count = std::min<std::size_t>(k, ranked.size());
-    for (std::size_t i = 0; i < count; ++i) set[i] = ranked[i].second;
+    for (std::size_t i = 0; i < count; ++i) set[i] = static_cast<std::uint16_t>(ranked[i].second);
     for (std::size_t i = 1; i < count; ++i)  // ascending (insertion sort of at most 4)
       for (std::size_t m = i; m > 0 && set[m - 1] > set[m]; --m) std::swap(set[m - 1], set[m]);
     set[kPoseAOMaxLocality] = static_cast<std::uint16_t>(count);
     sets[v] = set;
   }
+
+  // Few large groups run fast (blocks of 16 vertices at runtime): a vertex whose set has fewer
+  // than kMinGroup vertices moves to the large set that serves it best, when one exists.
+  constexpr std::size_t kMinGroup = 16;
+  std::map<JointSet, std::size_t> sizes;
+  for (const JointSet& set : sets) ++sizes[set];
+  std::vector<JointSet> large;
+  for (const auto& [set, size] : sizes)
+    if (size >= kMinGroup) large.push_back(set);
+  if (!large.empty())
+    for (std::size_t v = 0; v < n; ++v) {
+      if (sizes[sets[v]] >= kMinGroup) continue;
+      std::size_t best = 0;
+      for (std::size_t i = 1; i < large.size(); ++i)
+        if (value(v, large[i]) > value(v, large[best])) best = i;
+      sets[v] = large[best];
+    }
   return sets;
 }
 
@@ -478,7 +532,7 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
   }
 
   // Group the vertices by joint set (std::map: a deterministic order).
-  const std::vector<JointSet> sets = select_joints(mesh, rig, moving, k);
+  const std::vector<JointSet> sets = select_joints(mesh, rig, moving, k, training, P, static_cast<double>(settings.lambda));
   std::map<JointSet, std::vector<std::uint32_t>> by_set;
   for (std::size_t v = 0; v < V; ++v) by_set[sets[v]].push_back(static_cast<std::uint32_t>(v));
 

@@ -37,6 +37,11 @@ TEST(PoseAORidge, MatchesTheClosedFormOfALine) {
     EXPECT_NEAR(t[0], (a22 * sy - a12 * sxy) / det, 1e-12) << lambda;
     EXPECT_NEAR(t[1], (a11 * sxy - a12 * sy) / det, 1e-12) << lambda;
     EXPECT_EQ(solver.floored_pivots(), 0u);
+    if (lambda == 0.0) {  // least squares: the explained sum of squares is |Theta t|^2
+      double fitted = 0.0;
+      for (std::size_t i = 0; i < 4; ++i) fitted += (t[0] + t[1] * x[i]) * (t[0] + t[1] * x[i]);
+      EXPECT_NEAR(solver.explained(y.data(), 1), fitted, 1e-9);
+    }
   }
 }
 

@@ -37,14 +37,32 @@ RidgeSolver::RidgeSolver(std::span<const double> theta, std::size_t rows, std::s
 }
 
 void RidgeSolver::solve(const float* y, std::size_t stride, std::span<double> t) const {
+  rhs(y, stride, t);
+  substitute(t);
+}
+
+double RidgeSolver::explained(const float* y, std::size_t stride) const {
+  std::vector<double> b(cols_), t(cols_);
+  rhs(y, stride, b);
+  t = b;
+  substitute(t);
+  double sum = 0.0;
+  for (std::size_t i = 0; i < cols_; ++i) sum += t[i] * b[i];
+  return sum;
+}
+
+void RidgeSolver::rhs(const float* y, std::size_t stride, std::span<double> b) const {
   const std::size_t n = cols_;
-  // b = Theta^T y.
-  for (std::size_t i = 0; i < n; ++i) t[i] = 0.0;
+  for (std::size_t i = 0; i < n; ++i) b[i] = 0.0;
   for (std::size_t r = 0; r < rows_; ++r) {
     const double yr = static_cast<double>(y[r * stride]);
     const double* x = theta_.data() + r * n;
-    for (std::size_t i = 0; i < n; ++i) t[i] += x[i] * yr;
+    for (std::size_t i = 0; i < n; ++i) b[i] += x[i] * yr;
   }
+}
+
+void RidgeSolver::substitute(std::span<double> t) const {
+  const std::size_t n = cols_;
   // L z = b, then L^T t = z (in place).
   for (std::size_t i = 0; i < n; ++i) {
     double s = t[i];

@@ -23,9 +23,16 @@ class RidgeSolver {
   // Thread-safe (const).
   void solve(const float* y, std::size_t stride, std::span<double> t) const;
 
+  // The fitted sum of squares t . (Theta^T y) of the solution for y: how much of y's square the
+  // model explains (compare designs for the same y). Cost: as solve().
+  double explained(const float* y, std::size_t stride) const;
+
   std::size_t floored_pivots() const { return floored_; }  // how many pivots hit the floor
 
  private:
+  void rhs(const float* y, std::size_t stride, std::span<double> b) const;  // b = Theta^T y
+  void substitute(std::span<double> t) const;  // t <- G^-1 t by the two triangular solves
+
   std::span<const double> theta_;
   std::size_t rows_, cols_;
   std::vector<double> l_;  // lower Cholesky factor, cols x cols row-major

@@ -61,8 +61,9 @@ struct SkinnedPoseAO {
   // that pose-to-pose differences are not swamped by noise).
   std::uint32_t rays_per_vertex = 64;
   // Joints per vertex (0..kPoseAOMaxLocality): its skinning joints by weight, then the joints
-  // whose bones pass nearest to it in the bind pose; joints that never move are skipped.
-  // 0 gives the pose-averaged AO.
+  // whose parameters alone explain most of its AO over the reference poses; joints that never
+  // move, or have no geometry on the vertex's other side (roots), are skipped. 0 gives the
+  // pose-averaged AO.
   std::uint32_t locality = 4;
   // Ridge strength per pose: t_v minimises sum_p (t . theta_p - a_p)^2 + lambda P |t_1..|^2 over the
   // P poses (the bias t_0 is not regularised).
