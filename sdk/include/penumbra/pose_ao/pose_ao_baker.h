@@ -122,9 +122,9 @@ struct PoseAOTraining {
 // Locality as SkinnedPoseAO::locality over `mesh`'s weights, the rig's hierarchy and the poses
 // (a 10-coefficient fit per joint scores it); a joint whose features are constant (within 1e-5)
 // over those poses is never selected; vertices of joint sets shared by fewer than 16 vertices
-// join the large set that serves them best (large groups evaluate fastest). When the poses are fewer than the
-// coefficients (poses < 1 + 9 k) k is reduced to fit and a warning is logged and appended to
-// `warnings`. Normal equations per joint set in double, Cholesky with a pivot floor (1e-9 of the
+// join the large set that serves them best (large groups evaluate fastest). When the poses are
+// fewer than the coefficients (poses < 1 + 9 k) k is reduced to fit and a warning is logged and
+// appended to `warnings`. Normal equations per joint set in double, Cholesky with a pivot floor (1e-9 of the
 // trace), so rank-deficient data (a joint that never moves, collinear parameters, lambda = 0)
 // gives finite, bounded coefficients. Deterministic (fixed summation order, any thread count).
 // Errors: InvalidArgument when training has no pose. Cost: per joint set P C^2, per vertex P C
