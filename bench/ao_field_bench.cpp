@@ -2,7 +2,8 @@
 // alone, for casters of several shapes, in both representations (the radial fit of Kontkanen &
 // Laine 2005 per cube resolution, radial sample count and supersampling; the 3D grid of Malmer et
 // al. 2007 per grid size); bake seconds, bytes per caster and ns per receiver evaluation; and the
-// multiplicative combination of two and three casters against the ray-traced AO of their union.
+// combination of two and three casters (the multiplicative rule and the cap-overlap rule) against
+// the ray-traced AO of their union.
 //
 // Receivers (per shape, the same for every field of that shape): free-space points at random
 // directions and distances 0.3..3 bounding radii from the field centre (points inside the caster's
@@ -24,6 +25,7 @@
 #include <memory>
 #include <numbers>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -316,8 +318,9 @@ Result<Report> run_ao_field_bench(const Options& options) {
     filtered.push_back(std::string(shape.name) + " " + fmt(ss_mae[0], 3) + " -> " + fmt(ss_mae[1], 3));
   }
 
-  // Combination: two and three unit crates around a gap, receivers on the ground between them
-  // (normal +Y) and in free space; the multiplicative rule against the ray-traced union.
+  // Combination: unit crates apart (on both sides of the receivers), in a row and stacked (seen in
+  // similar directions), receivers on the ground around them (normal +Y); the multiplicative rule
+  // and the cap-overlap rule (combine_caps) against the ray-traced AO of the union.
   {
     AOFieldCaster caster;
     caster.resolution = 16;
@@ -327,15 +330,27 @@ Result<Report> run_ao_field_bench(const Options& options) {
     const MeshData crate = make_box({0.5f, 0.5f, 0.5f});
     auto field = bake_ao_field(caster, crate, 7, jobs, budget, "crate");
     if (!field) return field.error();
-    const std::vector<glm::vec3> spots = {{-0.8f, 0.5f, 0.0f}, {0.8f, 0.5f, 0.0f}, {0.0f, 0.5f, -0.9f}};
-    for (std::size_t n : {std::size_t{2}, std::size_t{3}}) {
+    struct Layout {
+      const char* name;
+      std::vector<glm::vec3> spots;
+    };
+    const std::vector<Layout> layouts = {
+        {"2 crates apart", {{-0.8f, 0.5f, 0.0f}, {0.8f, 0.5f, 0.0f}}},
+        {"3 crates apart", {{-0.8f, 0.5f, 0.0f}, {0.8f, 0.5f, 0.0f}, {0.0f, 0.5f, -0.9f}}},
+        {"2 crates in a row", {{-0.8f, 0.5f, 0.0f}, {-1.9f, 0.5f, 0.0f}}},
+        {"3 crates in a row", {{-0.8f, 0.5f, 0.0f}, {-1.9f, 0.5f, 0.0f}, {-3.0f, 0.5f, 0.0f}}},
+        {"2 crates stacked", {{-0.8f, 0.5f, 0.0f}, {-0.8f, 1.5f, 0.0f}}},
+    };
+    for (std::size_t li = 0; li < layouts.size(); ++li) {
+      const Layout& layout = layouts[li];
+      const std::size_t n = layout.spots.size();
       std::vector<const MeshData*> meshes(n, &crate);
       std::vector<glm::mat4> where;
-      for (std::size_t i = 0; i < n; ++i) where.push_back(glm::translate(glm::mat4(1.0f), spots[i]));
+      for (const glm::vec3& spot : layout.spots) where.push_back(glm::translate(glm::mat4(1.0f), spot));
       World w;
       const RayScene scene = scene_of(meshes, where, w);
       std::vector<SurfacePoint> points;
-      Rng rng = Rng::stream(13, n);
+      Rng rng = Rng::stream(13, li);
       while (points.size() < (quick ? 200u : 800u)) {
         const glm::vec3 x(-1.5f + 3.0f * rng.next_float(), 0.0f, -1.5f + 2.5f * rng.next_float());
         Hit h;
@@ -348,21 +363,30 @@ Result<Report> run_ao_field_bench(const Options& options) {
       ao.seed = 9;
       PENUMBRA_TRY(ambient_occlusion(scene, points, ao, ref, jobs));
       std::vector<Receiver> rs(points.size());
-      std::vector<double> values(points.size());
-      double bias = 0.0;
+      std::vector<double> multiplicative(points.size()), overlap(points.size());
+      double bias_mul = 0.0, bias_cap = 0.0;
       for (std::size_t i = 0; i < points.size(); ++i) {
         std::vector<float> each;
-        for (const glm::mat4& m : where) each.push_back(evaluate(*field, m, points[i].position, points[i].normal));
-        values[i] = combine_occlusion(each);
+        std::vector<AOFieldCap> caps;
+        for (const glm::mat4& m : where) {
+          caps.push_back(evaluate_cap(*field, m, points[i].position, points[i].normal));
+          each.push_back(caps.back().occlusion);
+        }
+        multiplicative[i] = combine_occlusion(each);
+        overlap[i] = combine_caps(caps);
         rs[i] = {points[i], 1.0 - double(ref[i].value), ref[i].std_error, 2};
-        bias += values[i] - rs[i].reference;
+        bias_mul += multiplicative[i] - rs[i].reference;
+        bias_cap += overlap[i] - rs[i].reference;
       }
-      const Errors e = errors(rs, values, 2);
-      report.rows.push_back({std::to_string(n) + " crates", "multiplicative", "16", "16", "2", "ground", "",
-                             std::to_string(n * field->bytes()), "", "", fmt(e.rmse), fmt(e.mae), fmt(e.max),
-                             fmt(e.ref_stderr), std::to_string(e.count)});
-      report.notes.push_back(std::to_string(n) + " crates: multiplicative rule mean signed error " +
-                             fmt(bias / double(points.size()), 3) + " (positive: darker than the union)");
+      std::string note = std::string(layout.name) + ": mean signed error (positive: darker than the union)";
+      for (const auto& [rule, values, bias] : {std::tuple{"multiplicative", &multiplicative, bias_mul},
+                                               std::tuple{"cap-overlap", &overlap, bias_cap}}) {
+        const Errors e = errors(rs, *values, 2);
+        report.rows.push_back({layout.name, rule, "16", "16", "2", "ground", "", std::to_string(n * field->bytes()), "",
+                               "", fmt(e.rmse), fmt(e.mae), fmt(e.max), fmt(e.ref_stderr), std::to_string(e.count)});
+        note += std::string(" ") + rule + " " + fmt(bias / double(points.size()), 3) + " (MAE " + fmt(e.mae, 3) + ")";
+      }
+      report.notes.push_back(note);
     }
   }
 

@@ -136,9 +136,16 @@ struct Prepared {
         grid(f.representation == AOFieldRepresentation::Grid) {}
 };
 
-// Steps 2-4 for a RadialFit field at p = x - centre, r = |p| in (0, r_far), inv_r = 1 / r.
+// The cap behind an occlusion value (evaluate_cap): its solid angle and (unnormalised) axis.
+struct CapOut {
+  float omega = 0.0f;
+  glm::vec3 axis{0.0f};
+};
+
+// Steps 2-4 for a RadialFit field at p = x - centre, r = |p| in (0, r_far), inv_r = 1 / r; the
+// cap into `out` when it is not null.
 [[gnu::always_inline]] inline float radial_occlusion(const Prepared& pr, glm::vec3 p, float r, float inv_r,
-                                                     glm::vec3 n) {
+                                                     glm::vec3 n, CapOut* out) {
   const AOFieldData& field = pr.field;
   const AOFieldTexel t = lookup(field, p);
   // Outside the hull: r itself; inside: the hull point, then the blend towards A0.
@@ -149,6 +156,7 @@ struct Prepared {
   const glm::vec3 axis = t.c0 - (rc * inv_r) * p;
   const float len2 = glm::dot(axis, axis);
   const float cos_beta = len2 > 0.0f ? glm::dot(n, axis) / std::sqrt(len2) : -glm::dot(n, p) * inv_r;
+  if (out != nullptr) *out = {omega, len2 > 0.0f ? axis : -p};
   float a = cap_lookup(pr.table, omega, cos_beta);
   if (r < t.r0) {
     const float A0 = field.inside_occlusion, q = r / t.r0;
@@ -159,7 +167,8 @@ struct Prepared {
 
 // Steps 2-3 for a Grid field (Malmer et al. 2007): trilinear Omega and Omega x Upsilon on the
 // warped grid.
-[[gnu::always_inline]] inline float grid_occlusion(const Prepared& pr, glm::vec3 p, float inv_r, glm::vec3 n) {
+[[gnu::always_inline]] inline float grid_occlusion(const Prepared& pr, glm::vec3 p, float inv_r, glm::vec3 n,
+                                                   CapOut* out) {
   const AOFieldData& field = pr.field;
   const std::uint32_t size = field.grid_size;
   const float last = static_cast<float>(size - 1), inv_far = pr.inv_far;
@@ -184,18 +193,22 @@ struct Prepared {
   }
   const float len2 = glm::dot(dir, dir);
   const float cos_beta = len2 > 0.0f ? glm::dot(n, dir) / std::sqrt(len2) : -glm::dot(n, p) * inv_r;
+  if (out != nullptr) *out = {omega, len2 > 0.0f ? dir : -p};
   return cap_lookup(pr.table, omega, cos_beta);
 }
 
 // Steps 1-5 of evaluate_local for a valid field.
-[[gnu::always_inline]] inline float occlusion(const Prepared& pr, glm::vec3 x, glm::vec3 n) {
+[[gnu::always_inline]] inline float occlusion(const Prepared& pr, glm::vec3 x, glm::vec3 n, CapOut* out = nullptr) {
   const AOFieldData& field = pr.field;
   const glm::vec3 p = x - field.centre;
   const float r2 = glm::dot(p, p);
   if (!(r2 < pr.r_far2)) return 0.0f;  // beyond the falloff (or not finite)
-  if (r2 == 0.0f) return field.inside_occlusion;
+  if (r2 == 0.0f) {
+    if (out != nullptr) *out = {4.0f * std::numbers::pi_v<float>, -n};
+    return field.inside_occlusion;
+  }
   const float r = std::sqrt(r2), inv_r = 1.0f / r;
-  const float a = pr.grid ? grid_occlusion(pr, p, inv_r, n) : radial_occlusion(pr, p, r, inv_r, n);
+  const float a = pr.grid ? grid_occlusion(pr, p, inv_r, n, out) : radial_occlusion(pr, p, r, inv_r, n, out);
   // Step 5: the linear fade to 0 between fade_start x r_far and r_far.
   const float fade = std::min((field.r_far - r) * pr.fade_scale, 1.0f);
   return std::min(std::max(0.0f, a * fade), 1.0f);
@@ -543,6 +556,54 @@ void accumulate_open(const AOFieldData& field, const glm::mat4& world_to_local, 
     if (!(len2 > 0.0f) || !std::isfinite(len2)) continue;
     open[i] *= 1.0f - occlusion(pr, linear * x[i] + offset, nl * (1.0f / std::sqrt(len2)));
   }
+}
+
+AOFieldCap evaluate_cap(const AOFieldData& field, const glm::mat4& caster_world, glm::vec3 x, glm::vec3 n) {
+  AOFieldCap cap;
+  if (!field.valid()) return cap;
+  const glm::mat4 inv = glm::inverse(caster_world);
+  const glm::vec3 xl = glm::vec3(inv * glm::vec4(x, 1.0f));
+  const glm::vec3 nl = glm::mat3(inv) * n;
+  const float len = glm::length(nl);
+  if (!(len > 0.0f) || !std::isfinite(len)) return cap;
+  CapOut out;
+  cap.occlusion = occlusion(Prepared(field), xl, nl / len, &out);
+  // The axis back in world space (the matrix's rotation; its uniform scale drops out).
+  const glm::vec3 axis = glm::mat3(caster_world) * out.axis;
+  const float axis_len = glm::length(axis);
+  if (out.omega > 0.0f && axis_len > 0.0f && std::isfinite(axis_len)) {
+    cap.omega = out.omega;
+    cap.axis = axis / axis_len;
+  }
+  return cap;
+}
+
+float combine_caps(std::span<const AOFieldCap> caps) {
+  constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
+  // Out-of-range and NaN inputs count as nothing (the comparisons below are false for NaN).
+  const auto occlusion_of = [](const AOFieldCap& c) { return c.occlusion > 0.0f ? std::min(c.occlusion, 1.0f) : 0.0f; };
+  const auto radius_of = [](const AOFieldCap& c) {  // alpha = acos(1 - omega / 2 pi)
+    const float omega = c.omega > 0.0f ? std::min(c.omega, 2.0f * kTwoPi) : 0.0f;
+    return std::acos(std::clamp(1.0f - omega / kTwoPi, -1.0f, 1.0f));
+  };
+  float sum = 0.0f, largest = 0.0f, overlap = 0.0f;
+  for (std::size_t i = 0; i < caps.size(); ++i) {
+    const float ai = occlusion_of(caps[i]), alpha_i = radius_of(caps[i]);
+    sum += ai;
+    largest = std::max(largest, ai);
+    for (std::size_t j = 0; j < i; ++j) {
+      const float aj = occlusion_of(caps[j]), alpha_j = radius_of(caps[j]);
+      const float c = glm::dot(caps[i].axis, caps[j].axis);
+      const float gamma = std::acos(c > -1.0f ? std::min(c, 1.0f) : -1.0f);  // NaN: opposite, no overlap
+      const float smaller = std::min(alpha_i, alpha_j);
+      // The fraction of the smaller cap inside the larger: 0 when they are apart (gamma >= the
+      // sum of the radii), 1 when nested (gamma <= their difference), a ramp between.
+      const float ramp = smaller > 0.0f ? (alpha_i + alpha_j - gamma) / (2.0f * smaller) : 0.0f;
+      const float f = ramp > 0.0f ? std::min(ramp, 1.0f) : 0.0f;
+      overlap += f * std::min(ai, aj);
+    }
+  }
+  return std::clamp(sum - overlap, largest, 1.0f);
 }
 
 float evaluate(const AOFieldData& field, const glm::mat4& caster_world, glm::vec3 x, glm::vec3 n) {

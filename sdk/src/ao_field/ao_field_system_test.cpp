@@ -151,5 +151,26 @@ TEST(AOFieldSystem, CourtyardCratesCastOnTheWalker) {
   EXPECT_LE(after, 1.0f);
 }
 
+TEST(AOFieldSystem, EvaluateCapAgreesWithEvaluate) {
+  const auto field = crate_field();
+  const glm::mat4 world = glm::scale(glm::rotate(glm::translate(glm::mat4(1.0f), glm::vec3(1, 0.5f, -2)), 0.6f,
+                                                 glm::vec3(0, 1, 0)),
+                                     glm::vec3(2.0f));
+  for (int i = 0; i < 50; ++i) {
+    const glm::vec3 x(-2.0f + 0.1f * float(i), 0.0f, -2.0f + 0.05f * float(i));
+    const AOFieldCap cap = evaluate_cap(*field, world, x, glm::vec3(0, 1, 0));
+    EXPECT_FLOAT_EQ(cap.occlusion, evaluate(*field, world, x, glm::vec3(0, 1, 0))) << i;
+    if (cap.omega > 0.0f) {
+      EXPECT_NEAR(glm::length(cap.axis), 1.0f, 1e-5f);
+      // The crate sits above the ground point: its cap points upwards.
+      EXPECT_GT(cap.axis.y, 0.0f) << i;
+    }
+  }
+  // Beyond the falloff: nothing.
+  const AOFieldCap far = evaluate_cap(*field, world, glm::vec3(500, 0, 0), glm::vec3(0, 1, 0));
+  EXPECT_EQ(far.occlusion, 0.0f);
+  EXPECT_EQ(far.omega, 0.0f);
+}
+
 }  // namespace
 }  // namespace penumbra

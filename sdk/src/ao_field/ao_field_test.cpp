@@ -217,5 +217,46 @@ TEST(AOField, CombinationStaysInRangeForManyCasters) {
   EXPECT_GE(combine_occlusion(tiny), 0.0f);
 }
 
+TEST(AOField, CapOverlapRuleIsExactForDisjointAndNestedCaps) {
+  // Caps of half-angle alpha around an axis, their occlusion of a normal along +Y from the closed
+  // form: the rule needs only A, omega and the axis.
+  const auto cap = [](double alpha, glm::vec3 axis) {
+    const float omega = static_cast<float>(2.0 * kPi * (1.0 - std::cos(alpha)));
+    const glm::vec3 a = glm::normalize(axis);
+    return AOFieldCap{cap_occlusion(omega, a.y), omega, a};
+  };
+  // One cap: itself. None: 0.
+  const AOFieldCap one = cap(0.4, {0.3f, 1.0f, 0.0f});
+  EXPECT_FLOAT_EQ(combine_caps(std::span<const AOFieldCap>(&one, 1)), one.occlusion);
+  EXPECT_EQ(combine_caps({}), 0.0f);
+  // Disjoint caps (axes 90 degrees apart, radii 0.3 each): the cosine-weighted measure adds up,
+  // where the multiplicative rule is too light by A1 A2.
+  const std::vector<AOFieldCap> apart = {cap(0.3, {1.0f, 1.0f, 0.0f}), cap(0.3, {-1.0f, 1.0f, 0.0f})};
+  EXPECT_NEAR(combine_caps(apart), apart[0].occlusion + apart[1].occlusion, 1e-6f);
+  const std::vector<float> apart_a = {apart[0].occlusion, apart[1].occlusion};
+  EXPECT_LT(combine_occlusion(apart_a), combine_caps(apart));
+  // Nested caps (a small one inside a large one): the union is the large one, where the
+  // multiplicative rule is too dark.
+  const std::vector<AOFieldCap> nested = {cap(0.8, {0.0f, 1.0f, 0.2f}), cap(0.2, {0.0f, 1.0f, 0.3f})};
+  EXPECT_NEAR(combine_caps(nested), nested[0].occlusion, 1e-6f);
+  const std::vector<float> nested_a = {nested[0].occlusion, nested[1].occlusion};
+  EXPECT_GT(combine_occlusion(nested_a), combine_caps(nested));
+  // Partly overlapping: between the larger alone and the sum.
+  const std::vector<AOFieldCap> partly = {cap(0.5, {0.2f, 1.0f, 0.0f}), cap(0.5, {-0.4f, 1.0f, 0.0f})};
+  const float p = combine_caps(partly);
+  EXPECT_GT(p, std::max(partly[0].occlusion, partly[1].occlusion));
+  EXPECT_LT(p, partly[0].occlusion + partly[1].occlusion);
+  // Many caps, odd inputs: always in [0, 1].
+  std::vector<AOFieldCap> many;
+  Rng rng = Rng::stream(2, 0);
+  for (int i = 0; i < 300; ++i)
+    many.push_back(cap(1.5 * rng.next_float(), glm::vec3(rng.next_float() - 0.5f, rng.next_float(), rng.next_float() - 0.5f)));
+  many.push_back(AOFieldCap{std::nanf(""), std::nanf(""), glm::vec3(0.0f)});
+  many.push_back(AOFieldCap{-3.0f, 50.0f, glm::vec3(0, 1, 0)});
+  const float all = combine_caps(many);
+  EXPECT_GE(all, 0.0f);
+  EXPECT_LE(all, 1.0f);
+}
+
 }  // namespace
 }  // namespace penumbra
