@@ -88,6 +88,9 @@ int run(const Options& options) {
       } else if (a.verb == "orbit") {
         const float dist = a.args.size() == 3 ? std::stof(a.args[2]) : 0.0f;
         ui.camera.set_orbit(glm::radians(std::stof(a.args[0])), glm::radians(std::stof(a.args[1])), dist);
+      } else if (a.verb == "reset-stats") {
+        ui.frames = FrameTimes{};
+        ui.frames.frames = FrameTimes::kWarmUp;  // already warm
       } else if (a.verb == "ui") {
         ui.show_ui = a.args[0] == "on";
       } else if (a.verb == "view") {
@@ -210,9 +213,9 @@ int run(const Options& options) {
       model.bakes().wait();
       const FrameSummary idle = summarise(ui.frames.idle_ms), bake = summarise(ui.frames.baking_ms);
       const VkExtent2D extent = (*viewport)->extent();
-      std::printf("frame ms at %ux%u (3D view x%.2f) on %s: idle median %.1f p95 %.1f max %.1f (%zu frames); during bakes median "
+      std::printf("frame ms at %ux%u (3D view x%.2f) on %s, after %zu warm-up frames: idle median %.1f p95 %.1f max %.1f (%zu frames); during bakes median "
                   "%.1f p95 %.1f max %.1f (%zu frames)\n",
-                  extent.width, extent.height, static_cast<double>(ui.render_scale), (*viewport)->device().name().c_str(), idle.median, idle.p95, idle.max,
+                  extent.width, extent.height, static_cast<double>(ui.render_scale), (*viewport)->device().name().c_str(), FrameTimes::kWarmUp, idle.median, idle.p95, idle.max,
                   idle.frames, bake.median, bake.p95, bake.max, bake.frames);
       const FrameSummary wait = summarise(ui.frames.wait_ms), record = summarise(ui.frames.record_ms),
                          present = summarise(ui.frames.present_ms);

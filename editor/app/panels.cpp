@@ -19,12 +19,13 @@
 namespace penumbra::editor {
 
 void FrameTimes::add(double ms, bool baking, const ViewportTimes& parts) {
+  recent_ms.push_back(static_cast<float>(ms));
+  if (recent_ms.size() > 240) recent_ms.pop_front();
+  if (++frames <= kWarmUp) return;
   (baking ? baking_ms : idle_ms).push_back(ms);
   wait_ms.push_back(parts.wait_ms);
   record_ms.push_back(parts.record_ms);
   present_ms.push_back(parts.present_ms);
-  recent_ms.push_back(static_cast<float>(ms));
-  if (recent_ms.size() > 240) recent_ms.pop_front();
 }
 
 FrameSummary summarise(std::vector<double> ms) {

@@ -18,7 +18,9 @@ namespace penumbra::editor {
 
 // Frame times of the last few seconds, split by whether a bake was running.
 struct FrameTimes {
-  std::vector<double> idle_ms, baking_ms;  // every frame of the session
+  static constexpr std::size_t kWarmUp = 10;  // first frames: shader compilation (lavapipe JITs), uploads
+  std::size_t frames = 0;
+  std::vector<double> idle_ms, baking_ms;  // every frame after the warm-up
   std::vector<double> wait_ms, record_ms, present_ms;  // the viewport's parts of each frame (viewport.h)
   std::deque<float> recent_ms;             // the last 240 frames, for the plot
   void add(double ms, bool baking, const ViewportTimes& parts);

@@ -73,7 +73,7 @@ std::string check_action(const ScriptAction& a) {
     if (n < 1 || n > 2 || a.args[0].empty() || (n == 2 && !preset_ok(a.args[1])))
       return "'bake' takes all, selection or baker names (comma-separated, e.g. probes), then an optional preset "
              "(draft, medium, high)";
-  } else if (v == "undo" || v == "redo" || v == "cancel" || v == "wait") {
+  } else if (v == "undo" || v == "redo" || v == "cancel" || v == "wait" || v == "reset-stats") {
     if (n != 0) return "'" + v + "' takes no arguments";
   } else if (v == "frames") {
     long long k = 0;
@@ -94,7 +94,7 @@ std::string check_action(const ScriptAction& a) {
   } else {
     return "unknown action '" + v +
            "'; actions: open, open-bake, save-bake, save-edits, select, set, preset, undo, redo, bake, cancel, wait, "
-           "frames, screenshot, orbit, view, ui, quit";
+           "frames, screenshot, orbit, view, ui, reset-stats, quit";
   }
   return {};
 }
@@ -149,7 +149,8 @@ Status ScriptRunner::step(EditorModel& model) {
   while (!finished()) {
     const ScriptAction& a = script_.actions[next_];
     bool wait_here = false;
-    const bool yields = a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view" || a.verb == "ui";
+    const bool yields = a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view" || a.verb == "ui" ||
+                        a.verb == "reset-stats";
     if (Status s = run(model, a, wait_here); !s) {
       next_ = script_.actions.size();
       exit_code_ = 1;
@@ -177,7 +178,7 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
     if (!wait_here) frames_left_ = -1;
     return {};
   }
-  if (a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view" || a.verb == "ui") {
+  if (a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view" || a.verb == "ui" || a.verb == "reset-stats") {
     if (!viewport_) return make_error(ErrorCode::Unsupported, "needs the window (run without --headless)");
     return viewport_(a);
   }

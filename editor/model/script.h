@@ -13,6 +13,7 @@
 //   wait                                until the running bake ends; fails the script if it failed
 //   frames N                            lets N frames run
 //   screenshot PATH | orbit YAW PITCH [DISTANCE] | view DEBUGVIEW | ui on|off
+//   reset-stats                         starts the frame-time statistics afresh
 //                                       viewport actions (window only; ui hides/shows the panels and overlays)
 //   quit [CODE]
 // Words are separated by blanks; "double quotes" group words; # starts a comment line.

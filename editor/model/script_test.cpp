@@ -1,8 +1,13 @@
 // The script parser (every malformed line is reported with its line) and the runner on the model.
 #include "script.h"
 
+#include <unistd.h>
+
+#include <filesystem>
+
 #include <gtest/gtest.h>
 
+#include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra::editor {
@@ -28,15 +33,17 @@ TEST(Script, ParsesEveryActionAndSkipsComments) {
       "undo\n"
       "redo\n"
       "cancel\n"
+      "ui off\n"
+      "reset-stats\n"
       "quit 0\n";
   auto script = parse_script(text, "demo.txt");
   ASSERT_TRUE(script.ok()) << script.error().message;
-  ASSERT_EQ(script->actions.size(), 17u);
+  ASSERT_EQ(script->actions.size(), 19u);
   EXPECT_EQ(script->actions[0].verb, "open");
   EXPECT_EQ(script->actions[0].line, 2);
   EXPECT_EQ(script->actions[1].args[0], "probe grid");
   EXPECT_EQ(script->actions[3].args.size(), 5u);
-  EXPECT_EQ(script->actions.back().line, 19);
+  EXPECT_EQ(script->actions.back().line, 21);
 }
 
 TEST(Script, BadLinesNameTheLineAndTheFix) {
@@ -74,6 +81,41 @@ TEST(Script, BadLinesNameTheLineAndTheFix) {
     EXPECT_TRUE(m.starts_with("t.txt:3: ")) << m;
     EXPECT_NE(m.find(c.expect), std::string::npos) << c.line << " -> " << m;
   }
+}
+
+TEST(ScriptRunner, SavedEditsReplayToTheSameValues) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:courtyard").ok());
+  Document& doc = *model.document();
+  World& w = doc.world();
+  const Entity lamp = *doc.find("lamp"), crate = *doc.find("crate"), grid = *doc.find("probe grid");
+  ASSERT_TRUE(doc.undo().set(w, lamp, *find_field("Light", "intensity"), FieldValue(33.5f)).ok());
+  ASSERT_TRUE(doc.undo().set(w, crate, *find_field("Transform", "rotation"),
+                             *parse_field_value(*find_field("Transform", "rotation"), "0 30 0")).ok());
+  const ComponentPreset& p = *find_preset("probes");
+  ASSERT_TRUE(doc.undo().record(w, grid, p.component, "preset", [&] { p.apply(w, grid, Preset::High); }).ok());
+  ASSERT_TRUE(doc.undo().set(w, lamp, *find_field("Light", "range"), FieldValue(3.0f)).ok());
+  ASSERT_TRUE(doc.undo().undo(w));  // undone edits are not saved
+  const auto path = std::filesystem::temp_directory_path() / ("penumbra_edits_" + std::to_string(::getpid()) + ".txt");
+  ASSERT_TRUE(doc.save_edits(path).ok());
+
+  auto script = load_script(path);
+  ASSERT_TRUE(script.ok()) << script.error().message;
+  EditorModel replay;
+  ScriptRunner runner(std::move(*script));
+  while (!runner.finished()) ASSERT_TRUE(runner.step(replay).ok());
+  World& r = replay.document()->world();
+  for (const FieldDesc& f : editable_fields())
+    for (Entity e : {lamp, crate, grid})
+      if (f.present(w, e) && !f.read_only) {
+        ASSERT_TRUE(f.present(r, e));
+        if (f.kind == FieldKind::Rotation)
+          EXPECT_NEAR(std::abs(glm::dot(std::get<glm::quat>(f.get(w, e)), std::get<glm::quat>(f.get(r, e)))), 1.0f, 1e-5f);
+        else
+          EXPECT_TRUE(f.get(w, e) == f.get(r, e)) << f.component << "." << f.name;
+      }
+  EXPECT_EQ(r.get<Light>(lamp).range, 12.0f);
+  std::filesystem::remove(path);
 }
 
 TEST(Script, LoadScriptNamesAMissingFile) {

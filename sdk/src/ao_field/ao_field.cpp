@@ -111,7 +111,8 @@ const CapTable& cap_table() {
   float v = (cos_beta + 1.0f) * (0.5f * n);
   u = std::min(std::max(0.0f, u), n);  // std::max(0, NaN) is 0
   v = std::min(std::max(0.0f, v), n);
-  const int i = std::min(static_cast<int>(u), CapTable::kSize - 1), j = std::min(static_cast<int>(v), CapTable::kSize - 1);
+  const int i = std::min(static_cast<int>(u), CapTable::kSize - 1);
+  const int j = std::min(static_cast<int>(v), CapTable::kSize - 1);
   const float fu = u - static_cast<float>(i), fv = v - static_cast<float>(j);
   const float* row0 = values + (i * (CapTable::kSize + 1) + j);
   const float* row1 = row0 + (CapTable::kSize + 1);
@@ -418,7 +419,8 @@ PENUMBRA_AVX2 __m256 bilinear(const float* texels, int k, __m256i i00, __m256i i
   for (int corner = 0; corner < 8; ++corner) {
     const int cx = corner & 1, cy = (corner >> 1) & 1, cz = corner >> 2;
     const __m256 w = mul(mul(cx ? fr[0] : sub(one, fr[0]), cy ? fr[1] : sub(one, fr[1])), cz ? fr[2] : sub(one, fr[2]));
-    const __m256i at = _mm256_mullo_epi32(_mm256_add_epi32(base, _mm256_set1_epi32(cx + cy * size + cz * size * size)), four);
+    const __m256i corner_offset = _mm256_set1_epi32(cx + cy * size + cz * size * size);
+    const __m256i at = _mm256_mullo_epi32(_mm256_add_epi32(base, corner_offset), four);
     omega = add(omega, mul(w, _mm256_i32gather_ps(nodes, at, 4)));
     dx = add(dx, mul(w, _mm256_i32gather_ps(nodes + 1, at, 4)));
     dy = add(dy, mul(w, _mm256_i32gather_ps(nodes + 2, at, 4)));
@@ -529,7 +531,9 @@ float cap_occlusion(float omega, float cos_beta) {
 
 std::span<const float> cap_occlusion_table_values() { return cap_table().values; }
 
-float cap_occlusion_table(float omega, float cos_beta) { return cap_lookup(cap_table().values.data(), omega, cos_beta); }
+float cap_occlusion_table(float omega, float cos_beta) {
+  return cap_lookup(cap_table().values.data(), omega, cos_beta);
+}
 
 float evaluate_local(const AOFieldData& field, glm::vec3 x, glm::vec3 n) {
   if (!field.valid()) return 0.0f;

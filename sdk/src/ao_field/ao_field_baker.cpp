@@ -271,7 +271,8 @@ Status bake_grid(const AOFieldCaster& caster, const RayScene& scene, std::uint64
       if (!(glm::length(span) < far)) continue;  // no point within r_far reads this vertex
       Rng rng = Rng::stream(seed, v);
       const glm::vec3 at(centre + glm::dvec3(coord[i], coord[j], coord[k]));
-      const SphereSample smp = trace_sphere(scene, std::span<const glm::vec3>(&at, 1), dirs, random_rotation(rng), tnear);
+      const SphereSample smp =
+          trace_sphere(scene, std::span<const glm::vec3>(&at, 1), dirs, random_rotation(rng), tnear);
       const double omega = 4.0 * kPi * smp.hits / caster.rays_per_sample;
       const double len = glm::length(smp.sum);
       AOFieldGridNode& node = data.nodes[v];

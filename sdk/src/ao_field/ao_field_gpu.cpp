@@ -71,7 +71,9 @@ float caster_occlusion(const std::vector<glm::vec4>& data, std::size_t table, st
     const std::size_t u1 = std::min(u0 + 1, size - 1), v1 = std::min(v0 + 1, size - 1);
     const float fu = u - static_cast<float>(u0), fv = v - static_cast<float>(v0);
     const std::size_t base = offset + 2 * face * size * size;
-    const auto texel = [&](std::size_t tv, std::size_t tu, std::size_t half) { return data[base + 2 * (tv * size + tu) + half]; };
+    const auto texel = [&](std::size_t tv, std::size_t tu, std::size_t half) {
+      return data[base + 2 * (tv * size + tu) + half];
+    };
     const auto bilinear = [&](std::size_t half) {
       return (1 - fu) * (1 - fv) * texel(v0, u0, half) + fu * (1 - fv) * texel(v0, u1, half) +
              (1 - fu) * fv * texel(v1, u0, half) + fu * fv * texel(v1, u1, half);
@@ -88,7 +90,8 @@ float caster_occlusion(const std::vector<glm::vec4>& data, std::size_t table, st
     std::size_t i0[3];
     for (int k = 0; k < 3; ++k) {
       const float uk = std::copysign(std::sqrt(std::abs(p[k]) / r_far), p[k]);
-      const float gk = std::clamp((uk + 1.0f) * 0.5f * static_cast<float>(size - 1), 0.0f, static_cast<float>(size - 1));
+      const float last = static_cast<float>(size - 1);
+      const float gk = std::clamp((uk + 1.0f) * 0.5f * last, 0.0f, last);
       i0[k] = std::min(as_index(gk), size - 2);
       g[k] = gk - static_cast<float>(i0[k]);
     }
@@ -153,7 +156,8 @@ Result<AOFieldGpuBuffer> pack_ao_fields_gpu(std::span<const AOFieldGpuCaster> ca
     for (int row = 0; row < 3; ++row) rec[row] = glm::vec4(inv[0][row], inv[1][row], inv[2][row], inv[3][row]);
     rec[3] = glm::vec4(f.centre, f.r_far);
     const bool grid = f.representation == AOFieldRepresentation::Grid;
-    rec[4] = glm::vec4(1.0f / ((1.0f - f.fade_start) * f.r_far), f.inside_occlusion, f.inside_exponent, grid ? 1.0f : 0.0f);
+    rec[4] = glm::vec4(1.0f / ((1.0f - f.fade_start) * f.r_far), f.inside_occlusion, f.inside_exponent,
+                       grid ? 1.0f : 0.0f);
     rec[5] = glm::vec4(as_float(grid ? f.grid_size : f.resolution), as_float(offsets[k]), 0.0f, 0.0f);
     const float scale = std::cbrt(std::abs(det));
     rec[6] = glm::vec4(glm::vec3(m * glm::vec4(f.centre, 1.0f)), f.r_far * scale);

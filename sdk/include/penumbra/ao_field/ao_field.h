@@ -16,8 +16,9 @@
 // in concavities, for more memory) and feeds the same cap occlusion after a trilinear lookup.
 //
 // This header holds the authoring component (AOFieldCaster), the receiver component
-// (AOFieldReceiver), the baked data (AOFieldData), the closed form and the CPU evaluation. The
-// bake is in ao_field_baker.h; the GPU layout in ao_field_gpu.h. Units: the caster's local (mesh) units; a field follows its
+// (AOFieldReceiver), the baked data (AOFieldData), the closed form, the CPU evaluation and the
+// combination rules. The bake is in ao_field_baker.h, the runtime system in ao_field_system.h,
+// the GPU layout in ao_field_gpu.h. Units: the caster's local (mesh) units; a field follows its
 // entity's rotation, translation and uniform scale (AO is scale-invariant).
 #pragma once
 
@@ -70,9 +71,10 @@ struct AOFieldCaster {
   float falloff_distance = 0.0f;
   // The occlusion fades linearly to 0 between fade_start x r_far and r_far (0 < fade_start < 1).
   float fade_start = 0.8f;
-  // Inside the hull the occlusion blends from its hull value towards inside_occlusion at the
-  // centre, as A0 + (A_hull - A0) (r / r0)^inside_exponent (inside_occlusion in [0, 1], the
-  // exponent > 0).
+  // Radial fit: inside the hull the occlusion blends from its hull value towards
+  // inside_occlusion at the centre, as A0 + (A_hull - A0) (r / r0)^inside_exponent
+  // (inside_occlusion in [0, 1], the exponent > 0). A grid uses inside_occlusion at the centre
+  // point only.
   float inside_occlusion = 1.0f;
   float inside_exponent = 2.0f;
 
@@ -99,9 +101,9 @@ struct AOFieldReceiver {
 // Checks a caster's settings and its entity's world matrix. Errors (InvalidArgument) name
 // `context` (e.g. "ao field 'crate'"), the field and the fix: resolution, radial samples or rays
 // out of range, a non-finite or negative falloff, fade_start outside (0, 1), inside settings out
-// of range, supersample or grid_size out of range, a singular or non-finite matrix, and a
-// non-uniform scale (the field would be
-// distorted: bake the scale into the mesh instead). Cost: O(1). Thread-safe.
+// of range, an unknown representation, supersample or grid_size out of range, a singular or
+// non-finite matrix, and a non-uniform scale or shear (the field would be distorted: bake the
+// scale into the mesh instead). Cost: O(1). Thread-safe.
 Status validate_ao_field_caster(const AOFieldCaster& caster, const glm::mat4& world_matrix,
                                 std::string_view context);
 
