@@ -64,7 +64,9 @@ glm::vec3 direct_light(const RayScene& scene, std::span<const WorldLight> lights
 // is folded into the throughput, its own direct light.
 glm::vec3 irradiance_sample(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
                             const IrradianceSettings& s, Rng& rng) {
-  glm::vec3 sum = direct_light(scene, lights, x, n, s.rect_light_samples, rng);
+  // Light arriving straight at x (the lights' and, below, the first hit's emission) is direct.
+  const bool direct = s.content == LightingContent::All;
+  glm::vec3 sum = direct ? direct_light(scene, lights, x, n, s.rect_light_samples, rng) : glm::vec3(0.0f);
   glm::vec3 throughput(1.0f);
   glm::vec3 p = x, pn = n;
   for (std::uint32_t depth = 0;; ++depth) {
@@ -74,7 +76,8 @@ glm::vec3 irradiance_sample(const RayScene& scene, std::span<const WorldLight> l
     Hit hit;
     if (!scene.intersect(ray, hit)) break;
     // Emission of the surface hit (front side, or both when double sided).
-    if (!hit.back_face || hit.material.double_sided) sum += throughput * (kPi * hit.material.emissive);
+    if ((depth > 0 || direct) && (!hit.back_face || hit.material.double_sided))
+      sum += throughput * (kPi * hit.material.emissive);
     if (!s.reference && depth >= s.bounces) break;
     // Reflect: Lambertian, on the side the path arrived from.
     throughput *= hit.material.albedo;
@@ -99,6 +102,10 @@ Status check_points(std::size_t points, std::size_t out, const char* what) {
 }
 
 }  // namespace
+
+const char* to_string(LightingContent content) {
+  return content == LightingContent::Indirect ? "indirect" : "all";
+}
 
 AoEstimate ambient_occlusion(const RayScene& scene, glm::vec3 x, glm::vec3 n, float max_distance,
                              std::uint32_t rays, Rng& rng) {

@@ -106,6 +106,10 @@ TEST(Integrators, FurnaceIrradiance) {
     glm::vec3 expected(0.0f), rho_k(1.0f);
     for (std::uint32_t k = 0; k <= bounces; ++k, rho_k *= rho) expected += kPi * le * rho_k;
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(e.value[c], expected[c], 1e-5f * expected[c]) << bounces;
+    // Indirect content: the same sum without the walls' emission seen from x (k = 0).
+    s.content = LightingContent::Indirect;
+    const Estimate ind = irradiance(*scene, no_lights, x, n, s, rng);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(ind.value[c], expected[c] - kPi * le[c], 1e-5f * expected[c]) << bounces;
   }
 
   // Reference (all bounces, Russian roulette): pi Le / (1 - rho) within 3 standard errors.
@@ -119,6 +123,14 @@ TEST(Integrators, FurnaceIrradiance) {
     EXPECT_GT(e.std_error[c], 0.0f);
     EXPECT_LT(e.std_error[c], 0.01f * expected[c]);
     EXPECT_NEAR(e.value[c], expected[c], 3.0f * e.std_error[c]) << "channel " << c;
+  }
+  // Indirect reference: pi Le rho / (1 - rho).
+  ref.content = LightingContent::Indirect;
+  const Estimate ind = irradiance(*scene, no_lights, x, n, ref, rng);
+  for (int c = 0; c < 3; ++c) {
+    const float expected_indirect = kPi * le[c] * rho[c] / (1.0f - rho[c]);
+    EXPECT_LT(ind.std_error[c], 0.01f * expected[c]);
+    EXPECT_NEAR(ind.value[c], expected_indirect, 3.0f * ind.std_error[c]) << "channel " << c;
   }
 }
 

@@ -47,12 +47,14 @@ struct SampleSettings {
   std::uint32_t rays = 0;
   float back_face_threshold = 0.0f;
   bool skip_outside = false;  // do not shade points outside the domain (supersampled mode)
-  IrradianceSettings hit;     // the integrator at ray hits
+  IrradianceSettings hit;     // the integrator at ray hits (all the light that reaches them)
   bool shade_hits = true;     // bounces > 0
+  bool direct = true;         // LightingContent::All: the lights and the hits' emission at y
 };
 
 // Radiance SH at y: stratified rays over the sphere (first pass: closest hits, which also decide
-// the domain), then emission + albedo / pi x irradiance at each hit, plus the lights.
+// the domain), then emission + albedo / pi x irradiance at each hit, plus the lights. Indirect
+// content keeps only the reflected part (no emission at the hits, no lights at y).
 PointSample sample_point(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 y,
                          const SampleSettings& s, Rng& rng) {
   PointSample out;
@@ -87,7 +89,7 @@ PointSample sample_point(const RayScene& scene, std::span<const WorldLight> ligh
     const Hit& h = all_hits[i];
     const glm::vec3 dir = uniform_sphere(sobol_2d(i, scramble));
     glm::vec3 radiance(0.0f);
-    if (!h.back_face || h.material.double_sided) radiance += h.material.emissive;
+    if (s.direct && (!h.back_face || h.material.double_sided)) radiance += h.material.emissive;
     if (s.shade_hits && h.material.albedo != glm::vec3(0.0f)) {
       const glm::vec3 p = y + h.t * dir;
       const glm::vec3 n = h.back_face ? -h.normal : h.normal;
@@ -96,7 +98,7 @@ PointSample sample_point(const RayScene& scene, std::span<const WorldLight> ligh
     }
     if (radiance != glm::vec3(0.0f)) sh_add_sample(out.radiance, dir, radiance * weight);
   }
-  add_lights(scene, lights, y, rng, out.radiance);
+  if (s.direct) add_lights(scene, lights, y, rng, out.radiance);
   return out;
 }
 
@@ -203,6 +205,7 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   data.layout = *layout;
   data.sh_order = grid.sh_order;
   data.sampling = grid.sampling;
+  data.lighting = grid.lighting;
   std::vector<SH9rgb> radiance(nodes);
   data.validity.assign(nodes, 0.0f);
   data.filled.assign(nodes, 0);
@@ -215,6 +218,7 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   s.back_face_threshold = grid.back_face_threshold;
   s.skip_outside = !point;
   s.shade_hits = grid.bounces > 0;
+  s.direct = grid.lighting == LightingContent::All;
   s.hit.samples = grid.hit_samples;
   s.hit.reference = grid.bounces == kProbeAllBounces;
   s.hit.bounces = grid.bounces > 0 ? grid.bounces - 1 : 0;
@@ -317,6 +321,7 @@ BakeChunk write_probe_grid_chunk(const ProbeGridData& data) {
   w.write(data.layout.grid_to_world);
   w.write(static_cast<std::uint32_t>(data.sh_order));
   w.write(static_cast<std::uint32_t>(data.sampling));
+  w.write(static_cast<std::uint32_t>(data.lighting));  // version 2
   w.write_vector(data.coefficients);
   w.write_vector(data.validity);
   w.write_vector(data.filled);
@@ -328,21 +333,26 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   const auto bad = [&](const std::string& what) {
     return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the probe grid");
   };
-  PENUMBRA_TRY(check_chunk(chunk, kChunkType, kProbeGridChunkVersion, context));
+  // Version 1 (before the lighting field) stored direct + indirect: read as All.
+  const bool v1 = chunk.type == kChunkType && chunk.version == 1;
+  PENUMBRA_TRY(check_chunk(chunk, kChunkType, v1 ? 1 : kProbeGridChunkVersion, context));
   ProbeGridData data;
   ByteReader r(chunk.payload, context);
-  std::uint32_t order = 0, sampling = 0;
+  std::uint32_t order = 0, sampling = 0, lighting = 0;
   PENUMBRA_TRY(r.read(data.entity_index));
   PENUMBRA_TRY(r.read(data.layout.resolution));
   PENUMBRA_TRY(r.read(data.layout.grid_to_world));
   PENUMBRA_TRY(r.read(order));
   PENUMBRA_TRY(r.read(sampling));
+  if (!v1) PENUMBRA_TRY(r.read(lighting));
   const glm::uvec3 res = data.layout.resolution;
   if (res.x < 2 || res.y < 2 || res.z < 2 || std::uint64_t{res.x} * res.y * res.z > kMaxProbeNodes)
     return bad("resolution " + std::to_string(res.x) + "x" + std::to_string(res.y) + "x" + std::to_string(res.z) +
                " is outside 2.." + std::to_string(kMaxProbeNodes) + " nodes");
   if (order != 1 && order != 2) return bad("SH order " + std::to_string(order) + " is not L1 or L2");
   if (sampling > 2) return bad("sampling mode " + std::to_string(sampling) + " is unknown");
+  if (lighting > 1) return bad("lighting " + std::to_string(lighting) + " is neither all (0) nor indirect (1)");
+  data.lighting = static_cast<LightingContent>(lighting);
   data.sh_order = static_cast<ProbeShOrder>(order);
   data.sampling = static_cast<ProbeSampling>(sampling);
   const glm::mat4& m = data.layout.grid_to_world;
@@ -380,10 +390,10 @@ std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk) {
   const glm::uvec3 r = data->layout.resolution;
   const auto filled = std::count(data->filled.begin(), data->filled.end(), std::uint8_t{1});
   char line[240];
-  std::snprintf(line, sizeof line, "grid %ux%ux%u (%zu nodes), spacing %.3g x %.3g x %.3g m, %s, %s", r.x, r.y, r.z,
-                data->node_count(), static_cast<double>(data->layout.spacing.x),
+  std::snprintf(line, sizeof line, "grid %ux%ux%u (%zu nodes), spacing %.3g x %.3g x %.3g m, %s, %s, %s lighting", r.x,
+                r.y, r.z, data->node_count(), static_cast<double>(data->layout.spacing.x),
                 static_cast<double>(data->layout.spacing.y), static_cast<double>(data->layout.spacing.z),
-                to_string(data->sh_order), to_string(data->sampling));
+                to_string(data->sh_order), to_string(data->sampling), to_string(data->lighting));
   std::vector<std::string> out{line};
   std::snprintf(line, sizeof line, "valid %.1f%% of nodes, %ld filled from neighbours, %s (%llu B per node)",
                 100.0 * static_cast<double>(data->valid_fraction()), static_cast<long>(filled),

@@ -55,6 +55,7 @@ IrradianceProbeGrid small_grid(glm::vec3 lo, glm::vec3 hi, glm::uvec3 res, Probe
   g.sampling = mode;
   g.samples_per_node = 8;
   g.rays_per_sample = 32;
+  g.lighting = LightingContent::All;  // the closed forms below are of the whole irradiance
   return g;
 }
 

@@ -99,6 +99,9 @@ Result<ProbeGridLayout> probe_grid_layout(const IrradianceProbeGrid& grid, const
                                 " is outside [0, 1]; use 0 for watertight scenes, 0.1 otherwise");
   if (!(grid.deringing_window >= 0.0f) || !std::isfinite(grid.deringing_window))
     return invalid(context, "deringing_window must be 0 (off) or a positive width");
+  if (grid.lighting != LightingContent::All && grid.lighting != LightingContent::Indirect)
+    return invalid(context, "lighting " + std::to_string(static_cast<int>(grid.lighting)) +
+                                " is unknown; use LightingContent::Indirect (the renderer draws direct light) or All");
   if (!(grid.blend_distance >= 0.0f) || !std::isfinite(grid.blend_distance))
     return invalid(context, "blend_distance must be 0 (one spacing) or a positive distance in metres");
 

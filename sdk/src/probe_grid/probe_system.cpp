@@ -207,6 +207,7 @@ void hash_probe_inputs(World& world, const BakeSettings&, Hasher& h) {
     h.add(g.rays_per_sample);
     h.add(g.bounces);
     h.add(g.hit_samples);
+    h.add(g.lighting);
     h.add(g.back_face_threshold);
     h.add(g.deringing_window);
     h.add(world.get<WorldTransform>(e).matrix);

@@ -77,8 +77,18 @@ struct WorldLight {
 // rect are skipped with a logged warning. Cost: O(lights).
 std::vector<WorldLight> gather_lights(World& world);
 
+// Which light an irradiance estimate counts (the split of a path at its first surface hit):
+//   All: direct + indirect, the whole E(x, n).
+//   Indirect: the light that reflected at least once on its way to x, i.e. E minus the lights'
+//     direct light at x and minus the emission of the surfaces x sees. What a renderer that draws
+//     direct light itself (shadow maps) adds from a probe grid; note that such a renderer must then
+//     draw emissive surfaces' light on others itself too (the SDK's renderer does not).
+enum class LightingContent : std::uint8_t { All, Indirect };
+const char* to_string(LightingContent content);  // "all", "indirect"
+
 struct IrradianceSettings {
   std::uint32_t samples = 64;             // paths per point (each also does next-event estimation at x)
+  LightingContent content = LightingContent::All;  // Indirect: no light arriving straight at x
   std::uint32_t bounces = 1;              // indirect bounces (0: direct light and emitters seen from x)
   std::uint32_t rect_light_samples = 16;  // stratified (scrambled Sobol') points per rect light per vertex
   // Reference mode: unbounded bounces, Russian roulette after roulette_depth vertices (survival
@@ -92,6 +102,8 @@ struct IrradianceSettings {
 // ray; point/spot: inverse square with the KHR_lights_punctual range window and spot cone;
 // rect: stratified area sampling of L cos_x cos_l / d^2 dA) plus indirect light by cosine-sampled
 // paths with next-event estimation at every vertex and emission of surfaces they hit.
+// With content Indirect the next-event estimation at x and the emission of the first hit are left
+// out (All - Indirect is then the direct part, up to both estimates' noise).
 // Precondition: n unit length, settings.samples >= 2. Cost: samples x (bounces + 1) x (lights +
 // rect samples) rays. Thread-safe.
 Estimate irradiance(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,

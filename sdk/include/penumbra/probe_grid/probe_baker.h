@@ -11,6 +11,8 @@
 //     the surface's irradiance, estimated with `hit_samples` paths of the bake integrator
 //     (irradiance() with bounces - 1 bounces; none when bounces == 0); a ray leaving the scene
 //     brings nothing (the SDK has no sky).
+//   - LightingContent::Indirect drops the lights at y and the emission of the hits, keeping
+//     albedo / pi x irradiance at each hit: the light that reflected at least once.
 // The radiance expansion is the Monte Carlo projection of these samples; the node keeps its
 // cosine convolution (irradiance). Point mode does this once at the node with all the node's rays;
 // supersampled mode draws S points from the node's tent B_i (per axis y = x_i + h (xi1 + xi2 - 1),
@@ -36,7 +38,8 @@
 
 namespace penumbra {
 
-inline constexpr std::uint32_t kProbeGridChunkVersion = 1;
+// Version 2 added ProbeGridData::lighting; version 1 chunks are read as LightingContent::All.
+inline constexpr std::uint32_t kProbeGridChunkVersion = 2;
 
 // Bakes one grid. Validates it first (probe_grid_layout), reserves the node arrays in `budget`
 // before allocating (OutOfBudget names the grid and suggests a larger spacing), and reports three
@@ -53,11 +56,12 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
                                       JobContext& jobs, MemoryBudget& budget, std::string_view context = "probe grid");
 
 // The "PRBG" chunk of one grid (label "probes:<entity index>") and its reader. read() checks the
-// version, sizes, resolution and that every value is finite, and names the chunk in its errors.
+// version (1 and 2), sizes, resolution and that every value is finite, and names the chunk in its
+// errors.
 BakeChunk write_probe_grid_chunk(const ProbeGridData& data);
 Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk);
 
-// Lines for `penumbra info`: grid size, order, mode, valid fraction, filled nodes, bytes.
+// Lines for `penumbra info`: grid size, order, mode, lighting, valid fraction, filled nodes, bytes.
 std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk);
 
 }  // namespace penumbra

@@ -1,4 +1,5 @@
-// Irradiance probe grid (P3): precomputed direct + indirect lighting for dynamic objects, after
+// Irradiance probe grid (P3): precomputed lighting (direct + indirect, or indirect only) for dynamic
+// objects and the indirect term of a renderer, after
 // Kontkanen & Laine 2006, "Sampling Precomputed Volumetric Lighting" (JGT 11(3); the thesis,
 // section 3.2).
 //
@@ -23,6 +24,7 @@
 #include <glm/vec3.hpp>
 
 #include "penumbra/bake/baker.h"
+#include "penumbra/bake/integrators.h"
 #include "penumbra/core/result.h"
 #include "penumbra/core/sh.h"
 #include "penumbra/scene/components.h"
@@ -72,6 +74,13 @@ struct IrradianceProbeGrid {
   // surfaces hit by the node's rays are lit with k - 1 bounces; kProbeAllBounces = all.
   std::uint32_t bounces = 2;
   std::uint32_t hit_samples = 2;  // irradiance paths at each ray hit (>= 2)
+  // What the nodes store (integrators.h, LightingContent). Indirect (the default, and every
+  // preset's): only light that reflected at least once (no lights' direct light, no emission seen
+  // straight from the node), for a renderer that draws direct light itself with shadow maps, as the
+  // SDK's does; an All grid there counts direct light twice and smears its shadows over the node
+  // spacing. All: direct + indirect, for a renderer that draws no dynamic direct light on
+  // probe-lit objects (the grid is their whole lighting; issue 3's grids, .pbake version 1).
+  LightingContent lighting = LightingContent::Indirect;
   // Domain of interest: a sample point is outside when more than this fraction of its rays first
   // hits a back face (0 for watertight scenes; 0.05-0.5 for open geometry).
   float back_face_threshold = 0.1f;
@@ -127,7 +136,8 @@ inline constexpr std::uint64_t kMaxProbeNodes = std::uint64_t{1} << 24;
 // when grid.box is empty). Errors (InvalidArgument) name `context` (e.g. "probe grid 'hall'"),
 // the field and the fix: a resolution below 2 on an axis ("a 1x1x1 grid"), a non-finite or
 // non-positive spacing, an empty/degenerate/non-finite box or transform, more than kMaxProbeNodes
-// nodes, zero samples or rays, hit_samples < 2, a threshold outside [0, 1], a negative window.
+// nodes, zero samples or rays, hit_samples < 2, a threshold outside [0, 1], a negative window, a
+// lighting value that is neither All nor Indirect.
 // Cost: O(1). Thread-safe.
 Result<ProbeGridLayout> probe_grid_layout(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
                                           std::string_view context);
@@ -138,6 +148,7 @@ struct ProbeGridData {
   ProbeGridLayout layout;
   ProbeShOrder sh_order = ProbeShOrder::L2;
   ProbeSampling sampling = ProbeSampling::Supersampled;
+  LightingContent lighting = LightingContent::All;  // what the coefficients hold
   // Node n's coefficient c is coefficients[n * sh_coefficients(sh_order) + c] (RGB).
   std::vector<glm::vec3> coefficients;
   // In-domain coverage per node in [0, 1]: the fraction of its samples in the domain of interest

@@ -44,7 +44,8 @@ void register_probe_grid(World& world);
 Status attach_probe_grids(World& world, const BakeFile& file);
 
 // Gives a scene without an IrradianceProbeGrid one: an entity whose box is the static geometry's
-// bounds inset by 2% (at least 1 cm) on every side, with the preset's settings. Returns the
+// bounds inset by 2% (at least 1 cm) on every side, with the preset's settings (Indirect lighting,
+// for the SDK's renderer, which draws direct light itself). Returns the
 // existing grid entity when there is one, and InvalidInput when the World has no static geometry.
 Result<Entity> add_default_probe_grid(World& world, Preset preset);
 
