@@ -5,11 +5,14 @@
 //                  each with a PCF-filtered shadow map;
 //   indirect light the probe grid's irradiance per pixel (Kontkanen & Laine 2006; the thesis
 //                  section 3.2): trilinear SH from 3D textures, evaluated as core/sh.h;
-//   AO             the per-vertex AO attribute (vertex AO, pose-AO);
+//   AO             the per-vertex AO attribute (vertex AO, pose-AO) times, on AO-field receivers,
+//                  the open fraction under the moving casters' AO fields (ao_field.glsl; per pixel
+//                  on surfaces, per entity on dynamic receivers);
 //   emission       the material's emitted radiance;
 // then exposure, the ACES filmic fit of Narkowicz (2015) and, for UNORM targets, the sRGB transfer.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#include "ao_field.glsl"
 
 layout(std430, set = 0, binding = PENUMBRA_BINDING_LIGHTS) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = PENUMBRA_BINDING_SHADOW_MAP) uniform sampler2DArrayShadow shadow_map;
@@ -27,6 +30,8 @@ layout(location = 0) out vec4 out_color;
 // The debug view is a specialisation constant (one pipeline per view): llvmpipe runs shaders as
 // SIMD with masks, so a run-time switch would pay for every view's code on every pixel.
 layout(constant_id = 0) const uint kView = PENUMBRA_VIEW_LIT;
+// The AO-field pass: false when the scene has no baked casters, so its code is compiled out.
+layout(constant_id = 1) const bool kAoFields = false;
 
 const float kPi = 3.14159265358979323846;
 
@@ -146,6 +151,11 @@ void main() {
   vec3 albedo = push.base_color.rgb * texture(base_color_texture, in_uv).rgb;
   bool has_probe = (frame.params.z & PENUMBRA_FLAG_PROBE_GRID) != 0u;
   float ao = in_ao;
+  if (kAoFields) {  // the AO-field pass: the receiver's open fraction under the casters
+    uint mode = uint(push.ao_field.x);
+    if (mode == PENUMBRA_AO_RECEIVER_SURFACE) ao *= ao_field_open(in_world, n, int(push.ao_field.z));
+    else if (mode == PENUMBRA_AO_RECEIVER_ENTITY) ao *= 1.0 - push.ao_field.y;
+  }
   const uint view = kView;
 
   vec3 color;

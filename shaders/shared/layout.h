@@ -25,6 +25,7 @@ using mat4 = glm::mat4;
 #define PENUMBRA_BINDING_SHADOW_MAP 4     // sampler2DArrayShadow: one layer per shadow view
 #define PENUMBRA_BINDING_PROBE_SH 5       // sampler3D[PENUMBRA_PROBE_TEXTURES]: probe_grid.h GPU layout
 #define PENUMBRA_BINDING_PROBE_VALIDITY 6 // sampler3D: node validity (r)
+#define PENUMBRA_BINDING_AO_FIELDS 7      // storage vec4[]: the ao_field_gpu.h layout (a placeholder without casters)
 // Descriptor set 1 (per material): the base colour texture (sRGB; white when the material has none).
 #define PENUMBRA_BINDING_BASE_COLOR 0
 
@@ -72,12 +73,19 @@ struct GpuLight {
   vec4 cone_shadow;     // x cos outer, y cos inner (spot), z first shadow layer (-1: none), w layer count (1 or 6)
 };
 
-// Push constants of every draw (forward and shadow): 112 bytes.
+// DrawPush.ao_field.x: how the drawn entity receives AO-field occlusion.
+#define PENUMBRA_AO_RECEIVER_NONE 0u
+#define PENUMBRA_AO_RECEIVER_SURFACE 1u  // per pixel from the AO-field buffer (static surfaces)
+#define PENUMBRA_AO_RECEIVER_ENTITY 2u   // one value per entity (AOFieldReceiver::occlusion), uniform over the draw
+
+// Push constants of every draw (forward and shadow): 128 bytes, Vulkan's guaranteed minimum.
 struct DrawPush {
   mat4 model;           // object -> world
   vec4 base_color;      // linear albedo, alpha
   vec4 emissive;        // rgb emitted radiance W/(m^2 sr)
   uvec4 draw;           // x first joint (skinned), y 1 when skinned, z shadow layer (shadow pass), w unused
+  vec4 ao_field;        // x receiver mode (PENUMBRA_AO_RECEIVER_*), y entity occlusion, z the entity's own
+                        // caster record in the AO-field buffer (-1: not a caster; skipped: no self-shadow)
 };
 
 #ifdef __cplusplus

@@ -23,7 +23,7 @@ Status attach_bake(World& world, const BakeFile& file) {
   PENUMBRA_TRY(attach_probe_grids(world, file));
   PENUMBRA_TRY(attach_ao_fields(world, file));
   PENUMBRA_TRY(attach_pose_ao(world, file));
-  // Vertex AO feeds the renderer's per-vertex AO attribute.
+  // Vertex AO becomes the entities' VertexAO (the renderer's per-vertex AO attribute).
   for (const BakeChunk& chunk : file.chunks) {
     if (chunk.type != fourcc("VXAO")) continue;
     auto data = read_vertex_ao_chunk(chunk);
@@ -32,7 +32,7 @@ Status attach_bake(World& world, const BakeFile& file) {
       const Entity e = world.find_entity(entry.entity_index);
       if (!e) return make_error(ErrorCode::NotFound, "vertex AO chunk names entity " + std::to_string(entry.entity_index) +
                                                          ", which the scene does not have; re-bake the scene");
-      world.add<VertexAoAttribute>(e, VertexAoAttribute{entry.ao});
+      world.add<VertexAO>(e, VertexAO{entry.ao});
     }
   }
   return {};

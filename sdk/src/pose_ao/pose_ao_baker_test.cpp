@@ -324,9 +324,9 @@ TEST(PoseAOBake, BakeWorldAttachAndTheSystemFollowTheWalkCycle) {
 
   // Two times of the walk cycle: the AO differs, and stays in [0, 1].
   world.update(0.25);
-  const std::vector<float> a = world.get<PoseAOValues>(w.mesh).ao;
+  const std::vector<float> a = world.get<VertexAO>(w.mesh).ao;
   world.update(0.5);
-  const std::vector<float> b = world.get<PoseAOValues>(w.mesh).ao;
+  const std::vector<float> b = world.get<VertexAO>(w.mesh).ao;
   ASSERT_EQ(a.size(), w.data().positions.size());
   double change = 0.0;
   for (std::size_t v = 0; v < a.size(); ++v) {

@@ -38,7 +38,7 @@ std::size_t update_pose_ao(World& world, std::uint64_t since) {
   world.view<SkinnedPoseAO, SkinPose>().each([&](Entity e, SkinnedPoseAO& s, SkinPose& pose) {
     if (!s.data || pose.joint_matrices.size() != s.data->joint_count) return;
     if (world.changed_tick<SkinPose>(e) > since || world.changed_tick<SkinnedPoseAO>(e) > since ||
-        !world.has<PoseAOValues>(e))
+        !world.has<VertexAO>(e))
       due.push_back(e);
   });
   std::vector<float> features;
@@ -46,10 +46,9 @@ std::size_t update_pose_ao(World& world, std::uint64_t since) {
     const std::shared_ptr<const PoseAOData> data = world.get<SkinnedPoseAO>(e).data;
     // Theta once per character, then the vectorised per-vertex loop.
     pose_features(data->joint_parents, world.get<SkinPose>(e).joint_matrices, features);
-    PoseAOValues& out = world.has<PoseAOValues>(e) ? world.patch<PoseAOValues>(e) : world.add<PoseAOValues>(e);
+    VertexAO& out = world.has<VertexAO>(e) ? world.patch<VertexAO>(e) : world.add<VertexAO>(e);
     out.ao.resize(data->vertex_count);
     evaluate_pose_ao(*data, features, out.ao);
-    out.updated_tick = world.tick();
   }
   return due.size();
 }
@@ -59,7 +58,7 @@ void register_pose_ao_system(World& world) {
   desc.name = "pose-ao";
   desc.phase = Phase::Lighting;
   desc.reads = {component_id<SkinPose>(), component_id<SkinnedPoseAO>()};
-  desc.writes = {component_id<PoseAOValues>()};
+  desc.writes = {component_id<VertexAO>()};
   desc.run = [](World& w, const SystemContext& ctx) { update_pose_ao(w, ctx.last_run); };
   world.add_system(std::move(desc));
 }

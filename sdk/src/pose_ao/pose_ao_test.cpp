@@ -281,7 +281,7 @@ TEST(PoseAOSystem, NothingWithoutTheComponentAndOnlyOnChange) {
   const Entity plain = world.create();
   world.add<SkinPose>(plain, SkinPose{std::vector<glm::mat4>(2, glm::mat4(1.0f))});
   EXPECT_EQ(update_pose_ao(world, 0), 0u);
-  EXPECT_FALSE(world.has<PoseAOValues>(plain));
+  EXPECT_FALSE(world.has<VertexAO>(plain));
 
   const Entity e = world.create();
   world.add<SkinPose>(e, SkinPose{std::vector<glm::mat4>(2, glm::mat4(1.0f))});
@@ -289,17 +289,17 @@ TEST(PoseAOSystem, NothingWithoutTheComponentAndOnlyOnChange) {
   s.data = std::make_shared<const PoseAOData>(tiny_data());
   world.add<SkinnedPoseAO>(e, s);
   EXPECT_EQ(update_pose_ao(world, 0), 1u);
-  ASSERT_TRUE(world.has<PoseAOValues>(e));
-  const std::vector<float> bind = world.get<PoseAOValues>(e).ao;
+  ASSERT_TRUE(world.has<VertexAO>(e));
+  const std::vector<float> bind = world.get<VertexAO>(e).ao;
   ASSERT_EQ(bind.size(), kVertices);
-  EXPECT_FALSE(world.has<PoseAOValues>(plain));
+  EXPECT_FALSE(world.has<VertexAO>(plain));
   // Unchanged pose: no work. A new pose: new values.
   const std::uint64_t since = world.tick();
   update_world_transforms(world);  // advances the tick
   EXPECT_EQ(update_pose_ao(world, since), 0u);
   world.patch<SkinPose>(e).joint_matrices[1] = rotation(1.0f, {1, 0, 0});
   EXPECT_EQ(update_pose_ao(world, since), 1u);
-  EXPECT_NE(world.get<PoseAOValues>(e).ao, bind);
+  EXPECT_NE(world.get<VertexAO>(e).ao, bind);
 }
 
 }  // namespace

@@ -6,12 +6,14 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <tuple>
 #include <unordered_map>
 
 #include <glm/ext/matrix_clip_space.hpp>
 #include <glm/ext/matrix_transform.hpp>
 #include <glm/ext/vector_uint4_sized.hpp>
 
+#include "penumbra/ao_field/ao_field_gpu.h"
 #include "penumbra/bake/integrators.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
@@ -53,6 +55,12 @@ struct GpuTexture {
   ImageResource image;
   VkDescriptorSet set = VK_NULL_HANDLE;
 };
+// An entity's uploaded VertexAO and the change tick it was uploaded at.
+struct VertexAoBuffer {
+  Buffer buffer;
+  Entity entity;
+  std::uint64_t tick = 0;
+};
 struct Draw {
   const GpuMesh* mesh = nullptr;
   VkBuffer ao = VK_NULL_HANDLE;  // per-vertex AO, or the shared buffer of ones
@@ -89,7 +97,7 @@ struct Renderer::Impl {
   VkDescriptorSetLayout frame_layout = VK_NULL_HANDLE, material_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE;
-  std::map<std::pair<VkFormat, std::uint32_t>, VkPipeline> forward_pipelines;  // by format and view
+  std::map<std::tuple<VkFormat, std::uint32_t, bool>, VkPipeline> forward_pipelines;  // by format, view, AO fields
   VkPipeline shadow_pipeline = VK_NULL_HANDLE;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
@@ -99,7 +107,7 @@ struct Renderer::Impl {
   std::unordered_map<const MeshData*, GpuMesh> meshes;
   std::unordered_map<const Texture*, GpuTexture> textures;
   GpuTexture white;
-  std::unordered_map<std::uint32_t, Buffer> vertex_ao;  // by entity index
+  std::unordered_map<std::uint32_t, VertexAoBuffer> vertex_ao;  // by entity index
   Buffer ones;                                          // AO = 1 for entities without the attribute
   std::vector<Draw> draws;
   std::vector<gpu::GpuLight> lights;
@@ -113,6 +121,12 @@ struct Renderer::Impl {
   ImageResource probe_textures[PENUMBRA_PROBE_TEXTURES];
   ImageResource probe_validity;
   ImageResource dummy_3d;
+
+  // AO fields (ao_field_gpu.h layout): the packed casters, or the placeholder bound without any.
+  Buffer ao_field_buffer, ao_field_placeholder;
+  std::vector<Entity> ao_casters;                 // the packed records' entities, in record order
+  std::vector<const AOFieldData*> ao_field_data;  // their fields when packed
+  std::uint64_t ao_field_tick = 0;                // the newest caster change tick packed
 
   // Targets.
   ImageResource depth;
@@ -133,8 +147,8 @@ struct Renderer::Impl {
     for (auto& [k, m] : meshes) { alloc->destroy(m.vertices); alloc->destroy(m.indices); }
     for (auto& [k, t] : textures) alloc->destroy(t.image);
     alloc->destroy(white.image);
-    for (auto& [k, b] : vertex_ao) alloc->destroy(b);
-    for (Buffer* b : {&ones, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
+    for (auto& [k, b] : vertex_ao) alloc->destroy(b.buffer);
+    for (Buffer* b : {&ones, &ao_field_buffer, &ao_field_placeholder, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
     for (auto& t : probe_textures) alloc->destroy(t);
     for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &shadow_map, &offscreen}) alloc->destroy(*i);
     for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
@@ -149,7 +163,7 @@ struct Renderer::Impl {
   }
 
   Status init();
-  Result<VkPipeline> forward_pipeline(VkFormat format, std::uint32_t view);
+  Result<VkPipeline> forward_pipeline(VkFormat format, std::uint32_t view, bool ao_fields);
   Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
   Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
                       VkDeviceSize size);
@@ -157,6 +171,8 @@ struct Renderer::Impl {
   Result<const GpuMesh*> mesh(const std::shared_ptr<const MeshData>& data);
   Status ensure_host_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage);
   Status sync_probe_grid(World& world);
+  Status sync_ao_fields(World& world);
+  int ao_caster_record(Entity e) const;
   void plan_shadows(const std::vector<WorldLight>& world_lights);
   Status ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size);
   void write_descriptors();
@@ -181,6 +197,7 @@ Status Renderer::Impl::init() {
       {PENUMBRA_BINDING_PROBE_SH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES,
        VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_PROBE_VALIDITY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   };
   auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
   layout_info.bindingCount = std::size(frame_bindings);
@@ -209,7 +226,7 @@ Status Renderer::Impl::init() {
   // Descriptor pool: the frame set and one set per texture.
   const VkDescriptorPoolSize sizes[] = {
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3},
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4},
       {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES + 2 + kMaxMaterialSets},
   };
   auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
@@ -280,6 +297,8 @@ Status Renderer::Impl::init() {
   image.format = VK_FORMAT_R32G32B32A32_SFLOAT;
   PENUMBRA_TRY(upload_image(dummy_3d, image, VK_IMAGE_VIEW_TYPE_3D, zero, sizeof zero));
   PENUMBRA_TRY(ensure_host_buffer(frame_buffer, sizeof(gpu::FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT));
+  PENUMBRA_TRY(ensure_host_buffer(ao_field_placeholder, sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+  std::memset(ao_field_placeholder.mapped, 0, ao_field_placeholder.size);
   return {};
 }
 
@@ -444,6 +463,59 @@ Status Renderer::Impl::sync_probe_grid(World& world) {
   return upload_image(probe_validity, info, VK_IMAGE_VIEW_TYPE_3D, validity.data(), validity.size() * sizeof(float));
 }
 
+// AO fields: re-packs the casters when one of them (its AOFieldCaster or WorldTransform) changed;
+// uploads everything when the set of casters or fields changed, else only the caster records
+// (their transforms), which the layout puts first. Without casters the buffer is released and the
+// pass is compiled out (kAoFields = false).
+Status Renderer::Impl::sync_ao_fields(World& world) {
+  std::vector<Entity> casters;
+  std::vector<AOFieldGpuCaster> packed_casters;
+  std::vector<const AOFieldData*> fields;
+  std::uint64_t tick = 0;
+  for (Entity e : world.view<const AOFieldCaster, const WorldTransform>().sorted_entities()) {
+    const AOFieldCaster& c = world.get<AOFieldCaster>(e);
+    if (!c.data || !c.data->valid()) continue;
+    casters.push_back(e);
+    packed_casters.push_back({c.data.get(), world.get<WorldTransform>(e).matrix});
+    fields.push_back(c.data.get());
+    tick = std::max({tick, world.changed_tick<AOFieldCaster>(e), world.changed_tick<WorldTransform>(e)});
+  }
+  const bool same_fields = casters == ao_casters && fields == ao_field_data;
+  stats.ao_field_casters = static_cast<std::uint32_t>(casters.size());
+  if (same_fields && tick <= ao_field_tick) return {};
+  if (casters.empty()) {
+    vkDeviceWaitIdle(vk);
+    alloc->destroy(ao_field_buffer);
+    ao_casters.clear();
+    ao_field_data.clear();
+    ao_field_tick = 0;
+    descriptors_dirty = true;
+    return {};
+  }
+  auto packed = pack_ao_fields_gpu(packed_casters);
+  if (!packed) return packed.error();
+  const VkDeviceSize bytes = packed->bytes();
+  VkDeviceSize upload = bytes;
+  if (same_fields && ao_field_buffer.buffer && ao_field_buffer.size >= bytes) {
+    upload = (1 + 7 * VkDeviceSize{packed->casters}) * sizeof(glm::vec4);  // the records only
+  } else {
+    PENUMBRA_TRY(ensure_host_buffer(ao_field_buffer, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+  }
+  std::memcpy(ao_field_buffer.mapped, packed->data.data(), upload);
+  stats.ao_field_bytes_uploaded += upload;
+  ao_casters = std::move(casters);
+  ao_field_data = std::move(fields);
+  ao_field_tick = tick;
+  return {};
+}
+
+// The record index of caster `e` in the AO-field buffer, or -1.
+int Renderer::Impl::ao_caster_record(Entity e) const {
+  const auto it = std::lower_bound(ao_casters.begin(), ao_casters.end(), e,
+                                   [](Entity a, Entity b) { return a.index < b.index; });
+  return it != ao_casters.end() && *it == e ? static_cast<int>(it - ao_casters.begin()) : -1;
+}
+
 // Shadow views: directional 1 orthographic layer fitted to the scene bounds, spot 1 perspective
 // layer over the outer cone, point and rect 6 cube faces (+X, -X, +Y, -Y, +Z, -Z as cube_face()).
 void Renderer::Impl::plan_shadows(const std::vector<WorldLight>& world_lights) {
@@ -566,7 +638,9 @@ void Renderer::Impl::write_descriptors() {
   }
   const VkDescriptorImageInfo validity_info{probe_sampler, probe_validity.view ? probe_validity.view : dummy_3d.view,
                                             VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkWriteDescriptorSet writes[7];
+  const VkBuffer ao_buffer = ao_field_buffer.buffer ? ao_field_buffer.buffer : ao_field_placeholder.buffer;
+  const VkDescriptorBufferInfo ao_field_info{ao_buffer, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet writes[8];
   auto buffer_write = [&](int i, std::uint32_t binding, VkDescriptorType type, const VkDescriptorBufferInfo* info) {
     writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
     writes[i].dstSet = frame_set;
@@ -590,19 +664,25 @@ void Renderer::Impl::write_descriptors() {
   image_write(4, PENUMBRA_BINDING_SHADOW_MAP, 1, &shadow_info);
   image_write(5, PENUMBRA_BINDING_PROBE_SH, PENUMBRA_PROBE_TEXTURES, probe_info);
   image_write(6, PENUMBRA_BINDING_PROBE_VALIDITY, 1, &validity_info);
-  vkUpdateDescriptorSets(vk, 7, writes, 0, nullptr);
+  buffer_write(7, PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &ao_field_info);
+  vkUpdateDescriptorSets(vk, 8, writes, 0, nullptr);
 }
 
 // Graphics pipelines for dynamic rendering: the forward pass per colour format, the shadow pass.
-// The forward pipeline's fragment stage is specialised on the debug view (constant_id 0).
-Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32_t view) {
+// The forward pipeline's fragment stage is specialised on the debug view (constant_id 0) and on
+// whether the AO-field pass runs (constant_id 1).
+Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32_t view, bool ao_fields) {
   const bool shadow = format == VK_FORMAT_UNDEFINED;
   if (shadow && shadow_pipeline) return shadow_pipeline;
   if (!shadow) {
-    if (auto it = forward_pipelines.find({format, view}); it != forward_pipelines.end()) return it->second;
+    if (auto it = forward_pipelines.find({format, view, ao_fields}); it != forward_pipelines.end()) return it->second;
   }
-  const VkSpecializationMapEntry view_entry{0, 0, sizeof(std::uint32_t)};
-  const VkSpecializationInfo specialization{1, &view_entry, sizeof view, &view};
+  const struct {
+    std::uint32_t view;
+    VkBool32 ao_fields;
+  } constants{view, ao_fields ? VK_TRUE : VK_FALSE};
+  const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(std::uint32_t)}, {1, sizeof(std::uint32_t), sizeof(VkBool32)}};
+  const VkSpecializationInfo specialization{2, entries, sizeof constants, &constants};
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
@@ -690,7 +770,7 @@ Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32
   if (shadow) {
     shadow_pipeline = pipeline;
   } else {
-    forward_pipelines[{format, view}] = pipeline;
+    forward_pipelines[{format, view, ao_fields}] = pipeline;
   }
   return pipeline;
 }
@@ -713,9 +793,12 @@ Status Renderer::sync(World& world) {
   r.draws.clear();
   r.joints.clear();
   r.bounds = Aabb{};
+  r.stats.vertex_ao_uploads = 0;
+  r.stats.ao_field_bytes_uploaded = 0;
   std::uint32_t max_vertices = 0;
+  PENUMBRA_TRY(r.sync_ao_fields(world));
 
-  // Draws in entity order: mesh, material texture, skin pose, per-vertex AO.
+  // Draws in entity order: mesh, material texture, skin pose, per-vertex AO, AO-field receiver.
   const std::vector<Entity> entities = world.view<const Mesh, const WorldTransform>().sorted_entities();
   for (Entity e : entities) {
     const Mesh& m = world.get<Mesh>(e);
@@ -738,13 +821,26 @@ Status Renderer::sync(World& world) {
       d.push.draw = glm::uvec4(static_cast<std::uint32_t>(r.joints.size()), 1u, 0u, 0u);
       r.joints.insert(r.joints.end(), pose->joint_matrices.begin(), pose->joint_matrices.end());
     }
-    const auto* ao = world.try_get<VertexAoAttribute>(e);
+    const auto* ao = world.try_get<VertexAO>(e);
     if (ao && ao->ao.size() == m.data->positions.size()) {
-      Buffer& b = r.vertex_ao[e.index];
-      PENUMBRA_TRY(r.ensure_host_buffer(b, ao->ao.size() * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT));
-      std::memcpy(b.mapped, ao->ao.data(), ao->ao.size() * sizeof(float));
-      d.ao = b.buffer;
+      // Uploaded again only when the component's change tick moved (pose-AO: frames whose pose changed).
+      VertexAoBuffer& b = r.vertex_ao[e.index];
+      const std::uint64_t tick = world.changed_tick<VertexAO>(e);
+      if (!b.buffer.buffer || b.entity != e || b.tick != tick || b.buffer.size < ao->ao.size() * sizeof(float)) {
+        PENUMBRA_TRY(r.ensure_host_buffer(b.buffer, ao->ao.size() * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT));
+        std::memcpy(b.buffer.mapped, ao->ao.data(), ao->ao.size() * sizeof(float));
+        b.entity = e;
+        b.tick = tick;
+        ++r.stats.vertex_ao_uploads;
+      }
+      d.ao = b.buffer.buffer;
     }
+    if (const auto* receiver = world.try_get<AOFieldReceiver>(e)) {
+      const bool surface = receiver->mode == AOFieldReceiver::Mode::Surface;
+      d.push.ao_field.x = float(surface ? PENUMBRA_AO_RECEIVER_SURFACE : PENUMBRA_AO_RECEIVER_ENTITY);
+      d.push.ao_field.y = surface ? 0.0f : std::clamp(receiver->occlusion, 0.0f, 1.0f);
+    }
+    d.push.ao_field.z = float(r.ao_caster_record(e));
     max_vertices = std::max(max_vertices, d.mesh->vertex_count);
     for (int i = 0; i < 8; ++i) {
       const Aabb& b = m.data->bounds;
@@ -785,9 +881,9 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_map_size " + std::to_string(settings.shadow_map_size) +
                                                       " is outside [16, 8192]");
   }
-  auto pipeline = forward_pipeline(target.format, static_cast<std::uint32_t>(settings.view));
+  auto pipeline = forward_pipeline(target.format, static_cast<std::uint32_t>(settings.view), !ao_casters.empty());
   if (!pipeline) return pipeline.error();
-  auto shadow = forward_pipeline(VK_FORMAT_UNDEFINED, 0);
+  auto shadow = forward_pipeline(VK_FORMAT_UNDEFINED, 0, false);
   if (!shadow) return shadow.error();
   PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size));
 

@@ -1,18 +1,27 @@
 // Renderer tests, all with the Vulkan validation layer on (any message fails the test):
 // golden images of the built-in scenes in every debug view, the one-pixel-shift sensitivity of
-// the golden comparison, GPU skinning, and the shader's probe irradiance against the CPU's.
+// the golden comparison, GPU skinning, the shader's probe irradiance against the CPU's, and the
+// AO passes: AO fields per pixel (shader against evaluate_packed, a moving crate's contact shadow,
+// the pass compiled out without casters) and pose-AO as the VertexAO attribute.
 #include "penumbra/render/renderer.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 
+#include <glm/gtc/quaternion.hpp>
+
+#include "penumbra/ao_field/ao_field_baker.h"
+#include "penumbra/ao_field/ao_field_gpu.h"
 #include "penumbra/bake/baker.h"
 #include "penumbra/core/jobs.h"
+#include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/probe_grid/probe_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
@@ -25,15 +34,23 @@ namespace {
 constexpr std::uint32_t kWidth = 160, kHeight = 120;
 const std::filesystem::path kGoldenDir = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "sdk/src/render/golden";
 
-// A built-in scene with a draft probe grid baked in place (deterministic: seed 1).
+// A built-in scene with a draft probe grid baked in place (deterministic: seed 1); optionally draft
+// AO fields on its movable meshes (add_default_ao_field_casters) and draft pose-AO on its skinned
+// meshes, baked with it.
 struct BakedScene {
   World world;
   Entity camera;
 };
-std::unique_ptr<BakedScene> bake_scene(std::string_view name) {
+struct SceneOptions {
+  bool ao_fields = false;
+  bool pose_ao = false;
+};
+std::unique_ptr<BakedScene> bake_scene(std::string_view name, SceneOptions options = {}) {
   auto s = std::make_unique<BakedScene>();
   register_scene_systems(s->world);
   register_probe_grid(s->world);
+  if (options.ao_fields) register_ao_field(s->world);
+  if (options.pose_ao) register_pose_ao(s->world);
   auto loaded = load_builtin(s->world, name);
   EXPECT_TRUE(loaded.ok());
   if (!loaded.ok()) return nullptr;
@@ -41,10 +58,19 @@ std::unique_ptr<BakedScene> bake_scene(std::string_view name) {
   s->world.update(0.0);
   auto grid = add_default_probe_grid(s->world, Preset::Draft);
   EXPECT_TRUE(grid.ok()) << (grid.ok() ? "" : grid.error().message);
+  std::vector<std::string> bakers = {"probes"};
+  if (options.ao_fields) {
+    EXPECT_GT(add_default_ao_field_casters(s->world, Preset::Draft), 0u);
+    bakers.push_back("aofields");
+  }
+  if (options.pose_ao) {
+    EXPECT_GT(add_default_pose_ao(s->world, Preset::Draft), 0u);
+    bakers.push_back("poseao");
+  }
   BakeSettings settings;
   settings.preset = Preset::Draft;
   JobContext jobs;
-  auto baked = bake_world(s->world, {"probes"}, settings, jobs);
+  auto baked = bake_world(s->world, bakers, settings, jobs);
   EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
   s->world.update(0.0);
   return s;
@@ -273,6 +299,214 @@ TEST_F(RendererTest, RejectsBadSizesAndReportsMemory) {
   ASSERT_TRUE(renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings).ok());
   EXPECT_GT(renderer_->stats().gpu_bytes, std::uint64_t{kWidth} * kHeight * 4);
   EXPECT_GT(renderer_->stats().draws, 0u);
+}
+
+// A camera entity at `eye` looking at `target`: a close-up for the AO goldens.
+CameraView look_at(World& world, glm::vec3 eye, glm::vec3 target) {
+  const Entity e = world.create();
+  Transform t;
+  t.translation = eye;
+  t.rotation = glm::quatLookAt(glm::normalize(target - eye), glm::vec3(0.0f, 1.0f, 0.0f));
+  world.add<Transform>(e, t);
+  world.add<Camera>(e, Camera{});
+  update_world_transforms(world);
+  return camera_view(world, e, float(kWidth) / float(kHeight));
+}
+
+// The AO-field pass's occlusion (AO view, linear float) on the courtyard's ground equals
+// 1 - evaluate_packed(), the CPU reference of the shader, at each pixel's world position and
+// normal within 0.01, where the crates darken it.
+TEST_F(RendererTest, AoFieldPassMatchesTheCpuReference) {
+  auto s = bake_scene("courtyard", {.ao_fields = true});
+  ASSERT_TRUE(s);
+  auto packed = pack_ao_fields_gpu(s->world);
+  ASSERT_TRUE(packed.ok()) << packed.error().message;
+  ASSERT_EQ(packed->casters, 4u);
+  auto render = [&](DebugView view) {
+    RenderSettings settings;
+    settings.view = view;
+    auto image = renderer_->render_image(s->world, camera(*s), kWidth, kHeight, settings, true);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
+  };
+  const auto ao = render(DebugView::AoOnly);
+  EXPECT_EQ(renderer_->stats().ao_field_casters, 4u);
+  const auto position = render(DebugView::Position);
+  const auto normal = render(DebugView::Normal);
+  ASSERT_EQ(ao.size(), std::size_t{kWidth} * kHeight * 4);
+  int ground = 0, occluded = 0;
+  double worst = 0.0;
+  for (std::size_t p = 0; p < ao.size(); p += 4) {
+    const glm::vec3 pos(position[p], position[p + 1], position[p + 2]);
+    const glm::vec3 n(normal[p], normal[p + 1], normal[p + 2]);
+    if (std::abs(pos.y) > 1e-3f || n.y < 0.99f) continue;  // the ground only (a Surface receiver)
+    const float cpu = evaluate_packed(*packed, pos, glm::normalize(n));
+    const double err = std::abs((1.0 - double(ao[p])) - double(cpu));
+    worst = std::max(worst, err);
+    EXPECT_LE(err, 0.01) << "pixel " << p / 4 << " at (" << pos.x << ", " << pos.z << "): gpu " << 1.0f - ao[p]
+                         << " cpu " << cpu;
+    ++ground;
+    occluded += cpu > 0.05f;
+  }
+  EXPECT_GE(ground, 2000);
+  EXPECT_GE(occluded, 100) << "too few ground pixels near the crates to test the pass";
+  RecordProperty("worst_abs_error", std::to_string(worst));
+}
+
+// A moving crate (the courtyard's far one, (-3, 0.4, -6)) at two positions: from the scene's
+// camera the AO images differ near the crate and are identical wherever both positions are beyond
+// the crate's reach; close-ups in the AO and lit views match their goldens; moving it uploads only
+// the caster records; an unchanged frame uploads nothing.
+TEST_F(RendererTest, AoFieldShadowFollowsAMovingCrate) {
+  auto s = bake_scene("courtyard", {.ao_fields = true});
+  ASSERT_TRUE(s);
+  World& w = s->world;
+  Entity crate;
+  std::size_t record = 0, casters = 0;
+  for (Entity e : w.view<const AOFieldCaster, const WorldTransform>().sorted_entities()) {
+    if (glm::distance(glm::vec3(w.get<WorldTransform>(e).matrix[3]), glm::vec3(-3.0f, 0.4f, -6.0f)) < 1e-3f) {
+      crate = e;
+      record = casters;
+    }
+    ++casters;
+  }
+  ASSERT_TRUE(crate);
+  const CameraView cam = camera(*s);
+  struct Frame {
+    std::string golden;
+    Image ao, lit;
+    std::vector<float> position;
+    glm::vec3 centre{0.0f};
+    float reach = 0.0f;
+  };
+  const CameraView close_up = look_at(w, glm::vec3(-2.2f, 2.6f, -1.8f), glm::vec3(-2.2f, 0.2f, -5.6f));
+  auto render = [&](Frame& f) {
+    RenderSettings settings;
+    settings.view = DebugView::AoOnly;
+    auto ao = renderer_->render_image(w, cam, kWidth, kHeight, settings);
+    ASSERT_TRUE(ao.ok());
+    auto ao_close = renderer_->render_image(w, close_up, kWidth, kHeight, settings);
+    ASSERT_TRUE(ao_close.ok());
+    expect_golden(*ao_close, f.golden + "_ao");
+    settings.view = DebugView::Lit;
+    settings.shadow_map_size = 512;
+    auto lit = renderer_->render_image(w, close_up, kWidth, kHeight, settings);
+    ASSERT_TRUE(lit.ok());
+    expect_golden(*lit, f.golden + "_lit");
+    settings.view = DebugView::Position;
+    auto position = renderer_->render_image(w, cam, kWidth, kHeight, settings, true);
+    ASSERT_TRUE(ao.ok() && lit.ok() && position.ok());
+    f.ao = std::move(*ao);
+    f.lit = std::move(*lit);
+    f.position = std::move(position->rgba32f);
+    auto packed = pack_ao_fields_gpu(w);
+    ASSERT_TRUE(packed.ok());
+    const glm::vec4 reach = packed->data[1 + 7 * record + 6];  // world centre, world reach
+    f.centre = glm::vec3(reach);
+    f.reach = reach.w;
+  };
+  Frame a, b;
+  a.golden = "courtyard_crate_a";
+  b.golden = "courtyard_crate_b";
+  render(a);
+  EXPECT_EQ(renderer_->stats().ao_field_bytes_uploaded, 0u) << "nothing changed since the previous frame";
+  // Moving the crate uploads the caster records (its transform), not the fields.
+  w.patch<Transform>(crate).translation = glm::vec3(-1.5f, 0.4f, -5.0f);
+  w.update(0.0);
+  RenderSettings first_frame;
+  first_frame.view = DebugView::AoOnly;
+  ASSERT_TRUE(renderer_->render_image(w, cam, kWidth, kHeight, first_frame).ok());
+  EXPECT_EQ(renderer_->stats().ao_field_bytes_uploaded, (1 + 7 * casters) * sizeof(glm::vec4));
+  render(b);
+  ASSERT_GT(glm::distance(a.centre, b.centre), 1.0f);
+
+  std::size_t near_changed = 0, far_pixels = 0, far_changed = 0;
+  for (std::size_t p = 0; p < a.ao.rgba8.size(); p += 4) {
+    bool far = true;
+    for (const Frame* f : {&a, &b}) {
+      const glm::vec3 pos(f->position[p], f->position[p + 1], f->position[p + 2]);
+      far = far && glm::distance(pos, a.centre) > a.reach && glm::distance(pos, b.centre) > b.reach;
+    }
+    const bool changed = std::memcmp(&a.ao.rgba8[p], &b.ao.rgba8[p], 4) != 0;
+    far_pixels += far;
+    far_changed += far && changed;
+    near_changed += !far && changed;
+  }
+  EXPECT_GE(near_changed, 50u) << "the crate's contact shadow did not move";
+  EXPECT_GE(far_pixels, 1000u);
+  EXPECT_EQ(far_changed, 0u) << "pixels beyond the crate's reach changed";
+  EXPECT_GE(compare(a.lit.rgba8, b.lit.rgba8).differing, 50u);
+}
+
+// Without baked casters the pass is compiled out and costs nothing: the courtyard with its
+// casters removed renders bit-identically to the courtyard that never had any (AO and lit views),
+// and with them it renders differently.
+TEST_F(RendererTest, AoFieldPassIsCompiledOutWithoutCasters) {
+  auto s = bake_scene("courtyard", {.ao_fields = true});
+  ASSERT_TRUE(s);
+  BakedScene& plain = scene("courtyard");
+  RenderSettings ao_view, lit_view;
+  ao_view.view = DebugView::AoOnly;
+  lit_view.shadow_map_size = 512;
+  auto with = renderer_->render_image(s->world, camera(*s), kWidth, kHeight, ao_view);
+  ASSERT_TRUE(with.ok()) << with.error().message;
+  EXPECT_EQ(renderer_->stats().ao_field_casters, 4u);
+  for (Entity e : s->world.view<const AOFieldCaster>().sorted_entities()) s->world.remove<AOFieldCaster>(e);
+  s->world.update(0.0);
+  for (const RenderSettings& settings : {ao_view, lit_view}) {
+    auto without = renderer_->render_image(s->world, camera(*s), kWidth, kHeight, settings);
+    ASSERT_TRUE(without.ok()) << without.error().message;
+    EXPECT_EQ(renderer_->stats().ao_field_casters, 0u);
+    auto never = renderer_->render_image(plain.world, camera(plain), kWidth, kHeight, settings);
+    ASSERT_TRUE(never.ok()) << never.error().message;
+    EXPECT_EQ(renderer_->stats().ao_field_bytes_uploaded, 0u);
+    EXPECT_EQ(without->rgba8, never->rgba8) << debug_view_name(settings.view);
+    if (settings.view == DebugView::AoOnly) {
+      EXPECT_GE(compare(with->rgba8, without->rgba8).differing, 50u);
+    }
+  }
+}
+
+// Pose-AO through VertexAO: the courtyard walker's per-vertex AO (draft bake) differs between two
+// times of the walk cycle, the renderer uploads it only in frames where it changed, and the AO
+// view at both times matches its golden and shows it (no other AO in this scene).
+TEST_F(RendererTest, PoseAoChangesWithTheWalkCycle) {
+  auto s = bake_scene("courtyard", {.pose_ao = true});
+  ASSERT_TRUE(s);
+  World& w = s->world;
+  const std::vector<Entity> walkers = w.view<const SkinnedPoseAO, const VertexAO>().sorted_entities();
+  ASSERT_EQ(walkers.size(), 1u);
+  const Entity walker = walkers[0];
+  const CameraView cam = look_at(w, glm::vec3(3.2f, 1.2f, 6.4f), glm::vec3(2.0f, 0.8f, 4.0f));
+  RenderSettings settings;
+  settings.view = DebugView::AoOnly;
+  auto darkened = [](const Image& image) {
+    std::size_t n = 0;
+    for (std::size_t p = 0; p < image.rgba8.size(); p += 4) n += image.rgba8[p] < 230;
+    return n;
+  };
+
+  const std::vector<float> first_ao = w.get<VertexAO>(walker).ao;
+  auto first = renderer_->render_image(w, cam, kWidth, kHeight, settings);
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  EXPECT_GE(renderer_->stats().vertex_ao_uploads, 1u);
+  ASSERT_TRUE(renderer_->render_image(w, cam, kWidth, kHeight, settings).ok());
+  EXPECT_EQ(renderer_->stats().vertex_ao_uploads, 0u) << "an unchanged VertexAO was uploaded again";
+
+  w.update(0.4);
+  const std::vector<float>& second_ao = w.get<VertexAO>(walker).ao;
+  ASSERT_EQ(first_ao.size(), second_ao.size());
+  float change = 0.0f;
+  for (std::size_t v = 0; v < first_ao.size(); ++v) change = std::max(change, std::abs(first_ao[v] - second_ao[v]));
+  EXPECT_GT(change, 0.05f) << "the walk cycle did not change the per-vertex AO";
+  auto second = renderer_->render_image(w, cam, kWidth, kHeight, settings);
+  ASSERT_TRUE(second.ok()) << second.error().message;
+  EXPECT_EQ(renderer_->stats().vertex_ao_uploads, 1u);
+
+  EXPECT_GE(darkened(*first), 10u);
+  EXPECT_GE(darkened(*second), 10u);
+  expect_golden(*first, "courtyard_poseao_t0");
+  expect_golden(*second, "courtyard_poseao_t04");
 }
 
 TEST(WriteImage, RejectsUnknownExtensionAndMissingPixels) {

@@ -3,7 +3,8 @@
 // Mirrors the World into GPU resources (sync), then records a frame into a command buffer
 // (record) that draws into a RenderTarget. Passes: shadow maps for the shadowed lights, then one
 // forward pass (GPU skinning, base colour textures, direct light with filtered shadow maps,
-// indirect diffuse from the probe grid per pixel, pose-AO / vertex AO as a vertex attribute,
+// indirect diffuse from the probe grid per pixel, per-vertex AO (VertexAO: vertex-AO bakes,
+// pose-AO) as a vertex attribute, AO fields of moving casters per pixel on their receivers,
 // emission, tone mapping in the same pass). A pass whose data the scene lacks is skipped and costs
 // nothing. The layouts shared with the GLSL in shaders/ are defined once, in shaders/shared/layout.h.
 //
@@ -14,6 +15,11 @@
 // Shadow maps: directional orthographic over the bounds of every mesh, spot perspective over the
 // outer cone, point and rect six 90-degree faces; 3x3 PCF over the 2x2 comparison filter. Emissive
 // meshes cast no shadows (an emitter would occlude its own light).
+// AO = VertexAO x the AO-field open fraction: on AOFieldReceiver surfaces (Mode::Surface) the
+// shader evaluates every caster's field per pixel as evaluate_packed() (ao_field_gpu.h) does,
+// skipping casters whose world reach does not hold the pixel and the drawn entity's own field; on
+// Mode::Entity receivers it uses AOFieldReceiver::occlusion for the whole entity. Scenes without
+// baked casters bind no field buffer and use a pipeline with the pass compiled out.
 // Indirect: L = albedo / pi x E_probe(x, n) x AO, E_probe the trilinear SH of the highest-priority
 // baked IrradianceProbeGrid (ties: lowest entity index), as evaluate() in probe_grid.h. The probe
 // baker stores direct + indirect light, so Lit counts direct light twice where a grid covers.
@@ -22,7 +28,7 @@
 // Changes to the draft: sync/render_image take a mutable World (views need one; nothing is
 // written); DebugView gains Position, Normal and Irradiance (linear data views for tests and the
 // editor); render_frame() renders without read-back (what `penumbra render --frames` times);
-// VertexAoAttribute is the per-vertex AO hook. One frame in flight: record() rewrites the
+// the per-vertex AO hook is the VertexAO component (scene/components.h). One frame in flight: record() rewrites the
 // per-frame buffers, so the previous frame's submission must have finished (Swapchain::acquire
 // and render_image wait for it).
 #pragma once
@@ -69,13 +75,6 @@ CameraView camera_view(const World& world, Entity camera, float aspect);
 // A camera that frames the bounds of every mesh, looking from the front and above.
 CameraView framing_camera_view(World& world, float aspect);
 
-// The per-vertex AO hook: one value in [0, 1] per vertex of the entity's MeshData (1 = open),
-// multiplied into the indirect light. Written by whoever computes it (vertex-AO bakes, pose-AO);
-// entities without it get 1. Ignored when the size does not match the mesh.
-struct VertexAoAttribute {
-  std::vector<float> ao;
-};
-
 struct RenderSettings {
   DebugView view = DebugView::Lit;
   float exposure = 1.0f;               // scene-referred radiance multiplier before tone mapping
@@ -110,6 +109,9 @@ struct FrameStats {
   double cpu_record_ms = 0.0;   // sync + record on the CPU
   std::uint32_t draws = 0;
   std::uint64_t gpu_bytes = 0;  // buffers and images the renderer holds
+  std::uint32_t vertex_ao_uploads = 0;        // VertexAO attributes uploaded by the last sync (changed ones)
+  std::uint32_t ao_field_casters = 0;         // casters in the AO-field pass; 0: the pass is compiled out
+  std::uint64_t ao_field_bytes_uploaded = 0;  // AO-field buffer bytes the last sync wrote (0 when unchanged)
 };
 
 class Renderer {
@@ -120,8 +122,11 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   // Uploads what changed since the last call (meshes, materials, textures, lights, skin poses,
-  // baked lighting data attached to components). Call after world.update(), before record().
-  // Cost: O(entities) plus uploads of new meshes/textures/grids. Not thread-safe.
+  // baked lighting data attached to components; VertexAO by its change tick; the AO-field buffer
+  // when a caster's AOFieldCaster or WorldTransform changed, only the caster records when just
+  // transforms did). Call after world.update(), before record(). Errors: a caster with a singular
+  // world matrix (pack_ao_fields_gpu). Cost: O(entities) plus uploads of what changed. Not
+  // thread-safe.
   Status sync(World& world);
 
   // Records shadow passes, the forward pass and tone mapping into `cmd` for `target`.
