@@ -16,4 +16,14 @@ expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.bmp"; expect_out
 expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --view shiny; expect_output "albedo"
 expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --width 0
 expect_exit 1 "$PENUMBRA" render builtin:cornell --bake "$scratch/missing.pbake" -o "$scratch/x.png"; expect_output "missing.pbake"
+# The AO passes: a courtyard bake with AO fields and pose-AO darkens the ao view, and --time moves
+# the walker (its pose-AO with it).
+expect_exit 0 "$PENUMBRA" bake builtin:courtyard -o "$scratch/y.pbake" --preset draft --only aofields,poseao
+for t in 0 0.4; do
+  expect_exit 0 "$PENUMBRA" render builtin:courtyard --bake "$scratch/y.pbake" -o "$scratch/y$t.png" --view ao \
+    --width 64 --height 48 --time "$t"
+done
+expect_exit 0 "$PENUMBRA" render builtin:courtyard -o "$scratch/plain.png" --view ao --width 64 --height 48
+cmp -s "$scratch/y0.png" "$scratch/plain.png" && fail "the AO-field and pose-AO bake did not change the ao view"
+cmp -s "$scratch/y0.png" "$scratch/y0.4.png" && fail "--time 0.4 rendered the same ao view as --time 0"
 finish
