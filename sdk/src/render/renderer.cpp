@@ -15,6 +15,7 @@
 
 #include "penumbra/ao_field/ao_field_gpu.h"
 #include "penumbra/bake/integrators.h"
+#include "penumbra/core/log.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/components.h"
@@ -441,6 +442,10 @@ Status Renderer::Impl::sync_probe_grid(World& world) {
   probe = best;
   descriptors_dirty = true;
   if (!probe) return {};
+  // The shader adds the grid to its own shadow-mapped direct light: an All grid counts that twice.
+  if (probe->lighting == LightingContent::All)
+    log(LogLevel::Warning, "renderer: the probe grid stores direct + indirect light (lighting = all) and the renderer "
+                           "adds its own direct light, so direct light counts twice; bake it with lighting = indirect");
 
   // The probe_grid.h GPU layout (float32: the sampler's trilinear filter is the CPU's interpolation).
   const ProbeGridTextures packed = pack_probe_grid_textures(*probe, ProbeTexelFormat::RGBA32F);
