@@ -23,18 +23,7 @@ Status attach_bake(World& world, const BakeFile& file) {
   PENUMBRA_TRY(attach_probe_grids(world, file));
   PENUMBRA_TRY(attach_ao_fields(world, file));
   PENUMBRA_TRY(attach_pose_ao(world, file));
-  // Vertex AO becomes the entities' VertexAO (the renderer's per-vertex AO attribute).
-  for (const BakeChunk& chunk : file.chunks) {
-    if (chunk.type != fourcc("VXAO")) continue;
-    auto data = read_vertex_ao_chunk(chunk);
-    if (!data) return data.error();
-    for (const auto& entry : data->entries) {
-      const Entity e = world.find_entity(entry.entity_index);
-      if (!e) return make_error(ErrorCode::NotFound, "vertex AO chunk names entity " + std::to_string(entry.entity_index) +
-                                                         ", which the scene does not have; re-bake the scene");
-      world.add<VertexAO>(e, VertexAO{entry.ao});
-    }
-  }
+  PENUMBRA_TRY(attach_vertex_ao(world, file));  // the renderer's per-vertex AO attribute
   return {};
 }
 

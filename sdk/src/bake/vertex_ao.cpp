@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include <glm/mat3x3.hpp>
 #include <glm/geometric.hpp>
@@ -172,6 +173,29 @@ void register_vertex_ao(World& world) {
   b.bake = bake_vertex_ao;
   b.describe = describe_vertex_ao;
   world.resource<BakerRegistry>().add(std::move(b));
+}
+
+Status attach_vertex_ao(World& world, const BakeFile& file) {
+  for (const BakeChunk& chunk : file.chunks) {
+    if (chunk.type != kChunkType) continue;
+    auto data = read_vertex_ao_chunk(chunk);
+    if (!data) return data.error();
+    for (VertexAoData::Entry& entry : data->entries) {
+      const Entity e = world.find_entity(entry.entity_index);
+      const Mesh* mesh = e ? world.try_get<Mesh>(e) : nullptr;
+      if (mesh == nullptr || !mesh->data || mesh->data->positions.size() != entry.ao.size())
+        return make_error(ErrorCode::NotFound, "chunk 'VXAO' (" + chunk.label + "): entity " +
+                                                   std::to_string(entry.entity_index) + " has no mesh of " +
+                                                   std::to_string(entry.ao.size()) +
+                                                   " vertices in this World; re-bake the scene");
+      if (world.has<VertexAO>(e)) {
+        world.patch<VertexAO>(e).ao = std::move(entry.ao);
+      } else {
+        world.add<VertexAO>(e, VertexAO{std::move(entry.ao)});
+      }
+    }
+  }
+  return {};
 }
 
 }  // namespace penumbra

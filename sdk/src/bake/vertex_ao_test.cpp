@@ -113,6 +113,45 @@ TEST(VertexAo, ChunkRoundTripsAndRejectsDamage) {
   EXPECT_EQ(unsupported.error().code, ErrorCode::Unsupported);
 }
 
+// The baked values reach the entities as VertexAO, one per vertex of their mesh; a chunk naming
+// a missing entity or a mesh of another size is a NotFound naming the entity.
+TEST(VertexAo, AttachGivesTheBakedEntitiesTheirVertexAO) {
+  World world = scene_world("courtyard");
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  auto result = bake(world, settings, 2);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  ASSERT_TRUE(attach_vertex_ao(world, result->file).ok());
+  auto data = read_vertex_ao_chunk(result->file.chunks[0]);
+  ASSERT_TRUE(data.ok());
+  ASSERT_FALSE(data->entries.empty());
+  for (const auto& entry : data->entries) {
+    const Entity e = world.find_entity(entry.entity_index);
+    ASSERT_TRUE(world.has<VertexAO>(e));
+    EXPECT_EQ(world.get<VertexAO>(e).ao, entry.ao);
+    EXPECT_EQ(world.get<VertexAO>(e).ao.size(), world.get<Mesh>(e).data->positions.size());
+  }
+  // Attaching again replaces the values through patch (the renderer sees a new change tick).
+  const Entity first = world.find_entity(data->entries[0].entity_index);
+  const std::uint64_t tick = world.changed_tick<VertexAO>(first);
+  update_world_transforms(world);  // advances the tick
+  ASSERT_TRUE(attach_vertex_ao(world, result->file).ok());
+  EXPECT_GT(world.changed_tick<VertexAO>(first), tick);
+
+  VertexAoData wrong = *data;
+  wrong.entries.resize(1);
+  wrong.entries[0].ao.push_back(1.0f);
+  BakeFile file;
+  file.chunks.push_back(write_vertex_ao_chunk(wrong));
+  Status s = attach_vertex_ao(world, file);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().code, ErrorCode::NotFound);
+  EXPECT_NE(s.error().message.find("entity " + std::to_string(wrong.entries[0].entity_index)), std::string::npos);
+  wrong.entries[0].entity_index = 100000;
+  file.chunks[0] = write_vertex_ao_chunk(wrong);
+  EXPECT_FALSE(attach_vertex_ao(world, file).ok());
+}
+
 TEST(BakeWorld, UnknownBakerAndBudgetAreClearErrors) {
   World world = scene_world("cornell");
   ThreadPool pool(1);

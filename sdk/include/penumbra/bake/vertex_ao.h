@@ -42,4 +42,10 @@ Result<VertexAoData> read_vertex_ao_chunk(const BakeChunk& chunk);
 // Adds the "vertex-ao" baker to world.resource<BakerRegistry>().
 void register_vertex_ao(World& world);
 
+// Gives each entity named by the VXAO chunks of `file` its values as VertexAO (scene/components.h;
+// added, or replaced with World::patch), which the renderer multiplies into the ambient light.
+// Fails with InvalidInput for a corrupt chunk and NotFound, naming the entity index, when the
+// entity is gone or its mesh has another vertex count (re-bake the scene). Cost: O(values).
+Status attach_vertex_ao(World& world, const BakeFile& file);
+
 }  // namespace penumbra
