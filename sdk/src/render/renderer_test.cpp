@@ -19,6 +19,7 @@
 #include "penumbra/ao_field/ao_field_gpu.h"
 #include "penumbra/bake/baker.h"
 #include "penumbra/core/jobs.h"
+#include "penumbra/core/log.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/pose_ao/pose_ao_system.h"
@@ -241,6 +242,42 @@ TEST_F(RendererTest, SkinningMovesTheWalkerOnTheGpu) {
 
 // The shader's probe irradiance (Irradiance view, linear float) equals evaluate() on the CPU at the
 // pixel's world position and normal (Position and Normal views) within 1%.
+// The shader adds the probe grid to its own direct light: a grid that stores all light (direct
+// included) is drawn as it is, with one logged warning per upload of such a grid.
+TEST_F(RendererTest, AnAllLightProbeGridIsDrawnWithOneWarning) {
+  BakedScene& s = scene("cornell");
+  Entity grid;
+  s.world.view<const IrradianceProbeGrid>().each([&](Entity e, const IrradianceProbeGrid& g) {
+    if (g.data) grid = e;
+  });
+  ASSERT_TRUE(grid);
+  const std::shared_ptr<const ProbeGridData> indirect = s.world.get<IrradianceProbeGrid>(grid).data;
+  ASSERT_EQ(indirect->lighting, LightingContent::Indirect);  // the scenes' default grid
+  int warnings = 0;
+  set_log_sink([&](LogLevel level, std::string_view message) {
+    if (level == LogLevel::Warning && message.find("counts twice") != std::string_view::npos) ++warnings;
+  });
+  RenderSettings settings;
+  const auto draw = [&] {
+    auto image = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? image->rgba8 : std::vector<std::uint8_t>{};
+  };
+  const auto before = draw();
+  EXPECT_EQ(warnings, 0);
+  auto all = std::make_shared<ProbeGridData>(*indirect);
+  all->lighting = LightingContent::All;
+  s.world.patch<IrradianceProbeGrid>(grid).data = all;
+  const auto with_all = draw();
+  draw();
+  EXPECT_EQ(warnings, 1);
+  EXPECT_EQ(with_all, before);  // the same coefficients: nothing is subtracted
+  s.world.patch<IrradianceProbeGrid>(grid).data = indirect;
+  draw();
+  EXPECT_EQ(warnings, 1);
+  set_log_sink({});
+}
+
 TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
   for (const char* name : {"cornell", "courtyard"}) {
     BakedScene& s = scene(name);
