@@ -12,6 +12,11 @@
 // L2 bake truncated to its first four coefficients (same bake time; only the stored bytes differ).
 // Goals (issue 3): at the same spacing, leak RMSE <= 0.5 x point with bake time <= 1.5 x point; the
 // notes give supersampled/point and fitted/point, and fitted/supersampled overall RMSE (goal <= 1).
+// Those rows bake lighting = all (issue 3's grids, the whole irradiance). The rows with lighting =
+// indirect bake grids of the light that reflected at least once, at the first spacing and the
+// largest sample count, against the indirect reference at the same receivers (integrators.h); their
+// errors are relative to the mean total irradiance, so they read as the error of a renderer that
+// draws direct light exactly and adds the grid (the SDK renderer's sum), beside the all rows.
 //
 // Grid placement: the courtyard's wall (z = -2) lies exactly on a node plane of the default box at
 // both spacings, one placement among many. The leak study bakes the three modes again with the
@@ -78,6 +83,26 @@ bool in_domain(const RayScene& scene, glm::vec3 x, Rng& rng) {
   return back <= rays / 10;
 }
 
+// The reference irradiance of `content` at the receivers' points, and its means.
+Status compute_reference(const RayScene& scene, std::span<const WorldLight> lights, std::uint32_t ref_samples,
+                         std::uint64_t seed, LightingContent content, Receivers& r, JobContext& jobs) {
+  IrradianceSettings s;
+  s.reference = true;
+  s.samples = ref_samples;
+  s.seed = seed;
+  s.content = content;
+  r.reference.assign(r.points.size(), Estimate{});
+  r.mean = r.mean_stderr = 0.0;
+  PENUMBRA_TRY(irradiance(scene, lights, r.points, s, r.reference, jobs));
+  for (const Estimate& e : r.reference) {
+    r.mean += (e.value.x + e.value.y + e.value.z) / 3.0;
+    r.mean_stderr += (e.std_error.x + e.std_error.y + e.std_error.z) / 3.0;
+  }
+  r.mean /= double(std::max<std::size_t>(1, r.points.size()));
+  r.mean_stderr /= double(std::max<std::size_t>(1, r.points.size()));
+  return {};
+}
+
 // Random in-domain receivers drawn by `draw`, with random normals, and their reference irradiance.
 template <class Draw>
 Result<Receivers> make_receivers(const RayScene& scene, std::span<const WorldLight> lights, std::size_t count,
@@ -89,18 +114,7 @@ Result<Receivers> make_receivers(const RayScene& scene, std::span<const WorldLig
     if (!in_domain(scene, x, rng)) continue;
     r.points.push_back({x, uniform_sphere({rng.next_float(), rng.next_float()})});
   }
-  IrradianceSettings s;
-  s.reference = true;
-  s.samples = ref_samples;
-  s.seed = seed;
-  r.reference.resize(r.points.size());
-  PENUMBRA_TRY(irradiance(scene, lights, r.points, s, r.reference, jobs));
-  for (const Estimate& e : r.reference) {
-    r.mean += (e.value.x + e.value.y + e.value.z) / 3.0;
-    r.mean_stderr += (e.std_error.x + e.std_error.y + e.std_error.z) / 3.0;
-  }
-  r.mean /= double(std::max<std::size_t>(1, r.points.size()));
-  r.mean_stderr /= double(std::max<std::size_t>(1, r.points.size()));
+  PENUMBRA_TRY(compute_reference(scene, lights, ref_samples, seed, LightingContent::All, r, jobs));
   return r;
 }
 
@@ -108,7 +122,8 @@ struct Errors {
   double rmse = 0.0, mae = 0.0, max = 0.0;  // relative to the mean reference
 };
 
-Errors errors(const ProbeGridData& d, const Receivers& r) {
+// `norm`: the irradiance the errors are relative to (0: the receivers' mean reference).
+Errors errors(const ProbeGridData& d, const Receivers& r, double norm = 0.0) {
   Errors e;
   double sq = 0.0, abs_sum = 0.0;
   for (std::size_t i = 0; i < r.points.size(); ++i) {
@@ -121,7 +136,7 @@ Errors errors(const ProbeGridData& d, const Receivers& r) {
     }
   }
   const double n = 3.0 * double(std::max<std::size_t>(1, r.points.size()));
-  const double mean = r.mean > 0.0 ? r.mean : 1.0;
+  const double mean = norm > 0.0 ? norm : r.mean > 0.0 ? r.mean : 1.0;
   e.rmse = std::sqrt(sq / n) / mean;
   e.mae = abs_sum / n / mean;
   e.max /= mean;
@@ -220,7 +235,7 @@ Result<Report> run_probe_grid_bench(const Options& options) {
 
   const auto verdict = [](bool pass) { return std::string(pass ? "PASS" : "FAIL"); };
   Report report;
-  report.columns = {"scene", "mode", "spacing", "samples", "sh_order", "bake_s", "bytes",
+  report.columns = {"scene", "mode", "lighting", "spacing", "samples", "sh_order", "bake_s", "bytes",
                     "rmse", "mae", "max_err", "leak_rmse", "ref_stderr"};
   // Per (scene, spacing, samples) and mode (L2): leak RMSE, overall RMSE and bake time, for the notes.
   struct ModeResult {
@@ -278,9 +293,10 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                                std::to_string(leak.points.size()) + ", mean E " + fmt(leak.mean) +
                                " W/m^2, reference std error " + fmt(100.0 * leak.mean_stderr / leak.mean, 3) + "%");
       // One bake of the bench's grid over `box`: the data and the seconds it took.
-      const auto bake = [&](const Aabb& grid_box, ProbeSampling mode, std::uint32_t samples,
-                            double& seconds) -> Result<ProbeGridData> {
+      const auto bake = [&](const Aabb& grid_box, ProbeSampling mode, std::uint32_t samples, double& seconds,
+                            LightingContent lighting = LightingContent::All) -> Result<ProbeGridData> {
         IrradianceProbeGrid grid;
+        grid.lighting = lighting;
         grid.box = grid_box;
         grid.spacing = h;
         grid.sampling = mode;
@@ -305,9 +321,10 @@ Result<Report> run_probe_grid_bench(const Options& options) {
             const Errors e = errors(d, *receivers);
             const Errors le = has_leak ? errors(d, leak) : Errors{};
             (order == ProbeShOrder::L1 ? bytes_per_node_l1 : bytes_per_node_l2) = d.bytes_per_node();
-            report.rows.push_back({sc.name, to_string(mode), fmt(h), std::to_string(samples), to_string(order),
-                                   fmt(bake_s), std::to_string(d.node_count() * d.bytes_per_node()), fmt(e.rmse),
-                                   fmt(e.mae), fmt(e.max), has_leak ? fmt(le.rmse) : "",
+            report.rows.push_back({sc.name, to_string(mode), to_string(LightingContent::All), fmt(h),
+                                   std::to_string(samples), to_string(order), fmt(bake_s),
+                                   std::to_string(d.node_count() * d.bytes_per_node()), fmt(e.rmse), fmt(e.mae),
+                                   fmt(e.max), has_leak ? fmt(le.rmse) : "",
                                    fmt(receivers->mean_stderr / receivers->mean)});
             if (order == ProbeShOrder::L2) results[key][mode] = {le.rmse, e.rmse, bake_s};
           }
@@ -324,6 +341,35 @@ Result<Report> run_probe_grid_bench(const Options& options) {
             eval_ns = best;
           }
         }
+      }
+      // Indirect grids (header): first spacing, largest sample count, L2, against the indirect
+      // reference at the same receivers, errors relative to the mean total irradiance.
+      if (si == 0) {
+        const std::uint32_t samples = sample_counts.back();
+        Receivers ind = *receivers, ind_leak = leak;
+        PENUMBRA_TRY(compute_reference(*scene, lights, ref_samples, 101, LightingContent::Indirect, ind, jobs));
+        if (has_leak)
+          PENUMBRA_TRY(compute_reference(*scene, lights, ref_samples, 202 + si, LightingContent::Indirect, ind_leak,
+                                         jobs));
+        std::string line = std::string(sc.name) + " indirect grids (h " + fmt(h) + ", S " + std::to_string(samples) +
+                           "): mean indirect E " + fmt(ind.mean) + " W/m^2 = " +
+                           fmt(100.0 * ind.mean / receivers->mean, 3) +
+                           "% of the total; RMSE / mean total, all grid -> direct exact + indirect grid:";
+        const std::string key = std::string(sc.name) + "/" + fmt(h) + "/" + std::to_string(samples);
+        for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
+          double bake_s = 0.0;
+          auto data = bake(sc.box, mode, samples, bake_s, LightingContent::Indirect);
+          if (!data) return data.error();
+          const Errors e = errors(*data, ind, receivers->mean);
+          const Errors le = has_leak ? errors(*data, ind_leak, leak.mean) : Errors{};
+          report.rows.push_back({sc.name, to_string(mode), to_string(LightingContent::Indirect), fmt(h),
+                                 std::to_string(samples), to_string(ProbeShOrder::L2), fmt(bake_s),
+                                 std::to_string(data->node_count() * data->bytes_per_node()), fmt(e.rmse), fmt(e.mae),
+                                 fmt(e.max), has_leak ? fmt(le.rmse) : "", fmt(ind.mean_stderr / receivers->mean)});
+          line += std::string(" ") + to_string(mode) + " " + fmt(results[key][mode].rmse, 3) + " -> " + fmt(e.rmse, 3) +
+                  " (" + fmt(errors(*data, ind).rmse, 3) + " of the mean indirect E);";
+        }
+        report.notes.push_back(line);
       }
       if (!sc.thin_wall) continue;
       // The leak study over placements (header): the largest sample count, aligned box and offsets.
@@ -399,8 +445,8 @@ Result<Report> run_probe_grid_bench(const Options& options) {
   report.plot.title = "probe grid: irradiance RMSE against bake time";
   report.plot.x_label = "bake seconds";
   report.plot.y_label = "RMSE / mean irradiance";
-  report.plot.x_column = 5;
-  report.plot.y_column = 7;
+  report.plot.x_column = 6;
+  report.plot.y_column = 8;
   report.plot.series_column = 1;
   report.plot.log_x = true;
   report.plot.points_only = true;
