@@ -475,6 +475,72 @@ TEST_F(RendererTest, AoFieldShadowFollowsAMovingCrate) {
   EXPECT_GE(compare(a.lit.rgba8, b.lit.rgba8).differing, 50u);
 }
 
+// Entity receivers (the walker) take AOFieldReceiver::occlusion for the whole draw, and a caster
+// that is also a Surface receiver is not shadowed by its own field (the far crate, alone within
+// its reach, stays open on every face while the ground beside it darkens).
+TEST_F(RendererTest, AoFieldEntityReceiversAndNoSelfShadow) {
+  auto s = bake_scene("courtyard", {.ao_fields = true});
+  ASSERT_TRUE(s);
+  World& w = s->world;
+  const std::vector<Entity> walkers = w.view<const AOFieldReceiver, const Skin>().sorted_entities();
+  ASSERT_EQ(walkers.size(), 1u);
+  const Entity walker = walkers[0];
+  ASSERT_EQ(w.get<AOFieldReceiver>(walker).mode, AOFieldReceiver::Mode::Entity);
+  const float system = w.get<AOFieldReceiver>(walker).occlusion;
+  EXPECT_GT(system, 0.001f) << "the crates 2 m away should occlude the walker a little";
+  const CameraView cam = look_at(w, glm::vec3(3.2f, 1.2f, 6.4f), glm::vec3(2.0f, 0.8f, 4.0f));
+  RenderSettings settings;
+  settings.view = DebugView::AoOnly;
+  auto render = [&](const CameraView& view) {
+    auto image = renderer_->render_image(w, view, kWidth, kHeight, settings, true);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
+  };
+  const auto with_system = render(cam);
+  w.patch<AOFieldReceiver>(walker).occlusion = 0.0f;
+  const auto open = render(cam);
+  w.patch<AOFieldReceiver>(walker).occlusion = 0.5f;
+  const auto half = render(cam);
+  ASSERT_EQ(open.size(), std::size_t{kWidth} * kHeight * 4);
+  std::size_t walker_pixels = 0;
+  for (std::size_t p = 0; p < open.size(); p += 4) {
+    if (half[p] == open[p]) {
+      EXPECT_EQ(with_system[p], open[p]) << "pixel " << p / 4;
+      continue;
+    }
+    ++walker_pixels;
+    EXPECT_NEAR(half[p], 0.5f * open[p], 1e-6f) << "pixel " << p / 4;
+    EXPECT_NEAR(with_system[p], (1.0f - system) * open[p], 1e-5f) << "pixel " << p / 4;
+  }
+  EXPECT_GE(walker_pixels, 200u);
+
+  // The far crate receives per pixel too, but skips its own record.
+  Entity crate;
+  for (Entity e : w.view<const AOFieldCaster, const WorldTransform>().sorted_entities())
+    if (glm::distance(glm::vec3(w.get<WorldTransform>(e).matrix[3]), glm::vec3(-3.0f, 0.4f, -6.0f)) < 1e-3f) crate = e;
+  ASSERT_TRUE(crate);
+  AOFieldReceiver surface;
+  surface.mode = AOFieldReceiver::Mode::Surface;
+  w.add<AOFieldReceiver>(crate, surface);
+  const CameraView close_up = look_at(w, glm::vec3(-1.6f, 1.6f, -4.2f), glm::vec3(-3.0f, 0.3f, -6.0f));
+  const auto ao = render(close_up);
+  settings.view = DebugView::Position;
+  const auto position = render(close_up);
+  std::size_t on_crate = 0, ground_darkened = 0;
+  for (std::size_t p = 0; p < ao.size(); p += 4) {
+    const glm::vec3 d = glm::abs(glm::vec3(position[p], position[p + 1], position[p + 2]) - glm::vec3(-3.0f, 0.4f, -6.0f));
+    const float box = std::max({d.x, d.y, d.z});
+    if (box > 0.399f && box < 0.401f && position[p + 1] > 1e-3f) {  // on the crate's faces
+      ++on_crate;
+      EXPECT_NEAR(ao[p], 1.0f, 1e-6f) << "the crate shadows itself at pixel " << p / 4;  // in_ao: 1 - ulp
+    } else if (position[p + 1] < 1e-3f && ao[p] < 0.9f) {
+      ++ground_darkened;
+    }
+  }
+  EXPECT_GE(on_crate, 300u);
+  EXPECT_GE(ground_darkened, 50u);
+}
+
 // Without baked casters the pass is compiled out and costs nothing: the courtyard with its
 // casters removed renders bit-identically to the courtyard that never had any (AO and lit views),
 // and with them it renders differently.
