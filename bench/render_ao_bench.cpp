@@ -1,0 +1,183 @@
+// `penumbra bench render-ao`: what the renderer's AO passes cost per frame on the courtyard, side
+// by side in one run: the AO-field pass per pixel (Kontkanen & Laine 2005, the thesis section 4.1)
+// and pose-AO as a per-vertex attribute (Kontkanen & Aila 2006, section 4.2), against the same
+// scene without their data (the pass compiled out, nothing uploaded: issue 4's "costs nothing
+// otherwise").
+//
+// One draft bake of the courtyard (probes, AO fields, pose-AO); one World per variant, each with
+// the default components of `penumbra render` and only that variant's chunks attached: none
+// (probes only), ao-fields (crates still), ao-fields-moving (one crate moves every frame: its
+// caster record is uploaded each frame), pose-ao (the walker's VertexAO changes and is uploaded
+// every frame), all (moving crate and pose-AO). Every frame advances the World by 1/30 s
+// (animation, skinning, the AO systems: update_ms) and then renders it (sync, record, submit,
+// wait: render_ms) at the size given; variants take turns in rounds so that the shared machine's
+// noise falls on all of them alike. Medians over every frame of every round.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bench.h"
+#include "penumbra/ao_field/ao_field_baker.h"
+#include "penumbra/bake/baker.h"
+#include "penumbra/core/jobs.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/pose_ao_system.h"
+#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/animation.h"
+#include "penumbra/scene/builtin.h"
+
+namespace penumbra::bench {
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// The courtyard with the default lighting components of `penumbra render` (tools/penumbra
+// load_world.cpp), the modules' systems registered.
+Result<std::unique_ptr<World>> courtyard(Entity& camera) {
+  auto world = std::make_unique<World>();
+  register_scene_systems(*world);
+  register_probe_grid(*world);
+  register_ao_field(*world);
+  register_pose_ao(*world);
+  auto loaded = load_builtin(*world, "courtyard");
+  if (!loaded) return loaded.error();
+  camera = loaded->camera;
+  world->update(0.0);
+  add_default_pose_ao(*world, Preset::Draft);
+  auto grid = add_default_probe_grid(*world, Preset::Draft);
+  if (!grid) return grid.error();
+  add_default_ao_field_casters(*world, Preset::Draft);
+  world->update(0.0);
+  return world;
+}
+
+struct Variant {
+  std::string name;
+  bool ao_fields = false, moving_crate = false, pose_ao = false;
+  std::unique_ptr<World> world;
+  std::unique_ptr<Renderer> renderer;
+  CameraView camera;
+  Entity crate;
+  std::vector<double> update_ms, render_ms;
+  std::uint64_t vertex_ao_uploads = 0, ao_field_bytes = 0, frames = 0;
+  std::uint32_t casters = 0;
+};
+
+Result<Report> run(const Options& options) {
+  const std::uint32_t width = options.quick ? 320 : 1280, height = options.quick ? 180 : 720;
+  const int rounds = options.quick ? 2 : 3, frames_per_round = options.quick ? 8 : 20;
+
+  // One bake of everything (draft, seed 1).
+  Entity camera;
+  auto baked_world = courtyard(camera);
+  if (!baked_world) return baked_world.error();
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  ThreadPool pool(options.threads);
+  JobContext jobs(&pool);
+  auto baked = bake_world(**baked_world, {"probes", "aofields", "poseao"}, settings, jobs);
+  if (!baked) return baked.error();
+  const BakeFile& file = baked->file;
+
+  DeviceOptions device_options;
+  auto device = Device::create(device_options);
+  if (!device) return device.error();
+
+  std::vector<Variant> variants;
+  const auto add = [&](std::string name, bool fields, bool moving, bool pose) {
+    Variant v;
+    v.name = std::move(name);
+    v.ao_fields = fields;
+    v.moving_crate = moving;
+    v.pose_ao = pose;
+    variants.push_back(std::move(v));
+  };
+  add("none", false, false, false);
+  add("ao-fields", true, false, false);
+  add("ao-fields-moving", true, true, false);
+  add("pose-ao", false, false, true);
+  add("all", true, true, true);
+  for (Variant& v : variants) {
+    auto world = courtyard(camera);
+    if (!world) return world.error();
+    v.world = std::move(*world);
+    PENUMBRA_TRY(attach_probe_grids(*v.world, file));
+    if (v.ao_fields) PENUMBRA_TRY(attach_ao_fields(*v.world, file));
+    if (v.pose_ao) PENUMBRA_TRY(attach_pose_ao(*v.world, file));
+    v.world->update(0.0);
+    v.camera = camera_view(*v.world, camera, float(width) / float(height));
+    for (Entity e : v.world->view<const AOFieldCaster, const WorldTransform>().sorted_entities())
+      if (glm::distance(glm::vec3(v.world->get<WorldTransform>(e).matrix[3]), glm::vec3(-3.0f, 0.4f, -6.0f)) < 1e-3f)
+        v.crate = e;  // the far crate
+    auto renderer = Renderer::create(**device);
+    if (!renderer) return renderer.error();
+    v.renderer = std::move(*renderer);
+    PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, width, height, RenderSettings{}));  // warm-up
+  }
+
+  // Rounds: each variant renders frames_per_round animated frames in turn.
+  for (int round = 0; round < rounds; ++round) {
+    for (Variant& v : variants) {
+      for (int f = 0; f < frames_per_round; ++f) {
+        auto t0 = std::chrono::steady_clock::now();
+        if (v.moving_crate && v.crate) {
+          const float phase = 0.1f * float(v.frames);
+          v.world->patch<Transform>(v.crate).translation = glm::vec3(-3.0f + std::sin(phase), 0.4f, -6.0f);
+        }
+        v.world->update(1.0 / 30.0);
+        v.update_ms.push_back(ms_since(t0));
+        t0 = std::chrono::steady_clock::now();
+        PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, width, height, RenderSettings{}));
+        v.render_ms.push_back(ms_since(t0));
+        v.vertex_ao_uploads += v.renderer->stats().vertex_ao_uploads;
+        v.ao_field_bytes += v.renderer->stats().ao_field_bytes_uploaded;
+        v.casters = v.renderer->stats().ao_field_casters;
+        ++v.frames;
+      }
+    }
+  }
+
+  Report report;
+  report.columns = {"variant_id", "variant", "width", "height", "frames", "update_ms", "render_ms", "render_ratio",
+                    "ao_field_casters", "vertex_ao_uploads_per_frame", "ao_field_bytes_per_frame"};
+  report.plot = {"courtyard frame time by AO pass (lit view, lavapipe)", "variant (0 none, 1 ao-fields, "
+                 "2 ao-fields-moving, 3 pose-ao, 4 all)", "render ms (median)", 0, 6, -1, false, false, true};
+  const double base = median(variants[0].render_ms);
+  for (std::size_t i = 0; i < variants.size(); ++i) {
+    const Variant& v = variants[i];
+    const double render = median(v.render_ms);
+    const double per_frame = 1.0 / double(std::max<std::uint64_t>(v.frames, 1));
+    report.rows.push_back({std::to_string(i), v.name, std::to_string(width), std::to_string(height),
+                           std::to_string(v.frames), fmt(median(v.update_ms), 3), fmt(render, 4),
+                           fmt(base > 0.0 ? render / base : 0.0, 3), std::to_string(v.casters),
+                           fmt(double(v.vertex_ao_uploads) * per_frame, 3), fmt(double(v.ao_field_bytes) * per_frame, 4)});
+  }
+  report.notes.push_back("render_ratio: median render_ms / none's, measured in the same run (" +
+                         std::to_string(rounds) + " rounds of " + std::to_string(frames_per_round) +
+                         " frames per variant)");
+  report.notes.push_back("none: ao_field_casters " + std::to_string(variants[0].casters) +
+                         " (the AO-field pass compiled out), vertex AO uploads " +
+                         std::to_string(variants[0].vertex_ao_uploads) + ", AO-field bytes " +
+                         std::to_string(variants[0].ao_field_bytes));
+  return report;
+}
+
+}  // namespace
+
+PENUMBRA_BENCH("render-ao", "renderer AO passes on the courtyard: frame time with AO fields (still, moving crate), "
+               "pose-AO and both against none, side by side; uploads per frame", run);
+
+}  // namespace penumbra::bench
