@@ -83,8 +83,11 @@ Result<ErrorMap> compute(const Scene& scene, const ErrorMapRequest& request, Job
         }
       }
       if (grid == nullptr) continue;
+      // The reference of what the grid stores (all light, or the indirect part).
+      IrradianceSettings matching = settings;
+      matching.content = grid->lighting;
       Rng rng = Rng::stream(settings.seed, i);
-      const Estimate ref = irradiance(scene.rays, scene.lights, x, n, settings, rng);
+      const Estimate ref = irradiance(scene.rays, scene.lights, x, n, matching, rng);
       const float e_ref = luminance(ref.value);
       if (!(e_ref > 1e-6f)) continue;  // unlit: a relative error means nothing there
       const float e_probe = luminance(evaluate(*grid, x, n));

@@ -23,7 +23,7 @@ namespace penumbra::editor {
 struct ErrorMapRequest {
   CameraView camera;
   std::uint32_t columns = 64, rows = 36;  // cells over the view
-  IrradianceSettings reference;           // reference = true is forced
+  IrradianceSettings reference;           // reference = true and content = the grid's lighting are forced
   unsigned threads = 0;                   // 0: one per hardware thread
 };
 
