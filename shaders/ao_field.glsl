@@ -42,10 +42,13 @@ float ao_field_caster(uint table, int k, uint rec, vec3 x, vec3 n) {
   float r0 = 0.0;
   if (!grid) {
     // Step 2, radial fit: the cube face of p's major axis, then the bilinear texel lookup.
+    // (Selects, not p[m]: a dynamically indexed vector is spilled to memory per lane on llvmpipe.)
     vec3 ap = abs(p);
-    int m = (ap.x >= ap.y && ap.x >= ap.z) ? 0 : (ap.y >= ap.z ? 1 : 2);
-    float s = p[(m + 1) % 3] / ap[m], t = p[(m + 2) % 3] / ap[m];
-    uint face = uint(2 * m) + (p[m] < 0.0 ? 1u : 0u);
+    bool mx = ap.x >= ap.y && ap.x >= ap.z, my = !mx && ap.y >= ap.z;
+    vec3 major_s_t = mx ? p : (my ? p.yzx : p.zxy);  // (p[m], p[(m + 1) % 3], p[(m + 2) % 3])
+    float major = abs(major_s_t.x);
+    float s = major_s_t.y / major, t = major_s_t.z / major;
+    uint face = (mx ? 0u : (my ? 2u : 4u)) + (major_s_t.x < 0.0 ? 1u : 0u);
     float last = float(size - 1u), res = float(size);
     float u = clamp(0.5 * (s + 1.0) * res - 0.5, 0.0, last);
     float v = clamp(0.5 * (t + 1.0) * res - 0.5, 0.0, last);
