@@ -152,7 +152,8 @@ Result<Report> run(const Options& options) {
 
   Report report;
   report.columns = {"variant_id", "variant", "width", "height", "frames", "update_ms", "render_ms", "render_ratio",
-                    "render_min_ms", "min_ratio", "ao_field_casters", "vertex_ao_uploads_per_frame", "ao_field_bytes_per_frame"};
+                    "render_min_ms", "min_ratio", "ao_field_casters", "vertex_ao_uploads_per_frame",
+                    "ao_field_bytes_per_frame"};
   report.plot = {"courtyard frame time by AO pass (lit view, lavapipe)", "variant (0 none, 1 ao-fields, "
                  "2 ao-fields-moving, 3 pose-ao, 4 all)", "render ms (median)", 0, 6, -1, false, false, true};
   const double base = median(variants[0].render_ms);
@@ -166,7 +167,8 @@ Result<Report> run(const Options& options) {
                            std::to_string(v.frames), fmt(median(v.update_ms), 3), fmt(render, 4),
                            fmt(base > 0.0 ? render / base : 0.0, 3), fmt(fastest, 4),
                            fmt(base_min > 0.0 ? fastest / base_min : 0.0, 3), std::to_string(v.casters),
-                           fmt(double(v.vertex_ao_uploads) * per_frame, 3), fmt(double(v.ao_field_bytes) * per_frame, 4)});
+                           fmt(double(v.vertex_ao_uploads) * per_frame, 3),
+                           fmt(double(v.ao_field_bytes) * per_frame, 4)});
   }
   report.notes.push_back("render_ratio: median render_ms / none's; min_ratio: the fastest frames' ratio (less "
                          "sensitive to other load on the machine); measured in the same run (" +
@@ -177,8 +179,8 @@ Result<Report> run(const Options& options) {
   report.notes.push_back("goal (issue 4): a pass costs nothing without its data: none has ao_field_casters " +
                          std::to_string(none.casters) + " (the AO-field pass compiled out), " +
                          std::to_string(none.vertex_ao_uploads) + " vertex AO uploads, " +
-                         std::to_string(none.ao_field_bytes) + " AO-field bytes (" + (costs_nothing ? "met" : "NOT met") +
-                         "); pose-ao's min_ratio is what its attribute upload costs");
+                         std::to_string(none.ao_field_bytes) + " AO-field bytes (" +
+                         (costs_nothing ? "met" : "NOT met") + "); pose-ao's min_ratio is what its attribute upload costs");
   return report;
 }
 

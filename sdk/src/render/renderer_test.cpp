@@ -528,7 +528,8 @@ TEST_F(RendererTest, AoFieldEntityReceiversAndNoSelfShadow) {
   const auto position = render(close_up);
   std::size_t on_crate = 0, ground_darkened = 0;
   for (std::size_t p = 0; p < ao.size(); p += 4) {
-    const glm::vec3 d = glm::abs(glm::vec3(position[p], position[p + 1], position[p + 2]) - glm::vec3(-3.0f, 0.4f, -6.0f));
+    const glm::vec3 pos(position[p], position[p + 1], position[p + 2]);
+    const glm::vec3 d = glm::abs(pos - glm::vec3(-3.0f, 0.4f, -6.0f));
     const float box = std::max({d.x, d.y, d.z});
     if (box > 0.399f && box < 0.401f && position[p + 1] > 1e-3f) {  // on the crate's faces
       ++on_crate;
