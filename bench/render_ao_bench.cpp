@@ -180,7 +180,8 @@ Result<Report> run(const Options& options) {
                          std::to_string(none.casters) + " (the AO-field pass compiled out), " +
                          std::to_string(none.vertex_ao_uploads) + " vertex AO uploads, " +
                          std::to_string(none.ao_field_bytes) + " AO-field bytes (" +
-                         (costs_nothing ? "met" : "NOT met") + "); pose-ao's min_ratio is what its attribute upload costs");
+                         (costs_nothing ? "met" : "NOT met") +
+                         "); pose-ao's min_ratio is what its attribute upload costs");
   return report;
 }
 
