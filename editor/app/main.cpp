@@ -183,6 +183,8 @@ int run(const Options& options) {
         if (ui.show_ui) {
           if (ui.error_map) draw_error_map(*ui.error_map, size, ImGui::GetBackgroundDrawList());
           draw_probe_overlay(doc.world(), camera, size, ui.overlay, ImGui::GetBackgroundDrawList());
+          draw_ao_field_overlay(doc.world(), doc.selection(), camera, size, ui.ao_overlay,
+                                ImGui::GetBackgroundDrawList());
         }
         ImGui::Render();
         (*viewport)->set_render_scale(ui.render_scale);

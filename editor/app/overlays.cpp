@@ -3,9 +3,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
+
+#include <glm/common.hpp>
 
 #include <imgui.h>
 
+#include "lighting_views.h"
+#include "penumbra/ao_field/ao_field.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
 
@@ -55,7 +60,47 @@ void draw_box(ImDrawList* dl, const CameraView& camera, glm::vec2 size, const gl
       dl->AddLine(ImVec2(corner[e[0]]->x, corner[e[0]]->y), ImVec2(corner[e[1]]->x, corner[e[1]]->y), colour, 1.5f);
 }
 
+// A closed polyline through world points; segments with an end behind the camera are skipped.
+void draw_loop(ImDrawList* dl, const CameraView& camera, glm::vec2 size, const std::vector<glm::vec3>& loop,
+               ImU32 colour) {
+  for (std::size_t i = 0; i < loop.size(); ++i) {
+    const auto a = project(camera, loop[i], size), b = project(camera, loop[(i + 1) % loop.size()], size);
+    if (a && b) dl->AddLine(ImVec2(a->x, a->y), ImVec2(b->x, b->y), colour, 1.5f);
+  }
+}
+
 }  // namespace
+
+int draw_ao_field_overlay(World& world, Entity caster, const CameraView& camera, glm::vec2 size,
+                          const AOFieldOverlay& options, ImDrawList* dl) {
+  if (!world.alive(caster) || !world.has<AOFieldCaster>(caster)) return 0;
+  if (options.bounds) {
+    if (auto b = ao_field_bounds(world, caster); b) {
+      for (const auto& loop : b->falloff) draw_loop(dl, camera, size, loop, IM_COL32(120, 200, 255, 150));
+      for (const auto& loop : b->hull) draw_loop(dl, camera, size, loop, IM_COL32(255, 150, 40, b->baked ? 230 : 120));
+    }
+  }
+  if (!options.slice) return 0;
+  AOFieldSliceRequest request;
+  request.resolution = options.resolution;
+  request.height = options.height;
+  auto slice = ao_field_slice(world, caster, request);
+  if (!slice) return 0;  // not baked yet
+  int drawn = 0;
+  for (std::size_t i = 0; i < slice->points.size(); ++i) {
+    const auto s = project(camera, slice->points[i], size);
+    if (!s || s->x < 0 || s->y < 0 || s->x > size.x || s->y > size.y) continue;
+    // Occlusion 0 (open) dim blue, rising through magenta to white at 0.5 and above.
+    const float a = slice->occlusion[i];
+    const float t = std::clamp(a / 0.5f, 0.0f, 1.0f);
+    const glm::vec3 c = a > 0.0f ? glm::mix(glm::vec3(0.3f, 0.2f, 0.9f), glm::vec3(1.0f, 0.3f, 0.6f), std::min(2.0f * t, 1.0f))
+                                 : glm::vec3(0.2f, 0.3f, 0.5f);
+    const glm::vec3 shown = t > 0.5f ? glm::mix(c, glm::vec3(1.0f), 2.0f * t - 1.0f) : c;
+    dl->AddCircleFilled(ImVec2(s->x, s->y), a > 0.0f ? 3.0f : 1.5f, to_imgui(shown, a > 0.0f ? 0.9f : 0.5f));
+    ++drawn;
+  }
+  return drawn;
+}
 
 int draw_probe_overlay(World& world, const CameraView& camera, glm::vec2 size, const ProbeOverlay& options,
                        ImDrawList* dl) {

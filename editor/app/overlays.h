@@ -1,5 +1,6 @@
 // Visualisations drawn over the viewport with ImGui's background draw list: probe positions
-// coloured by their irradiance, invalid (filled) probes, grid bounds. The projection helpers are
+// coloured by their irradiance, invalid (filled) probes, grid bounds; the selected AO-field
+// caster's bounds and field. The projection helpers are
 // plain math, shared with the tests.
 #pragma once
 
@@ -37,5 +38,19 @@ struct ProbeOverlay {
 // Draws every IrradianceProbeGrid (bounds always; nodes once baked). Returns the nodes drawn.
 int draw_probe_overlay(World& world, const CameraView& camera, glm::vec2 size, const ProbeOverlay& options,
                        ImDrawList* draw_list);
+
+// The selected AO-field caster's field (lighting_views.h): its bounds as wireframes and a floor
+// slice of receivers coloured by its occlusion, recomputed every frame so it follows a dragged caster.
+struct AOFieldOverlay {
+  bool bounds = true;   // the hull (radial fit) or grid cube, and the falloff sphere
+  bool slice = true;    // once baked
+  int resolution = 32;  // slice points per side (~0.1 ms at 32)
+  float height = 0.0f;  // of the slice above the caster's lowest point, metres
+};
+
+// Draws the overlay for `caster` (nothing when it is not an AO-field caster). Returns the slice
+// points drawn.
+int draw_ao_field_overlay(World& world, Entity caster, const CameraView& camera, glm::vec2 size,
+                          const AOFieldOverlay& options, ImDrawList* draw_list);
 
 }  // namespace penumbra::editor

@@ -2,6 +2,7 @@
 #include "panels.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cinttypes>
 #include <cmath>
 #include <fstream>
@@ -10,9 +11,11 @@
 #include <glm/gtc/quaternion.hpp>
 #include <imgui.h>
 
+#include "lighting_views.h"
 #include "penumbra/ao_field/ao_field.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/pose_ao.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/builtin.h"
 
@@ -114,6 +117,7 @@ void hierarchy_node(Document& doc, Entity e) {
   if (w.has<Light>(e)) label += "  [light]";
   if (w.has<IrradianceProbeGrid>(e)) label += "  [probes]";
   if (w.has<AOFieldCaster>(e)) label += "  [ao field]";
+  if (w.has<SkinnedPoseAO>(e)) label += "  [pose ao]";
   const bool open = ImGui::TreeNodeEx(reinterpret_cast<void*>(static_cast<std::uintptr_t>(e.index) + 1), flags, "%s",
                                       label.c_str());
   if (ImGui::IsItemClicked()) doc.select(e);
@@ -209,8 +213,39 @@ void baked_summary(World& w, Entity e) {
     }
   }
   if (const auto* c = w.try_get<AOFieldCaster>(e)) {
-    if (c->data) ImGui::Text("baked: %u^2 x 6 texels, %s", c->data->resolution, format_bytes(c->data->bytes()).c_str());
-    else ImGui::TextDisabled("not baked");
+    if (const AOFieldData* d = c->data.get()) {
+      if (d->representation == AOFieldRepresentation::Grid)
+        ImGui::Text("baked: grid %u^3, %s", d->grid_size, format_bytes(d->bytes()).c_str());
+      else
+        ImGui::Text("baked: radial fit %u^2 x 6 texels, %s, %u clamped fits", d->resolution,
+                    format_bytes(d->bytes()).c_str(), d->clamped_fits);
+      ImGui::TextDisabled("centre %.3g %.3g %.3g, bounding radius %.3g, falloff %.3g (mesh units)", d->centre.x,
+                          d->centre.y, d->centre.z, d->bounding_radius, d->r_far);
+    } else {
+      ImGui::TextDisabled("not baked");
+    }
+  }
+  if (w.has<SkinnedPoseAO>(e)) {
+    auto s = pose_ao_summary(w, e);
+    if (!s || !s->baked) {
+      ImGui::TextDisabled("not baked");
+    } else {
+      ImGui::Text("baked: %s (%.1f B per vertex stored), %zu joint sets", format_bytes(s->bytes).c_str(),
+                  s->bytes_per_vertex, s->joint_sets);
+      ImGui::TextDisabled("%u vertices, %u joints, %u poses x %u rays, locality %u of %u, lambda %.3g", s->vertices,
+                          s->joints, s->poses, s->rays_per_vertex, s->locality, s->requested_locality,
+                          static_cast<double>(s->lambda));
+      ImGui::Text("training RMSE %.4f", static_cast<double>(s->training_rmse));
+      if (s->has_values) {
+        // This frame's per-vertex AO (the pose-ao system's output), 1 = open.
+        ImGui::Text("this frame: AO min %.3f mean %.3f max %.3f", static_cast<double>(s->current.min),
+                    static_cast<double>(s->current.mean), static_cast<double>(s->current.max));
+        float bins[AOStats::kBins];
+        for (std::size_t i = 0; i < AOStats::kBins; ++i) bins[i] = static_cast<float>(s->current.histogram[i]);
+        ImGui::PlotHistogram("##poseao", bins, static_cast<int>(AOStats::kBins), 0, "vertices by AO, 0 .. 1", 0.0f,
+                             FLT_MAX, ImVec2(-1, 60));
+      }
+    }
   }
 }
 
@@ -373,6 +408,12 @@ void view_panel(EditorModel& model, UiState& ui) {
   ImGui::Checkbox("invalid probes", &ui.overlay.invalid);
   ImGui::SameLine();
   ImGui::Checkbox("grid bounds", &ui.overlay.bounds);
+  ImGui::Checkbox("AO field bounds", &ui.ao_overlay.bounds);
+  ImGui::SameLine();
+  ImGui::Checkbox("AO field slice", &ui.ao_overlay.slice);
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(80);
+  ImGui::DragFloat("slice height", &ui.ao_overlay.height, 0.01f, -10.0f, 10.0f, "%.2f m");
   ImGui::End();
 }
 

@@ -47,6 +47,7 @@ struct UiState {
   CameraControl camera;
   RenderSettings render;
   ProbeOverlay overlay;
+  AOFieldOverlay ao_overlay;  // of the selected caster
   bool show_ui = true;
   float render_scale = 1.0f;  // of the 3D view (Viewport::set_render_scale)
   FrameTimes frames;

@@ -10,6 +10,7 @@
 #include "load_world.h"
 #include "penumbra/ao_field/ao_field.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/pose_ao.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/components.h"
 
@@ -44,6 +45,22 @@ std::unique_ptr<World> snapshot(World& src, const std::vector<Entity>& only) {
   const auto selected = [&](Entity e) {
     return only.empty() || std::find(only.begin(), only.end(), e) != only.end();
   };
+  // Components that name entities (skins, the hierarchy, clip targets) get the snapshot's handles:
+  // same index, but the generations of the two Worlds differ once entities were destroyed.
+  const auto remap = [&](Entity e) {
+    return src.alive(e) && e.index < count && keep[e.index] ? made[e.index] : Entity::null();
+  };
+  std::vector<std::pair<const std::vector<AnimationClip>*, std::shared_ptr<const std::vector<AnimationClip>>>> clips;
+  const auto remap_clips = [&](const std::shared_ptr<const std::vector<AnimationClip>>& from) {
+    if (!from) return from;
+    for (const auto& [key, copy] : clips)
+      if (key == from.get()) return copy;
+    auto copy = std::make_shared<std::vector<AnimationClip>>(*from);
+    for (AnimationClip& clip : *copy)
+      for (Entity& target : clip.targets) target = remap(target);
+    clips.emplace_back(from.get(), copy);
+    return std::shared_ptr<const std::vector<AnimationClip>>(std::move(copy));
+  };
   for (std::uint32_t i = 0; i < count; ++i) {
     if (!keep[i]) continue;
     const Entity s = src.handle(i);
@@ -55,9 +72,21 @@ std::unique_ptr<World> snapshot(World& src, const std::vector<Entity>& only) {
     copy_component<Light>(src, *dst, s, d);
     copy_component<Static>(src, *dst, s, d);
     copy_component<Name>(src, *dst, s, d);
+    if (const Parent* p = src.try_get<Parent>(s)) dst->add<Parent>(d, Parent{remap(p->entity)});
+    if (const Animator* a = src.try_get<Animator>(s)) {
+      Animator copy = *a;
+      copy.clips = remap_clips(a->clips);
+      dst->add<Animator>(d, std::move(copy));
+    }
+    if (const Skin* skin = src.try_get<Skin>(s)) {
+      Skin copy = *skin;
+      for (Entity& j : copy.joints) j = remap(j);
+      dst->add<Skin>(d, std::move(copy));
+    }
     if (selected(s)) {
       copy_component<IrradianceProbeGrid>(src, *dst, s, d);
       copy_component<AOFieldCaster>(src, *dst, s, d);
+      copy_component<SkinnedPoseAO>(src, *dst, s, d);
     }
   }
   return dst;
@@ -80,6 +109,7 @@ std::vector<std::string> bakers_for(World& world, Entity e) {
   std::vector<std::string> names;
   if (world.has<IrradianceProbeGrid>(e)) names.push_back("probes");
   if (world.has<AOFieldCaster>(e)) names.push_back("aofields");
+  if (world.has<SkinnedPoseAO>(e)) names.push_back("poseao");
   return names;
 }
 
@@ -106,8 +136,8 @@ Status BakeController::start(Document& doc, const BakeRequest& request) {
     }
   if (!request.entities.empty() && request.bakers.empty())
     return make_error(ErrorCode::InvalidArgument,
-                      "bake selection: the selected entities have no lighting component to bake; select a probe grid "
-                      "or an AO-field caster");
+                      "bake selection: the selected entities have no lighting component to bake; select a probe grid, "
+                      "an AO-field caster or a skinned mesh with pose-AO");
 
   std::shared_ptr<World> snap = snapshot(world, request.entities);
   {

@@ -4,8 +4,9 @@
 // document and they show up in the next frame.
 //
 // The snapshot keeps entity indices (baked chunks name entities by index) and copies what the
-// bakers read: transforms, meshes, materials, lights, the Static tag, names and the lighting
-// components being baked (all of them, or the selection's). A module whose baker reads another
+// bakers read: transforms, meshes, materials, lights, the Static tag, names, the hierarchy, skins
+// and animators (their entity handles remapped to the snapshot's) and the lighting components
+// being baked (all of them, or the selection's). A module whose baker reads another
 // component adds it to the list in bake_controller.cpp.
 #pragma once
 
@@ -33,7 +34,8 @@ struct BakeRequest {
   bool low_priority = true;    // nice the bake threads so the UI thread wins the CPU
 };
 
-// The bakers that bake entity `e`'s components ("probes" for a grid, "aofields" for a caster).
+// The bakers that bake entity `e`'s components ("probes" for a grid, "aofields" for a caster,
+// "poseao" for a skinned mesh with SkinnedPoseAO).
 std::vector<std::string> bakers_for(World& world, Entity e);
 
 struct BakeStage {

@@ -8,6 +8,7 @@
 
 #include "load_world.h"
 #include "penumbra/ao_field/ao_field_baker.h"
+#include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/probe_grid/probe_system.h"
 #include "penumbra/scene/components.h"
 
@@ -18,7 +19,7 @@ namespace {
 // Every module's "attach baked chunks to components" entry point; vertex AO has none (its chunk
 // is kept in the file only).
 using AttachFn = Status (*)(World&, const BakeFile&);
-constexpr AttachFn kAttachers[] = {attach_probe_grids, attach_ao_fields};
+constexpr AttachFn kAttachers[] = {attach_probe_grids, attach_ao_fields, attach_pose_ao};
 
 }  // namespace
 

@@ -10,6 +10,7 @@
 
 #include "penumbra/ao_field/ao_field.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/pose_ao.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/components.h"
 
@@ -179,7 +180,11 @@ std::vector<FieldDesc> build_fields() {
   t.push_back(read_only(member("covered", FieldKind::Bool, &ProbeLit::covered)));
 
   // AOFieldCaster / AOFieldReceiver (ao_field).
+  t.push_back(with_choices(member("representation", FieldKind::Enum, &AOFieldCaster::representation),
+                           {"radial-fit", "grid"}));
   t.push_back(member("resolution", FieldKind::Count, &AOFieldCaster::resolution, 1.0, 256.0, 0.1f));
+  t.push_back(member("supersample", FieldKind::Count, &AOFieldCaster::supersample, 1.0, 4.0, 0.02f));
+  t.push_back(member("grid_size", FieldKind::Count, &AOFieldCaster::grid_size, 4.0, 128.0, 0.1f));
   t.push_back(member("radial_samples", FieldKind::Count, &AOFieldCaster::radial_samples, 3.0, 1024.0, 0.2f));
   t.push_back(member("rays_per_sample", FieldKind::Count, &AOFieldCaster::rays_per_sample, 16.0, 1e6, 1.0f));
   t.push_back(member("falloff_distance", FieldKind::Float, &AOFieldCaster::falloff_distance, 0.0, 1e6));
@@ -188,6 +193,15 @@ std::vector<FieldDesc> build_fields() {
   t.push_back(member("inside_exponent", FieldKind::Float, &AOFieldCaster::inside_exponent, 1e-3, 100.0));
   t.push_back(member("normal", FieldKind::Vec3, &AOFieldReceiver::normal, -1.0, 1.0));
   t.push_back(read_only(member("occlusion", FieldKind::Float, &AOFieldReceiver::occlusion, 0.0, 1.0)));
+
+  // SkinnedPoseAO (pose_ao): the ranges validate_pose_ao accepts (joint_ranges are not edited here).
+  t.push_back(member("reference_poses", FieldKind::Count, &SkinnedPoseAO::reference_poses, 0.0, 1e6, 1.0f));
+  t.push_back(member("clip_poses", FieldKind::Count, &SkinnedPoseAO::clip_poses, 0.0, 1e5, 0.2f));
+  t.push_back(member("rays_per_vertex", FieldKind::Count, &SkinnedPoseAO::rays_per_vertex, 1.0, 1e6, 0.5f));
+  t.push_back(member("locality", FieldKind::Count, &SkinnedPoseAO::locality, 0.0, kPoseAOMaxLocality, 0.05f));
+  t.push_back(member("lambda", FieldKind::Float, &SkinnedPoseAO::lambda, 0.0, 1e6, 1e-4f));
+  t.push_back(member("range_margin", FieldKind::Float, &SkinnedPoseAO::range_margin, 0.0, 100.0, 0.005f));
+  t.push_back(member("default_range", FieldKind::Float, &SkinnedPoseAO::default_range, 0.0, 3.1415926, 0.005f));
   return t;
 }
 
@@ -394,7 +408,17 @@ std::span<const ComponentPreset> component_presets() {
     p.push_back({"aofields", "AOFieldCaster", has<AOFieldCaster>(), [](World& w, Entity e, Preset q) {
                    AOFieldCaster& c = w.patch<AOFieldCaster>(e);
                    AOFieldCaster next = AOFieldCaster::preset(q);
+                   next.representation = c.representation;
                    next.falloff_distance = c.falloff_distance;
+                   next.data = c.data;
+                   c = std::move(next);
+                 }});
+    p.push_back({"poseao", "SkinnedPoseAO", has<SkinnedPoseAO>(), [](World& w, Entity e, Preset q) {
+                   SkinnedPoseAO& c = w.patch<SkinnedPoseAO>(e);
+                   SkinnedPoseAO next = SkinnedPoseAO::preset(q);
+                   next.range_margin = c.range_margin;
+                   next.default_range = c.default_range;
+                   next.joint_ranges = c.joint_ranges;
                    next.data = c.data;
                    c = std::move(next);
                  }});
