@@ -15,7 +15,9 @@ head -c 100 "$scratch/good.pbake" > "$scratch/short.pbake"
 expect_exit 1 "$PENUMBRA" info "$scratch/short.pbake"; expect_output "short.pbake"
 cp "$scratch/good.pbake" "$scratch/flip.pbake"
 size=$(stat -c %s "$scratch/flip.pbake")
-printf '\xff' | dd of="$scratch/flip.pbake" bs=1 seek=$((size - 5)) conv=notrunc status=none
+# Complement one byte near the end (whatever it held: 0xff is a common value there).
+byte=$(od -An -tu1 -j $((size - 5)) -N1 "$scratch/flip.pbake" | tr -d ' ')
+printf "\\$(printf '%03o' $((255 - byte)))" | dd of="$scratch/flip.pbake" bs=1 seek=$((size - 5)) conv=notrunc status=none
 expect_exit 1 "$PENUMBRA" info "$scratch/flip.pbake"; expect_output "flip.pbake"
 echo "hello" > "$scratch/text.pbake"
 expect_exit 1 "$PENUMBRA" info "$scratch/text.pbake"; expect_output "text.pbake"
