@@ -173,6 +173,7 @@ std::vector<FieldDesc> build_fields() {
   t.push_back(member("back_face_threshold", FieldKind::Float, &IrradianceProbeGrid::back_face_threshold, 0.0, 1.0,
                      0.005f));
   t.push_back(member("deringing_window", FieldKind::Float, &IrradianceProbeGrid::deringing_window, 0.0, 100.0));
+  t.push_back(member("leak_guard", FieldKind::Bool, &IrradianceProbeGrid::leak_guard));
   t.push_back(member("priority", FieldKind::Int, &IrradianceProbeGrid::priority, -1e9, 1e9, 0.1f));
   t.push_back(member("blend_distance", FieldKind::Float, &IrradianceProbeGrid::blend_distance, 0.0, 1e6));
 

@@ -122,6 +122,36 @@ glm::vec3 tent_offset(std::uint32_t k, const std::array<std::uint32_t, 3>& scram
   return t;
 }
 
+// Leak guard (probe_grid.h): node n's reach along the six grid axis directions, the closest hit
+// within one spacing in units of the spacing, quantised to 0..255 (rounded down, so a surface is
+// never reported farther than it is).
+void trace_reach(const RayScene& scene, const ProbeGridLayout& layout, glm::uvec3 ijk, std::uint8_t* out) {
+  const glm::mat3 axes(layout.grid_to_world);
+  std::array<Ray, 6> rays;
+  std::array<Hit, 6> hits;
+  std::array<std::uint8_t, 6> mask{};
+  const glm::vec3 x = layout.node_position(ijk);
+  for (int d = 0; d < 6; ++d) {
+    const int a = d / 2;
+    const glm::vec3 dir = glm::normalize(axes[a]) * (d % 2 ? -1.0f : 1.0f);
+    rays[static_cast<std::size_t>(d)] = Ray{x, 0.0f, dir, layout.spacing[a]};
+  }
+  scene.intersect(rays, hits, mask);
+  for (int d = 0; d < 6; ++d) {
+    const std::size_t i = static_cast<std::size_t>(d);
+    const float t = mask[i] ? std::clamp(hits[i].t / layout.spacing[d / 2], 0.0f, 1.0f) : 1.0f;
+    out[i] = static_cast<std::uint8_t>(std::floor(t * 255.0f));
+  }
+}
+
+// Whether node `ijk` sees its sample at tent offset t (cells): the corner test of the lookup
+// (probe_lookup_fraction) from the node's side, so a node averages only what it will be used for.
+bool node_sees(const std::uint8_t* reach, glm::vec3 t) {
+  for (int a = 0; a < 3; ++a)
+    if (std::abs(t[a]) > float(reach[2 * a + (t[a] < 0.0f ? 1 : 0)]) * (1.0f / 255.0f) + kProbeReachSlack) return false;
+  return true;
+}
+
 // Fill nodes without an in-domain sample from valid neighbours, one 26-neighbourhood ring per
 // pass (Jacobi passes, so the result does not depend on visiting order). Weights: the coverage of
 // valid neighbours, 1/4 for neighbours filled in an earlier pass. Returns false if cancelled.
@@ -186,9 +216,10 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
 
   // Memory: the working expansions plus the stored arrays, checked before allocating; fitted mode
   // also keeps every sample (position, domain flag, coefficients) and the solver's arrays.
-  std::uint64_t need = std::uint64_t{nodes} * (sizeof(SH9rgb) + count * sizeof(glm::vec3) + sizeof(float) + 1);
+  std::uint64_t need =
+      std::uint64_t{nodes} * (sizeof(SH9rgb) + count * sizeof(glm::vec3) + sizeof(float) + 1 + (grid.leak_guard ? 6 : 0));
   if (fitted)
-    need += std::uint64_t{nodes} * S * (sizeof(glm::vec3) + 1 + columns * sizeof(float)) +
+    need += std::uint64_t{nodes} * S * (sizeof(glm::vec3) * (grid.leak_guard ? 2 : 1) + 1 + columns * sizeof(float)) +
             std::uint64_t{nodes} * columns * sizeof(float) + probe_fit_bytes(nodes, columns);
   if (auto st = budget.reserve(std::string(context) + " nodes", need); !st)
     return make_error(ErrorCode::OutOfBudget, st.error().message + " (" + std::to_string(layout->resolution.x) + "x" +
@@ -212,6 +243,7 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   std::vector<glm::vec3> sample_position(fitted ? nodes * S : 0);
   std::vector<std::uint8_t> sample_in_domain(fitted ? nodes * S : 0);
   std::vector<float> sample_values(fitted ? nodes * S * columns : 0);
+  std::vector<glm::vec3> sample_lookup(fitted && grid.leak_guard ? nodes * S : 0);
 
   SampleSettings s;
   s.rays = point ? grid.samples_per_node * grid.rays_per_sample : grid.rays_per_sample;
@@ -225,6 +257,17 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   s.hit.rect_light_samples = kRectLightSamples;
   const glm::uvec3 res = layout->resolution;
   const glm::vec3 cell = 1.0f / glm::vec3(res - 1u);
+
+  // Step 0 (leak guard): every node's reach, which step 1 needs around each node.
+  if (grid.leak_guard) {
+    data.reach.assign(nodes * 6, 0);
+    const Status reached = jobs.parallel_for(nodes, 64, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t n = begin; n < end; ++n)
+        trace_reach(scene, *layout, glm::uvec3(n % res.x, (n / res.x) % res.y, n / (std::size_t{res.x} * res.y)),
+                    &data.reach[6 * n]);
+    });
+    if (!reached) return reached.error();
+  }
 
   // Step 1: per node, radiance SH from its sample points (node n from its own stream).
   jobs.begin_stage("probe samples", nodes);
@@ -240,23 +283,31 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
         data.validity[n] = p.in_domain ? 1.0f : 0.0f;
         continue;
       }
-      // Supersampling: S points from the tent B_i, averaged over those in the domain (fitted
-      // mode keeps each one for the least-squares step).
+      // Supersampling: S points from the tent B_i, averaged over those in the domain (and, with
+      // the leak guard, seen by the node); fitted mode keeps each one for the least-squares step,
+      // with the lookup fraction the runtime will use for it.
       const std::array<std::uint32_t, 3> scrambles{rng.next_u32(), rng.next_u32(), rng.next_u32()};
       SH9rgb sum;
       std::uint32_t inside = 0;
       for (std::uint32_t k = 0; k < grid.samples_per_node; ++k) {
         const glm::vec3 t = tent_offset(k, scrambles, ijk, res, fitted);
+        const bool seen = !grid.leak_guard || node_sees(&data.reach[6 * n], t);
+        if (!seen && !fitted) continue;  // supersampled: no rays for a point the node never serves
         const glm::vec3 y(layout->grid_to_world * glm::vec4(u + t * cell, 1.0f));
         const PointSample p = sample_point(scene, lights, y, s, rng);
         if (fitted) {
           const std::size_t i = n * S + k;
-          sample_position[i] = glm::vec3(ijk) + t;
+          const glm::vec3 at = glm::vec3(ijk) + t;
+          sample_position[i] = at;
           sample_in_domain[i] = p.in_domain ? 1 : 0;
           for (std::size_t c = 0; c < columns; ++c)
             sample_values[i * columns + c] = p.radiance[static_cast<int>(c / 3)][static_cast<int>(c % 3)];
+          if (grid.leak_guard) {
+            const glm::uvec3 base = probe_fit_cell(at, res);
+            sample_lookup[i] = probe_lookup_fraction(data, base, at - glm::vec3(base), glm::vec3(0.0f));
+          }
         }
-        if (!p.in_domain) continue;
+        if (!p.in_domain || !seen) continue;
         sum += p.radiance;
         ++inside;
       }
@@ -295,6 +346,7 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
     input.positions = sample_position;
     input.in_domain = sample_in_domain;
     input.values = sample_values;
+    input.lookup = sample_lookup;
     auto fit = fit_probe_nodes(input, values, ProbeFitSettings{}, jobs);
     if (!fit) return make_error(fit.error().code, std::string(context) + ": " + fit.error().message);
     for (std::size_t n = 0; n < nodes; ++n)
@@ -325,6 +377,7 @@ BakeChunk write_probe_grid_chunk(const ProbeGridData& data) {
   w.write_vector(data.coefficients);
   w.write_vector(data.validity);
   w.write_vector(data.filled);
+  w.write_vector(data.reach);  // version 3
   return BakeChunk{kChunkType, kProbeGridChunkVersion, "probes:" + std::to_string(data.entity_index), w.take()};
 }
 
@@ -333,9 +386,12 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   const auto bad = [&](const std::string& what) {
     return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the probe grid");
   };
-  // Version 1 (before the lighting field) stored direct + indirect: read as All.
-  const bool v1 = chunk.type == kChunkType && chunk.version == 1;
-  PENUMBRA_TRY(check_chunk(chunk, kChunkType, v1 ? 1 : kProbeGridChunkVersion, context));
+  // Version 1 (before the lighting field) stored direct + indirect: read as All. Version 2 has no
+  // reach (a grid without the leak guard).
+  const std::uint32_t version =
+      chunk.type == kChunkType && chunk.version >= 1 && chunk.version <= kProbeGridChunkVersion ? chunk.version
+                                                                                                : kProbeGridChunkVersion;
+  PENUMBRA_TRY(check_chunk(chunk, kChunkType, version, context));
   ProbeGridData data;
   ByteReader r(chunk.payload, context);
   std::uint32_t order = 0, sampling = 0, lighting = 0;
@@ -344,7 +400,7 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(data.layout.grid_to_world));
   PENUMBRA_TRY(r.read(order));
   PENUMBRA_TRY(r.read(sampling));
-  if (!v1) PENUMBRA_TRY(r.read(lighting));
+  if (version >= 2) PENUMBRA_TRY(r.read(lighting));
   const glm::uvec3 res = data.layout.resolution;
   if (res.x < 2 || res.y < 2 || res.z < 2 || std::uint64_t{res.x} * res.y * res.z > kMaxProbeNodes)
     return bad("resolution " + std::to_string(res.x) + "x" + std::to_string(res.y) + "x" + std::to_string(res.z) +
@@ -370,8 +426,10 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read_vector(data.coefficients, nodes * count));
   PENUMBRA_TRY(r.read_vector(data.validity, nodes));
   PENUMBRA_TRY(r.read_vector(data.filled, nodes));
+  if (version >= 3) PENUMBRA_TRY(r.read_vector(data.reach, nodes * 6));
   PENUMBRA_TRY(r.finish());
-  if (data.coefficients.size() != nodes * count || data.validity.size() != nodes || data.filled.size() != nodes)
+  if (data.coefficients.size() != nodes * count || data.validity.size() != nodes || data.filled.size() != nodes ||
+      (!data.reach.empty() && data.reach.size() != nodes * 6))
     return bad("array sizes do not match " + std::to_string(nodes) + " nodes");
   for (std::size_t i = 0; i < data.coefficients.size(); ++i)
     for (int c = 0; c < 3; ++c)
@@ -395,8 +453,9 @@ std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk) {
                 static_cast<double>(data->layout.spacing.y), static_cast<double>(data->layout.spacing.z),
                 to_string(data->sh_order), to_string(data->sampling), to_string(data->lighting));
   std::vector<std::string> out{line};
-  std::snprintf(line, sizeof line, "valid %.1f%% of nodes, %ld filled from neighbours, %s (%llu B per node)",
+  std::snprintf(line, sizeof line, "valid %.1f%% of nodes, %ld filled from neighbours, leak guard %s, %s (%llu B per node)",
                 100.0 * static_cast<double>(data->valid_fraction()), static_cast<long>(filled),
+                data->reach.empty() ? "off" : "on",
                 format_bytes(data->node_count() * data->bytes_per_node()).c_str(),
                 static_cast<unsigned long long>(data->bytes_per_node()));
   out.emplace_back(line);

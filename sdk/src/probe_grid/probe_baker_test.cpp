@@ -183,7 +183,9 @@ TEST(ProbeBaker, FloorUnderSunMatchesTheClosedFormInEveryMode) {
 // below the slab is in the domain (only the slab's front-facing underside is visible) and unlit.
 // The fitted mode measures only the box, and its tents are folded into it: the bottom nodes match
 // the closed form. The paper's supersampling averages that dark space in (36% of a bottom node's
-// tent lies under the slab), a limitation of the domain-of-interest test on open-bottomed ground.
+// tent lies under the slab), a limitation of the domain-of-interest test on open-bottomed ground;
+// with the leak guard the bottom node's reach downwards ends at the slab, so it averages only the
+// lit side it serves and matches the closed form too.
 TEST(ProbeBaker, FittedTentsStayInTheBoxAboveAGroundSlab) {
   World w;
   add_static(w, make_box({1000.0f, 0.05f, 1000.0f}), glm::translate(glm::mat4(1.0f), {0.0f, -0.05f, 0.0f}),
@@ -199,9 +201,69 @@ TEST(ProbeBaker, FittedTentsStayInTheBoxAboveAGroundSlab) {
   // The bottom node (y = 0.05) itself, facing up and down.
   for (glm::vec3 n : {glm::vec3(0, 1, 0), glm::vec3(0, -1, 0)})
     EXPECT_NEAR(sh_evaluate(fitted->node(0), n).x, sh_evaluate(floor_expansion(3.0f), n).x, 0.06f);
-  auto super = bake(floor_grid(1.0f, ProbeSampling::Supersampled), w, *scene);
+  IrradianceProbeGrid plain = floor_grid(1.0f, ProbeSampling::Supersampled);
+  plain.leak_guard = false;
+  auto super = bake(plain, w, *scene);
   ASSERT_TRUE(super.ok()) << super.error().message;
   EXPECT_LT(sh_evaluate(super->node(0), {0, 1, 0}).x, 0.85f * up);
+  auto guarded = bake(floor_grid(1.0f, ProbeSampling::Supersampled), w, *scene);
+  ASSERT_TRUE(guarded.ok()) << guarded.error().message;
+  EXPECT_NEAR(sh_evaluate(guarded->node(0), {0, 1, 0}).x, up, 0.06f);
+  EXPECT_LT(floor_error(*guarded, 1.0f, 3.0f), 0.02f);
+}
+
+// --- Leak guard: a thin wall between a sunlit and a shadowed half-space ------------------------
+
+// A black wall 5 cm thick across the whole grid at z in [-0.4, -0.35] (between node planes, 0.35
+// cells behind the middle one), the sun shining along -z, no bounces: each side's exact irradiance
+// is one constant expansion (the sun's delta, cosine-convolved, in front; zero behind). Plain
+// trilinear lookups leak light through the wall both ways in every mode; with the leak guard every
+// mode reproduces both sides, since each side's receivers use only the nodes on their side.
+TEST(ProbeBaker, LeakGuardStopsLightThroughAThinWall) {
+  World w;
+  add_static(w, make_box({100.0f, 100.0f, 0.025f}), glm::translate(glm::mat4(1.0f), {0.0f, 0.0f, -0.375f}),
+             glm::vec3(0.0f));
+  add_sun(w, 3.0f, {0, 0, -1});
+  auto scene = RayScene::build(w);
+  ASSERT_TRUE(scene.ok());
+  SH9rgb radiance;
+  sh_add_sample(radiance, {0, 0, 1}, glm::vec3(3.0f));
+  const SH9rgb front = sh_convolve_cosine(radiance);
+  // Receivers within one cell of the wall on either side, at random normals.
+  Rng rng = Rng::stream(5, 0);
+  std::vector<SurfacePoint> receivers;
+  for (int i = 0; i < 400; ++i) {
+    const bool behind = i % 2 == 0;
+    const float z = behind ? -0.98f + 0.56f * rng.next_float() : -0.33f + 0.31f * rng.next_float();
+    receivers.push_back({{-0.9f + 1.8f * rng.next_float(), -0.9f + 1.8f * rng.next_float(), z},
+                         uniform_sphere({rng.next_float(), rng.next_float()})});
+  }
+  const auto rmse = [&](const ProbeGridData& d) {
+    double sq = 0.0;
+    for (const SurfacePoint& p : receivers) {
+      const glm::vec3 exact =
+          p.position.z < -0.375f ? glm::vec3(0.0f) : sh_evaluate_non_negative(front, p.normal, 3);
+      const glm::vec3 diff = evaluate(d, p.position, p.normal) - exact;
+      sq += double(glm::dot(diff, diff)) / 3.0;
+    }
+    return std::sqrt(sq / double(receivers.size()));
+  };
+  for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
+    IrradianceProbeGrid g = small_grid({-1, -1, -1}, {1, 1, 1}, {3, 3, 3}, mode);
+    g.bounces = 0;
+    g.leak_guard = false;
+    auto plain = bake(g, w, *scene);
+    g.leak_guard = true;
+    auto guarded = bake(g, w, *scene);
+    ASSERT_TRUE(plain.ok() && guarded.ok()) << to_string(mode);
+    // Reach of the middle node plane: 0.35 cells down to the wall; of the bottom plane 0.6 up.
+    EXPECT_NEAR(guarded->reach[6 * guarded->layout.node_index({1, 1, 1}) + 5], 0.35f * 255.0f, 1.0f);
+    EXPECT_NEAR(guarded->reach[6 * guarded->layout.node_index({1, 1, 0}) + 4], 0.6f * 255.0f, 1.0f);
+    EXPECT_EQ(guarded->reach[6 * guarded->layout.node_index({1, 1, 0}) + 0], 255);
+    const double plain_error = rmse(*plain), guarded_error = rmse(*guarded);
+    EXPECT_GT(plain_error, 0.1) << to_string(mode) << ": the plain lookup leaks";
+    EXPECT_LT(guarded_error, 0.01) << to_string(mode) << " (plain " << plain_error << ")";
+  }
 }
 
 // Scaling the scene by 1e-3 or 1e4 leaves the relative error unchanged (ray offsets scale).

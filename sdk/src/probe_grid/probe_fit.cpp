@@ -44,13 +44,11 @@ struct Cell {
   std::array<double, 8> weight;
 };
 
-Cell cell_of(glm::vec3 u, const Grid& g) {
+// `lookup` (the leak guard's fraction in that cell), when given, replaces u's own fraction.
+Cell cell_of(glm::vec3 u, const Grid& g, const glm::vec3* lookup) {
   Cell c;
-  glm::dvec3 f;
-  for (int a = 0; a < 3; ++a) {
-    c.base[a] = std::min(static_cast<int>(std::floor(u[a])), g.res[a] - 2);
-    f[a] = static_cast<double>(u[a]) - static_cast<double>(c.base[a]);
-  }
+  c.base = glm::ivec3(probe_fit_cell(u, glm::uvec3(g.res)));
+  glm::dvec3 f = lookup ? glm::dvec3(*lookup) : glm::dvec3(u) - glm::dvec3(c.base);
   for (int k = 0; k < 8; ++k)
     c.weight[static_cast<std::size_t>(k)] =
         ((k & 1) ? f.x : 1.0 - f.x) * ((k & 2) ? f.y : 1.0 - f.y) * ((k & 4) ? f.z : 1.0 - f.z);
@@ -81,6 +79,13 @@ void multiply_rows(const Grid& g, const std::vector<double>& stencil, std::size_
 }
 
 }  // namespace
+
+glm::uvec3 probe_fit_cell(glm::vec3 u, glm::uvec3 res) {
+  glm::uvec3 base;
+  for (int a = 0; a < 3; ++a)
+    base[a] = static_cast<unsigned>(std::clamp(static_cast<int>(std::floor(u[a])), 0, static_cast<int>(res[a]) - 2));
+  return base;
+}
 
 double probe_fit_weight(glm::vec3 u, glm::uvec3 res) {
   double w = 1.0;
@@ -133,7 +138,7 @@ Result<ProbeFitReport> fit_probe_nodes(const ProbeFitInput& input, std::span<flo
             const std::size_t first = g.index(m) * S;
             for (std::size_t s = first; s < first + S; ++s) {
               if (!input.in_domain[s] || !inside_box(input.positions[s], g)) continue;
-              const Cell c = cell_of(input.positions[s], g);
+              const Cell c = cell_of(input.positions[s], g, input.lookup.empty() ? nullptr : &input.lookup[s]);
               const glm::ivec3 o = self - c.base;
               if (o.x < 0 || o.y < 0 || o.z < 0 || o.x > 1 || o.y > 1 || o.z > 1) continue;
               const double bn = c.weight[static_cast<std::size_t>(o.x | (o.y << 1) | (o.z << 2))];

@@ -10,6 +10,8 @@
 //
 //   min_c  sum_s w_s (sum_i c_i B_i(y_s) - L(y_s))^2  +  lambda sum_i (c_i - a_i)^2
 //
+// (with the leak guard, B_i(y_s) is the basis at the sample's lookup fraction, the reconstruction
+// the runtime actually performs),
 // over sample points y_s in D (the supersampled mode's own tent samples), one column per SH
 // coefficient and colour channel, a_i the supersampled average. The normal equations
 // (G + lambda I) c = B^T L + lambda a share one sparse SPD matrix G = sum_s w_s B(y_s) B(y_s)^T
@@ -57,7 +59,15 @@ struct ProbeFitInput {
   std::span<const glm::vec3> positions;
   std::span<const std::uint8_t> in_domain;
   std::span<const float> values;
+  // Leak guard (probe_grid.h): sample s's lookup fraction in its cell (probe_fit_cell), where the
+  // runtime evaluates the trilinear basis for it (probe_lookup_fraction). Empty: the sample's own
+  // fraction, the plain trilinear basis.
+  std::span<const glm::vec3> lookup;
 };
+
+// The cell (its lowest node) that holds grid point u inside the box: floor(u) clamped so the
+// cell's far nodes exist. Cost: O(1). Thread-safe.
+glm::uvec3 probe_fit_cell(glm::vec3 u, glm::uvec3 res);
 
 struct ProbeFitReport {
   std::uint32_t iterations = 0;   // CG iterations run (the most over the columns)

@@ -175,14 +175,38 @@ float ProbeGridData::valid_fraction() const {
 
 std::uint64_t ProbeGridData::bytes() const {
   return sizeof(*this) + coefficients.capacity() * sizeof(glm::vec3) + validity.capacity() * sizeof(float) +
-         filled.capacity();
+         filled.capacity() + reach.capacity();
 }
 
 std::uint64_t ProbeGridData::bytes_per_node() const {
-  return static_cast<std::uint64_t>(sh_coefficients(sh_order)) * sizeof(glm::vec3);
+  return static_cast<std::uint64_t>(sh_coefficients(sh_order)) * sizeof(glm::vec3) + (reach.empty() ? 0 : 6);
 }
 
-SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x) {
+glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells) {
+  if (data.reach.empty()) return f;
+  const float len = glm::length(normal_cells);
+  const glm::vec3 test = len > 0.0f ? f + normal_cells * (kProbeNormalBias / len) : f;
+  float wsum = 0.0f;
+  glm::vec3 mean(0.0f);
+  for (std::uint32_t corner = 0; corner < 8; ++corner) {
+    const glm::uvec3 o(corner & 1u, (corner >> 1) & 1u, (corner >> 2) & 1u);
+    const std::uint8_t* reach = &data.reach[6 * data.layout.node_index(base + o)];
+    // Hidden when, along some axis, the test point lies beyond the corner's reach that way.
+    bool visible = true;
+    for (int a = 0; a < 3; ++a) {
+      const float d = test[a] - float(o[a]);  // signed offset from the corner along axis a
+      const float r = float(reach[2 * a + (d < 0.0f ? 1 : 0)]) * (1.0f / 255.0f);
+      visible = visible && std::abs(d) <= r + kProbeReachSlack;
+    }
+    if (!visible) continue;
+    const float w = (o.x ? f.x : 1.0f - f.x) * (o.y ? f.y : 1.0f - f.y) * (o.z ? f.z : 1.0f - f.z);
+    wsum += w;
+    mean += w * glm::vec3(o);
+  }
+  return wsum > 1e-6f ? mean / wsum : f;
+}
+
+SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {
   const ProbeGridLayout& g = data.layout;
   // Grid coordinates of x in node units, clamped into the box.
   const glm::vec3 cells(g.resolution - 1u);
@@ -190,7 +214,8 @@ SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x) {
   SH9rgb out;
   if (!std::isfinite(u.x) || !std::isfinite(u.y) || !std::isfinite(u.z)) return out;
   const glm::uvec3 base = glm::min(glm::uvec3(u), g.resolution - 2u);
-  const glm::vec3 f = u - glm::vec3(base);
+  const glm::vec3 n_cells = glm::mat3(g.world_to_grid) * n * cells;
+  const glm::vec3 f = probe_lookup_fraction(data, base, u - glm::vec3(base), n_cells);
   const int count = sh_coefficients(data.sh_order);
   // Trilinear weights B_i(x) of the eight surrounding nodes.
   for (std::uint32_t corner = 0; corner < 8; ++corner) {
@@ -203,7 +228,7 @@ SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x) {
 }
 
 glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {
-  return sh_evaluate_non_negative(interpolate(data, x), n, data.sh_order == ProbeShOrder::L1 ? 2 : 3);
+  return sh_evaluate_non_negative(interpolate(data, x, n), n, data.sh_order == ProbeShOrder::L1 ? 2 : 3);
 }
 
 ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexelFormat format) {
@@ -234,6 +259,18 @@ ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexel
     }
   }
   return t;
+}
+
+std::vector<glm::vec4> pack_probe_node_texels(const ProbeGridData& data) {
+  std::vector<glm::vec4> texels(data.node_count(), glm::vec4(0.0f));
+  for (std::size_t n = 0; n < texels.size(); ++n) {
+    if (n < data.validity.size()) texels[n].r = data.validity[n];
+    if (data.reach.empty()) continue;
+    const std::uint8_t* r = &data.reach[6 * n];
+    texels[n].g = float(r[0] + 256u * r[1] + 65536u * r[2]);
+    texels[n].b = float(r[3] + 256u * r[4] + 65536u * r[5]);
+  }
+  return texels;
 }
 
 }  // namespace penumbra

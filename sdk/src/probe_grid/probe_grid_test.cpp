@@ -193,6 +193,81 @@ TEST(ProbeGridEvaluate, NeverNegative) {
   }
 }
 
+// --- Leak guard ----------------------------------------------------------------------------------
+
+// A 2x2x2 grid over the unit cube whose z = 0 layer holds 1 and z = 1 layer 10 (DC only), with a
+// wall at z = 0.4: the bottom nodes reach 0.4 up, the top nodes 0.6 down, everything else open.
+ProbeGridData walled_cell() {
+  ProbeGridData d = synthetic(box_grid({0, 0, 0}, {1, 1, 1}, {2, 2, 2}), ProbeShOrder::L1,
+                              [](glm::vec3 p, int c) { return c == 0 ? glm::vec3(p.z > 0.5f ? 10.0f : 1.0f) : glm::vec3(0.0f); });
+  d.reach.assign(8 * 6, 255);
+  for (std::uint32_t n = 0; n < 8; ++n) {
+    const bool top = n >= 4;
+    d.reach[6 * n + (top ? 5 : 4)] = static_cast<std::uint8_t>(std::floor((top ? 0.6f : 0.4f) * 255.0f));
+  }
+  return d;
+}
+
+TEST(ProbeGridLeakGuard, CornersBehindAWallAreSkipped) {
+  ProbeGridData d = walled_cell();
+  for (float x : {0.1f, 0.5f, 0.9f})
+    for (float y : {0.2f, 0.7f}) {
+      // Each side of the wall sees only its own layer, exactly, wherever it is in the cell.
+      for (float z : {0.05f, 0.2f, 0.38f}) EXPECT_FLOAT_EQ(interpolate(d, {x, y, z})[0].x, 1.0f) << z;
+      for (float z : {0.42f, 0.7f, 0.95f}) EXPECT_FLOAT_EQ(interpolate(d, {x, y, z})[0].x, 10.0f) << z;
+      // On the wall's faces the normal says which side the receiver is on.
+      EXPECT_FLOAT_EQ(interpolate(d, {x, y, 0.4f}, {0, 0, -1})[0].x, 1.0f);
+      EXPECT_FLOAT_EQ(interpolate(d, {x, y, 0.4f}, {0, 0, 1})[0].x, 10.0f);
+    }
+  // Without reach data, the plain trilinear blend across the wall (the leak).
+  const float z = 0.3f;
+  d.reach.clear();
+  EXPECT_NEAR(interpolate(d, {0.5f, 0.5f, z})[0].x, 1.0f + 9.0f * z, 1e-5f);
+}
+
+TEST(ProbeGridLeakGuard, OpenCellsAndFullyHiddenCellsInterpolateAsPlainTrilinear) {
+  ProbeGridData d = walled_cell();
+  ProbeGridData plain = d;
+  plain.reach.clear();
+  Rng rng = Rng::stream(11, 0);
+  for (std::uint8_t r : {std::uint8_t{255}, std::uint8_t{0}}) {  // nothing hidden; every corner hidden
+    d.reach.assign(8 * 6, r);
+    for (int i = 0; i < 100; ++i) {
+      const glm::vec3 x(rng.next_float(), rng.next_float(), 0.05f + 0.9f * rng.next_float());
+      const glm::vec3 n = uniform_sphere({rng.next_float(), rng.next_float()});
+      EXPECT_NEAR(interpolate(d, x, n)[0].x, interpolate(plain, x)[0].x, 1e-5f) << int(r);
+    }
+  }
+  // A NaN normal tests from the point itself; a NaN point gives zero, as without the guard.
+  d = walled_cell();
+  EXPECT_FLOAT_EQ(interpolate(d, {0.5f, 0.5f, 0.2f}, {kNaN, 0, 0})[0].x, 1.0f);
+  EXPECT_EQ(interpolate(d, {kNaN, 0.5f, 0.5f})[0], glm::vec3(0.0f));
+}
+
+TEST(ProbeGridLeakGuard, NodeTexelsCarryValidityAndReachExactly) {
+  ProbeGridData d = walled_cell();
+  d.validity = {0.0f, 0.125f, 0.25f, 0.5f, 0.75f, 1.0f, 1.0f, 1.0f};
+  for (std::size_t i = 0; i < d.reach.size(); ++i) d.reach[i] = static_cast<std::uint8_t>(41 * i + 3);
+  const std::vector<glm::vec4> t = pack_probe_node_texels(d);
+  ASSERT_EQ(t.size(), 8u);
+  for (std::size_t n = 0; n < 8; ++n) {
+    EXPECT_EQ(t[n].r, d.validity[n]);
+    // The shader's unpacking (forward.frag): g = +x, -x, +y; b = -y, +z, -z.
+    const auto g = static_cast<std::uint32_t>(t[n].g), b = static_cast<std::uint32_t>(t[n].b);
+    const std::uint8_t* r = &d.reach[6 * n];
+    EXPECT_EQ(g & 255u, r[0]);
+    EXPECT_EQ((g >> 8) & 255u, r[1]);
+    EXPECT_EQ(g >> 16, r[2]);
+    EXPECT_EQ(b & 255u, r[3]);
+    EXPECT_EQ((b >> 8) & 255u, r[4]);
+    EXPECT_EQ(b >> 16, r[5]);
+    EXPECT_EQ(t[n].a, 0.0f);
+  }
+  d.reach.clear();
+  for (const glm::vec4& texel : pack_probe_node_texels(d)) EXPECT_EQ(texel.g + texel.b, 0.0f);
+  EXPECT_EQ(d.bytes_per_node(), 4u * 12u);
+}
+
 // --- GPU layout ----------------------------------------------------------------------------------
 
 TEST(ProbeGridTextures, SlotsHoldCoefficientChannelsAndFilterLikeTheCpu) {

@@ -213,17 +213,40 @@ ProbeGridData small_data(LightingContent lighting) {
   return d;
 }
 
-TEST(ProbeLighting, ChunkRoundTripsAndVersionOneReadsAsAll) {
+TEST(ProbeLighting, ChunkRoundTripsAndOlderVersionsRead) {
   for (LightingContent lighting : {LightingContent::All, LightingContent::Indirect}) {
-    const ProbeGridData d = small_data(lighting);
-    const BakeChunk chunk = write_probe_grid_chunk(d);
-    EXPECT_EQ(chunk.version, 2u);
-    auto back = read_probe_grid_chunk(chunk);
-    ASSERT_TRUE(back.ok()) << back.error().message;
-    EXPECT_EQ(back->lighting, lighting);
-    EXPECT_EQ(back->coefficients, d.coefficients);
-    const std::string info = describe_probe_grid_chunk(chunk)[0];
-    EXPECT_NE(info.find(std::string(to_string(lighting)) + " lighting"), std::string::npos) << info;
+    for (bool guard : {false, true}) {
+      ProbeGridData d = small_data(lighting);
+      if (guard)
+        for (int i = 0; i < 8 * 6; ++i) d.reach.push_back(static_cast<std::uint8_t>(37 * i));
+      const BakeChunk chunk = write_probe_grid_chunk(d);
+      EXPECT_EQ(chunk.version, 3u);
+      auto back = read_probe_grid_chunk(chunk);
+      ASSERT_TRUE(back.ok()) << back.error().message;
+      EXPECT_EQ(back->lighting, lighting);
+      EXPECT_EQ(back->coefficients, d.coefficients);
+      EXPECT_EQ(back->reach, d.reach);
+      const std::vector<std::string> info = describe_probe_grid_chunk(chunk);
+      EXPECT_NE(info[0].find(std::string(to_string(lighting)) + " lighting"), std::string::npos) << info[0];
+      EXPECT_NE(info[1].find(guard ? "leak guard on" : "leak guard off"), std::string::npos) << info[1];
+    }
+  }
+  // Reach of the wrong length: a clear error naming the sizes.
+  ProbeGridData short_reach = small_data(LightingContent::Indirect);
+  short_reach.reach.assign(5, 255);
+  auto sr = read_probe_grid_chunk(write_probe_grid_chunk(short_reach));
+  ASSERT_FALSE(sr.ok());
+  EXPECT_NE(sr.error().message.find("8 nodes"), std::string::npos) << sr.error().message;
+  // Version 2's layout: version 3 less the reach (a grid without the leak guard).
+  {
+    const ProbeGridData d = small_data(LightingContent::Indirect);
+    BakeChunk v2 = write_probe_grid_chunk(d);
+    v2.payload.resize(v2.payload.size() - sizeof(std::uint64_t));  // the empty reach vector's count
+    v2.version = 2;
+    auto read = read_probe_grid_chunk(v2);
+    ASSERT_TRUE(read.ok()) << read.error().message;
+    EXPECT_TRUE(read->reach.empty());
+    EXPECT_EQ(read->coefficients, d.coefficients);
   }
   // Version 1's layout: the same fields without `lighting`; it stored direct + indirect.
   const ProbeGridData d = small_data(LightingContent::Indirect);
@@ -242,18 +265,18 @@ TEST(ProbeLighting, ChunkRoundTripsAndVersionOneReadsAsAll) {
   EXPECT_EQ(read->lighting, LightingContent::All);
   EXPECT_EQ(read->coefficients, d.coefficients);
   EXPECT_EQ(read->sampling, ProbeSampling::Fitted);
-  // A version 2 payload labelled version 1 (or the reverse) has the wrong size: a clear error.
+  // A version 3 payload labelled version 1 (or the reverse) has the wrong size: a clear error.
   BakeChunk mislabelled = write_probe_grid_chunk(d);
   mislabelled.version = 1;
   EXPECT_FALSE(read_probe_grid_chunk(mislabelled).ok());
   // A future version is refused, naming both versions.
   BakeChunk future = write_probe_grid_chunk(d);
-  future.version = 3;
+  future.version = 4;
   auto f = read_probe_grid_chunk(future);
   ASSERT_FALSE(f.ok());
   EXPECT_EQ(f.error().code, ErrorCode::Unsupported);
+  EXPECT_NE(f.error().message.find("version 4"), std::string::npos) << f.error().message;
   EXPECT_NE(f.error().message.find("version 3"), std::string::npos) << f.error().message;
-  EXPECT_NE(f.error().message.find("version 2"), std::string::npos) << f.error().message;
   // An unknown lighting value in the payload.
   ProbeGridData bad = d;
   bad.lighting = static_cast<LightingContent>(5);

@@ -210,6 +210,7 @@ void hash_probe_inputs(World& world, const BakeSettings&, Hasher& h) {
     h.add(g.lighting);
     h.add(g.back_face_threshold);
     h.add(g.deringing_window);
+    h.add(g.leak_guard);
     h.add(world.get<WorldTransform>(e).matrix);
   }
 }

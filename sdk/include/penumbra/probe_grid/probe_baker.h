@@ -38,12 +38,14 @@
 
 namespace penumbra {
 
-// Version 2 added ProbeGridData::lighting; version 1 chunks are read as LightingContent::All.
-inline constexpr std::uint32_t kProbeGridChunkVersion = 2;
+// Version 2 added ProbeGridData::lighting (version 1 chunks are read as LightingContent::All);
+// version 3 the leak guard's reach (version 2 chunks read without it).
+inline constexpr std::uint32_t kProbeGridChunkVersion = 3;
 
 // Bakes one grid. Validates it first (probe_grid_layout), reserves the node arrays in `budget`
-// before allocating (OutOfBudget names the grid and suggests a larger spacing), and reports three
-// progress stages, "probe samples", "probe fill" and "probe fit" (empty unless Fitted). Node n
+// before allocating (OutOfBudget names the grid and suggests a larger spacing), traces each node's
+// reach first when the leak guard is on (6 rays per node), and reports three progress stages,
+// "probe samples", "probe fill" and "probe fit" (empty unless Fitted). Node n
 // draws from Rng::stream(seed, n) and the fit sums in a fixed order: bit-identical results at any
 // thread count. Fails with Cancelled when the host cancels, and with
 // InvalidInput when no node has an in-domain sample (every probe is inside geometry; the message
@@ -56,7 +58,7 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
                                       JobContext& jobs, MemoryBudget& budget, std::string_view context = "probe grid");
 
 // The "PRBG" chunk of one grid (label "probes:<entity index>") and its reader. read() checks the
-// version (1 and 2), sizes, resolution and that every value is finite, and names the chunk in its
+// version (1 to 3), sizes, resolution and that every value is finite, and names the chunk in its
 // errors.
 BakeChunk write_probe_grid_chunk(const ProbeGridData& data);
 Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk);

@@ -9,6 +9,17 @@
 // point sampling (the classic irradiance volume) or by the paper's supersampling over each node's
 // tent B_i restricted to the domain of interest; the runtime is the same for both.
 //
+// The leak guard (IrradianceProbeGrid::leak_guard, our addition; on by default). No choice of node
+// values lets a trilinear field jump inside a cell, so at a thin wall with open space on both sides
+// every mode leaks (the bench's step model puts the floor at ~0.6x point sampling's leak). With the
+// guard the bake also stores, per node, how far it sees along the grid's six axis directions (its
+// reach, 6 bytes), and the lookup drops the cell corners that a surface hides from the receiver:
+// corner o is hidden when, along some axis, the receiver lies farther from o than o's reach in that
+// direction. The lookup then evaluates the same trilinear basis at the visible corners' weighted
+// mean (probe_lookup_fraction), which is exact when a wall hides a whole face of the cell and costs
+// the shader 8 unfiltered fetches more and no extra SH fetch. The bake averages each node's samples
+// over the part of its tent that the node sees, and the fit fits the guarded basis.
+//
 // This header holds the authoring component (IrradianceProbeGrid), the receiver component
 // (ProbeLit), the baked data (ProbeGridData), the grid's geometry (ProbeGridLayout), the CPU
 // evaluation and the GPU texture layout. Units: metres; irradiance in W/m^2 per RGB channel.
@@ -22,6 +33,7 @@
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 #include "penumbra/bake/baker.h"
 #include "penumbra/bake/integrators.h"
@@ -39,8 +51,9 @@ enum class ProbeShOrder : std::uint8_t { L1 = 1, L2 = 2 };     // 4 or 9 coeffic
 //   Fitted: the least-squares values that minimise the trilinear reconstruction error over the
 //     domain of interest inside the box, from tent samples like Supersampled's (folded into the
 //     box at its faces): a sharper reconstruction at thin walls; see sdk/src/probe_grid/probe_fit.h.
-//   No mode makes a trilinear field jump inside a cell: at a thin wall with open space on both
-//   sides the leak stays above ~0.6x point sampling's (the probe-grid bench's step model).
+//   No mode makes a plain trilinear field jump inside a cell: at a thin wall with open space on both
+//   sides the leak stays above ~0.6x point sampling's (the probe-grid bench's step model); the leak
+//   guard (header) is what removes it.
 enum class ProbeSampling : std::uint8_t { Point, Supersampled, Fitted };
 const char* to_string(ProbeShOrder order);    // "L1", "L2"
 const char* to_string(ProbeSampling sampling);  // "point", "supersampled", "fitted"
@@ -87,6 +100,9 @@ struct IrradianceProbeGrid {
   // Deringing at bake: Lanczos window width applied to the stored expansion (0: none). Evaluation
   // clamps at zero either way.
   float deringing_window = 0.0f;
+  // Leak guard (header): store each node's reach and skip hidden corners at lookup. Off: the
+  // paper's plain trilinear runtime (and its leaks through thin walls).
+  bool leak_guard = true;
 
   // Runtime blending: where grids overlap the higher priority wins, fading out over
   // `blend_distance` metres (0: one node spacing) inside its border.
@@ -156,19 +172,39 @@ struct ProbeGridData {
   std::vector<float> validity;
   // 1 where the node had no in-domain sample and was filled from its neighbours.
   std::vector<std::uint8_t> filled;
+  // Leak guard (empty when off): node n's reach along +x, -x, +y, -y, +z, -z of the grid at
+  // reach[6 n + d], the distance to the first surface in units of that axis's spacing, 0..1 as
+  // 0..255 (255: nothing within one spacing).
+  std::vector<std::uint8_t> reach;
 
   std::size_t node_count() const { return layout.node_count(); }
   SH9rgb node(std::size_t n) const;  // coefficients beyond the order are zero
   float valid_fraction() const;      // nodes with validity > 0 / all nodes
   std::uint64_t bytes() const;       // memory held by the arrays
-  std::uint64_t bytes_per_node() const;  // runtime payload: coefficients only (12 x 4 or 9 B)
+  std::uint64_t bytes_per_node() const;  // runtime payload: coefficients (12 x 4 or 9 B) + reach (6 B)
 };
 
-// Trilinear interpolation of the node expansions at world point x (clamped into the box).
-// Cost: 8 x coefficients multiply-adds. Thread-safe.
-SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x);
-// E(x, n) = the interpolated expansion evaluated at unit normal n, never negative. The same math as
-// the shader. Cost: about 200 ns (measured by the probe-grid bench). Thread-safe.
+// The leak guard's lookup (header): the fraction inside cell `base` (grid units, node base at
+// `base`) at which the trilinear basis is evaluated for a receiver at fraction f of that cell.
+// Corner o is hidden when, along some axis, the test point lies more than o's reach plus one
+// quantisation step (kProbeReachSlack) from o, so a receiver on a surface is seen by the nodes on
+// its side of it. The test point is f moved kProbeNormalBias cells along `normal_cells` (the
+// receiver's normal in grid units; zero for a point in free space), which only decides for
+// surfaces of no thickness, seen by the nodes on both sides. Returns f itself without reach data
+// or when every corner is hidden. Cost: 8 x 3 compares. Thread-safe. The shader (forward.frag) does
+// the same arithmetic.
+inline constexpr float kProbeReachSlack = 1.0f / 255.0f;
+inline constexpr float kProbeNormalBias = 0.01f;
+glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells);
+
+// Interpolation of the node expansions at world point x (clamped into the box): trilinear, at the
+// leak guard's lookup fraction when the grid has reach data, tested from the side `n` points to
+// (zero: x is a free-space point, as for ProbeLit receivers). Cost: 8 x coefficients multiply-adds.
+// Thread-safe.
+SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n = glm::vec3(0.0f));
+// E(x, n) = the interpolated expansion (for a receiver on a surface with unit normal n) evaluated
+// at n, never negative. The same math as the shader. Cost: about 60-200 ns (measured by the
+// probe-grid bench). Thread-safe.
 glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n);
 
 // GPU layout for per-pixel lookups: `textures` 3D textures of resolution.x x .y x .z RGBA texels.
@@ -188,5 +224,11 @@ struct ProbeGridTextures {
 };
 // Packs the data into that layout. Cost: O(nodes x coefficients). Thread-safe.
 ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexelFormat format);
+
+// The node texture beside them (one RGBA32F texel per node, same order): r the validity; g and b
+// the leak guard's reach bytes as exact integers below 2^24, g = +x + 256 (-x) + 65536 (+y),
+// b = -y + 256 (+z) + 65536 (-z), both 0 without reach data; a 0. The shader fetches the eight
+// corners unfiltered. Cost: O(nodes). Thread-safe.
+std::vector<glm::vec4> pack_probe_node_texels(const ProbeGridData& data);
 
 }  // namespace penumbra
