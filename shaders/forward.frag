@@ -105,17 +105,44 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
   return e;
 }
 
-// The probe grid's texture coordinate at p (probe_grid.h: node centres at texel centres).
-vec3 probe_uvw(vec3 p) {
-  vec3 g = clamp((frame.probe_world_to_grid * vec4(p, 1.0)).xyz, 0.0, 1.0);
+// The probe grid's texture coordinate at p on a surface with normal n (probe_grid.h: node centres
+// at texel centres). With the leak guard's reach, the trilinear lookup moves to the weighted mean
+// of the cell corners that no surface hides from p (probe_lookup_fraction in probe_grid.cpp).
+vec3 probe_uvw(vec3 p, vec3 n) {
   vec3 res = frame.probe_resolution.xyz;
-  return (g * (res - 1.0) + 0.5) / res;
+  vec3 u = clamp((frame.probe_world_to_grid * vec4(p, 1.0)).xyz, 0.0, 1.0) * (res - 1.0);
+  if ((frame.params.z & PENUMBRA_FLAG_PROBE_REACH) != 0u) {
+    vec3 base = min(floor(u), res - 2.0);
+    vec3 f = u - base;
+    vec3 nc = mat3(frame.probe_world_to_grid) * n * (res - 1.0);
+    float len = length(nc);
+    vec3 t = len > 0.0 ? f + nc * (0.01 / len) : f;  // kProbeNormalBias cells towards the open side
+    float wsum = 0.0;
+    vec3 mean = vec3(0.0);
+    for (int c = 0; c < 8; ++c) {
+      vec3 o = vec3(float(c & 1), float((c >> 1) & 1), float((c >> 2) & 1));
+      uvec2 packed = uvec2(texelFetch(probe_validity, ivec3(base + o), 0).gb);
+      vec3 d = t - o;
+      // Reach bytes: g = +x, -x, +y; b = -y, +z, -z (pack_probe_node_texels).
+      uvec3 plus = uvec3(packed.x & 255u, packed.x >> 16, (packed.y >> 8) & 255u);
+      uvec3 minus = uvec3((packed.x >> 8) & 255u, packed.y & 255u, packed.y >> 16);
+      vec3 r = vec3(mix(plus, minus, lessThan(d, vec3(0.0)))) * (1.0 / 255.0) + 1.0 / 255.0;  // + kProbeReachSlack
+      if (any(greaterThan(abs(d), r))) continue;
+      vec3 w3 = mix(1.0 - f, f, o);
+      float w = w3.x * w3.y * w3.z;
+      wsum += w;
+      mean += w * o;
+    }
+    if (wsum > 1e-6) f = mean / wsum;
+    u = base + f;
+  }
+  return (u + 0.5) / res;
 }
 
 // E(p, n) = the trilinearly interpolated SH expansion evaluated at n, clamped at 0 (evaluate() in
 // probe_grid.cpp; basis and signs of core/sh.h).
 vec3 probe_irradiance(vec3 p, vec3 n) {
-  vec3 uvw = probe_uvw(p);
+  vec3 uvw = probe_uvw(p, n);
   // Slot s of the 27: channel s % 3 of coefficient s / 3 (constant sampler indices, no dynamic indexing).
   vec4 t0 = texture(probe_sh[0], uvw), t1 = texture(probe_sh[1], uvw), t2 = texture(probe_sh[2], uvw);
   vec3 c[4];
@@ -168,7 +195,7 @@ void main() {
     scene_referred = false;
   } else if (view == PENUMBRA_VIEW_VALIDITY) {
     // Red (no valid samples) -> green (fully valid); blue where no grid is bound.
-    float v = has_probe ? texture(probe_validity, probe_uvw(in_world)).r : 0.0;
+    float v = has_probe ? texture(probe_validity, probe_uvw(in_world, n)).r : 0.0;
     color = has_probe ? vec3(1.0 - v, v, 0.0) : vec3(0.0, 0.0, 1.0);
     scene_referred = false;
   } else if (view == PENUMBRA_VIEW_POSITION) {

@@ -24,7 +24,7 @@ using mat4 = glm::mat4;
 #define PENUMBRA_BINDING_JOINTS 3         // storage mat4[]: every skinned draw's joint matrices
 #define PENUMBRA_BINDING_SHADOW_MAP 4     // sampler2DArrayShadow: one layer per shadow view
 #define PENUMBRA_BINDING_PROBE_SH 5       // sampler3D[PENUMBRA_PROBE_TEXTURES]: probe_grid.h GPU layout
-#define PENUMBRA_BINDING_PROBE_VALIDITY 6 // sampler3D: node validity (r)
+#define PENUMBRA_BINDING_PROBE_VALIDITY 6 // sampler3D: node validity (r), leak-guard reach (g, b): pack_probe_node_texels
 #define PENUMBRA_BINDING_AO_FIELDS 7      // storage vec4[]: the ao_field_gpu.h layout (a placeholder without casters)
 // Descriptor set 1 (per material): the base colour texture (sRGB; white when the material has none).
 #define PENUMBRA_BINDING_BASE_COLOR 0
@@ -43,6 +43,7 @@ using mat4 = glm::mat4;
 #define PENUMBRA_FLAG_SHADOWS 2u      // shadow maps were rendered this frame
 #define PENUMBRA_FLAG_LINEAR 4u       // write linear scene-referred values (no exposure, no tone map)
 #define PENUMBRA_FLAG_ENCODE_SRGB 8u  // the target is UNORM: apply the sRGB transfer in the shader
+#define PENUMBRA_FLAG_PROBE_REACH 16u // the probe grid has the leak guard's reach (probe_grid.h)
 
 // Debug views (FrameUniforms.view), the order of penumbra::DebugView.
 #define PENUMBRA_VIEW_LIT 0

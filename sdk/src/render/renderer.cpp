@@ -462,10 +462,9 @@ Status Renderer::Impl::sync_probe_grid(World& world) {
     PENUMBRA_TRY(upload_image(probe_textures[t], info, VK_IMAGE_VIEW_TYPE_3D, packed.data.data() + t * texture_bytes,
                               texture_bytes));
   }
-  info.format = VK_FORMAT_R32_SFLOAT;
-  std::vector<float> validity = probe->validity;
-  validity.resize(probe->node_count(), 0.0f);
-  return upload_image(probe_validity, info, VK_IMAGE_VIEW_TYPE_3D, validity.data(), validity.size() * sizeof(float));
+  // Validity and the leak guard's reach, one texel per node (pack_probe_node_texels).
+  const std::vector<glm::vec4> nodes = pack_probe_node_texels(*probe);
+  return upload_image(probe_validity, info, VK_IMAGE_VIEW_TYPE_3D, nodes.data(), nodes.size() * sizeof(glm::vec4));
 }
 
 // AO fields: re-packs the casters when one of them (its AOFieldCaster or WorldTransform) changed;
@@ -908,6 +907,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   frame.camera_exposure = glm::vec4(camera.position, settings.exposure);
   std::uint32_t flags = 0;
   if (probe) flags |= PENUMBRA_FLAG_PROBE_GRID;
+  if (probe && !probe->reach.empty()) flags |= PENUMBRA_FLAG_PROBE_REACH;
   if (shadows) flags |= PENUMBRA_FLAG_SHADOWS;
   if (is_float_format(target.format)) flags |= PENUMBRA_FLAG_LINEAR;
   if (is_unorm_format(target.format)) flags |= PENUMBRA_FLAG_ENCODE_SRGB;
