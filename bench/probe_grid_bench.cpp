@@ -12,8 +12,11 @@
 // L2 bake truncated to its first four coefficients (same bake time; only the stored bytes differ).
 // Goals (issue 3): at the same spacing, leak RMSE <= 0.5 x point with bake time <= 1.5 x point; the
 // notes give supersampled/point and fitted/point, and fitted/supersampled overall RMSE (goal <= 1).
+// Every mode is baked without and with the leak guard (probe_grid.h; rows "MODE+guard"). The
+// notes compare modes at the same runtime (plain: the paper's comparison; guarded: ours) and the
+// guarded modes against plain point sampling, the classic irradiance volume a studio has today.
 // Those rows bake lighting = all (issue 3's grids, the whole irradiance). The rows with lighting =
-// indirect bake grids of the light that reflected at least once, at the first spacing and the
+// indirect bake grids of the light that reflected at least once, at every spacing and the
 // largest sample count, against the indirect reference at the same receivers (integrators.h); their
 // errors are relative to the mean total irradiance, so they read as the error of a renderer that
 // draws direct light exactly and adds the grid (the SDK renderer's sum), beside the all rows.
@@ -157,6 +160,16 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
+// The bench's variants: a sampling mode, without or with the leak guard.
+using Variant = std::pair<ProbeSampling, bool>;
+constexpr std::array<Variant, 6> kVariants{{{ProbeSampling::Point, false},
+                                            {ProbeSampling::Supersampled, false},
+                                            {ProbeSampling::Fitted, false},
+                                            {ProbeSampling::Point, true},
+                                            {ProbeSampling::Supersampled, true},
+                                            {ProbeSampling::Fitted, true}}};
+std::string name(const Variant& v) { return std::string(to_string(v.first)) + (v.second ? "+guard" : ""); }
+
 // Placements of the leak study: sub-cell offsets of the box in cells (z stratified, x spread).
 constexpr int kPlacements = 4;
 glm::vec3 placement_offset(int k) {
@@ -237,12 +250,12 @@ Result<Report> run_probe_grid_bench(const Options& options) {
   Report report;
   report.columns = {"scene", "mode", "lighting", "spacing", "samples", "sh_order", "bake_s", "bytes",
                     "rmse", "mae", "max_err", "leak_rmse", "ref_stderr"};
-  // Per (scene, spacing, samples) and mode (L2): leak RMSE, overall RMSE and bake time, for the notes.
+  // Per (scene, spacing, samples) and variant (L2): leak RMSE, overall RMSE and bake time, for the notes.
   struct ModeResult {
     double leak = 0.0, rmse = 0.0, seconds = 0.0;
   };
-  std::map<std::string, std::map<ProbeSampling, ModeResult>> results;
-  double eval_ns = 0.0;
+  std::map<std::string, std::map<Variant, ModeResult>> results;
+  double eval_ns[2] = {0.0, 0.0};  // plain, guarded
   std::uint64_t bytes_per_node_l1 = 0, bytes_per_node_l2 = 0;
 
   for (const SceneCase& sc : scenes) {
@@ -263,6 +276,7 @@ Result<Report> run_probe_grid_bench(const Options& options) {
     if (!receivers) return receivers.error();
 
     const std::size_t spacing_count = quick ? 1 : sc.spacings.size();
+    Receivers ind;  // the receivers with the indirect reference (computed at the first spacing)
     for (std::size_t si = 0; si < spacing_count; ++si) {
       const float h = sc.spacings[si];
       Receivers leak;
@@ -293,9 +307,11 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                                std::to_string(leak.points.size()) + ", mean E " + fmt(leak.mean) +
                                " W/m^2, reference std error " + fmt(100.0 * leak.mean_stderr / leak.mean, 3) + "%");
       // One bake of the bench's grid over `box`: the data and the seconds it took.
-      const auto bake = [&](const Aabb& grid_box, ProbeSampling mode, std::uint32_t samples, double& seconds,
+      const auto bake = [&](const Aabb& grid_box, Variant v, std::uint32_t samples, double& seconds,
                             LightingContent lighting = LightingContent::All) -> Result<ProbeGridData> {
+        const auto [mode, guard] = v;
         IrradianceProbeGrid grid;
+        grid.leak_guard = guard;
         grid.lighting = lighting;
         grid.box = grid_box;
         grid.spacing = h;
@@ -311,7 +327,7 @@ Result<Report> run_probe_grid_bench(const Options& options) {
         return data;
       };
       for (std::uint32_t samples : sample_counts) {
-        for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
+        for (const Variant& mode : kVariants) {
           double bake_s = 0.0;
           auto data = bake(sc.box, mode, samples, bake_s);
           if (!data) return data.error();
@@ -320,16 +336,18 @@ Result<Report> run_probe_grid_bench(const Options& options) {
             const ProbeGridData d = order == ProbeShOrder::L2 ? *data : truncate_to_l1(*data);
             const Errors e = errors(d, *receivers);
             const Errors le = has_leak ? errors(d, leak) : Errors{};
-            (order == ProbeShOrder::L1 ? bytes_per_node_l1 : bytes_per_node_l2) = d.bytes_per_node();
-            report.rows.push_back({sc.name, to_string(mode), to_string(LightingContent::All), fmt(h),
+            if (!mode.second) (order == ProbeShOrder::L1 ? bytes_per_node_l1 : bytes_per_node_l2) = d.bytes_per_node();
+            report.rows.push_back({sc.name, name(mode), to_string(LightingContent::All), fmt(h),
                                    std::to_string(samples), to_string(order), fmt(bake_s),
                                    std::to_string(d.node_count() * d.bytes_per_node()), fmt(e.rmse), fmt(e.mae),
                                    fmt(e.max), has_leak ? fmt(le.rmse) : "",
                                    fmt(receivers->mean_stderr / receivers->mean)});
             if (order == ProbeShOrder::L2) results[key][mode] = {le.rmse, e.rmse, bake_s};
           }
-          // Runtime cost per receiver: evaluate() over the receivers, best of three passes.
-          if (eval_ns == 0.0) {
+          // Runtime cost per receiver: evaluate() over the receivers, best of three passes, once
+          // plain and once guarded.
+          double& ns = eval_ns[mode.second ? 1 : 0];
+          if (ns == 0.0) {
             double best = 1e30;
             volatile float sink = 0.0f;
             for (int pass = 0; pass < 3; ++pass) {
@@ -338,16 +356,19 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                 for (const SurfacePoint& p : receivers->points) sink = sink + evaluate(*data, p.position, p.normal).x;
               best = std::min(best, seconds_since(t) * 1e9 / (20.0 * double(receivers->points.size())));
             }
-            eval_ns = best;
+            ns = best;
           }
         }
       }
-      // Indirect grids (header): first spacing, largest sample count, L2, against the indirect
+      // Indirect grids (header): every spacing, largest sample count, L2, against the indirect
       // reference at the same receivers, errors relative to the mean total irradiance.
-      if (si == 0) {
+      {
         const std::uint32_t samples = sample_counts.back();
-        Receivers ind = *receivers, ind_leak = leak;
-        PENUMBRA_TRY(compute_reference(*scene, lights, ref_samples, 101, LightingContent::Indirect, ind, jobs));
+        Receivers ind_leak = leak;
+        if (si == 0) {
+          ind = *receivers;
+          PENUMBRA_TRY(compute_reference(*scene, lights, ref_samples, 101, LightingContent::Indirect, ind, jobs));
+        }
         if (has_leak)
           PENUMBRA_TRY(compute_reference(*scene, lights, ref_samples, 202 + si, LightingContent::Indirect, ind_leak,
                                          jobs));
@@ -356,20 +377,36 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                            fmt(100.0 * ind.mean / receivers->mean, 3) +
                            "% of the total; RMSE / mean total, all grid -> direct exact + indirect grid:";
         const std::string key = std::string(sc.name) + "/" + fmt(h) + "/" + std::to_string(samples);
-        for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
+        std::map<Variant, ModeResult> indirect;
+        for (const Variant& mode : kVariants) {
           double bake_s = 0.0;
           auto data = bake(sc.box, mode, samples, bake_s, LightingContent::Indirect);
           if (!data) return data.error();
           const Errors e = errors(*data, ind, receivers->mean);
           const Errors le = has_leak ? errors(*data, ind_leak, leak.mean) : Errors{};
-          report.rows.push_back({sc.name, to_string(mode), to_string(LightingContent::Indirect), fmt(h),
+          indirect[mode] = {le.rmse, e.rmse, bake_s};
+          report.rows.push_back({sc.name, name(mode), to_string(LightingContent::Indirect), fmt(h),
                                  std::to_string(samples), to_string(ProbeShOrder::L2), fmt(bake_s),
                                  std::to_string(data->node_count() * data->bytes_per_node()), fmt(e.rmse), fmt(e.mae),
                                  fmt(e.max), has_leak ? fmt(le.rmse) : "", fmt(ind.mean_stderr / receivers->mean)});
-          line += std::string(" ") + to_string(mode) + " " + fmt(results[key][mode].rmse, 3) + " -> " + fmt(e.rmse, 3) +
+          line += std::string(" ") + name(mode) + " " + fmt(results[key][mode].rmse, 3) + " -> " + fmt(e.rmse, 3) +
                   " (" + fmt(errors(*data, ind).rmse, 3) + " of the mean indirect E);";
         }
         report.notes.push_back(line);
+        // The goal's ratios on the indirect grids (the content the SDK renderer uses).
+        const ModeResult point = indirect[Variant{ProbeSampling::Point, false}];
+        if (has_leak && point.leak > 0.0) {
+          line = std::string(sc.name) + " indirect grids (h " + fmt(h) + ", S " + std::to_string(samples) + "), " +
+                 (sc.thin_wall ? "thin-wall" : "solid-block") + " leak RMSE against plain point sampling:";
+          for (const Variant& mode : kVariants) {
+            if (mode == Variant{ProbeSampling::Point, false}) continue;
+            const double leak_ratio = indirect[mode].leak / point.leak, time = indirect[mode].seconds / point.seconds;
+            line += std::string(" ") + name(mode) + " " + fmt(leak_ratio, 3) + " (goal <= 0.5: " +
+                    verdict(leak_ratio <= 0.5) + "), bake time " + fmt(time, 3) + "x (goal <= 1.5: " +
+                    verdict(time <= 1.5) + ");";
+          }
+          report.notes.push_back(line);
+        }
       }
       if (!sc.thin_wall) continue;
       // The leak study over placements (header): the largest sample count, aligned box and offsets.
@@ -377,10 +414,10 @@ Result<Report> run_probe_grid_bench(const Options& options) {
       struct Pooled {
         double mse = 0.0, seconds = 0.0;
       };
-      std::map<ProbeSampling, Pooled> aligned, shifted;
+      std::map<Variant, Pooled> aligned, shifted;
       for (int k = -1; k < kPlacements; ++k) {
         const glm::vec3 shift = k < 0 ? glm::vec3(0.0f) : h * placement_offset(k);
-        for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
+        for (const Variant& mode : kVariants) {
           double seconds = 0.0;
           auto data = bake(Aabb{sc.box.min + shift, sc.box.max + shift}, mode, samples, seconds);
           if (!data) return data.error();
@@ -397,16 +434,17 @@ Result<Report> run_probe_grid_bench(const Options& options) {
         model_shifted.tent += m.tent / kPlacements;
         model_shifted.best += m.best / kPlacements;
       }
-      for (const auto& [name, by, model] :
+      for (const auto& [placement, by, model] :
            {std::tuple{std::string("aligned box"), &aligned, model_aligned},
             std::tuple{std::to_string(kPlacements) + " sub-cell offsets (pooled)", &shifted, model_shifted}}) {
-        const Pooled point = (*by)[ProbeSampling::Point];
+        const Pooled point = (*by)[Variant{ProbeSampling::Point, false}];
         std::string line = std::string(sc.name) + " leak, h " + fmt(h) + ", S " + std::to_string(samples) + ", " +
-                           name + ": leak RMSE point " + fmt(std::sqrt(point.mse), 3) + ";";
-        for (ProbeSampling mode : {ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
+                           placement + ": leak RMSE point " + fmt(std::sqrt(point.mse), 3) + ";";
+        for (const Variant& mode : kVariants) {
+          if (mode == Variant{ProbeSampling::Point, false}) continue;
           const Pooled m = (*by)[mode];
           const double leak_ratio = std::sqrt(m.mse / point.mse), time = m.seconds / point.seconds;
-          line += std::string(" ") + to_string(mode) + "/point " + fmt(leak_ratio, 3) + " (goal <= 0.5: " +
+          line += std::string(" ") + name(mode) + "/point " + fmt(leak_ratio, 3) + " (goal <= 0.5: " +
                   verdict(leak_ratio <= 0.5) + "), bake time " + fmt(time, 3) + "x (goal <= 1.5: " +
                   verdict(time <= 1.5) + ");";
         }
@@ -423,25 +461,37 @@ Result<Report> run_probe_grid_bench(const Options& options) {
 
   const auto ratio = [](double a, double b) { return b > 0.0 ? a / b : 0.0; };
   for (auto& [key, by_mode] : results) {
-    const ModeResult point = by_mode[ProbeSampling::Point], super = by_mode[ProbeSampling::Supersampled],
-                     fitted = by_mode[ProbeSampling::Fitted];
-    std::string line = key + " (scene/spacing/samples):";
-    if (point.leak > 0.0) {
-      const bool wall = key.rfind("courtyard/", 0) == 0;
-      for (const auto& [name, m] : {std::pair{"supersampled", super}, std::pair{"fitted", fitted}}) {
-        const double leak = ratio(m.leak, point.leak), time = ratio(m.seconds, point.seconds);
-        line += std::string(" ") + name + "/point " + (wall ? "thin-wall" : "solid-block") + " leak RMSE " +
-                fmt(leak, 3) + " (" + (wall ? "goal" : "the goal's bar") + " <= 0.5: " + verdict(leak <= 0.5) +
-                "), bake time " + fmt(time, 3) + "x (goal <= 1.5: " + verdict(time <= 1.5) + ");";
+    const bool wall = key.rfind("courtyard/", 0) == 0;
+    // Three comparisons (header): each runtime's modes against its own point sampling, and the
+    // guarded modes against plain point sampling.
+    for (const auto& [label, point_guard, guard] :
+         {std::tuple{"plain runtime", false, false}, std::tuple{"guarded runtime", true, true},
+          std::tuple{"guarded vs plain point", false, true}}) {
+      const ModeResult point = by_mode[Variant{ProbeSampling::Point, point_guard}];
+      const ModeResult super = by_mode[Variant{ProbeSampling::Supersampled, guard}];
+      const ModeResult fitted = by_mode[Variant{ProbeSampling::Fitted, guard}];
+      std::string line = key + " (scene/spacing/samples), " + label + ":";
+      if (point.leak > 0.0) {
+        const std::string base = point_guard ? "point+guard" : "point";
+        for (const auto& [mode, m] : {std::pair{ProbeSampling::Supersampled, super}, std::pair{ProbeSampling::Fitted, fitted}}) {
+          const double leak = ratio(m.leak, point.leak), time = ratio(m.seconds, point.seconds);
+          line += std::string(" ") + name(Variant{mode, guard}) + "/" + base + " " +
+                  (wall ? "thin-wall" : "solid-block") + " leak RMSE " + fmt(leak, 3) + " (" +
+                  (wall ? "goal" : "the goal's bar") + " <= 0.5: " + verdict(leak <= 0.5) + "), bake time " +
+                  fmt(time, 3) + "x (goal <= 1.5: " + verdict(time <= 1.5) + "), RMSE " + fmt(ratio(m.rmse, point.rmse), 3) +
+                  "x;";
+        }
       }
+      const double overall = ratio(fitted.rmse, super.rmse);
+      if (point_guard == guard)
+        line += " fitted/supersampled RMSE " + fmt(overall, 3) + " (goal <= 1: " + verdict(overall <= 1.0) + ")";
+      report.notes.push_back(line);
     }
-    const double overall = ratio(fitted.rmse, super.rmse);
-    line += " fitted/supersampled RMSE " + fmt(overall, 3) + " (goal <= 1: " + verdict(overall <= 1.0) + ")";
-    report.notes.push_back(line);
   }
-  report.notes.push_back("runtime: " + fmt(eval_ns, 3) + " ns per receiver evaluation (CPU evaluate, L2); " +
-                         std::to_string(bytes_per_node_l1) + " B per node L1, " + std::to_string(bytes_per_node_l2) +
-                         " B per node L2 (float RGB)");
+  report.notes.push_back("runtime: " + fmt(eval_ns[0], 3) + " ns per receiver evaluation plain, " +
+                         fmt(eval_ns[1], 3) + " ns guarded (CPU evaluate, L2); " + std::to_string(bytes_per_node_l1) +
+                         " B per node L1, " + std::to_string(bytes_per_node_l2) +
+                         " B per node L2 (float RGB), +6 B with the leak guard");
   report.plot.title = "probe grid: irradiance RMSE against bake time";
   report.plot.x_label = "bake seconds";
   report.plot.y_label = "RMSE / mean irradiance";
