@@ -35,7 +35,9 @@ layout(constant_id = 1) const bool kAoFields = false;
 
 const float kPi = 3.14159265358979323846;
 
-// 3x3 PCF over the hardware 2x2 comparison filter: the lit fraction at world point p.
+// PCF: four taps of the hardware 2x2 comparison filter at (+-0.5, +-0.5) texels, a tent over
+// 3x3 texels (the same footprint as nine taps on texel centres at under half the cost on
+// llvmpipe, where every filtered tap is software): the lit fraction at world point p.
 float shadow_factor(uint layer, vec3 p) {
   vec4 clip = shadow_matrices[layer] * vec4(p, 1.0);
   if (clip.w <= 0.0) return 1.0;
@@ -44,11 +46,12 @@ float shadow_factor(uint layer, vec3 p) {
   if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || ndc.z > 1.0) return 1.0;
   float depth = ndc.z - frame.shadow_params.y;
   float texel = frame.shadow_params.x;
-  float lit = 0.0;
-  for (int y = -1; y <= 1; ++y)
-    for (int x = -1; x <= 1; ++x)
-      lit += texture(shadow_map, vec4(uv + vec2(x, y) * texel, float(layer), depth));
-  return lit / 9.0;
+  float h = 0.5 * texel;
+  float lit = texture(shadow_map, vec4(uv + vec2(-h, -h), float(layer), depth)) +
+              texture(shadow_map, vec4(uv + vec2(h, -h), float(layer), depth)) +
+              texture(shadow_map, vec4(uv + vec2(-h, h), float(layer), depth)) +
+              texture(shadow_map, vec4(uv + vec2(h, h), float(layer), depth));
+  return 0.25 * lit;
 }
 
 // The cube face of a point/rect light's six shadow layers that sees direction d (from the light).

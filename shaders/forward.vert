@@ -1,5 +1,6 @@
 #version 450
-// Forward pass, vertex stage: GPU skinning, world position and normal, per-vertex AO.
+// Forward pass, vertex stage: GPU skinning, world position and normal, per-vertex AO. The depth
+// pre-pass runs this same module (without a fragment stage), so both depths are equal bit for bit.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 

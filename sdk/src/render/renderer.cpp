@@ -98,8 +98,9 @@ struct Renderer::Impl {
   VkDescriptorSetLayout frame_layout = VK_NULL_HANDLE, material_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE;
-  std::map<std::tuple<VkFormat, std::uint32_t, bool>, VkPipeline> forward_pipelines;  // by format, view, AO fields
-  VkPipeline shadow_pipeline = VK_NULL_HANDLE;
+  // The graphics pipelines by pass, colour format, view and AO fields (see pipeline()).
+  enum class Pass { Shadow, DepthPrepass, Forward };
+  std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
   VkSampler texture_sampler = VK_NULL_HANDLE, probe_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE;
@@ -153,8 +154,7 @@ struct Renderer::Impl {
     for (auto& t : probe_textures) alloc->destroy(t);
     for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &shadow_map, &offscreen}) alloc->destroy(*i);
     for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
-    for (auto& [f, p] : forward_pipelines) vkDestroyPipeline(vk, p, nullptr);
-    if (shadow_pipeline) vkDestroyPipeline(vk, shadow_pipeline, nullptr);
+    for (auto& [key, p] : pipelines) vkDestroyPipeline(vk, p, nullptr);
     for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert}) if (m) vkDestroyShaderModule(vk, m, nullptr);
     for (VkSampler s : {texture_sampler, probe_sampler, shadow_sampler}) if (s) vkDestroySampler(vk, s, nullptr);
     if (pool) vkDestroyDescriptorPool(vk, pool, nullptr);
@@ -164,7 +164,7 @@ struct Renderer::Impl {
   }
 
   Status init();
-  Result<VkPipeline> forward_pipeline(VkFormat format, std::uint32_t view, bool ao_fields);
+  Result<VkPipeline> pipeline(Pass pass, VkFormat format, std::uint32_t view, bool ao_fields);
   Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
   Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
                       VkDeviceSize size);
@@ -672,15 +672,18 @@ void Renderer::Impl::write_descriptors() {
   vkUpdateDescriptorSets(vk, 8, writes, 0, nullptr);
 }
 
-// Graphics pipelines for dynamic rendering: the forward pass per colour format, the shadow pass.
-// The forward pipeline's fragment stage is specialised on the debug view (constant_id 0) and on
-// whether the AO-field pass runs (constant_id 1).
-Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32_t view, bool ao_fields) {
-  const bool shadow = format == VK_FORMAT_UNDEFINED;
-  if (shadow && shadow_pipeline) return shadow_pipeline;
-  if (!shadow) {
-    if (auto it = forward_pipelines.find({format, view, ao_fields}); it != forward_pipelines.end()) return it->second;
-  }
+// Graphics pipelines for dynamic rendering, made on first use: the shadow pass (depth only, from
+// the lights; `format` unused), the depth pre-pass (the forward vertex stage and no fragment stage,
+// colour writes off: the camera's depth only) and the forward pass per colour format, which shades only the fragments the
+// pre-pass left in front (depth EQUAL, no depth writes): each pixel runs the costly fragment stage
+// once whatever the overdraw. The forward pipeline's fragment stage is specialised on the debug
+// view (constant_id 0) and on whether the AO-field pass runs (constant_id 1).
+Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool ao_fields) {
+  if (pass != Pass::Forward) view = 0, ao_fields = false;
+  if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
+  if (auto it = pipelines.find({pass, format, view, ao_fields}); it != pipelines.end()) return it->second;
+  const bool shadow = pass == Pass::Shadow, depth_only = pass != Pass::Forward;
+  const bool forward_vertex = !shadow;  // the pre-pass runs the forward vertex stage: equal depths
   const struct {
     std::uint32_t view;
     VkBool32 ao_fields;
@@ -690,7 +693,7 @@ Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = shadow ? shadow_vert : forward_vert;
+  stages[0].module = forward_vertex ? forward_vert : shadow_vert;
   stages[0].pName = "main";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = forward_frag;
@@ -715,10 +718,11 @@ Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32
       {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(GpuVertex, weights)},
   };
   auto vertex_input = vk_struct<VkPipelineVertexInputStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
-  vertex_input.vertexBindingDescriptionCount = shadow ? 1 : 2;
+  vertex_input.vertexBindingDescriptionCount = forward_vertex ? 2 : 1;
   vertex_input.pVertexBindingDescriptions = bindings;
-  vertex_input.vertexAttributeDescriptionCount = shadow ? std::size(shadow_attributes) : std::size(forward_attributes);
-  vertex_input.pVertexAttributeDescriptions = shadow ? shadow_attributes : forward_attributes;
+  vertex_input.vertexAttributeDescriptionCount =
+      forward_vertex ? std::size(forward_attributes) : std::size(shadow_attributes);
+  vertex_input.pVertexAttributeDescriptions = forward_vertex ? forward_attributes : shadow_attributes;
   auto assembly = vk_struct<VkPipelineInputAssemblyStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
   assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
   auto viewport = vk_struct<VkPipelineViewportStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO);
@@ -736,11 +740,11 @@ Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32
   multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
   auto depth_state = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
   depth_state.depthTestEnable = VK_TRUE;
-  depth_state.depthWriteEnable = VK_TRUE;
-  depth_state.depthCompareOp = VK_COMPARE_OP_LESS;
+  depth_state.depthWriteEnable = depth_only ? VK_TRUE : VK_FALSE;
+  depth_state.depthCompareOp = depth_only ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_EQUAL;
   VkPipelineColorBlendAttachmentState blend_attachment{};
-  blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
-                                    VK_COLOR_COMPONENT_A_BIT;
+  blend_attachment.colorWriteMask = depth_only ? 0 : VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                                         VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
   auto blend = vk_struct<VkPipelineColorBlendStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
   blend.attachmentCount = shadow ? 0 : 1;
   blend.pAttachments = &blend_attachment;
@@ -755,7 +759,7 @@ Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32
 
   auto info = vk_struct<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
   info.pNext = &rendering;
-  info.stageCount = shadow ? 1 : 2;
+  info.stageCount = depth_only ? 1 : 2;
   info.pStages = stages;
   info.pVertexInputState = &vertex_input;
   info.pInputAssemblyState = &assembly;
@@ -766,17 +770,13 @@ Result<VkPipeline> Renderer::Impl::forward_pipeline(VkFormat format, std::uint32
   info.pColorBlendState = &blend;
   info.pDynamicState = &dynamic;
   info.layout = pipeline_layout;
-  VkPipeline pipeline = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateGraphicsPipelines(vk, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline); r != VK_SUCCESS) {
+  VkPipeline made = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateGraphicsPipelines(vk, VK_NULL_HANDLE, 1, &info, nullptr, &made); r != VK_SUCCESS) {
     return make_error(ErrorCode::Unsupported, std::string("Renderer: cannot create a pipeline for colour format ") +
                                                   std::to_string(int(format)) + " (" + vk_result_name(r) + ")");
   }
-  if (shadow) {
-    shadow_pipeline = pipeline;
-  } else {
-    forward_pipelines[{format, view, ao_fields}] = pipeline;
-  }
-  return pipeline;
+  pipelines[{pass, format, view, ao_fields}] = made;
+  return made;
 }
 
 Renderer::Renderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -885,9 +885,11 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_map_size " + std::to_string(settings.shadow_map_size) +
                                                       " is outside [16, 8192]");
   }
-  auto pipeline = forward_pipeline(target.format, static_cast<std::uint32_t>(settings.view), !ao_casters.empty());
-  if (!pipeline) return pipeline.error();
-  auto shadow = forward_pipeline(VK_FORMAT_UNDEFINED, 0, false);
+  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), !ao_casters.empty());
+  if (!forward) return forward.error();
+  auto prepass = pipeline(Pass::DepthPrepass, target.format, 0, false);
+  if (!prepass) return prepass.error();
+  auto shadow = pipeline(Pass::Shadow, VK_FORMAT_UNDEFINED, 0, false);
   if (!shadow) return shadow.error();
   PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size));
 
@@ -924,7 +926,10 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   std::memcpy(frame_buffer.mapped, &frame, sizeof frame);
   write_descriptors();
 
-  auto draw_all = [&](bool shadow_pass, std::uint32_t layer) {
+  // Every draw of a pass (the shadow pass binds positions only; only the forward pass reads
+  // materials).
+  auto draw_all = [&](Pass pass, std::uint32_t layer) {
+    const bool shadow_pass = pass == Pass::Shadow;
     for (const Draw& d : draws) {
       if (shadow_pass && !d.casts_shadow) continue;
       gpu::DrawPush push = d.push;
@@ -933,7 +938,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
       const VkDeviceSize offsets[2] = {0, 0};
       vkCmdBindVertexBuffers(cmd, 0, shadow_pass ? 1 : 2, buffers, offsets);
       vkCmdBindIndexBuffer(cmd, d.mesh->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
-      if (!shadow_pass) vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
+      if (pass == Pass::Forward) vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
       vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                          sizeof push, &push);
       vkCmdDrawIndexed(cmd, d.mesh->index_count, 1, 0, 0, 0);
@@ -968,7 +973,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
       info.layerCount = 1;
       info.pDepthAttachment = &depth_attachment;
       vkCmdBeginRendering(cmd, &info);
-      draw_all(true, layer);
+      draw_all(Pass::Shadow, layer);
       vkCmdEndRendering(cmd);
     }
     image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
@@ -1011,9 +1016,11 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   info.pColorAttachments = &color_attachment;
   info.pDepthAttachment = &depth_attachment;
   vkCmdBeginRendering(cmd, &info);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *pipeline);
   set_viewport(target.width, target.height);
-  draw_all(false, 0);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
+  draw_all(Pass::DepthPrepass, 0);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *forward);
+  draw_all(Pass::Forward, 0);
   vkCmdEndRendering(cmd);
   if (target.final_layout != VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL) {
     image_barrier(cmd, target.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
