@@ -56,7 +56,7 @@ struct UiState {
   char scene_path[512] = "builtin:courtyard";
   char bake_path[512] = "scene.pbake";
   char edits_path[512] = "edits.txt";
-  char bench_path[512] = "bench-out/probe-grid.csv";
+  char bench_path[512] = "bench-results/probe-grid.csv";  // where `penumbra bench probe-grid` writes by default
   CostPlot plot;
   // The error heat map: computed on demand for the camera of the moment, shown until cleared.
   ErrorMapJob error_job;

@@ -1,9 +1,10 @@
 // The forward renderer: draws a World with every lighting technique's data it finds.
 //
 // Mirrors the World into GPU resources (sync), then records a frame into a command buffer
-// (record) that draws into a RenderTarget. Passes: shadow maps for the shadowed lights, then one
-// forward pass (GPU skinning, base colour textures, direct light with filtered shadow maps,
-// indirect diffuse from the probe grid per pixel, per-vertex AO (VertexAO: vertex-AO bakes,
+// (record) that draws into a RenderTarget. Passes: shadow maps for the shadowed lights, a depth
+// pre-pass (so the costly fragment stage runs once per pixel), then one forward pass (GPU
+// skinning, base colour textures, direct light with filtered shadow maps, indirect diffuse from
+// the probe grid per pixel with the leak guard's lookup, per-vertex AO (VertexAO: vertex-AO bakes,
 // pose-AO) as a vertex attribute, AO fields of moving casters per pixel on their receivers,
 // emission, tone mapping in the same pass). A pass whose data the scene lacks is skipped and costs
 // nothing. The layouts shared with the GLSL in shaders/ are defined once, in shaders/shared/layout.h.
