@@ -144,14 +144,6 @@ void trace_reach(const RayScene& scene, const ProbeGridLayout& layout, glm::uvec
   }
 }
 
-// Whether node `ijk` sees its sample at tent offset t (cells): the corner test of the lookup
-// (probe_lookup_fraction) from the node's side, so a node averages only what it will be used for.
-bool node_sees(const std::uint8_t* reach, glm::vec3 t) {
-  for (int a = 0; a < 3; ++a)
-    if (std::abs(t[a]) > float(reach[2 * a + (t[a] < 0.0f ? 1 : 0)]) * (1.0f / 255.0f) + kProbeReachSlack) return false;
-  return true;
-}
-
 // Fill nodes without an in-domain sample from valid neighbours, one 26-neighbourhood ring per
 // pass (Jacobi passes, so the result does not depend on visiting order). Weights: the coverage of
 // valid neighbours, 1/4 for neighbours filled in an earlier pass. Returns false if cancelled.
@@ -291,7 +283,8 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
       std::uint32_t inside = 0;
       for (std::uint32_t k = 0; k < grid.samples_per_node; ++k) {
         const glm::vec3 t = tent_offset(k, scrambles, ijk, res, fitted);
-        const bool seen = !grid.leak_guard || node_sees(&data.reach[6 * n], t);
+        // The lookup's test (probe_node_sees): a node averages only what it will be used for.
+        const bool seen = !grid.leak_guard || probe_node_sees(&data.reach[6 * n], t);
         if (!seen && !fitted) continue;  // supersampled: no rays for a point the node never serves
         const glm::vec3 y(layout->grid_to_world * glm::vec4(u + t * cell, 1.0f));
         const PointSample p = sample_point(scene, lights, y, s, rng);

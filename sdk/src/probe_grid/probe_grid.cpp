@@ -182,6 +182,14 @@ std::uint64_t ProbeGridData::bytes_per_node() const {
   return static_cast<std::uint64_t>(sh_coefficients(sh_order)) * sizeof(glm::vec3) + (reach.empty() ? 0 : 6);
 }
 
+bool probe_node_sees(const std::uint8_t* reach, glm::vec3 offset) {
+  for (int a = 0; a < 3; ++a) {
+    const float r = float(reach[2 * a + (offset[a] < 0.0f ? 1 : 0)]) * (1.0f / 255.0f);
+    if (!(std::abs(offset[a]) <= r + kProbeReachSlack)) return false;
+  }
+  return true;
+}
+
 glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells) {
   if (data.reach.empty()) return f;
   const float len = glm::length(normal_cells);
@@ -190,15 +198,7 @@ glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm:
   glm::vec3 mean(0.0f);
   for (std::uint32_t corner = 0; corner < 8; ++corner) {
     const glm::uvec3 o(corner & 1u, (corner >> 1) & 1u, (corner >> 2) & 1u);
-    const std::uint8_t* reach = &data.reach[6 * data.layout.node_index(base + o)];
-    // Hidden when, along some axis, the test point lies beyond the corner's reach that way.
-    bool visible = true;
-    for (int a = 0; a < 3; ++a) {
-      const float d = test[a] - float(o[a]);  // signed offset from the corner along axis a
-      const float r = float(reach[2 * a + (d < 0.0f ? 1 : 0)]) * (1.0f / 255.0f);
-      visible = visible && std::abs(d) <= r + kProbeReachSlack;
-    }
-    if (!visible) continue;
+    if (!probe_node_sees(&data.reach[6 * data.layout.node_index(base + o)], test - glm::vec3(o))) continue;
     const float w = (o.x ? f.x : 1.0f - f.x) * (o.y ? f.y : 1.0f - f.y) * (o.z ? f.z : 1.0f - f.z);
     wsum += w;
     mean += w * glm::vec3(o);

@@ -18,7 +18,11 @@
 // direction. The lookup then evaluates the same trilinear basis at the visible corners' weighted
 // mean (probe_lookup_fraction), which is exact when a wall hides a whole face of the cell and costs
 // the shader 8 unfiltered fetches more and no extra SH fetch. The bake averages each node's samples
-// over the part of its tent that the node sees, and the fit fits the guarded basis.
+// over the part of its tent that the node sees, and the fit fits the guarded basis. Limits: the test
+// looks along the axes only, so a surface oblique to the grid hides a corner only where it crosses
+// the corner's axis lines (approximate there); a node inside a solid block is hidden from the
+// receivers outside it, where the paper's supersampling would have extrapolated the outside light
+// into it (the probe-grid bench: a little worse on the Cornell box's blocks at 6.5 cm spacing).
 //
 // This header holds the authoring component (IrradianceProbeGrid), the receiver component
 // (ProbeLit), the baked data (ProbeGridData), the grid's geometry (ProbeGridLayout), the CPU
@@ -195,6 +199,10 @@ struct ProbeGridData {
 // the same arithmetic.
 inline constexpr float kProbeReachSlack = 1.0f / 255.0f;
 inline constexpr float kProbeNormalBias = 0.01f;
+// Whether a node with reach bytes `reach` (6 of ProbeGridData::reach) sees the point `offset`
+// cells from it: along every axis the offset is within the node's reach that way plus
+// kProbeReachSlack. The one visibility test of the lookup and of the bake. Cost: 3 compares.
+bool probe_node_sees(const std::uint8_t* reach, glm::vec3 offset);
 glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells);
 
 // Interpolation of the node expansions at world point x (clamped into the box): trilinear, at the
