@@ -250,7 +250,9 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   const glm::uvec3 res = layout->resolution;
   const glm::vec3 cell = 1.0f / glm::vec3(res - 1u);
 
-  // Step 0 (leak guard): every node's reach, which step 1 needs around each node.
+  // Step 0 (leak guard): every node's reach, which step 1 needs around each node (6 rays a node;
+  // the first stage counts each node once for it and once for its samples).
+  jobs.begin_stage("probe samples", grid.leak_guard ? 2 * nodes : nodes);
   if (grid.leak_guard) {
     data.reach.assign(nodes * 6, 0);
     const Status reached = jobs.parallel_for(nodes, 64, [&](std::size_t begin, std::size_t end) {
@@ -262,7 +264,6 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   }
 
   // Step 1: per node, radiance SH from its sample points (node n from its own stream).
-  jobs.begin_stage("probe samples", nodes);
   const Status traced = jobs.parallel_for(nodes, 4, [&](std::size_t begin, std::size_t end) {
     for (std::size_t n = begin; n < end; ++n) {
       Rng rng = Rng::stream(seed, n);

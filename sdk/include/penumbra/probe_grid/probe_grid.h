@@ -172,7 +172,7 @@ struct ProbeGridData {
   // Node n's coefficient c is coefficients[n * sh_coefficients(sh_order) + c] (RGB).
   std::vector<glm::vec3> coefficients;
   // In-domain coverage per node in [0, 1]: the fraction of its samples in the domain of interest
-  // (point mode: 1 or 0 for the node itself).
+  // and, with the leak guard, seen by the node (point mode: 1 or 0 for the node itself).
   std::vector<float> validity;
   // 1 where the node had no in-domain sample and was filled from its neighbours.
   std::vector<std::uint8_t> filled;
