@@ -473,13 +473,14 @@ Result<Report> run_probe_grid_bench(const Options& options) {
       std::string line = key + " (scene/spacing/samples), " + label + ":";
       if (point.leak > 0.0) {
         const std::string base = point_guard ? "point+guard" : "point";
-        for (const auto& [mode, m] : {std::pair{ProbeSampling::Supersampled, super}, std::pair{ProbeSampling::Fitted, fitted}}) {
+        for (const auto& [mode, m] :
+             {std::pair{ProbeSampling::Supersampled, super}, std::pair{ProbeSampling::Fitted, fitted}}) {
           const double leak = ratio(m.leak, point.leak), time = ratio(m.seconds, point.seconds);
           line += std::string(" ") + name(Variant{mode, guard}) + "/" + base + " " +
                   (wall ? "thin-wall" : "solid-block") + " leak RMSE " + fmt(leak, 3) + " (" +
                   (wall ? "goal" : "the goal's bar") + " <= 0.5: " + verdict(leak <= 0.5) + "), bake time " +
-                  fmt(time, 3) + "x (goal <= 1.5: " + verdict(time <= 1.5) + "), RMSE " + fmt(ratio(m.rmse, point.rmse), 3) +
-                  "x;";
+                  fmt(time, 3) + "x (goal <= 1.5: " + verdict(time <= 1.5) + "), RMSE " +
+                  fmt(ratio(m.rmse, point.rmse), 3) + "x;";
         }
       }
       const double overall = ratio(fitted.rmse, super.rmse);

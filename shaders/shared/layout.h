@@ -24,7 +24,7 @@ using mat4 = glm::mat4;
 #define PENUMBRA_BINDING_JOINTS 3         // storage mat4[]: every skinned draw's joint matrices
 #define PENUMBRA_BINDING_SHADOW_MAP 4     // sampler2DArrayShadow: one layer per shadow view
 #define PENUMBRA_BINDING_PROBE_SH 5       // sampler3D[PENUMBRA_PROBE_TEXTURES]: probe_grid.h GPU layout
-#define PENUMBRA_BINDING_PROBE_VALIDITY 6 // sampler3D: node validity (r), leak-guard reach (g, b): pack_probe_node_texels
+#define PENUMBRA_BINDING_PROBE_VALIDITY 6 // sampler3D: validity (r), reach (g, b): pack_probe_node_texels
 #define PENUMBRA_BINDING_AO_FIELDS 7      // storage vec4[]: the ao_field_gpu.h layout (a placeholder without casters)
 // Descriptor set 1 (per material): the base colour texture (sRGB; white when the material has none).
 #define PENUMBRA_BINDING_BASE_COLOR 0

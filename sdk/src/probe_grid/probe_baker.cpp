@@ -208,8 +208,9 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
 
   // Memory: the working expansions plus the stored arrays, checked before allocating; fitted mode
   // also keeps every sample (position, domain flag, coefficients) and the solver's arrays.
+  const std::uint64_t reach_bytes = grid.leak_guard ? 6 : 0;
   std::uint64_t need =
-      std::uint64_t{nodes} * (sizeof(SH9rgb) + count * sizeof(glm::vec3) + sizeof(float) + 1 + (grid.leak_guard ? 6 : 0));
+      std::uint64_t{nodes} * (sizeof(SH9rgb) + count * sizeof(glm::vec3) + sizeof(float) + 1 + reach_bytes);
   if (fitted)
     need += std::uint64_t{nodes} * S * (sizeof(glm::vec3) * (grid.leak_guard ? 2 : 1) + 1 + columns * sizeof(float)) +
             std::uint64_t{nodes} * columns * sizeof(float) + probe_fit_bytes(nodes, columns);
@@ -382,9 +383,8 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   };
   // Version 1 (before the lighting field) stored direct + indirect: read as All. Version 2 has no
   // reach (a grid without the leak guard).
-  const std::uint32_t version =
-      chunk.type == kChunkType && chunk.version >= 1 && chunk.version <= kProbeGridChunkVersion ? chunk.version
-                                                                                                : kProbeGridChunkVersion;
+  const bool known = chunk.type == kChunkType && chunk.version >= 1 && chunk.version <= kProbeGridChunkVersion;
+  const std::uint32_t version = known ? chunk.version : kProbeGridChunkVersion;
   PENUMBRA_TRY(check_chunk(chunk, kChunkType, version, context));
   ProbeGridData data;
   ByteReader r(chunk.payload, context);
@@ -447,7 +447,8 @@ std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk) {
                 static_cast<double>(data->layout.spacing.y), static_cast<double>(data->layout.spacing.z),
                 to_string(data->sh_order), to_string(data->sampling), to_string(data->lighting));
   std::vector<std::string> out{line};
-  std::snprintf(line, sizeof line, "valid %.1f%% of nodes, %ld filled from neighbours, leak guard %s, %s (%llu B per node)",
+  std::snprintf(line, sizeof line,
+                "valid %.1f%% of nodes, %ld filled from neighbours, leak guard %s, %s (%llu B per node)",
                 100.0 * static_cast<double>(data->valid_fraction()), static_cast<long>(filled),
                 data->reach.empty() ? "off" : "on",
                 format_bytes(data->node_count() * data->bytes_per_node()).c_str(),

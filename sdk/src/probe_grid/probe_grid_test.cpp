@@ -198,8 +198,10 @@ TEST(ProbeGridEvaluate, NeverNegative) {
 // A 2x2x2 grid over the unit cube whose z = 0 layer holds 1 and z = 1 layer 10 (DC only), with a
 // wall at z = 0.4: the bottom nodes reach 0.4 up, the top nodes 0.6 down, everything else open.
 ProbeGridData walled_cell() {
-  ProbeGridData d = synthetic(box_grid({0, 0, 0}, {1, 1, 1}, {2, 2, 2}), ProbeShOrder::L1,
-                              [](glm::vec3 p, int c) { return c == 0 ? glm::vec3(p.z > 0.5f ? 10.0f : 1.0f) : glm::vec3(0.0f); });
+  const auto layers = [](glm::vec3 p, int c) {
+    return c == 0 ? glm::vec3(p.z > 0.5f ? 10.0f : 1.0f) : glm::vec3(0.0f);
+  };
+  ProbeGridData d = synthetic(box_grid({0, 0, 0}, {1, 1, 1}, {2, 2, 2}), ProbeShOrder::L1, layers);
   d.reach.assign(8 * 6, 255);
   for (std::uint32_t n = 0; n < 8; ++n) {
     const bool top = n >= 4;

@@ -673,13 +673,17 @@ void Renderer::Impl::write_descriptors() {
 }
 
 // Graphics pipelines for dynamic rendering, made on first use: the shadow pass (depth only, from
-// the lights; `format` unused), the depth pre-pass (the forward vertex stage and no fragment stage,
-// colour writes off: the camera's depth only) and the forward pass per colour format, which shades only the fragments the
-// pre-pass left in front (depth EQUAL, no depth writes): each pixel runs the costly fragment stage
-// once whatever the overdraw. The forward pipeline's fragment stage is specialised on the debug
-// view (constant_id 0) and on whether the AO-field pass runs (constant_id 1).
+// the lights; `format` unused), the depth pre-pass (the forward vertex stage and no fragment
+// stage, colour writes off: the camera's depth only) and the forward pass per colour format, which
+// shades only the fragments the pre-pass left in front (depth EQUAL, no depth writes): each pixel
+// runs the costly fragment stage once whatever the overdraw. The forward pipeline's fragment stage
+// is specialised on the debug view (constant_id 0) and on whether the AO-field pass runs
+// (constant_id 1).
 Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool ao_fields) {
-  if (pass != Pass::Forward) view = 0, ao_fields = false;
+  if (pass != Pass::Forward) {
+    view = 0;
+    ao_fields = false;
+  }
   if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
   if (auto it = pipelines.find({pass, format, view, ao_fields}); it != pipelines.end()) return it->second;
   const bool shadow = pass == Pass::Shadow, depth_only = pass != Pass::Forward;
@@ -938,7 +942,8 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
       const VkDeviceSize offsets[2] = {0, 0};
       vkCmdBindVertexBuffers(cmd, 0, shadow_pass ? 1 : 2, buffers, offsets);
       vkCmdBindIndexBuffer(cmd, d.mesh->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
-      if (pass == Pass::Forward) vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
+      if (pass == Pass::Forward)
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
       vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                          sizeof push, &push);
       vkCmdDrawIndexed(cmd, d.mesh->index_count, 1, 0, 0, 0);

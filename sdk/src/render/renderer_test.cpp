@@ -326,7 +326,8 @@ TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
     EXPECT_GE(checked, 100) << name;
     // The courtyard's thin wall and arch hide corners of the default grid's cells from many pixels;
     // the Cornell box's draft grid (2x2x2 inside the walls) has none hidden at these pixels.
-    if (std::string(name) == "courtyard") EXPECT_GE(guarded, 10) << "too few pixels where the leak guard changes the lookup";
+    if (std::string(name) == "courtyard")
+      EXPECT_GE(guarded, 10) << "too few pixels where the leak guard changes the lookup";
     RecordProperty(std::string(name) + "_guarded_pixels", std::to_string(guarded));
     RecordProperty(std::string(name) + "_worst_relative_error", std::to_string(worst));
   }
