@@ -5,6 +5,7 @@
 #include <cfloat>
 #include <cinttypes>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -43,14 +44,16 @@ FrameSummary summarise(std::vector<double> ms) {
   return s;
 }
 
-CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column) {
+CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column,
+                        const std::string& mark_column, const std::string& mark_value) {
   CostPlot plot;
   plot.path = path;
   plot.x_label = x_column;
   plot.y_label = y_column;
   std::ifstream in(path);
   if (!in) {
-    plot.error = path + ": no bench results; run `penumbra bench probe-grid` to make them";
+    const std::string bench = std::filesystem::path(path).stem().string();
+    plot.error = path + ": no bench results; run `penumbra bench " + bench + "` to make them";
     return plot;
   }
   const auto split = [](const std::string& line) {
@@ -64,8 +67,9 @@ CostPlot read_cost_plot(const std::string& path, const std::string& x_column, co
   const auto header = split(line);
   const auto xi = std::find(header.begin(), header.end(), x_column) - header.begin();
   const auto yi = std::find(header.begin(), header.end(), y_column) - header.begin();
+  const auto mi = std::find(header.begin(), header.end(), mark_column) - header.begin();
   if (xi == static_cast<std::ptrdiff_t>(header.size()) || yi == static_cast<std::ptrdiff_t>(header.size())) {
-    plot.error = path + ": no columns '" + x_column + "' and '" + y_column + "'; is it a probe-grid bench CSV?";
+    plot.error = path + ": no columns '" + x_column + "' and '" + y_column + "'; is it a penumbra bench CSV?";
     return plot;
   }
   while (std::getline(in, line)) {
@@ -80,6 +84,8 @@ CostPlot read_cost_plot(const std::string& path, const std::string& x_column, co
     plot.labels.push_back(label);
     plot.x.push_back(x);
     plot.y.push_back(y);
+    plot.marked.push_back(!mark_column.empty() && mi < static_cast<std::ptrdiff_t>(cells.size()) &&
+                          cells[static_cast<std::size_t>(mi)] == mark_value);
   }
   if (plot.x.empty()) plot.error = path + ": no rows with numbers";
   return plot;
@@ -417,13 +423,38 @@ void view_panel(EditorModel& model, UiState& ui) {
   ImGui::End();
 }
 
-void plot_panel(UiState& ui) {
+CostPlotSource cost_plot_source(World& world, Entity e) {
+  if (!world.alive(e)) return {"probe-grid", "rmse", "", ""};
+  if (const auto* grid = world.try_get<IrradianceProbeGrid>(e))
+    return {"probe-grid", "rmse", "mode", std::string(to_string(grid->sampling)) + (grid->leak_guard ? "+guard" : "")};
+  if (const auto* caster = world.try_get<AOFieldCaster>(e))
+    return {"ao-field", "mae", "representation", to_string(caster->representation)};
+  if (world.try_get<SkinnedPoseAO>(e)) return {"pose-ao", "rmse", "method", "linear"};
+  return {"probe-grid", "rmse", "", ""};
+}
+
+void plot_panel(Document& doc, UiState& ui) {
   ImGui::SetNextWindowPos(ImVec2(730, 560), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSize(ImVec2(240, 150), ImGuiCond_FirstUseEver);
   ImGui::Begin("Error vs cost");
+  // The plot follows the selected component: its bench's CSV in the tool's default folder, the
+  // rows of its current mode marked (the probe-grid bench's without a lighting selection).
+  const CostPlotSource source = cost_plot_source(doc.world(), doc.selection());
+  const std::string key = source.bench + "|" + source.mark_value;
+  bool reload = false;
+  if (key != ui.plot_source) {
+    if (ui.plot_source.rfind(source.bench + "|", 0) != 0)  // another bench: its default CSV
+      std::snprintf(ui.bench_path, sizeof ui.bench_path, "bench-results/%s.csv", source.bench.c_str());
+    ui.plot_source = key;
+    reload = true;
+  }
   ImGui::InputText("csv", ui.bench_path, sizeof ui.bench_path);
-  if (ImGui::Button("Load") || (ui.plot.path.empty() && ui.plot.error.empty()))
-    ui.plot = read_cost_plot(ui.bench_path, "bake_s", "rmse");
+  if (ImGui::Button("Load") || reload)
+    ui.plot = read_cost_plot(ui.bench_path, "bake_s", source.y_column, source.mark_column, source.mark_value);
+  if (!source.mark_value.empty()) {
+    ImGui::SameLine();
+    ImGui::TextDisabled("marked: %s", source.mark_value.c_str());
+  }
   if (!ui.plot.error.empty()) {
     ImGui::TextWrapped("%s", ui.plot.error.c_str());
   } else {
@@ -440,7 +471,8 @@ void plot_panel(UiState& ui) {
     for (std::size_t i = 0; i < ui.plot.x.size(); ++i) {
       const ImVec2 p(origin.x + 4 + (lg(ui.plot.x[i]) - x0) / (x1 - x0) * (size.x - 8),
                      origin.y + size.y - 4 - (lg(ui.plot.y[i]) - y0) / (y1 - y0) * (size.y - 8));
-      dl->AddCircleFilled(p, 3.0f, IM_COL32(90, 180, 255, 255));
+      const bool marked = i < ui.plot.marked.size() && ui.plot.marked[i];
+      dl->AddCircleFilled(p, marked ? 4.0f : 3.0f, marked ? IM_COL32(255, 200, 60, 255) : IM_COL32(90, 180, 255, 255));
       if (std::abs(mouse.x - p.x) < 4 && std::abs(mouse.y - p.y) < 4)
         ImGui::SetTooltip("%s\n%s %.4g, %s %.4g", ui.plot.labels[i].c_str(), ui.plot.x_label.c_str(), ui.plot.x[i],
                           ui.plot.y_label.c_str(), ui.plot.y[i]);
@@ -518,7 +550,7 @@ void draw_panels(EditorModel& model, UiState& ui) {
   bake_panel(model, ui);
   stats_panel(model, ui);
   view_panel(model, ui);
-  plot_panel(ui);
+  plot_panel(doc, ui);
   status_bar(ui);
 }
 

@@ -36,12 +36,23 @@ FrameSummary summarise(std::vector<double> ms);
 struct CostPlot {
   std::string path;                // the CSV read
   std::string x_label, y_label;    // column names
-  std::vector<std::string> labels; // row labels (first column)
+  std::vector<std::string> labels; // row labels (first columns)
   std::vector<float> x, y;
+  std::vector<bool> marked;        // rows whose `mark_column` holds `mark_value`
   std::string error;               // why there is no plot
 };
 // Reads the columns named `x_column` and `y_column` of a bench CSV; rows with non-numbers skipped.
-CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column);
+// Rows whose column `mark_column` equals `mark_value` are marked (the selected component's mode).
+CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column,
+                        const std::string& mark_column = {}, const std::string& mark_value = {});
+
+// The bench behind the selected entity's lighting component (probe-grid, ao-field, pose-ao; the
+// probe grid's, unmarked, for any other selection), the error column its plot shows, and the CSV
+// column and value of the component's current mode, to mark its rows.
+struct CostPlotSource {
+  std::string bench, y_column, mark_column, mark_value;
+};
+CostPlotSource cost_plot_source(World& world, Entity selected);
 
 struct UiState {
   CameraControl camera;
@@ -57,6 +68,7 @@ struct UiState {
   char bake_path[512] = "scene.pbake";
   char edits_path[512] = "edits.txt";
   char bench_path[512] = "bench-results/probe-grid.csv";  // where `penumbra bench probe-grid` writes by default
+  std::string plot_source;  // the bench and mode the plot shows (the selection's; see plot_panel)
   CostPlot plot;
   // The error heat map: computed on demand for the camera of the moment, shown until cleared.
   ErrorMapJob error_job;
