@@ -124,7 +124,11 @@ glm::vec3 tent_offset(std::uint32_t k, const std::array<std::uint32_t, 3>& scram
 
 // Leak guard (probe_grid.h): node n's reach along the six grid axis directions, the closest hit
 // within one spacing in units of the spacing, quantised to 0..255 (rounded down, so a surface is
-// never reported farther than it is).
+// never reported farther than it is). A node inside a thick solid (its rays hit only back faces,
+// and on no axis both ways: a block's interior near a face) is left open on every side: the
+// paper's in-domain average extrapolates the light outside the block into it, which is what the
+// receivers outside need. A node inside a thin solid (back faces both ways along an axis: a wall
+// thinner than a cell) stays hidden, since its tent takes light from both sides of the wall.
 void trace_reach(const RayScene& scene, const ProbeGridLayout& layout, glm::uvec3 ijk, std::uint8_t* out) {
   const glm::mat3 axes(layout.grid_to_world);
   std::array<Ray, 6> rays;
@@ -137,11 +141,20 @@ void trace_reach(const RayScene& scene, const ProbeGridLayout& layout, glm::uvec
     rays[static_cast<std::size_t>(d)] = Ray{x, 0.0f, dir, layout.spacing[a]};
   }
   scene.intersect(rays, hits, mask);
+  bool front = false, back = false, thin = false;
   for (int d = 0; d < 6; ++d) {
     const std::size_t i = static_cast<std::size_t>(d);
+    const bool back_face = mask[i] && hits[i].back_face && !hits[i].material.double_sided;
+    front = front || (mask[i] && !back_face);
+    back = back || back_face;
+    if (d % 2 == 1 && back_face) {
+      const Hit& other = hits[i - 1];
+      thin = thin || (mask[i - 1] && other.back_face && !other.material.double_sided);
+    }
     const float t = mask[i] ? std::clamp(hits[i].t / layout.spacing[d / 2], 0.0f, 1.0f) : 1.0f;
     out[i] = static_cast<std::uint8_t>(std::floor(t * 255.0f));
   }
+  if (back && !front && !thin) std::fill(out, out + 6, std::uint8_t{255});
 }
 
 // Fill nodes without an in-domain sample from valid neighbours, one 26-neighbourhood ring per

@@ -266,6 +266,35 @@ TEST(ProbeBaker, LeakGuardStopsLightThroughAThinWall) {
   }
 }
 
+// Nodes inside solids: inside a thick block (near one face, no face the other way within a cell)
+// the node stays open on every side, so the paper's in-domain average serves the receivers outside
+// it; inside a slab thinner than a cell (back faces both ways) it stays hidden.
+TEST(ProbeBaker, LeakGuardOpensNodesInsideThickSolidsOnly) {
+  World w;
+  add_static(w, make_box({1.0f, 1.0f, 1.0f}), glm::mat4(1.0f), glm::vec3(0.5f));  // a 2 m block
+  add_static(w, make_box({1.0f, 0.02f, 1.0f}), glm::translate(glm::mat4(1.0f), {3.0f, 0.25f, 0.0f}),
+             glm::vec3(0.5f));  // a 4 cm slab around the node plane y = 0.25
+  add_sun(w, 3.0f, {0, -1, 0});
+  auto scene = RayScene::build(w);
+  ASSERT_TRUE(scene.ok());
+  IrradianceProbeGrid g = small_grid({-1.25f, -1.25f, -1.25f}, {4.25f, 1.25f, 1.25f}, {12, 6, 6},
+                                     ProbeSampling::Supersampled);  // 0.5 m spacing
+  g.bounces = 0;
+  auto d = bake(g, w, *scene);
+  ASSERT_TRUE(d.ok()) << d.error().message;
+  const auto reach = [&](glm::uvec3 ijk) { return &d->reach[6 * d->layout.node_index(ijk)]; };
+  // (0.75, 0.25, 0.25): 0.25 m inside the block's +x face.
+  ASSERT_EQ(d->layout.node_position({4, 3, 3}), glm::vec3(0.75f, 0.25f, 0.25f));
+  for (int k = 0; k < 6; ++k) EXPECT_EQ(reach({4, 3, 3})[k], 255) << "direction " << k;
+  // (3.25, 0.25, 0.25): inside the slab, 2 cm from either face.
+  ASSERT_EQ(d->layout.node_position({9, 3, 3}), glm::vec3(3.25f, 0.25f, 0.25f));
+  EXPECT_LE(reach({9, 3, 3})[2], 11);  // +y: 0.02 m = 0.04 cells
+  EXPECT_LE(reach({9, 3, 3})[3], 11);  // -y
+  // (1.25, 0.25, 0.25): in the open, 0.25 m from the block's +x face, which hides it that way.
+  EXPECT_NEAR(reach({5, 3, 3})[1], 127.5f, 1.0f);
+  EXPECT_EQ(reach({5, 3, 3})[0], 255);
+}
+
 // Scaling the scene by 1e-3 or 1e4 leaves the relative error unchanged (ray offsets scale).
 TEST(ProbeBaker, ScaleInvariance) {
   float reference = 0.0f;

@@ -18,11 +18,11 @@
 // direction. The lookup then evaluates the same trilinear basis at the visible corners' weighted
 // mean (probe_lookup_fraction), which is exact when a wall hides a whole face of the cell and costs
 // the shader 8 unfiltered fetches more and no extra SH fetch. The bake averages each node's samples
-// over the part of its tent that the node sees, and the fit fits the guarded basis. Limits: the test
-// looks along the axes only, so a surface oblique to the grid hides a corner only where it crosses
-// the corner's axis lines (approximate there); a node inside a solid block is hidden from the
-// receivers outside it, where the paper's supersampling would have extrapolated the outside light
-// into it (the probe-grid bench: a little worse on the Cornell box's blocks at 6.5 cm spacing).
+// over the part of its tent that the node sees, and the fit fits the guarded basis. A node inside a
+// thick solid (a block's interior near a face) is left open on every side, so the paper's
+// in-domain average extrapolates the light outside into it as before; a node inside a solid thinner
+// than a cell (a wall) stays hidden. Limit: the test looks along the axes only, so a surface
+// oblique to the grid hides a corner only where it crosses the corner's axis lines.
 //
 // This header holds the authoring component (IrradianceProbeGrid), the receiver component
 // (ProbeLit), the baked data (ProbeGridData), the grid's geometry (ProbeGridLayout), the CPU
