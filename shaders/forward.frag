@@ -119,7 +119,7 @@ vec3 probe_uvw(vec3 p, vec3 n) {
     vec3 f = u - base;
     vec3 nc = mat3(frame.probe_world_to_grid) * n * (res - 1.0);
     float len = length(nc);
-    vec3 t = len > 0.0 ? f + nc * (0.01 / len) : f;  // kProbeNormalBias cells towards the open side
+    vec3 t = len > 0.0 ? f + nc * (PENUMBRA_PROBE_NORMAL_BIAS / len) : f;  // towards the open side
     float wsum = 0.0;
     vec3 mean = vec3(0.0);
     for (int c = 0; c < 8; ++c) {
@@ -129,7 +129,7 @@ vec3 probe_uvw(vec3 p, vec3 n) {
       // Reach bytes: g = +x, -x, +y; b = -y, +z, -z (pack_probe_node_texels).
       uvec3 plus = uvec3(packed.x & 255u, packed.x >> 16, (packed.y >> 8) & 255u);
       uvec3 minus = uvec3((packed.x >> 8) & 255u, packed.y & 255u, packed.y >> 16);
-      vec3 r = vec3(mix(plus, minus, lessThan(d, vec3(0.0)))) * (1.0 / 255.0) + 1.0 / 255.0;  // + kProbeReachSlack
+      vec3 r = vec3(mix(plus, minus, lessThan(d, vec3(0.0)))) * (1.0 / 255.0) + PENUMBRA_PROBE_REACH_SLACK;
       if (any(greaterThan(abs(d), r))) continue;
       vec3 w3 = mix(1.0 - f, f, o);
       float w = w3.x * w3.y * w3.z;

@@ -31,6 +31,10 @@ using mat4 = glm::mat4;
 
 // L2 SH: 27 slots in 7 RGBA textures (pack_probe_grid_textures).
 #define PENUMBRA_PROBE_TEXTURES 7
+// The leak guard's lookup constants (probe_grid.h kProbeNormalBias, kProbeReachSlack; the renderer
+// checks at compile time that they agree).
+#define PENUMBRA_PROBE_NORMAL_BIAS 0.01
+#define PENUMBRA_PROBE_REACH_SLACK (1.0 / 255.0)
 
 // Light types (GpuLight.position_type.w).
 #define PENUMBRA_LIGHT_DIRECTIONAL 0

@@ -23,6 +23,10 @@
 #include "spirv.h"
 #include "vk_util.h"
 
+// The shader's leak-guard constants are the CPU lookup's (probe_grid.h).
+static_assert(float(PENUMBRA_PROBE_NORMAL_BIAS) == penumbra::kProbeNormalBias);
+static_assert(float(PENUMBRA_PROBE_REACH_SLACK) == penumbra::kProbeReachSlack);
+
 namespace penumbra {
 
 using render_detail::Allocator;
