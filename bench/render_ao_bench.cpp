@@ -6,7 +6,9 @@
 //
 // One draft bake of the courtyard (probes, AO fields, pose-AO); one World per variant, each with
 // the default components of `penumbra render` and only that variant's chunks attached: none
-// (probes only), ao-fields (crates still), ao-fields-moving (one crate moves every frame: its
+// (probes only), ao-fields (crates still; the pass at its default half resolution), ao-fields-full
+// (the same at every pixel: RenderSettings::ao_field_step 1), ao-fields-moving (one crate moves
+// every frame: its
 // caster record is uploaded each frame), pose-ao (the walker's VertexAO changes and is uploaded
 // every frame), all (moving crate and pose-AO). Every frame advances the World by 1/30 s
 // (animation, skinning, the AO systems: update_ms) and then renders it (sync, record, submit,
@@ -67,6 +69,7 @@ Result<std::unique_ptr<World>> courtyard(Entity& camera) {
 struct Variant {
   std::string name;
   bool ao_fields = false, moving_crate = false, pose_ao = false;
+  RenderSettings settings;
   std::unique_ptr<World> world;
   std::unique_ptr<Renderer> renderer;
   CameraView camera;
@@ -97,16 +100,18 @@ Result<Report> run(const Options& options) {
   if (!device) return device.error();
 
   std::vector<Variant> variants;
-  const auto add = [&](std::string name, bool fields, bool moving, bool pose) {
+  const auto add = [&](std::string name, bool fields, bool moving, bool pose, std::uint32_t ao_step = 2) {
     Variant v;
     v.name = std::move(name);
     v.ao_fields = fields;
     v.moving_crate = moving;
     v.pose_ao = pose;
+    v.settings.ao_field_step = ao_step;
     variants.push_back(std::move(v));
   };
   add("none", false, false, false);
   add("ao-fields", true, false, false);
+  add("ao-fields-full", true, false, false, 1);
   add("ao-fields-moving", true, true, false);
   add("pose-ao", false, false, true);
   add("all", true, true, true);
@@ -125,7 +130,7 @@ Result<Report> run(const Options& options) {
     auto renderer = Renderer::create(**device);
     if (!renderer) return renderer.error();
     v.renderer = std::move(*renderer);
-    PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, width, height, RenderSettings{}));  // warm-up
+    PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, width, height, v.settings));  // warm-up
   }
 
   // Rounds: each variant renders frames_per_round animated frames in turn.
@@ -140,7 +145,7 @@ Result<Report> run(const Options& options) {
         v.world->update(1.0 / 30.0);
         v.update_ms.push_back(ms_since(t0));
         t0 = std::chrono::steady_clock::now();
-        PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, width, height, RenderSettings{}));
+        PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, width, height, v.settings));
         v.render_ms.push_back(ms_since(t0));
         v.vertex_ao_uploads += v.renderer->stats().vertex_ao_uploads;
         v.ao_field_bytes += v.renderer->stats().ao_field_bytes_uploaded;
@@ -155,7 +160,7 @@ Result<Report> run(const Options& options) {
                     "render_min_ms", "min_ratio", "ao_field_casters", "vertex_ao_uploads_per_frame",
                     "ao_field_bytes_per_frame"};
   report.plot = {"courtyard frame time by AO pass (lit view, lavapipe)", "variant (0 none, 1 ao-fields, "
-                 "2 ao-fields-moving, 3 pose-ao, 4 all)", "render ms (median)", 0, 6, -1, false, false, true};
+                 "2 ao-fields-full, 3 ao-fields-moving, 4 pose-ao, 5 all)", "render ms (median)", 0, 6, -1, false, false, true};
   const double base = median(variants[0].render_ms);
   const double base_min = *std::min_element(variants[0].render_ms.begin(), variants[0].render_ms.end());
   for (std::size_t i = 0; i < variants.size(); ++i) {

@@ -1,7 +1,8 @@
-// Ambient occlusion fields, per pixel: the combined occlusion of every caster in the buffer of
-// sdk/include/penumbra/ao_field/ao_field_gpu.h at a world point, a port of evaluate_packed() there
-// (Kontkanen & Laine 2005, section 3.3; the grid of Malmer et al. 2007). Included by forward.frag
-// after common.glsl.
+// Ambient occlusion fields, per pixel: one caster's occlusion at a world point, a port of
+// evaluate_packed() in sdk/include/penumbra/ao_field/ao_field_gpu.h (Kontkanen & Laine 2005,
+// section 3.3; the grid of Malmer et al. 2007). Included by ao_field.vert and ao_field.frag after
+// common.glsl: the AO-field pass draws each caster's reach over the pixels it can darken (a
+// deferred pass, as for light volumes) and multiplies 1 - A_i into the open-fraction image.
 
 layout(std430, set = 0, binding = PENUMBRA_BINDING_AO_FIELDS) readonly buffer AoFields { vec4 ao_fields[]; };
 
@@ -25,11 +26,11 @@ float ao_field_table(uint table, int k, float omega, float cos_beta) {
 }
 
 // Steps 1-5 of evaluate_local (ao_field.h) for the caster record at `rec`, local point x, local
-// unit normal n.
-float ao_field_caster(uint table, int k, uint rec, vec3 x, vec3 n) {
+// unit normal n; `grid` is the record's representation (a specialisation constant of the pass:
+// llvmpipe runs both sides of a branch with masks, so a run-time test would pay for both).
+float ao_field_caster(uint table, int k, uint rec, vec3 x, vec3 n, bool grid) {
   vec4 geometry = ao_fields[rec + 3u], settings = ao_fields[rec + 4u], layout_ = ao_fields[rec + 5u];
   float r_far = geometry.w, fade_scale = settings.x, a0_inside = settings.y, exponent = settings.z;
-  bool grid = settings.w == 1.0;
   uint size = uint(layout_.x), offset = uint(layout_.y);
   // Step 1: the point relative to the field's centre.
   vec3 p = x - geometry.xyz;
@@ -97,25 +98,20 @@ float ao_field_caster(uint table, int k, uint rec, vec3 x, vec3 n) {
   return clamp(a * min((r_far - r) * fade_scale, 1.0), 0.0, 1.0);
 }
 
-// The open fraction prod (1 - A_i) at world point x, unit world normal n, over every caster but
-// record `skip` (the drawn entity's own; -1 for none), culled by each caster's world reach.
-float ao_field_open(vec3 x, vec3 n, int skip) {
+// Caster `caster`'s occlusion A_i at world point x with unit world normal n: 0 beyond its world
+// reach; `grid` as ao_field_caster.
+float ao_field_occlusion(uint caster, vec3 x, vec3 n, bool grid) {
   vec4 header = ao_fields[0];
-  uint count = uint(header.x), table = uint(header.y);
+  uint table = uint(header.y);
   int k = int(header.z) - 1;
-  float open = 1.0;
-  for (uint i = 0u; i < count; ++i) {
-    if (int(i) == skip) continue;
-    uint rec = 1u + 7u * i;
-    vec4 reach = ao_fields[rec + 6u];
-    if (!(distance(x, reach.xyz) < reach.w)) continue;
-    vec4 h = vec4(x, 1.0);
-    vec4 row0 = ao_fields[rec], row1 = ao_fields[rec + 1u], row2 = ao_fields[rec + 2u];
-    vec3 xl = vec3(dot(row0, h), dot(row1, h), dot(row2, h));
-    vec3 nl = vec3(dot(row0.xyz, n), dot(row1.xyz, n), dot(row2.xyz, n));
-    float len = length(nl);
-    if (!(len > 0.0)) continue;
-    open *= 1.0 - ao_field_caster(table, k, rec, xl, nl / len);
-  }
-  return clamp(open, 0.0, 1.0);
+  uint rec = 1u + 7u * caster;
+  vec4 reach = ao_fields[rec + 6u];
+  if (!(distance(x, reach.xyz) < reach.w)) return 0.0;
+  vec4 h = vec4(x, 1.0);
+  vec4 row0 = ao_fields[rec], row1 = ao_fields[rec + 1u], row2 = ao_fields[rec + 2u];
+  vec3 xl = vec3(dot(row0, h), dot(row1, h), dot(row2, h));
+  vec3 nl = vec3(dot(row0.xyz, n), dot(row1.xyz, n), dot(row2.xyz, n));
+  float len = length(nl);
+  if (!(len > 0.0)) return 0.0;
+  return ao_field_caster(table, k, rec, xl, nl / len, grid);
 }

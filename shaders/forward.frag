@@ -6,18 +6,21 @@
 //   indirect light the probe grid's irradiance per pixel (Kontkanen & Laine 2006; the thesis
 //                  section 3.2): trilinear SH from 3D textures, evaluated as core/sh.h;
 //   AO             the per-vertex AO attribute (vertex AO, pose-AO) times, on AO-field receivers,
-//                  the open fraction under the moving casters' AO fields (ao_field.glsl; per pixel
-//                  on surfaces, per entity on dynamic receivers);
+//                  the open fraction under the moving casters' AO fields (per pixel on surfaces,
+//                  from the AO-field pass before this one: ao_field.frag; per entity on dynamic
+//                  receivers);
 //   emission       the material's emitted radiance;
 // then exposure, the ACES filmic fit of Narkowicz (2015) and, for UNORM targets, the sRGB transfer.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
-#include "ao_field.glsl"
 
 layout(std430, set = 0, binding = PENUMBRA_BINDING_LIGHTS) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = PENUMBRA_BINDING_SHADOW_MAP) uniform sampler2DArrayShadow shadow_map;
 layout(set = 0, binding = PENUMBRA_BINDING_PROBE_SH) uniform sampler3D probe_sh[PENUMBRA_PROBE_TEXTURES];
 layout(set = 0, binding = PENUMBRA_BINDING_PROBE_VALIDITY) uniform sampler3D probe_validity;
+layout(set = 0, binding = PENUMBRA_BINDING_SCENE_DEPTH) uniform sampler2D scene_depth;
+layout(set = 0, binding = PENUMBRA_BINDING_GBUFFER) uniform sampler2D gbuffer;
+layout(set = 0, binding = PENUMBRA_BINDING_AO_OPEN) uniform sampler2D ao_open;
 layout(set = 1, binding = PENUMBRA_BINDING_BASE_COLOR) uniform sampler2D base_color_texture;
 
 layout(location = 0) in vec3 in_world;
@@ -30,7 +33,7 @@ layout(location = 0) out vec4 out_color;
 // The debug view is a specialisation constant (one pipeline per view): llvmpipe runs shaders as
 // SIMD with masks, so a run-time switch would pay for every view's code on every pixel.
 layout(constant_id = 0) const uint kView = PENUMBRA_VIEW_LIT;
-// The AO-field pass: false when the scene has no baked casters, so its code is compiled out.
+// The AO-field pass ran: false when the scene has no baked casters, so its code is compiled out.
 layout(constant_id = 1) const bool kAoFields = false;
 
 const float kPi = 3.14159265358979323846;
@@ -166,6 +169,40 @@ vec3 probe_irradiance(vec3 p, vec3 n) {
   return max(e, vec3(0.0));
 }
 
+// The open fraction under the AO-field casters at this pixel (normal n), upsampled from the pass's
+// image (ao_field.frag; at step s sample (i, j) stands for pixel (s i, s j)): the bilinear
+// weights of the four nearest samples, restricted to samples on this pixel's surface (their depth
+// on this pixel's plane, which is linear in screen space, within 2 % of the distance, and normals
+// within 25 degrees: the pre-pass images), so that a crate's edge does not bleed into the ground;
+// where none of them is, any of the four on the surface, else this pixel's own block. A pixel
+// whose coordinates are multiples of s (every pixel at step 1) reads its own sample unchanged.
+float ao_field_open(vec3 n) {
+  int step = int(frame.ao_params.x);
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  ivec2 q0 = p / step;
+  ivec2 last = textureSize(ao_open, 0) - 1, last_pixel = ivec2(frame.target_size.xy) - 1;
+  vec2 f = vec2(p - step * q0) / float(step);
+  float d = gl_FragCoord.z, tolerance = 0.02 * max(1.0 - d, 1e-7);  // 1 - depth ~ near / distance
+  vec2 slope = vec2(dFdx(d), dFdy(d));
+  float sum = 0.0, weight = 0.0, any_sum = 0.0, any_weight = 0.0;
+  for (int c = 0; c < 4; ++c) {
+    ivec2 o = ivec2(c & 1, c >> 1);
+    ivec2 q = min(q0 + o, last);
+    ivec2 sample_pixel = min(step * q, last_pixel);
+    float plane = d + dot(vec2(sample_pixel - p), slope);
+    bool same = abs(texelFetch(scene_depth, sample_pixel, 0).r - plane) <= tolerance &&
+                dot(texelFetch(gbuffer, sample_pixel, 0).xyz, n) > 0.9;
+    float open = texelFetch(ao_open, q, 0).r;
+    float w = same ? (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y) : 0.0;
+    sum += w * open;
+    weight += w;
+    any_sum += same ? open : 0.0;
+    any_weight += same ? 1.0 : 0.0;
+  }
+  if (weight > 0.0) return sum / weight;
+  return any_weight > 0.0 ? any_sum / any_weight : texelFetch(ao_open, q0, 0).r;
+}
+
 // ACES filmic curve, Narkowicz 2015 ("ACES Filmic Tone Mapping Curve"), per channel, to [0, 1].
 vec3 tone_map(vec3 x) {
   return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
@@ -181,10 +218,9 @@ void main() {
   vec3 albedo = push.base_color.rgb * texture(base_color_texture, in_uv).rgb;
   bool has_probe = (frame.params.z & PENUMBRA_FLAG_PROBE_GRID) != 0u;
   float ao = in_ao;
-  if (kAoFields) {  // the AO-field pass: the receiver's open fraction under the casters
-    uint mode = uint(push.ao_field.x);
-    if (mode == PENUMBRA_AO_RECEIVER_SURFACE) ao *= ao_field_open(in_world, n, int(push.ao_field.z));
-    else if (mode == PENUMBRA_AO_RECEIVER_ENTITY) ao *= 1.0 - push.ao_field.y;
+  if (kAoFields) {  // the receiver's open fraction under the casters (1 on non-receivers)
+    ao *= ao_field_open(n);
+    if (uint(push.ao_field.x) == PENUMBRA_AO_RECEIVER_ENTITY) ao *= 1.0 - push.ao_field.y;
   }
   const uint view = kView;
 

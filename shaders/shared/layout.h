@@ -26,6 +26,12 @@ using mat4 = glm::mat4;
 #define PENUMBRA_BINDING_PROBE_SH 5       // sampler3D[PENUMBRA_PROBE_TEXTURES]: probe_grid.h GPU layout
 #define PENUMBRA_BINDING_PROBE_VALIDITY 6 // sampler3D: validity (r), reach (g, b): pack_probe_node_texels
 #define PENUMBRA_BINDING_AO_FIELDS 7      // storage vec4[]: the ao_field_gpu.h layout (a placeholder without casters)
+// The AO-field pass's screen images (placeholders without casters), all read with texelFetch at
+// the pixel: the pre-pass depth and G-buffer it reads, the open fraction it writes for the
+// forward pass.
+#define PENUMBRA_BINDING_SCENE_DEPTH 8    // sampler2D: the camera's depth (pre-pass)
+#define PENUMBRA_BINDING_GBUFFER 9        // sampler2D: xyz shading normal, w receiver code (below)
+#define PENUMBRA_BINDING_AO_OPEN 10       // sampler2D: r prod (1 - A_i) over the casters at the pixel
 // Descriptor set 1 (per material): the base colour texture (sRGB; white when the material has none).
 #define PENUMBRA_BINDING_BASE_COLOR 0
 
@@ -67,6 +73,9 @@ struct FrameUniforms {
   mat4 probe_world_to_grid;  // world -> [0, 1]^3 of the probe grid
   vec4 probe_resolution;   // xyz nodes per axis
   vec4 shadow_params;      // x texel size of the shadow map (1 / size), y depth bias (light clip units), z normal offset (m)
+  mat4 clip_to_world;      // inverse of view_proj: the AO-field pass's pixel -> world point
+  vec4 target_size;        // xy pixels of the target, zw their inverses
+  uvec4 ao_params;         // x the AO-field pass's pixel step (RenderSettings::ao_field_step)
 };
 
 // A light in world space. Radiometric units as penumbra::Light (components.h); color = colour x
@@ -83,12 +92,19 @@ struct GpuLight {
 #define PENUMBRA_AO_RECEIVER_SURFACE 1u  // per pixel from the AO-field buffer (static surfaces)
 #define PENUMBRA_AO_RECEIVER_ENTITY 2u   // one value per entity (AOFieldReceiver::occlusion), uniform over the draw
 
-// Push constants of every draw (forward and shadow): 128 bytes, Vulkan's guaranteed minimum.
+// The G-buffer's receiver code (w): 0 where the pixel takes no per-pixel AO-field occlusion, else
+// 2 + the record of the drawn entity's own caster (-1: none), which the pass skips (no
+// self-shadow). Half floats hold it exactly up to 2048, hence at most 2046 casters.
+#define PENUMBRA_AO_MAX_CASTERS 2046
+
+// Push constants of every draw (forward, pre-pass, shadow; the AO-field pass reads only
+// draw.x, the caster's record): 128 bytes, Vulkan's guaranteed minimum.
 struct DrawPush {
   mat4 model;           // object -> world
   vec4 base_color;      // linear albedo, alpha
   vec4 emissive;        // rgb emitted radiance W/(m^2 sr)
-  uvec4 draw;           // x first joint (skinned), y 1 when skinned, z shadow layer (shadow pass), w unused
+  uvec4 draw;           // x first joint (skinned; the AO-field pass: caster record), y 1 when skinned,
+                        // z shadow layer (shadow pass), w unused
   vec4 ao_field;        // x receiver mode (PENUMBRA_AO_RECEIVER_*), y entity occlusion, z the entity's own
                         // caster record in the AO-field buffer (-1: not a caster; skipped: no self-shadow)
 };

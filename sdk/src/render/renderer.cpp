@@ -1,4 +1,5 @@
-// The forward renderer: World -> GPU resources (sync), shadow passes + one forward pass (record).
+// The forward renderer: World -> GPU resources (sync); per frame (record) the shadow passes, the
+// depth pre-pass, with AO-field casters the AO-field pass, and the forward pass.
 #include "penumbra/render/renderer.h"
 
 #include <algorithm>
@@ -38,6 +39,8 @@ using render_detail::vk_struct;
 namespace {
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkFormat kGBufferFormat = VK_FORMAT_R16G16B16A16_SFLOAT;  // normal, receiver code (layout.h)
+constexpr VkFormat kAoOpenFormat = VK_FORMAT_R16_SFLOAT;            // blendable on every device
 constexpr std::uint32_t kMaxMaterialSets = 1024;
 constexpr std::uint32_t kMaxImageSize = 16384;
 
@@ -101,13 +104,15 @@ struct Renderer::Impl {
 
   VkDescriptorSetLayout frame_layout = VK_NULL_HANDLE, material_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
-  VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE;
-  // The graphics pipelines by pass, colour format, view and AO fields (see pipeline()).
-  enum class Pass { Shadow, DepthPrepass, Forward };
+  VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE,
+                 gbuffer_frag = VK_NULL_HANDLE, ao_field_vert = VK_NULL_HANDLE, ao_field_frag = VK_NULL_HANDLE;
+  // The graphics pipelines by pass, colour format, view and flag (see pipeline()).
+  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AoFields, Forward };
   std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
-  VkSampler texture_sampler = VK_NULL_HANDLE, probe_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE;
+  VkSampler texture_sampler = VK_NULL_HANDLE, probe_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE,
+            point_sampler = VK_NULL_HANDLE;
 
   // Assets and per-frame data.
   std::unordered_map<const MeshData*, GpuMesh> meshes;
@@ -131,12 +136,13 @@ struct Renderer::Impl {
   // AO fields (ao_field_gpu.h layout): the packed casters, or the placeholder bound without any.
   Buffer ao_field_buffer, ao_field_placeholder;
   std::vector<Entity> ao_casters;                 // the packed records' entities, in record order
+  std::vector<bool> ao_caster_grid;               // their representation: grid (else radial fit)
   std::vector<const AOFieldData*> ao_field_data;  // their fields when packed
   std::uint64_t ao_field_tick = 0;                // the newest caster change tick packed
 
-  // Targets.
-  ImageResource depth;
-  std::uint32_t depth_width = 0, depth_height = 0;
+  // Targets. The G-buffer and the open fraction exist only while the AO-field pass runs.
+  ImageResource depth, gbuffer, ao_open;
+  std::uint32_t depth_width = 0, depth_height = 0, ao_step = 0;  // ao_step 0: no AO-field pass
   ImageResource shadow_map;
   std::vector<VkImageView> shadow_layer_views;
   std::uint32_t shadow_size = 0, shadow_layers = 0;
@@ -156,11 +162,14 @@ struct Renderer::Impl {
     for (auto& [k, b] : vertex_ao) alloc->destroy(b.buffer);
     for (Buffer* b : {&ones, &ao_field_buffer, &ao_field_placeholder, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
     for (auto& t : probe_textures) alloc->destroy(t);
-    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &shadow_map, &offscreen}) alloc->destroy(*i);
+    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &gbuffer, &ao_open, &shadow_map, &offscreen})
+      alloc->destroy(*i);
     for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
     for (auto& [key, p] : pipelines) vkDestroyPipeline(vk, p, nullptr);
-    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert}) if (m) vkDestroyShaderModule(vk, m, nullptr);
-    for (VkSampler s : {texture_sampler, probe_sampler, shadow_sampler}) if (s) vkDestroySampler(vk, s, nullptr);
+    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert, gbuffer_frag, ao_field_vert, ao_field_frag})
+      if (m) vkDestroyShaderModule(vk, m, nullptr);
+    for (VkSampler s : {texture_sampler, probe_sampler, shadow_sampler, point_sampler})
+      if (s) vkDestroySampler(vk, s, nullptr);
     if (pool) vkDestroyDescriptorPool(vk, pool, nullptr);
     if (pipeline_layout) vkDestroyPipelineLayout(vk, pipeline_layout, nullptr);
     if (frame_layout) vkDestroyDescriptorSetLayout(vk, frame_layout, nullptr);
@@ -168,7 +177,7 @@ struct Renderer::Impl {
   }
 
   Status init();
-  Result<VkPipeline> pipeline(Pass pass, VkFormat format, std::uint32_t view, bool ao_fields);
+  Result<VkPipeline> pipeline(Pass pass, VkFormat format, std::uint32_t view = 0, bool flag = false);
   Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
   Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
                       VkDeviceSize size);
@@ -179,7 +188,8 @@ struct Renderer::Impl {
   Status sync_ao_fields(World& world);
   int ao_caster_record(Entity e) const;
   void plan_shadows(const std::vector<WorldLight>& world_lights);
-  Status ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size);
+  Status ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size,
+                        std::uint32_t ao_step);
   void write_descriptors();
   Status record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
                 const RenderSettings& settings);
@@ -202,7 +212,10 @@ Status Renderer::Impl::init() {
       {PENUMBRA_BINDING_PROBE_SH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES,
        VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_PROBE_VALIDITY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
-      {PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, both, nullptr},
+      {PENUMBRA_BINDING_SCENE_DEPTH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_GBUFFER, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_AO_OPEN, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   };
   auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
   layout_info.bindingCount = std::size(frame_bindings);
@@ -232,7 +245,7 @@ Status Renderer::Impl::init() {
   const VkDescriptorPoolSize sizes[] = {
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4},
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES + 2 + kMaxMaterialSets},
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES + 5 + kMaxMaterialSets},
   };
   auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
   pool_info.maxSets = 1 + kMaxMaterialSets;
@@ -249,7 +262,8 @@ Status Renderer::Impl::init() {
     return make_error(ErrorCode::Internal, "Renderer: cannot allocate the frame descriptor set");
   }
 
-  // Samplers: textures (linear, repeat), probe grid (trilinear, clamp), shadow map (comparison).
+  // Samplers: textures (linear, repeat), probe grid (trilinear, clamp), shadow map (comparison),
+  // the screen images the passes read with texelFetch (nearest, clamp).
   auto sampler = vk_struct<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
   sampler.magFilter = VK_FILTER_LINEAR;
   sampler.minFilter = VK_FILTER_LINEAR;
@@ -259,6 +273,9 @@ Status Renderer::Impl::init() {
   VkResult r = vkCreateSampler(vk, &sampler, nullptr, &texture_sampler);
   sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &probe_sampler);
+  sampler.magFilter = sampler.minFilter = VK_FILTER_NEAREST;
+  if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &point_sampler);
+  sampler.magFilter = sampler.minFilter = VK_FILTER_LINEAR;
   sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
   sampler.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
   sampler.compareEnable = VK_TRUE;
@@ -269,7 +286,10 @@ Status Renderer::Impl::init() {
   forward_vert = make_module(vk, "forward.vert");
   forward_frag = make_module(vk, "forward.frag");
   shadow_vert = make_module(vk, "shadow.vert");
-  if (!forward_vert || !forward_frag || !shadow_vert) {
+  gbuffer_frag = make_module(vk, "gbuffer.frag");
+  ao_field_vert = make_module(vk, "ao_field.vert");
+  ao_field_frag = make_module(vk, "ao_field.frag");
+  if (!forward_vert || !forward_frag || !shadow_vert || !gbuffer_frag || !ao_field_vert || !ao_field_frag) {
     return make_error(ErrorCode::Internal, "Renderer: the embedded SPIR-V is missing or invalid; rebuild the SDK");
   }
 
@@ -495,10 +515,17 @@ Status Renderer::Impl::sync_ao_fields(World& world) {
     vkDeviceWaitIdle(vk);
     alloc->destroy(ao_field_buffer);
     ao_casters.clear();
+    ao_caster_grid.clear();
     ao_field_data.clear();
     ao_field_tick = 0;
     descriptors_dirty = true;
     return {};
+  }
+  if (casters.size() > PENUMBRA_AO_MAX_CASTERS) {
+    return make_error(ErrorCode::OutOfBudget, "Renderer: " + std::to_string(casters.size()) +
+                                                  " entities have a baked AOFieldCaster; the AO-field pass takes at "
+                                                  "most " + std::to_string(PENUMBRA_AO_MAX_CASTERS) +
+                                                  ": remove the component from the least visible ones");
   }
   auto packed = pack_ao_fields_gpu(packed_casters);
   if (!packed) return packed.error();
@@ -514,6 +541,8 @@ Status Renderer::Impl::sync_ao_fields(World& world) {
   ao_casters = std::move(casters);
   ao_field_data = std::move(fields);
   ao_field_tick = tick;
+  ao_caster_grid.resize(packed->casters);
+  for (std::uint32_t i = 0; i < packed->casters; ++i) ao_caster_grid[i] = packed->data[1 + 7 * i + 4].w == 1.0f;
   return {};
 }
 
@@ -576,10 +605,13 @@ void Renderer::Impl::plan_shadows(const std::vector<WorldLight>& world_lights) {
   }
 }
 
-Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size) {
-  if (!depth.image || depth_width != width || depth_height != height) {
+// The depth buffer at the target's size; with the AO-field pass (ao_step > 0) the G-buffer and the
+// open fraction at 1 / ao_step of it; the shadow map array.
+Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size,
+                                      std::uint32_t step) {
+  if (!depth.image || depth_width != width || depth_height != height || ao_step != step) {
     vkDeviceWaitIdle(vk);
-    alloc->destroy(depth);
+    for (ImageResource* i : {&depth, &gbuffer, &ao_open}) alloc->destroy(*i);
     auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
     info.imageType = VK_IMAGE_TYPE_2D;
     info.format = kDepthFormat;
@@ -587,12 +619,24 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
     info.mipLevels = 1;
     info.arrayLayers = 1;
     info.samples = VK_SAMPLE_COUNT_1_BIT;
-    info.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
+    info.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
     auto created = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_DEPTH_BIT);
     if (!created) return created.error();
     depth = *created;
+    if (step > 0) {
+      info.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+      for (auto [image, format] : {std::pair{&gbuffer, kGBufferFormat}, std::pair{&ao_open, kAoOpenFormat}}) {
+        info.format = format;
+        if (image == &ao_open) info.extent = {(width + step - 1) / step, (height + step - 1) / step, 1};
+        auto made = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
+        if (!made) return made.error();
+        *image = *made;
+      }
+    }
     depth_width = width;
     depth_height = height;
+    ao_step = step;
+    descriptors_dirty = true;
   }
   const auto layers = std::max<std::uint32_t>(1, static_cast<std::uint32_t>(shadow_matrices.size()));
   if (!shadow_map.image || shadow_size != shadow_map_size || shadow_layers != layers) {
@@ -648,7 +692,15 @@ void Renderer::Impl::write_descriptors() {
                                             VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   const VkBuffer ao_buffer = ao_field_buffer.buffer ? ao_field_buffer.buffer : ao_field_placeholder.buffer;
   const VkDescriptorBufferInfo ao_field_info{ao_buffer, 0, VK_WHOLE_SIZE};
-  VkWriteDescriptorSet writes[8];
+  // The AO-field pass's images, or the white texture where the pass does not run (only pipelines
+  // that never run then read them).
+  const bool ao_pass = gbuffer.view != VK_NULL_HANDLE;
+  const VkDescriptorImageInfo screen_info[3] = {
+      {point_sampler, ao_pass ? depth.view : white.image.view,
+       ao_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+      {point_sampler, ao_pass ? gbuffer.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+      {point_sampler, ao_pass ? ao_open.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}};
+  VkWriteDescriptorSet writes[11];
   auto buffer_write = [&](int i, std::uint32_t binding, VkDescriptorType type, const VkDescriptorBufferInfo* info) {
     writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
     writes[i].dstSet = frame_set;
@@ -673,40 +725,52 @@ void Renderer::Impl::write_descriptors() {
   image_write(5, PENUMBRA_BINDING_PROBE_SH, PENUMBRA_PROBE_TEXTURES, probe_info);
   image_write(6, PENUMBRA_BINDING_PROBE_VALIDITY, 1, &validity_info);
   buffer_write(7, PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &ao_field_info);
-  vkUpdateDescriptorSets(vk, 8, writes, 0, nullptr);
+  image_write(8, PENUMBRA_BINDING_SCENE_DEPTH, 1, &screen_info[0]);
+  image_write(9, PENUMBRA_BINDING_GBUFFER, 1, &screen_info[1]);
+  image_write(10, PENUMBRA_BINDING_AO_OPEN, 1, &screen_info[2]);
+  vkUpdateDescriptorSets(vk, std::size(writes), writes, 0, nullptr);
 }
 
-// Graphics pipelines for dynamic rendering, made on first use: the shadow pass (depth only, from
-// the lights; `format` unused), the depth pre-pass (the forward vertex stage and no fragment
-// stage, colour writes off: the camera's depth only) and the forward pass per colour format, which
-// shades only the fragments the pre-pass left in front (depth EQUAL, no depth writes): each pixel
-// runs the costly fragment stage once whatever the overdraw. The forward pipeline's fragment stage
-// is specialised on the debug view (constant_id 0) and on whether the AO-field pass runs
-// (constant_id 1).
-Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool ao_fields) {
-  if (pass != Pass::Forward) {
-    view = 0;
-    ao_fields = false;
-  }
+// Graphics pipelines for dynamic rendering, made on first use:
+//   Shadow          depth only, from the lights (`format` unused);
+//   DepthPrepass    the forward vertex stage without a fragment stage, colour writes off: the
+//                   camera's depth, in the forward pass's rendering;
+//   GBufferPrepass  the same depth plus the G-buffer (`format` kGBufferFormat), when the AO-field
+//                   pass runs;
+//   AoFields        one caster's reach box, back faces, depth clamp, no depth test, its 1 - A_i
+//                   multiplied into the open fraction by the blend state; `flag`: the grid
+//                   representation (constant_id 0 of ao_field.frag);
+//   Forward         per colour format, shading only the fragments the pre-pass left in front
+//                   (depth EQUAL, no depth writes): each pixel runs the costly fragment stage once
+//                   whatever the overdraw; specialised on the debug view (constant_id 0) and, in
+//                   `flag`, on whether the AO-field pass ran (constant_id 1).
+Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag) {
+  if (pass != Pass::Forward) view = 0;
+  if (pass != Pass::Forward && pass != Pass::AoFields) flag = false;
   if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
-  if (auto it = pipelines.find({pass, format, view, ao_fields}); it != pipelines.end()) return it->second;
-  const bool shadow = pass == Pass::Shadow, depth_only = pass != Pass::Forward;
-  const bool forward_vertex = !shadow;  // the pre-pass runs the forward vertex stage: equal depths
+  if (auto it = pipelines.find({pass, format, view, flag}); it != pipelines.end()) return it->second;
+  const bool shadow = pass == Pass::Shadow, ao = pass == Pass::AoFields, forward = pass == Pass::Forward;
+  const bool depth_writes = pass == Pass::Shadow || pass == Pass::DepthPrepass || pass == Pass::GBufferPrepass;
+  const bool forward_vertex = !shadow && !ao;  // the pre-passes run the forward vertex stage: equal depths
   const struct {
     std::uint32_t view;
-    VkBool32 ao_fields;
-  } constants{view, ao_fields ? VK_TRUE : VK_FALSE};
+    VkBool32 flag;
+  } forward_constants{view, flag ? VK_TRUE : VK_FALSE};
+  const VkBool32 ao_constants = flag ? VK_TRUE : VK_FALSE;
   const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(std::uint32_t)}, {1, sizeof(std::uint32_t), sizeof(VkBool32)}};
-  const VkSpecializationInfo specialization{2, entries, sizeof constants, &constants};
+  const VkSpecializationInfo specialization = ao ? VkSpecializationInfo{1, entries, sizeof ao_constants, &ao_constants}
+                                                 : VkSpecializationInfo{2, entries, sizeof forward_constants,
+                                                                        &forward_constants};
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = forward_vertex ? forward_vert : shadow_vert;
+  stages[0].module = ao ? ao_field_vert : (forward_vertex ? forward_vert : shadow_vert);
   stages[0].pName = "main";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = forward_frag;
+  stages[1].module = ao ? ao_field_frag : (forward ? forward_frag : gbuffer_frag);
   stages[1].pName = "main";
   stages[1].pSpecializationInfo = &specialization;
+  const bool has_fragment = forward || ao || pass == Pass::GBufferPrepass;
 
   const VkVertexInputBindingDescription bindings[] = {
       {0, sizeof(GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX},
@@ -726,10 +790,10 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
       {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(GpuVertex, weights)},
   };
   auto vertex_input = vk_struct<VkPipelineVertexInputStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
-  vertex_input.vertexBindingDescriptionCount = forward_vertex ? 2 : 1;
+  vertex_input.vertexBindingDescriptionCount = ao ? 0 : (forward_vertex ? 2 : 1);
   vertex_input.pVertexBindingDescriptions = bindings;
   vertex_input.vertexAttributeDescriptionCount =
-      forward_vertex ? std::size(forward_attributes) : std::size(shadow_attributes);
+      ao ? 0 : (forward_vertex ? std::size(forward_attributes) : std::size(shadow_attributes));
   vertex_input.pVertexAttributeDescriptions = forward_vertex ? forward_attributes : shadow_attributes;
   auto assembly = vk_struct<VkPipelineInputAssemblyStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
   assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
@@ -738,8 +802,10 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   viewport.scissorCount = 1;
   auto raster = vk_struct<VkPipelineRasterizationStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
   raster.polygonMode = VK_POLYGON_MODE_FILL;
-  raster.cullMode = VK_CULL_MODE_NONE;  // two-sided: open scenes (Cornell's front, thin walls)
+  // Two-sided (open scenes: Cornell's front, thin walls); the AO-field boxes by their back faces.
+  raster.cullMode = ao ? VK_CULL_MODE_FRONT_BIT : VK_CULL_MODE_NONE;
   raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  raster.depthClampEnable = ao ? VK_TRUE : VK_FALSE;
   raster.lineWidth = 1.0f;
   raster.depthBiasEnable = shadow ? VK_TRUE : VK_FALSE;  // slope-scaled bias against shadow acne
   raster.depthBiasConstantFactor = 1.5f;
@@ -747,12 +813,19 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   auto multisample = vk_struct<VkPipelineMultisampleStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
   multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
   auto depth_state = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
-  depth_state.depthTestEnable = VK_TRUE;
-  depth_state.depthWriteEnable = depth_only ? VK_TRUE : VK_FALSE;
-  depth_state.depthCompareOp = depth_only ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_EQUAL;
+  depth_state.depthTestEnable = ao ? VK_FALSE : VK_TRUE;
+  depth_state.depthWriteEnable = depth_writes ? VK_TRUE : VK_FALSE;
+  depth_state.depthCompareOp = depth_writes ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_EQUAL;
   VkPipelineColorBlendAttachmentState blend_attachment{};
-  blend_attachment.colorWriteMask = depth_only ? 0 : VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
-                                                         VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  blend_attachment.colorWriteMask = pass == Pass::DepthPrepass ? 0 : VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                                                     VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  if (ao) {  // open fraction *= 1 - A_i
+    blend_attachment.blendEnable = VK_TRUE;
+    blend_attachment.srcColorBlendFactor = blend_attachment.srcAlphaBlendFactor = VK_BLEND_FACTOR_DST_COLOR;
+    blend_attachment.dstColorBlendFactor = blend_attachment.dstAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
+    blend_attachment.colorBlendOp = blend_attachment.alphaBlendOp = VK_BLEND_OP_ADD;
+    blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT;
+  }
   auto blend = vk_struct<VkPipelineColorBlendStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
   blend.attachmentCount = shadow ? 0 : 1;
   blend.pAttachments = &blend_attachment;
@@ -763,11 +836,11 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   auto rendering = vk_struct<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
   rendering.colorAttachmentCount = shadow ? 0 : 1;
   rendering.pColorAttachmentFormats = &format;
-  rendering.depthAttachmentFormat = kDepthFormat;
+  rendering.depthAttachmentFormat = ao ? VK_FORMAT_UNDEFINED : kDepthFormat;
 
   auto info = vk_struct<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
   info.pNext = &rendering;
-  info.stageCount = depth_only ? 1 : 2;
+  info.stageCount = has_fragment ? 2 : 1;
   info.pStages = stages;
   info.pVertexInputState = &vertex_input;
   info.pInputAssemblyState = &assembly;
@@ -783,7 +856,7 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
     return make_error(ErrorCode::Unsupported, std::string("Renderer: cannot create a pipeline for colour format ") +
                                                   std::to_string(int(format)) + " (" + vk_result_name(r) + ")");
   }
-  pipelines[{pass, format, view, ao_fields}] = made;
+  pipelines[{pass, format, view, flag}] = made;
   return made;
 }
 
@@ -893,13 +966,27 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_map_size " + std::to_string(settings.shadow_map_size) +
                                                       " is outside [16, 8192]");
   }
-  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), !ao_casters.empty());
+  if (settings.ao_field_step < 1 || settings.ao_field_step > 2) {
+    return make_error(ErrorCode::InvalidArgument, "Renderer: ao_field_step " + std::to_string(settings.ao_field_step) +
+                                                      " is neither 1 (every pixel) nor 2 (half resolution)");
+  }
+  const bool ao_pass = !ao_casters.empty();
+  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), ao_pass);
   if (!forward) return forward.error();
-  auto prepass = pipeline(Pass::DepthPrepass, target.format, 0, false);
+  auto prepass = ao_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);
   if (!prepass) return prepass.error();
-  auto shadow = pipeline(Pass::Shadow, VK_FORMAT_UNDEFINED, 0, false);
+  auto shadow = pipeline(Pass::Shadow, VK_FORMAT_UNDEFINED);
   if (!shadow) return shadow.error();
-  PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size));
+  VkPipeline ao_pipelines[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};  // radial fit, grid
+  if (ao_pass) {
+    for (bool grid : {false, true}) {
+      auto made = pipeline(Pass::AoFields, kAoOpenFormat, 0, grid);
+      if (!made) return made.error();
+      ao_pipelines[grid] = *made;
+    }
+  }
+  PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size,
+                              ao_pass ? settings.ao_field_step : 0));
 
   // Per-frame data.
   PENUMBRA_TRY(ensure_host_buffer(light_buffer, std::max<std::size_t>(1, lights.size()) * sizeof(gpu::GpuLight),
@@ -931,13 +1018,17 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   const float radius = bounds.empty() ? 1.0f : 0.5f * glm::length(bounds.extent());
   frame.shadow_params = glm::vec4(1.0f / float(settings.shadow_map_size), 0.0f,
                                   2.0f * radius / float(settings.shadow_map_size), 0.0f);
+  frame.clip_to_world = glm::inverse(frame.view_proj);
+  frame.target_size = glm::vec4(float(target.width), float(target.height), 1.0f / float(target.width),
+                                1.0f / float(target.height));
+  frame.ao_params = glm::uvec4(settings.ao_field_step, 0u, 0u, 0u);
   std::memcpy(frame_buffer.mapped, &frame, sizeof frame);
   write_descriptors();
 
   // Every draw of a pass (the shadow pass binds positions only; only the forward pass reads
   // materials).
   auto draw_all = [&](Pass pass, std::uint32_t layer) {
-    const bool shadow_pass = pass == Pass::Shadow;
+    const bool shadow_pass = pass == Pass::Shadow;  // (the pre-passes bind what the forward pass binds)
     for (const Draw& d : draws) {
       if (shadow_pass && !d.casts_shadow) continue;
       gpu::DrawPush push = d.push;
@@ -998,36 +1089,102 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     shadow_initialised = true;
   }
 
-  // Forward pass into the target.
-  image_barrier(cmd, target.image, VK_IMAGE_ASPECT_COLOR_BIT, target.layout, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, 0,
-                VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+  // Depth pre-pass; with AO-field casters it also writes the G-buffer and is followed by the
+  // AO-field pass, and the forward pass then reads its depth (read-only). Without casters the
+  // pre-pass and the forward pass share one rendering.
+  const VkImageLayout forward_depth_layout =
+      ao_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   image_barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, 0,
+                VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
                 VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
-  auto color_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-  color_attachment.imageView = target.view;
-  color_attachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  color_attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  color_attachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}};
   auto depth_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
   depth_attachment.imageView = depth.view;
   depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depth_attachment.storeOp = ao_pass ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE;
   depth_attachment.clearValue.depthStencil = {1.0f, 0};
+  auto color_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+  color_attachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  color_attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   auto info = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
   info.renderArea = {{0, 0}, {target.width, target.height}};
   info.layerCount = 1;
   info.colorAttachmentCount = 1;
   info.pColorAttachments = &color_attachment;
+  if (ao_pass) {
+    // Pre-pass: depth and G-buffer.
+    image_barrier(cmd, gbuffer.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                  VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
+                  VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+    color_attachment.imageView = gbuffer.view;
+    color_attachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    info.pDepthAttachment = &depth_attachment;
+    vkCmdBeginRendering(cmd, &info);
+    set_viewport(target.width, target.height);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
+    draw_all(Pass::GBufferPrepass, 0);
+    vkCmdEndRendering(cmd);
+    image_barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                  forward_depth_layout, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
+                      VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
+    image_barrier(cmd, gbuffer.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                  VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+
+    // AO-field pass at 1 / ao_field_step resolution: per caster its reach box, 1 - A_i multiplied
+    // into the open fraction (cleared to 1), so a sample pays only for the casters whose reach its
+    // view ray crosses.
+    image_barrier(cmd, ao_open.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                  VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
+                  VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                  VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT);
+    const std::uint32_t ao_width = (target.width + ao_step - 1) / ao_step;
+    const std::uint32_t ao_height = (target.height + ao_step - 1) / ao_step;
+    color_attachment.imageView = ao_open.view;
+    color_attachment.clearValue.color = {{1.0f, 1.0f, 1.0f, 1.0f}};
+    info.pDepthAttachment = nullptr;
+    info.renderArea.extent = {ao_width, ao_height};
+    vkCmdBeginRendering(cmd, &info);
+    set_viewport(ao_width, ao_height);
+    for (std::uint32_t i = 0; i < ao_caster_grid.size(); ++i) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ao_pipelines[ao_caster_grid[i]]);
+      gpu::DrawPush push{};
+      push.draw.x = i;
+      vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                         sizeof push, &push);
+      vkCmdDraw(cmd, 36, 1, 0, 0);
+    }
+    vkCmdEndRendering(cmd);
+    image_barrier(cmd, ao_open.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                  VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    depth_attachment.imageLayout = forward_depth_layout;
+    depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+    depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_NONE;
+    info.renderArea.extent = {target.width, target.height};
+  }
+
+  // Forward pass into the target.
+  image_barrier(cmd, target.image, VK_IMAGE_ASPECT_COLOR_BIT, target.layout, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, 0,
+                VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+  color_attachment.imageView = target.view;
+  color_attachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}};
   info.pDepthAttachment = &depth_attachment;
   vkCmdBeginRendering(cmd, &info);
   set_viewport(target.width, target.height);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
-  draw_all(Pass::DepthPrepass, 0);
+  if (!ao_pass) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
+    draw_all(Pass::DepthPrepass, 0);
+  }
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *forward);
   draw_all(Pass::Forward, 0);
   vkCmdEndRendering(cmd);
