@@ -344,6 +344,13 @@ TEST_F(RendererTest, RejectsBadSizesAndReportsMemory) {
   ASSERT_FALSE(tiny.ok());
   EXPECT_NE(tiny.error().message.find("shadow_map_size"), std::string::npos);
   settings.shadow_map_size = 256;
+  for (std::uint32_t step : {0u, 3u}) {
+    settings.ao_field_step = step;
+    auto bad_step = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings);
+    ASSERT_FALSE(bad_step.ok());
+    EXPECT_NE(bad_step.error().message.find("ao_field_step"), std::string::npos);
+  }
+  settings.ao_field_step = 2;
   ASSERT_TRUE(renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings).ok());
   EXPECT_GT(renderer_->stats().gpu_bytes, std::uint64_t{kWidth} * kHeight * 4);
   EXPECT_GT(renderer_->stats().draws, 0u);
