@@ -7,7 +7,7 @@
 // One draft bake of the courtyard (probes, AO fields, pose-AO); one World per variant, each with
 // the default components of `penumbra render` and only that variant's chunks attached: none
 // (probes only), ao-fields (crates still; the pass at its default half resolution), ao-fields-full
-// (the same at every pixel: RenderSettings::ao_field_step 1), ao-fields-moving (one crate moves
+// (the same at every pixel: RenderSettings::ambient_step 1), ao-fields-moving (one crate moves
 // every frame: its
 // caster record is uploaded each frame), pose-ao (the walker's VertexAO changes and is uploaded
 // every frame), all (moving crate and pose-AO). Every frame advances the World by 1/30 s
@@ -106,7 +106,7 @@ Result<Report> run(const Options& options) {
     v.ao_fields = fields;
     v.moving_crate = moving;
     v.pose_ao = pose;
-    v.settings.ao_field_step = ao_step;
+    v.settings.ambient_step = ao_step;
     variants.push_back(std::move(v));
   };
   add("none", false, false, false);

@@ -13,3 +13,17 @@ mat4 skin_matrix(uvec4 joint_index, vec4 weight) {
   return weight.x * joints[base + joint_index.x] + weight.y * joints[base + joint_index.y] +
          weight.z * joints[base + joint_index.z] + weight.w * joints[base + joint_index.w];
 }
+
+// The full-resolution pixel that sample q of the ambient image stands for (RenderSettings::
+// ambient_step s: pixel (s q.x, s q.y), clamped to the target).
+ivec2 ambient_sample_pixel(ivec2 q) {
+  return min(int(frame.ambient_params.x) * q, ivec2(frame.target_size.xy) - 1);
+}
+
+// The world point at the centre of pixel p whose depth (pre-pass, Vulkan NDC: x, y in [-1, 1] from
+// the top left, depth in [0, 1]) is `depth`, through the inverse view-projection.
+vec3 world_at_pixel(ivec2 p, float depth) {
+  vec2 ndc = (vec2(p) + 0.5) * frame.target_size.zw * 2.0 - 1.0;
+  vec4 world = frame.clip_to_world * vec4(ndc, depth, 1.0);
+  return world.xyz / world.w;
+}

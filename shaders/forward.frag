@@ -3,24 +3,22 @@
 //   direct light   directional / point / spot (KHR_lights_punctual, as bake/light_sampling.h) and
 //                  rect lights as Lambertian emitters of intensity L A cos(theta_l) from their centre,
 //                  each with a PCF-filtered shadow map;
-//   indirect light the probe grid's irradiance per pixel (Kontkanen & Laine 2006; the thesis
-//                  section 3.2): trilinear SH from 3D textures, evaluated as core/sh.h;
-//   AO             the per-vertex AO attribute (vertex AO, pose-AO) times, on AO-field receivers,
-//                  the open fraction under the moving casters' AO fields (per pixel on surfaces,
-//                  from the AO-field pass before this one: ao_field.frag; per entity on dynamic
-//                  receivers);
+//   indirect light the probe grid's irradiance (Kontkanen & Laine 2006; the thesis section 3.2;
+//                  probe_grid.glsl) times the open fraction under the moving casters' AO fields
+//                  on AO-field receivers (per pixel on surfaces, per entity on dynamic receivers),
+//                  both from the ambient passes before this one (ambient.frag, ao_field.frag),
+//                  upsampled; times the per-vertex AO attribute (vertex AO, pose-AO);
 //   emission       the material's emitted radiance;
 // then exposure, the ACES filmic fit of Narkowicz (2015) and, for UNORM targets, the sRGB transfer.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#include "probe_grid.glsl"
 
 layout(std430, set = 0, binding = PENUMBRA_BINDING_LIGHTS) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = PENUMBRA_BINDING_SHADOW_MAP) uniform sampler2DArrayShadow shadow_map;
-layout(set = 0, binding = PENUMBRA_BINDING_PROBE_SH) uniform sampler3D probe_sh[PENUMBRA_PROBE_TEXTURES];
-layout(set = 0, binding = PENUMBRA_BINDING_PROBE_VALIDITY) uniform sampler3D probe_validity;
 layout(set = 0, binding = PENUMBRA_BINDING_SCENE_DEPTH) uniform sampler2D scene_depth;
 layout(set = 0, binding = PENUMBRA_BINDING_GBUFFER) uniform sampler2D gbuffer;
-layout(set = 0, binding = PENUMBRA_BINDING_AO_OPEN) uniform sampler2D ao_open;
+layout(set = 0, binding = PENUMBRA_BINDING_AMBIENT) uniform sampler2D ambient_image;
 layout(set = 1, binding = PENUMBRA_BINDING_BASE_COLOR) uniform sampler2D base_color_texture;
 
 layout(location = 0) in vec3 in_world;
@@ -33,8 +31,9 @@ layout(location = 0) out vec4 out_color;
 // The debug view is a specialisation constant (one pipeline per view): llvmpipe runs shaders as
 // SIMD with masks, so a run-time switch would pay for every view's code on every pixel.
 layout(constant_id = 0) const uint kView = PENUMBRA_VIEW_LIT;
-// The AO-field pass ran: false when the scene has no baked casters, so its code is compiled out.
-layout(constant_id = 1) const bool kAoFields = false;
+// The ambient passes ran (a probe grid or AO-field casters, and a view that shows them): else their
+// code is compiled out.
+layout(constant_id = 1) const bool kAmbient = false;
 
 const float kPi = 3.14159265358979323846;
 
@@ -111,96 +110,40 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
   return e;
 }
 
-// The probe grid's texture coordinate at p on a surface with normal n (probe_grid.h: node centres
-// at texel centres). With the leak guard's reach, the trilinear lookup moves to the weighted mean
-// of the cell corners that no surface hides from p (probe_lookup_fraction in probe_grid.cpp).
-vec3 probe_uvw(vec3 p, vec3 n) {
-  vec3 res = frame.probe_resolution.xyz;
-  vec3 u = clamp((frame.probe_world_to_grid * vec4(p, 1.0)).xyz, 0.0, 1.0) * (res - 1.0);
-  if ((frame.params.z & PENUMBRA_FLAG_PROBE_REACH) != 0u) {
-    vec3 base = min(floor(u), res - 2.0);
-    vec3 f = u - base;
-    vec3 nc = mat3(frame.probe_world_to_grid) * n * (res - 1.0);
-    float len = length(nc);
-    vec3 t = len > 0.0 ? f + nc * (PENUMBRA_PROBE_NORMAL_BIAS / len) : f;  // towards the open side
-    float wsum = 0.0;
-    vec3 mean = vec3(0.0);
-    for (int c = 0; c < 8; ++c) {
-      vec3 o = vec3(float(c & 1), float((c >> 1) & 1), float((c >> 2) & 1));
-      uvec2 packed = uvec2(texelFetch(probe_validity, ivec3(base + o), 0).gb);
-      vec3 d = t - o;
-      // Reach bytes: g = +x, -x, +y; b = -y, +z, -z (pack_probe_node_texels).
-      uvec3 plus = uvec3(packed.x & 255u, packed.x >> 16, (packed.y >> 8) & 255u);
-      uvec3 minus = uvec3((packed.x >> 8) & 255u, packed.y & 255u, packed.y >> 16);
-      vec3 r = vec3(mix(plus, minus, lessThan(d, vec3(0.0)))) * (1.0 / 255.0) + PENUMBRA_PROBE_REACH_SLACK;
-      if (any(greaterThan(abs(d), r))) continue;
-      vec3 w3 = mix(1.0 - f, f, o);
-      float w = w3.x * w3.y * w3.z;
-      wsum += w;
-      mean += w * o;
-    }
-    if (wsum > 1e-6) f = mean / wsum;
-    u = base + f;
-  }
-  return (u + 0.5) / res;
-}
-
-// E(p, n) = the trilinearly interpolated SH expansion evaluated at n, clamped at 0 (evaluate() in
-// probe_grid.cpp; basis and signs of core/sh.h).
-vec3 probe_irradiance(vec3 p, vec3 n) {
-  vec3 uvw = probe_uvw(p, n);
-  // Slot s of the 27: channel s % 3 of coefficient s / 3 (constant sampler indices, no dynamic indexing).
-  vec4 t0 = texture(probe_sh[0], uvw), t1 = texture(probe_sh[1], uvw), t2 = texture(probe_sh[2], uvw);
-  vec3 c[4];
-  c[0] = t0.xyz;
-  c[1] = vec3(t0.w, t1.xy);
-  c[2] = vec3(t1.zw, t2.x);
-  c[3] = t2.yzw;
-  const float kY0 = 0.28209479177387814, kY1 = 0.48860251190291992;
-  const float kY2a = 1.09254843059207907, kY2b = 0.31539156525252005, kY2c = 0.54627421529603959;
-  float y[9] = float[9](kY0, -kY1 * n.y, kY1 * n.z, -kY1 * n.x, kY2a * n.x * n.y, -kY2a * n.y * n.z,
-                        kY2b * (3.0 * n.z * n.z - 1.0), -kY2a * n.x * n.z, kY2c * (n.x * n.x - n.y * n.y));
-  vec3 e = c[0] * y[0] + c[1] * y[1] + c[2] * y[2] + c[3] * y[3];
-  if (frame.params.w == 3u) {  // L2: four more textures
-    vec4 t3 = texture(probe_sh[3], uvw), t4 = texture(probe_sh[4], uvw), t5 = texture(probe_sh[5], uvw);
-    vec4 t6 = texture(probe_sh[6], uvw);
-    e += vec3(t3.xyz) * y[4] + vec3(t3.w, t4.xy) * y[5] + vec3(t4.zw, t5.x) * y[6] + t5.yzw * y[7] + t6.xyz * y[8];
-  }
-  return max(e, vec3(0.0));
-}
-
-// The open fraction under the AO-field casters at this pixel (normal n), upsampled from the pass's
-// image (ao_field.frag; at step s sample (i, j) stands for pixel (s i, s j)): the bilinear
-// weights of the four nearest samples, restricted to samples on this pixel's surface (their depth
-// on this pixel's plane, which is linear in screen space, within 2 % of the distance, and normals
-// within 25 degrees: the pre-pass images), so that a crate's edge does not bleed into the ground;
-// where none of them is, any of the four on the surface, else this pixel's own block. A pixel
-// whose coordinates are multiples of s (every pixel at step 1) reads its own sample unchanged.
-float ao_field_open(vec3 n) {
-  int step = int(frame.ao_params.x);
+// The ambient image at this pixel (normal n): (probe irradiance x open fraction x
+// ambient_scale, open fraction), upsampled from the passes' image (at step s sample (i, j) stands
+// for pixel (s i, s j)): the bilinear weights of the four nearest samples, restricted to samples
+// on this pixel's surface (their depth on this pixel's plane, which is linear in screen space,
+// within 2 % of the distance, and normals within 25 degrees: the pre-pass images), so that a
+// crate's edge does not bleed into the ground nor light leak across a wall; where none of them
+// is, any of the four on the surface, else this pixel's own block. A pixel whose coordinates are
+// multiples of s (every pixel at step 1) reads its own sample unchanged.
+vec4 ambient_at_pixel(vec3 n) {
+  int step = int(frame.ambient_params.x);
   ivec2 p = ivec2(gl_FragCoord.xy);
   ivec2 q0 = p / step;
-  ivec2 last = textureSize(ao_open, 0) - 1, last_pixel = ivec2(frame.target_size.xy) - 1;
+  ivec2 last = textureSize(ambient_image, 0) - 1;
   vec2 f = vec2(p - step * q0) / float(step);
   float d = gl_FragCoord.z, tolerance = 0.02 * max(1.0 - d, 1e-7);  // 1 - depth ~ near / distance
   vec2 slope = vec2(dFdx(d), dFdy(d));
-  float sum = 0.0, weight = 0.0, any_sum = 0.0, any_weight = 0.0;
+  vec4 sum = vec4(0.0), any_sum = vec4(0.0);
+  float weight = 0.0, any_weight = 0.0;
   for (int c = 0; c < 4; ++c) {
     ivec2 o = ivec2(c & 1, c >> 1);
     ivec2 q = min(q0 + o, last);
-    ivec2 sample_pixel = min(step * q, last_pixel);
+    ivec2 sample_pixel = ambient_sample_pixel(q);
     float plane = d + dot(vec2(sample_pixel - p), slope);
     bool same = abs(texelFetch(scene_depth, sample_pixel, 0).r - plane) <= tolerance &&
                 dot(texelFetch(gbuffer, sample_pixel, 0).xyz, n) > 0.9;
-    float open = texelFetch(ao_open, q, 0).r;
+    vec4 value = texelFetch(ambient_image, q, 0);
     float w = same ? (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y) : 0.0;
-    sum += w * open;
+    sum += w * value;
     weight += w;
-    any_sum += same ? open : 0.0;
+    any_sum += same ? value : vec4(0.0);
     any_weight += same ? 1.0 : 0.0;
   }
   if (weight > 0.0) return sum / weight;
-  return any_weight > 0.0 ? any_sum / any_weight : texelFetch(ao_open, q0, 0).r;
+  return any_weight > 0.0 ? any_sum / any_weight : texelFetch(ambient_image, q0, 0);
 }
 
 // ACES filmic curve, Narkowicz 2015 ("ACES Filmic Tone Mapping Curve"), per channel, to [0, 1].
@@ -217,10 +160,15 @@ void main() {
   if (!gl_FrontFacing) n = -n;  // shade the side the camera sees
   vec3 albedo = push.base_color.rgb * texture(base_color_texture, in_uv).rgb;
   bool has_probe = (frame.params.z & PENUMBRA_FLAG_PROBE_GRID) != 0u;
+  // AO: the vertex attribute, a dynamic receiver's occlusion, the open fraction per pixel (1 off
+  // surface receivers).
   float ao = in_ao;
-  if (kAoFields) {  // the receiver's open fraction under the casters (1 on non-receivers)
-    ao *= ao_field_open(n);
-    if (uint(push.ao_field.x) == PENUMBRA_AO_RECEIVER_ENTITY) ao *= 1.0 - push.ao_field.y;
+  if (uint(push.ao_field.x) == PENUMBRA_AO_RECEIVER_ENTITY) ao *= 1.0 - push.ao_field.y;
+  vec3 indirect = vec3(0.0);
+  if (kAmbient) {
+    vec4 ambient = ambient_at_pixel(n);
+    if (has_probe) indirect = ambient.rgb * (ao / frame.ambient_scale.x);
+    ao *= ambient.a;
   }
   const uint view = kView;
 
@@ -247,7 +195,6 @@ void main() {
     color = has_probe ? probe_irradiance(in_world, n) : vec3(0.0);
   } else {
     vec3 direct = (view == PENUMBRA_VIEW_INDIRECT) ? vec3(0.0) : direct_irradiance(in_world, n);
-    vec3 indirect = (view == PENUMBRA_VIEW_DIRECT || !has_probe) ? vec3(0.0) : probe_irradiance(in_world, n) * ao;
     color = albedo / kPi * (direct + indirect);
     if (view == PENUMBRA_VIEW_LIT) color += push.emissive.rgb;
   }

@@ -26,12 +26,13 @@ using mat4 = glm::mat4;
 #define PENUMBRA_BINDING_PROBE_SH 5       // sampler3D[PENUMBRA_PROBE_TEXTURES]: probe_grid.h GPU layout
 #define PENUMBRA_BINDING_PROBE_VALIDITY 6 // sampler3D: validity (r), reach (g, b): pack_probe_node_texels
 #define PENUMBRA_BINDING_AO_FIELDS 7      // storage vec4[]: the ao_field_gpu.h layout (a placeholder without casters)
-// The AO-field pass's screen images (placeholders without casters), all read with texelFetch at
-// the pixel: the pre-pass depth and G-buffer it reads, the open fraction it writes for the
-// forward pass.
+// The ambient passes' screen images (placeholders where they do not run), all read with
+// texelFetch: the pre-pass depth and G-buffer they read, the ambient image they write for the
+// forward pass (at 1 / RenderSettings::ambient_step of the target's size).
 #define PENUMBRA_BINDING_SCENE_DEPTH 8    // sampler2D: the camera's depth (pre-pass)
 #define PENUMBRA_BINDING_GBUFFER 9        // sampler2D: xyz shading normal, w receiver code (below)
-#define PENUMBRA_BINDING_AO_OPEN 10       // sampler2D: r prod (1 - A_i) over the casters at the pixel
+#define PENUMBRA_BINDING_AMBIENT 10       // sampler2D: rgb probe irradiance x open x ambient_scale.x,
+                                          // a open fraction prod (1 - A_i) over the AO-field casters
 // Descriptor set 1 (per material): the base colour texture (sRGB; white when the material has none).
 #define PENUMBRA_BINDING_BASE_COLOR 0
 
@@ -75,7 +76,8 @@ struct FrameUniforms {
   vec4 shadow_params;      // x texel size of the shadow map (1 / size), y depth bias (light clip units), z normal offset (m)
   mat4 clip_to_world;      // inverse of view_proj: the AO-field pass's pixel -> world point
   vec4 target_size;        // xy pixels of the target, zw their inverses
-  uvec4 ao_params;         // x the AO-field pass's pixel step (RenderSettings::ao_field_step)
+  uvec4 ambient_params;    // x the ambient passes' pixel step (RenderSettings::ambient_step)
+  vec4 ambient_scale;      // x: the ambient image holds probe irradiance times x (fits half floats)
 };
 
 // A light in world space. Radiometric units as penumbra::Light (components.h); color = colour x

@@ -1,5 +1,5 @@
 // The forward renderer: World -> GPU resources (sync); per frame (record) the shadow passes, the
-// depth pre-pass, with AO-field casters the AO-field pass, and the forward pass.
+// depth pre-pass, with a probe grid or AO-field casters the ambient passes, and the forward pass.
 #include "penumbra/render/renderer.h"
 
 #include <algorithm>
@@ -40,7 +40,7 @@ namespace {
 
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 constexpr VkFormat kGBufferFormat = VK_FORMAT_R16G16B16A16_SFLOAT;  // normal, receiver code (layout.h)
-constexpr VkFormat kAoOpenFormat = VK_FORMAT_R16_SFLOAT;            // blendable on every device
+constexpr VkFormat kAmbientFormat = VK_FORMAT_R16G16B16A16_SFLOAT;  // blendable on every device
 constexpr std::uint32_t kMaxMaterialSets = 1024;
 constexpr std::uint32_t kMaxImageSize = 16384;
 
@@ -105,9 +105,10 @@ struct Renderer::Impl {
   VkDescriptorSetLayout frame_layout = VK_NULL_HANDLE, material_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE,
-                 gbuffer_frag = VK_NULL_HANDLE, ao_field_vert = VK_NULL_HANDLE, ao_field_frag = VK_NULL_HANDLE;
+                 gbuffer_frag = VK_NULL_HANDLE, ambient_vert = VK_NULL_HANDLE, ambient_frag = VK_NULL_HANDLE,
+                 ao_field_vert = VK_NULL_HANDLE, ao_field_frag = VK_NULL_HANDLE;
   // The graphics pipelines by pass, colour format, view and flag (see pipeline()).
-  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AoFields, Forward };
+  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, Ambient, AoFields, Forward };
   std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
@@ -129,6 +130,7 @@ struct Renderer::Impl {
 
   // Probe grid.
   std::shared_ptr<const ProbeGridData> probe;
+  float ambient_scale = 1.0f;  // FrameUniforms::ambient_scale.x for this grid
   ImageResource probe_textures[PENUMBRA_PROBE_TEXTURES];
   ImageResource probe_validity;
   ImageResource dummy_3d;
@@ -140,9 +142,9 @@ struct Renderer::Impl {
   std::vector<const AOFieldData*> ao_field_data;  // their fields when packed
   std::uint64_t ao_field_tick = 0;                // the newest caster change tick packed
 
-  // Targets. The G-buffer and the open fraction exist only while the AO-field pass runs.
-  ImageResource depth, gbuffer, ao_open;
-  std::uint32_t depth_width = 0, depth_height = 0, ao_step = 0;  // ao_step 0: no AO-field pass
+  // Targets. The G-buffer and the ambient image exist only while the ambient passes run.
+  ImageResource depth, gbuffer, ambient;
+  std::uint32_t depth_width = 0, depth_height = 0, ambient_step = 0;  // 0: no ambient passes
   ImageResource shadow_map;
   std::vector<VkImageView> shadow_layer_views;
   std::uint32_t shadow_size = 0, shadow_layers = 0;
@@ -162,11 +164,12 @@ struct Renderer::Impl {
     for (auto& [k, b] : vertex_ao) alloc->destroy(b.buffer);
     for (Buffer* b : {&ones, &ao_field_buffer, &ao_field_placeholder, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
     for (auto& t : probe_textures) alloc->destroy(t);
-    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &gbuffer, &ao_open, &shadow_map, &offscreen})
+    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &gbuffer, &ambient, &shadow_map, &offscreen})
       alloc->destroy(*i);
     for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
     for (auto& [key, p] : pipelines) vkDestroyPipeline(vk, p, nullptr);
-    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert, gbuffer_frag, ao_field_vert, ao_field_frag})
+    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert, gbuffer_frag, ambient_vert, ambient_frag,
+                             ao_field_vert, ao_field_frag})
       if (m) vkDestroyShaderModule(vk, m, nullptr);
     for (VkSampler s : {texture_sampler, probe_sampler, shadow_sampler, point_sampler})
       if (s) vkDestroySampler(vk, s, nullptr);
@@ -189,7 +192,7 @@ struct Renderer::Impl {
   int ao_caster_record(Entity e) const;
   void plan_shadows(const std::vector<WorldLight>& world_lights);
   Status ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size,
-                        std::uint32_t ao_step);
+                        std::uint32_t ambient_step);
   void write_descriptors();
   Status record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
                 const RenderSettings& settings);
@@ -215,7 +218,7 @@ Status Renderer::Impl::init() {
       {PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, both, nullptr},
       {PENUMBRA_BINDING_SCENE_DEPTH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_GBUFFER, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
-      {PENUMBRA_BINDING_AO_OPEN, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_AMBIENT, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   };
   auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
   layout_info.bindingCount = std::size(frame_bindings);
@@ -287,9 +290,12 @@ Status Renderer::Impl::init() {
   forward_frag = make_module(vk, "forward.frag");
   shadow_vert = make_module(vk, "shadow.vert");
   gbuffer_frag = make_module(vk, "gbuffer.frag");
+  ambient_vert = make_module(vk, "ambient.vert");
+  ambient_frag = make_module(vk, "ambient.frag");
   ao_field_vert = make_module(vk, "ao_field.vert");
   ao_field_frag = make_module(vk, "ao_field.frag");
-  if (!forward_vert || !forward_frag || !shadow_vert || !gbuffer_frag || !ao_field_vert || !ao_field_frag) {
+  if (!forward_vert || !forward_frag || !shadow_vert || !gbuffer_frag || !ambient_vert || !ambient_frag ||
+      !ao_field_vert || !ao_field_frag) {
     return make_error(ErrorCode::Internal, "Renderer: the embedded SPIR-V is missing or invalid; rebuild the SDK");
   }
 
@@ -473,6 +479,16 @@ Status Renderer::Impl::sync_probe_grid(World& world) {
 
   // The probe_grid.h GPU layout (float32: the sampler's trilinear filter is the CPU's interpolation).
   const ProbeGridTextures packed = pack_probe_grid_textures(*probe, ProbeTexelFormat::RGBA32F);
+  // The ambient image's scale: 1 / a bound on the irradiance anywhere (per node and channel the sum
+  // of |coefficient| x 1.1 >= max |Y_k| of the L2 basis), so that half floats hold any grid.
+  const std::size_t per_node = sh_coefficients(probe->sh_order);
+  float bound = 0.0f;
+  for (std::size_t node = 0; node + 1 <= probe->coefficients.size() / per_node; ++node) {
+    glm::vec3 sum(0.0f);
+    for (std::size_t c = 0; c < per_node; ++c) sum += glm::abs(probe->coefficients[node * per_node + c]);
+    bound = std::max({bound, 1.1f * sum.x, 1.1f * sum.y, 1.1f * sum.z});
+  }
+  ambient_scale = std::isfinite(bound) && bound > 0.0f ? 1.0f / bound : 1.0f;
   auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
   info.imageType = VK_IMAGE_TYPE_3D;
   info.format = VK_FORMAT_R32G32B32A32_SFLOAT;
@@ -494,7 +510,7 @@ Status Renderer::Impl::sync_probe_grid(World& world) {
 // AO fields: re-packs the casters when one of them (its AOFieldCaster or WorldTransform) changed;
 // uploads everything when the set of casters or fields changed, else only the caster records
 // (their transforms), which the layout puts first. Without casters the buffer is released and the
-// pass is compiled out (kAoFields = false).
+// pass is compiled out (the ambient passes then run only with a probe grid).
 Status Renderer::Impl::sync_ao_fields(World& world) {
   std::vector<Entity> casters;
   std::vector<AOFieldGpuCaster> packed_casters;
@@ -605,13 +621,13 @@ void Renderer::Impl::plan_shadows(const std::vector<WorldLight>& world_lights) {
   }
 }
 
-// The depth buffer at the target's size; with the AO-field pass (ao_step > 0) the G-buffer and the
-// open fraction at 1 / ao_step of it; the shadow map array.
+// The depth buffer at the target's size; with the ambient passes (step > 0) the G-buffer and the
+// ambient image at 1 / step of it; the shadow map array.
 Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size,
                                       std::uint32_t step) {
-  if (!depth.image || depth_width != width || depth_height != height || ao_step != step) {
+  if (!depth.image || depth_width != width || depth_height != height || ambient_step != step) {
     vkDeviceWaitIdle(vk);
-    for (ImageResource* i : {&depth, &gbuffer, &ao_open}) alloc->destroy(*i);
+    for (ImageResource* i : {&depth, &gbuffer, &ambient}) alloc->destroy(*i);
     auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
     info.imageType = VK_IMAGE_TYPE_2D;
     info.format = kDepthFormat;
@@ -625,9 +641,9 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
     depth = *created;
     if (step > 0) {
       info.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
-      for (auto [image, format] : {std::pair{&gbuffer, kGBufferFormat}, std::pair{&ao_open, kAoOpenFormat}}) {
+      for (auto [image, format] : {std::pair{&gbuffer, kGBufferFormat}, std::pair{&ambient, kAmbientFormat}}) {
         info.format = format;
-        if (image == &ao_open) info.extent = {(width + step - 1) / step, (height + step - 1) / step, 1};
+        if (image == &ambient) info.extent = {(width + step - 1) / step, (height + step - 1) / step, 1};
         auto made = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
         if (!made) return made.error();
         *image = *made;
@@ -635,7 +651,7 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
     }
     depth_width = width;
     depth_height = height;
-    ao_step = step;
+    ambient_step = step;
     descriptors_dirty = true;
   }
   const auto layers = std::max<std::uint32_t>(1, static_cast<std::uint32_t>(shadow_matrices.size()));
@@ -692,14 +708,14 @@ void Renderer::Impl::write_descriptors() {
                                             VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   const VkBuffer ao_buffer = ao_field_buffer.buffer ? ao_field_buffer.buffer : ao_field_placeholder.buffer;
   const VkDescriptorBufferInfo ao_field_info{ao_buffer, 0, VK_WHOLE_SIZE};
-  // The AO-field pass's images, or the white texture where the pass does not run (only pipelines
-  // that never run then read them).
-  const bool ao_pass = gbuffer.view != VK_NULL_HANDLE;
+  // The ambient passes' images, or the white texture where the passes do not run (only pipelines
+  // that do not run then read them).
+  const bool ambient_pass = gbuffer.view != VK_NULL_HANDLE;
   const VkDescriptorImageInfo screen_info[3] = {
-      {point_sampler, ao_pass ? depth.view : white.image.view,
-       ao_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
-      {point_sampler, ao_pass ? gbuffer.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
-      {point_sampler, ao_pass ? ao_open.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}};
+      {point_sampler, ambient_pass ? depth.view : white.image.view,
+       ambient_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+      {point_sampler, ambient_pass ? gbuffer.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+      {point_sampler, ambient_pass ? ambient.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}};
   VkWriteDescriptorSet writes[11];
   auto buffer_write = [&](int i, std::uint32_t binding, VkDescriptorType type, const VkDescriptorBufferInfo* info) {
     writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
@@ -727,7 +743,7 @@ void Renderer::Impl::write_descriptors() {
   buffer_write(7, PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &ao_field_info);
   image_write(8, PENUMBRA_BINDING_SCENE_DEPTH, 1, &screen_info[0]);
   image_write(9, PENUMBRA_BINDING_GBUFFER, 1, &screen_info[1]);
-  image_write(10, PENUMBRA_BINDING_AO_OPEN, 1, &screen_info[2]);
+  image_write(10, PENUMBRA_BINDING_AMBIENT, 1, &screen_info[2]);
   vkUpdateDescriptorSets(vk, std::size(writes), writes, 0, nullptr);
 }
 
@@ -735,23 +751,25 @@ void Renderer::Impl::write_descriptors() {
 //   Shadow          depth only, from the lights (`format` unused);
 //   DepthPrepass    the forward vertex stage without a fragment stage, colour writes off: the
 //                   camera's depth, in the forward pass's rendering;
-//   GBufferPrepass  the same depth plus the G-buffer (`format` kGBufferFormat), when the AO-field
-//                   pass runs;
+//   GBufferPrepass  the same depth plus the G-buffer (`format` kGBufferFormat), when the ambient
+//                   passes run;
+//   Ambient         one triangle over the ambient image: the probe irradiance per sample;
 //   AoFields        one caster's reach box, back faces, depth clamp, no depth test, its 1 - A_i
-//                   multiplied into the open fraction by the blend state; `flag`: the grid
+//                   multiplied into the ambient image by the blend state; `flag`: the grid
 //                   representation (constant_id 0 of ao_field.frag);
 //   Forward         per colour format, shading only the fragments the pre-pass left in front
 //                   (depth EQUAL, no depth writes): each pixel runs the costly fragment stage once
 //                   whatever the overdraw; specialised on the debug view (constant_id 0) and, in
-//                   `flag`, on whether the AO-field pass ran (constant_id 1).
+//                   `flag`, on whether the ambient passes ran (constant_id 1).
 Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag) {
   if (pass != Pass::Forward) view = 0;
   if (pass != Pass::Forward && pass != Pass::AoFields) flag = false;
   if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
   if (auto it = pipelines.find({pass, format, view, flag}); it != pipelines.end()) return it->second;
   const bool shadow = pass == Pass::Shadow, ao = pass == Pass::AoFields, forward = pass == Pass::Forward;
+  const bool screen = ao || pass == Pass::Ambient;  // no vertex buffers, no depth attachment
   const bool depth_writes = pass == Pass::Shadow || pass == Pass::DepthPrepass || pass == Pass::GBufferPrepass;
-  const bool forward_vertex = !shadow && !ao;  // the pre-passes run the forward vertex stage: equal depths
+  const bool forward_vertex = !shadow && !screen;  // the pre-passes run the forward vertex stage: equal depths
   const struct {
     std::uint32_t view;
     VkBool32 flag;
@@ -764,13 +782,13 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = ao ? ao_field_vert : (forward_vertex ? forward_vert : shadow_vert);
+  stages[0].module = ao ? ao_field_vert : pass == Pass::Ambient ? ambient_vert : forward_vertex ? forward_vert : shadow_vert;
   stages[0].pName = "main";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = ao ? ao_field_frag : (forward ? forward_frag : gbuffer_frag);
+  stages[1].module = ao ? ao_field_frag : pass == Pass::Ambient ? ambient_frag : forward ? forward_frag : gbuffer_frag;
   stages[1].pName = "main";
   stages[1].pSpecializationInfo = &specialization;
-  const bool has_fragment = forward || ao || pass == Pass::GBufferPrepass;
+  const bool has_fragment = forward || screen || pass == Pass::GBufferPrepass;
 
   const VkVertexInputBindingDescription bindings[] = {
       {0, sizeof(GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX},
@@ -790,10 +808,10 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
       {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(GpuVertex, weights)},
   };
   auto vertex_input = vk_struct<VkPipelineVertexInputStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
-  vertex_input.vertexBindingDescriptionCount = ao ? 0 : (forward_vertex ? 2 : 1);
+  vertex_input.vertexBindingDescriptionCount = screen ? 0 : (forward_vertex ? 2 : 1);
   vertex_input.pVertexBindingDescriptions = bindings;
   vertex_input.vertexAttributeDescriptionCount =
-      ao ? 0 : (forward_vertex ? std::size(forward_attributes) : std::size(shadow_attributes));
+      screen ? 0 : (forward_vertex ? std::size(forward_attributes) : std::size(shadow_attributes));
   vertex_input.pVertexAttributeDescriptions = forward_vertex ? forward_attributes : shadow_attributes;
   auto assembly = vk_struct<VkPipelineInputAssemblyStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
   assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
@@ -813,18 +831,18 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   auto multisample = vk_struct<VkPipelineMultisampleStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
   multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
   auto depth_state = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
-  depth_state.depthTestEnable = ao ? VK_FALSE : VK_TRUE;
+  depth_state.depthTestEnable = screen ? VK_FALSE : VK_TRUE;
   depth_state.depthWriteEnable = depth_writes ? VK_TRUE : VK_FALSE;
   depth_state.depthCompareOp = depth_writes ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_EQUAL;
   VkPipelineColorBlendAttachmentState blend_attachment{};
   blend_attachment.colorWriteMask = pass == Pass::DepthPrepass ? 0 : VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
                                                                      VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
-  if (ao) {  // open fraction *= 1 - A_i
+  if (ao) {  // ambient *= 1 - A_i
     blend_attachment.blendEnable = VK_TRUE;
-    blend_attachment.srcColorBlendFactor = blend_attachment.srcAlphaBlendFactor = VK_BLEND_FACTOR_DST_COLOR;
+    blend_attachment.srcColorBlendFactor = VK_BLEND_FACTOR_DST_COLOR;
+    blend_attachment.srcAlphaBlendFactor = VK_BLEND_FACTOR_DST_ALPHA;
     blend_attachment.dstColorBlendFactor = blend_attachment.dstAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
     blend_attachment.colorBlendOp = blend_attachment.alphaBlendOp = VK_BLEND_OP_ADD;
-    blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT;
   }
   auto blend = vk_struct<VkPipelineColorBlendStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
   blend.attachmentCount = shadow ? 0 : 1;
@@ -836,7 +854,7 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   auto rendering = vk_struct<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
   rendering.colorAttachmentCount = shadow ? 0 : 1;
   rendering.pColorAttachmentFormats = &format;
-  rendering.depthAttachmentFormat = ao ? VK_FORMAT_UNDEFINED : kDepthFormat;
+  rendering.depthAttachmentFormat = screen ? VK_FORMAT_UNDEFINED : kDepthFormat;
 
   auto info = vk_struct<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
   info.pNext = &rendering;
@@ -966,27 +984,33 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_map_size " + std::to_string(settings.shadow_map_size) +
                                                       " is outside [16, 8192]");
   }
-  if (settings.ao_field_step < 1 || settings.ao_field_step > 2) {
-    return make_error(ErrorCode::InvalidArgument, "Renderer: ao_field_step " + std::to_string(settings.ao_field_step) +
+  if (settings.ambient_step < 1 || settings.ambient_step > 2) {
+    return make_error(ErrorCode::InvalidArgument, "Renderer: ambient_step " + std::to_string(settings.ambient_step) +
                                                       " is neither 1 (every pixel) nor 2 (half resolution)");
   }
-  const bool ao_pass = !ao_casters.empty();
-  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), ao_pass);
+  // The ambient passes run for the views that show indirect light or AO, when there is a probe
+  // grid or an AO-field caster; the probe pass only when the view shows indirect light.
+  const bool ambient_view = settings.view == DebugView::Lit || settings.view == DebugView::IndirectOnly ||
+                            settings.view == DebugView::AoOnly;
+  const bool ambient_pass = ambient_view && (probe || !ao_casters.empty());
+  const bool probe_pass = ambient_pass && probe && settings.view != DebugView::AoOnly;
+  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), ambient_pass);
   if (!forward) return forward.error();
-  auto prepass = ao_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);
+  auto prepass =
+      ambient_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);
   if (!prepass) return prepass.error();
   auto shadow = pipeline(Pass::Shadow, VK_FORMAT_UNDEFINED);
   if (!shadow) return shadow.error();
-  VkPipeline ao_pipelines[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};  // radial fit, grid
-  if (ao_pass) {
-    for (bool grid : {false, true}) {
-      auto made = pipeline(Pass::AoFields, kAoOpenFormat, 0, grid);
+  VkPipeline ambient_pipelines[3] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};  // probe, AO radial, AO grid
+  if (ambient_pass) {
+    for (int k = 0; k < 3; ++k) {
+      auto made = k == 0 ? pipeline(Pass::Ambient, kAmbientFormat) : pipeline(Pass::AoFields, kAmbientFormat, 0, k == 2);
       if (!made) return made.error();
-      ao_pipelines[grid] = *made;
+      ambient_pipelines[k] = *made;
     }
   }
   PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size,
-                              ao_pass ? settings.ao_field_step : 0));
+                              ambient_pass ? settings.ambient_step : 0));
 
   // Per-frame data.
   PENUMBRA_TRY(ensure_host_buffer(light_buffer, std::max<std::size_t>(1, lights.size()) * sizeof(gpu::GpuLight),
@@ -1021,7 +1045,8 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   frame.clip_to_world = glm::inverse(frame.view_proj);
   frame.target_size = glm::vec4(float(target.width), float(target.height), 1.0f / float(target.width),
                                 1.0f / float(target.height));
-  frame.ao_params = glm::uvec4(settings.ao_field_step, 0u, 0u, 0u);
+  frame.ambient_params = glm::uvec4(settings.ambient_step, 0u, 0u, 0u);
+  frame.ambient_scale = glm::vec4(probe ? ambient_scale : 1.0f, 0.0f, 0.0f, 0.0f);
   std::memcpy(frame_buffer.mapped, &frame, sizeof frame);
   write_descriptors();
 
@@ -1089,11 +1114,11 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     shadow_initialised = true;
   }
 
-  // Depth pre-pass; with AO-field casters it also writes the G-buffer and is followed by the
-  // AO-field pass, and the forward pass then reads its depth (read-only). Without casters the
-  // pre-pass and the forward pass share one rendering.
+  // Depth pre-pass; with the ambient passes it also writes the G-buffer and is followed by them,
+  // and the forward pass then reads its depth (read-only). Without them the pre-pass and the
+  // forward pass share one rendering.
   const VkImageLayout forward_depth_layout =
-      ao_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      ambient_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   image_barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                 VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                 VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
@@ -1103,7 +1128,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   depth_attachment.imageView = depth.view;
   depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth_attachment.storeOp = ao_pass ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depth_attachment.storeOp = ambient_pass ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE;
   depth_attachment.clearValue.depthStencil = {1.0f, 0};
   auto color_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
   color_attachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
@@ -1114,7 +1139,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   info.layerCount = 1;
   info.colorAttachmentCount = 1;
   info.pColorAttachments = &color_attachment;
-  if (ao_pass) {
+  if (ambient_pass) {
     // Pre-pass: depth and G-buffer.
     image_barrier(cmd, gbuffer.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
@@ -1138,23 +1163,27 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
 
-    // AO-field pass at 1 / ao_field_step resolution: per caster its reach box, 1 - A_i multiplied
-    // into the open fraction (cleared to 1), so a sample pays only for the casters whose reach its
-    // view ray crosses.
-    image_barrier(cmd, ao_open.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+    // Ambient passes at 1 / ambient_step resolution into the ambient image (cleared to 1): the
+    // probe irradiance per sample, then per AO-field caster its reach box, 1 - A_i multiplied in,
+    // so a sample pays only for the casters whose reach its view ray crosses.
+    image_barrier(cmd, ambient.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT);
-    const std::uint32_t ao_width = (target.width + ao_step - 1) / ao_step;
-    const std::uint32_t ao_height = (target.height + ao_step - 1) / ao_step;
-    color_attachment.imageView = ao_open.view;
+    const std::uint32_t ambient_width = (target.width + ambient_step - 1) / ambient_step;
+    const std::uint32_t ambient_height = (target.height + ambient_step - 1) / ambient_step;
+    color_attachment.imageView = ambient.view;
     color_attachment.clearValue.color = {{1.0f, 1.0f, 1.0f, 1.0f}};
     info.pDepthAttachment = nullptr;
-    info.renderArea.extent = {ao_width, ao_height};
+    info.renderArea.extent = {ambient_width, ambient_height};
     vkCmdBeginRendering(cmd, &info);
-    set_viewport(ao_width, ao_height);
+    set_viewport(ambient_width, ambient_height);
+    if (probe_pass) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ambient_pipelines[0]);
+      vkCmdDraw(cmd, 3, 1, 0, 0);
+    }
     for (std::uint32_t i = 0; i < ao_caster_grid.size(); ++i) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ao_pipelines[ao_caster_grid[i]]);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ambient_pipelines[1 + ao_caster_grid[i]]);
       gpu::DrawPush push{};
       push.draw.x = i;
       vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
@@ -1162,7 +1191,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
       vkCmdDraw(cmd, 36, 1, 0, 0);
     }
     vkCmdEndRendering(cmd);
-    image_barrier(cmd, ao_open.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+    image_barrier(cmd, ambient.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
                   VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
@@ -1181,7 +1210,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   info.pDepthAttachment = &depth_attachment;
   vkCmdBeginRendering(cmd, &info);
   set_viewport(target.width, target.height);
-  if (!ao_pass) {
+  if (!ambient_pass) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
     draw_all(Pass::DepthPrepass, 0);
   }

@@ -81,11 +81,12 @@ struct RenderSettings {
   float exposure = 1.0f;               // scene-referred radiance multiplier before tone mapping
   bool shadows = true;
   std::uint32_t shadow_map_size = 1024;
-  // The AO-field pass evaluates the casters at every ao_field_step-th pixel per axis: 1 every
-  // pixel, 2 (default) a quarter of them, which the forward pass upsamples along surfaces (about
-  // 0.7x the pass's cost on the courtyard at 1280x720; worst error 0.26 at contact edges, 99.7 % of
-  // the pixels within 0.01: penumbra bench render-ao, renderer_test). InvalidArgument otherwise.
-  std::uint32_t ao_field_step = 2;
+  // The ambient passes (the probe grid's irradiance and the AO-field casters' occlusion, in the
+  // lit, indirect and AO views) evaluate every ambient_step-th pixel per axis: 1 every pixel, 2
+  // (default) a quarter of them, which the forward pass upsamples along surfaces. The trade on the
+  // courtyard at 1280x720 (penumbra bench render-ao; renderer_test): see README's renderer row.
+  // InvalidArgument for anything but 1 or 2.
+  std::uint32_t ambient_step = 2;
 };
 
 // A colour image the renderer draws into (offscreen, or a swapchain image wrapped by the caller).
