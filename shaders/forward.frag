@@ -34,12 +34,15 @@ layout(constant_id = 0) const uint kView = PENUMBRA_VIEW_LIT;
 // The ambient passes ran (a probe grid or AO-field casters, and a view that shows them): else their
 // code is compiled out.
 layout(constant_id = 1) const bool kAmbient = false;
+// Shadow-map taps per light (RenderSettings::shadow_taps; 0: no shadows this frame, compiled out).
+layout(constant_id = 2) const uint kShadowTaps = 4u;
 
 const float kPi = 3.14159265358979323846;
 
-// PCF: four taps of the hardware 2x2 comparison filter at (+-0.5, +-0.5) texels, a tent over
-// 3x3 texels (the same footprint as nine taps on texel centres at under half the cost on
-// llvmpipe, where every filtered tap is software): the lit fraction at world point p.
+// PCF with the hardware 2x2 comparison filter: at kShadowTaps 4 four taps at (+-0.5, +-0.5)
+// texels, a tent over 3x3 texels (the footprint of nine taps on texel centres at under half the
+// cost on llvmpipe, where every filtered tap is software); at 1 one tap, bilinear over 2x2 texels.
+// The lit fraction at world point p.
 float shadow_factor(uint layer, vec3 p) {
   vec4 clip = shadow_matrices[layer] * vec4(p, 1.0);
   if (clip.w <= 0.0) return 1.0;
@@ -47,6 +50,7 @@ float shadow_factor(uint layer, vec3 p) {
   vec2 uv = ndc.xy * 0.5 + 0.5;
   if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || ndc.z > 1.0) return 1.0;
   float depth = ndc.z - frame.shadow_params.y;
+  if (kShadowTaps == 1u) return texture(shadow_map, vec4(uv, float(layer), depth));
   float texel = frame.shadow_params.x;
   float h = 0.5 * texel;
   float lit = texture(shadow_map, vec4(uv + vec2(-h, -h), float(layer), depth)) +
@@ -67,7 +71,6 @@ uint cube_face(vec3 d) {
 // Irradiance E (W/m^2 per channel) at p with unit normal n from every light, shadowed.
 vec3 direct_irradiance(vec3 p, vec3 n) {
   vec3 e = vec3(0.0);
-  bool shadows = (frame.params.z & PENUMBRA_FLAG_SHADOWS) != 0u;
   vec3 p_offset = p + n * frame.shadow_params.z;  // normal offset against acne
   for (uint i = 0u; i < frame.params.y; ++i) {
     GpuLight light = lights[i];
@@ -100,7 +103,7 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
     float cos_x = dot(n, l);
     if (cos_x <= 0.0 || all(equal(power, vec3(0.0)))) continue;
     float visible = 1.0;
-    if (shadows && light.cone_shadow.z >= 0.0) {
+    if (kShadowTaps != 0u && light.cone_shadow.z >= 0.0) {
       uint layer = uint(light.cone_shadow.z);
       if (light.cone_shadow.w > 1.0) layer += cube_face(p - light.position_type.xyz);
       visible = shadow_factor(layer, p_offset);

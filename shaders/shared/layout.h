@@ -51,7 +51,6 @@ using mat4 = glm::mat4;
 
 // FrameUniforms.flags bits.
 #define PENUMBRA_FLAG_PROBE_GRID 1u   // a baked probe grid is bound
-#define PENUMBRA_FLAG_SHADOWS 2u      // shadow maps were rendered this frame
 #define PENUMBRA_FLAG_LINEAR 4u       // write linear scene-referred values (no exposure, no tone map)
 #define PENUMBRA_FLAG_ENCODE_SRGB 8u  // the target is UNORM: apply the sRGB transfer in the shader
 #define PENUMBRA_FLAG_PROBE_REACH 16u // the probe grid has the leak guard's reach (probe_grid.h)

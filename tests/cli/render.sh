@@ -8,6 +8,12 @@ size=$(od -An -tu1 -j16 -N8 "$scratch/c.png" | tr -s ' ')
 [ "$size" = " 0 0 0 96 0 0 0 64" ] || fail "PNG size is '$size', expected 96x64"
 expect_exit 0 "$PENUMBRA" render builtin:cornell -o "$scratch/c.exr" --width 32 --height 24 --view irradiance --frames 3
 expect_output "median"; expect_output "p95"
+expect_exit 0 "$PENUMBRA" render builtin:courtyard -o "$scratch/a.png" --width 32 --height 24 --frames 2 --animate \
+  --shadow-taps 1 --ambient-step 1
+expect_output "2 animated frames"
+expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --shadow-taps 3; expect_output "1 or 4"
+expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --ambient-step 4; expect_output "1 or 2"
+expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --animate; expect_output "--frames"
 head -c 4 "$scratch/c.exr" | od -An -tx1 | grep -q "76 2f 31 01" || fail "not an OpenEXR file"
 expect_exit 1 "$PENUMBRA" render builtin:nosuch -o "$scratch/x.png"; expect_output "nosuch"
 [ -e "$scratch/x.png" ] && fail "a failed render left a file behind"

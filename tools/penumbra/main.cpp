@@ -19,11 +19,15 @@ Commands:
   info FILE.pbake
       Show the file's version, input hash, chunks, their sizes and what they hold.
   render SCENE [--bake FILE] -o OUT.png|OUT.exr [--width W] [--height H] [--camera NAME] [--time T]
-         [--frames N] [--view V] [--exposure E]
+         [--frames N [--animate]] [--view V] [--exposure E] [--shadow-map S] [--shadow-taps 1|4]
+         [--ambient-step 1|2]
       Render SCENE with the Vulkan renderer (lavapipe without a GPU) at W x H (default 1280x720),
       with the lighting data of FILE.pbake, at animation time T seconds. --frames N first renders N
-      frames and prints the median, 5th and 95th percentile frame time. V: lit (default), direct,
-      indirect, ao, albedo, validity, position, normal, irradiance.
+      frames and prints the median, 5th and 95th percentile frame time; --animate advances the scene
+      by 1/60 s before each of them (the image is then of the last). V: lit (default), direct,
+      indirect, ao, albedo, validity, position, normal, irradiance. S: shadow map size (0: none).
+      --shadow-taps 1 filters shadows bilinearly instead of over 3x3 texels; --ambient-step 1
+      evaluates probe light and AO fields at every pixel instead of every second one per axis.
   bench NAME [--quick] [--out DIR] [--threads N]
       Run a benchmark: print its table, write DIR/NAME.csv and the plot DIR/NAME.png (DIR defaults to
       bench-results). 'penumbra bench --list' names them.

@@ -134,9 +134,9 @@ struct Renderer::Impl {
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE,
                  gbuffer_frag = VK_NULL_HANDLE, ambient_vert = VK_NULL_HANDLE, ambient_frag = VK_NULL_HANDLE,
                  ao_field_vert = VK_NULL_HANDLE, ao_field_frag = VK_NULL_HANDLE;
-  // The graphics pipelines by pass, colour format, view and flag (see pipeline()).
+  // The graphics pipelines by pass, colour format, view, flag and shadow taps (see pipeline()).
   enum class Pass { Shadow, DepthPrepass, GBufferPrepass, Ambient, AoFields, Forward };
-  std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool>, VkPipeline> pipelines;
+  std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
   VkSampler texture_sampler = VK_NULL_HANDLE, probe_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE,
@@ -210,7 +210,8 @@ struct Renderer::Impl {
   }
 
   Status init();
-  Result<VkPipeline> pipeline(Pass pass, VkFormat format, std::uint32_t view = 0, bool flag = false);
+  Result<VkPipeline> pipeline(Pass pass, VkFormat format, std::uint32_t view = 0, bool flag = false,
+                              std::uint32_t shadow_taps = 0);
   Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
   Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
                       VkDeviceSize size);
@@ -790,13 +791,16 @@ void Renderer::Impl::write_descriptors() {
 //                   representation (constant_id 0 of ao_field.frag);
 //   Forward         per colour format, shading only the fragments the pre-pass left in front
 //                   (depth EQUAL, no depth writes): each pixel runs the costly fragment stage once
-//                   whatever the overdraw; specialised on the debug view (constant_id 0) and, in
-//                   `flag`, on whether the ambient passes ran (constant_id 1).
-Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag) {
-  if (pass != Pass::Forward) view = 0;
+//                   whatever the overdraw; specialised on the debug view (constant_id 0), in
+//                   `flag` on whether the ambient passes ran (constant_id 1) and on the shadow
+//                   taps (constant_id 2; 0 without shadows).
+Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag,
+                                            std::uint32_t shadow_taps) {
+  if (pass != Pass::Forward) view = shadow_taps = 0;
   if (pass != Pass::Forward && pass != Pass::AoFields) flag = false;
   if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
-  if (auto it = pipelines.find({pass, format, view, flag}); it != pipelines.end()) return it->second;
+  const auto key = std::tuple{pass, format, view, flag, shadow_taps};
+  if (auto it = pipelines.find(key); it != pipelines.end()) return it->second;
   const bool shadow = pass == Pass::Shadow, ao = pass == Pass::AoFields, forward = pass == Pass::Forward;
   const bool screen = ao || pass == Pass::Ambient;  // no vertex buffers, no depth attachment
   const bool depth_writes = pass == Pass::Shadow || pass == Pass::DepthPrepass || pass == Pass::GBufferPrepass;
@@ -804,11 +808,14 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   const struct {
     std::uint32_t view;
     VkBool32 flag;
-  } forward_constants{view, flag ? VK_TRUE : VK_FALSE};
+    std::uint32_t shadow_taps;
+  } forward_constants{view, flag ? VK_TRUE : VK_FALSE, shadow_taps};
   const VkBool32 ao_constants = flag ? VK_TRUE : VK_FALSE;
-  const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(std::uint32_t)}, {1, sizeof(std::uint32_t), sizeof(VkBool32)}};
+  const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(std::uint32_t)},
+                                              {1, sizeof(std::uint32_t), sizeof(VkBool32)},
+                                              {2, sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)}};
   const VkSpecializationInfo specialization = ao ? VkSpecializationInfo{1, entries, sizeof ao_constants, &ao_constants}
-                                                 : VkSpecializationInfo{2, entries, sizeof forward_constants,
+                                                 : VkSpecializationInfo{3, entries, sizeof forward_constants,
                                                                         &forward_constants};
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
@@ -905,7 +912,7 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
     return make_error(ErrorCode::Unsupported, std::string("Renderer: cannot create a pipeline for colour format ") +
                                                   std::to_string(int(format)) + " (" + vk_result_name(r) + ")");
   }
-  pipelines[{pass, format, view, flag}] = made;
+  pipelines[key] = made;
   return made;
 }
 
@@ -1030,6 +1037,10 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_map_size " + std::to_string(settings.shadow_map_size) +
                                                       " is outside [16, 8192]");
   }
+  if (settings.shadow_taps != 1 && settings.shadow_taps != 4) {
+    return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_taps " + std::to_string(settings.shadow_taps) +
+                                                      " is neither 1 (bilinear) nor 4 (tent over 3x3 texels)");
+  }
   if (settings.ambient_step < 1 || settings.ambient_step > 2) {
     return make_error(ErrorCode::InvalidArgument, "Renderer: ambient_step " + std::to_string(settings.ambient_step) +
                                                       " is neither 1 (every pixel) nor 2 (half resolution)");
@@ -1040,7 +1051,9 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                             settings.view == DebugView::AoOnly;
   const bool ambient_pass = ambient_view && (probe || !ao_casters.empty());
   const bool probe_pass = ambient_pass && probe && settings.view != DebugView::AoOnly;
-  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), ambient_pass);
+  const bool shadows = settings.shadows && !shadow_matrices.empty();
+  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), ambient_pass,
+                          shadows ? settings.shadow_taps : 0);
   if (!forward) return forward.error();
   auto prepass =
       ambient_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);
@@ -1068,14 +1081,12 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   std::memcpy(light_buffer.mapped, lights.data(), lights.size() * sizeof(gpu::GpuLight));
   std::memcpy(shadow_matrix_buffer.mapped, shadow_matrices.data(), shadow_matrices.size() * sizeof(glm::mat4));
   std::memcpy(joint_buffer.mapped, joints.data(), joints.size() * sizeof(glm::mat4));
-  const bool shadows = settings.shadows && !shadow_matrices.empty();
   gpu::FrameUniforms frame{};
   frame.view_proj = camera.projection * camera.view;
   frame.camera_exposure = glm::vec4(camera.position, settings.exposure);
   std::uint32_t flags = 0;
   if (probe) flags |= PENUMBRA_FLAG_PROBE_GRID;
   if (probe && !probe->reach.empty()) flags |= PENUMBRA_FLAG_PROBE_REACH;
-  if (shadows) flags |= PENUMBRA_FLAG_SHADOWS;
   if (is_float_format(target.format)) flags |= PENUMBRA_FLAG_LINEAR;
   if (is_unorm_format(target.format)) flags |= PENUMBRA_FLAG_ENCODE_SRGB;
   frame.params = glm::uvec4(static_cast<std::uint32_t>(settings.view), static_cast<std::uint32_t>(lights.size()), flags,

@@ -240,6 +240,31 @@ TEST_F(RendererTest, SkinningMovesTheWalkerOnTheGpu) {
   expect_golden(*second, "courtyard_walker_t04");
 }
 
+// The shadow filter's trade: on the courtyard's direct view one bilinear tap and the four-tap tent
+// differ only along shadow edges (some pixels, a mean under 1/255), and without shadows the
+// shadowed ground is lit.
+TEST_F(RendererTest, ShadowTapsChangeOnlyShadowEdges) {
+  BakedScene& s = scene("courtyard");
+  RenderSettings settings;
+  settings.view = DebugView::DirectOnly;
+  auto draw = [&]() {
+    auto image = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? std::move(image->rgba8) : std::vector<std::uint8_t>{};
+  };
+  const auto tent = draw();
+  settings.shadow_taps = 1;
+  const auto bilinear = draw();
+  settings.shadows = false;
+  const auto unshadowed = draw();
+  const Comparison taps = compare(tent, bilinear), none = compare(tent, unshadowed);
+  std::size_t changed = 0;
+  for (std::size_t p = 0; p < tent.size(); p += 4) changed += std::memcmp(&tent[p], &bilinear[p], 3) != 0;
+  EXPECT_GE(changed, 20u) << "one tap drew the same image as four";
+  EXPECT_LT(taps.mean_abs, 1.0 / 255.0);
+  EXPECT_GE(none.differing, 200u) << "without shadows the shadowed ground should be lit";
+}
+
 // Shadow layers are drawn again only when what they see changed: on the courtyard (sun: 1 layer,
 // lamp: 6) the first frame draws all 7, an unchanged frame none, a frame in which the walker moved
 // those that see it (the sun's and some of the lamp's faces), and that frame is bit-identical to
@@ -398,6 +423,11 @@ TEST_F(RendererTest, RejectsBadSizesAndReportsMemory) {
     EXPECT_NE(bad_step.error().message.find("ambient_step"), std::string::npos);
   }
   settings.ambient_step = 2;
+  settings.shadow_taps = 2;
+  auto bad_taps = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings);
+  ASSERT_FALSE(bad_taps.ok());
+  EXPECT_NE(bad_taps.error().message.find("shadow_taps"), std::string::npos);
+  settings.shadow_taps = 4;
   ASSERT_TRUE(renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings).ok());
   EXPECT_GT(renderer_->stats().gpu_bytes, std::uint64_t{kWidth} * kHeight * 4);
   EXPECT_GT(renderer_->stats().draws, 0u);
