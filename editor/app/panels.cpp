@@ -375,7 +375,7 @@ void stats_panel(EditorModel& model, UiState& ui) {
 
 void view_panel(EditorModel& model, UiState& ui) {
   ImGui::SetNextWindowPos(ImVec2(260, 560), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(460, 150), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(460, 170), ImGuiCond_FirstUseEver);
   ImGui::Begin("View");
   int view = static_cast<int>(ui.render.view);
   if (ImGui::Combo("debug view", &view, "lit\0direct\0indirect\0ao\0albedo\0validity\0position\0normal\0irradiance\0"))
@@ -386,6 +386,11 @@ void view_panel(EditorModel& model, UiState& ui) {
   ImGui::SameLine();
   int shadow = static_cast<int>(ui.render.shadow_map_size);
   if (ImGui::InputInt("shadow map", &shadow, 256)) ui.render.shadow_map_size = static_cast<std::uint32_t>(std::clamp(shadow, 64, 4096));
+  // The renderer's speed/quality trades (RenderSettings::shadow_taps, ambient_step).
+  bool soft = ui.render.shadow_taps == 4, half = ui.render.ambient_step == 2;
+  if (ImGui::Checkbox("soft shadows (4 taps)", &soft)) ui.render.shadow_taps = soft ? 4 : 1;
+  ImGui::SameLine();
+  if (ImGui::Checkbox("ambient at half resolution", &half)) ui.render.ambient_step = half ? 2 : 1;
   int mode = ui.camera.mode() == CameraControl::Mode::Orbit ? 0 : 1;
   if (ImGui::Combo("camera", &mode, "orbit (drag, wheel, middle-drag)\0fly (drag, WASD QE)\0"))
     ui.camera.set_mode(mode == 0 ? CameraControl::Mode::Orbit : CameraControl::Mode::Fly);

@@ -1224,10 +1224,12 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     image_barrier(cmd, gbuffer.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+    // Not cleared: the passes read the G-buffer only where the depth says a surface was drawn.
     color_attachment.imageView = gbuffer.view;
-    color_attachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
     info.pDepthAttachment = &depth_attachment;
     vkCmdBeginRendering(cmd, &info);
+    color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
     set_viewport(target.width, target.height);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
     draw_all(Pass::GBufferPrepass, 0);
