@@ -36,6 +36,10 @@ layout(constant_id = 0) const uint kView = PENUMBRA_VIEW_LIT;
 layout(constant_id = 1) const bool kAmbient = false;
 // Shadow-map taps per light (RenderSettings::shadow_taps; 0: no shadows this frame, compiled out).
 layout(constant_id = 2) const uint kShadowTaps = 4u;
+// The light count when the renderer fixes it (up to PENUMBRA_UNROLLED_LIGHTS): the loop over the
+// lights is unrolled and every light's data is read at a constant offset, which llvmpipe loads
+// once per draw instead of per pixel; 0: the count is frame.params.y.
+layout(constant_id = 3) const uint kLightCount = 0u;
 
 const float kPi = 3.14159265358979323846;
 
@@ -72,7 +76,8 @@ uint cube_face(vec3 d) {
 vec3 direct_irradiance(vec3 p, vec3 n) {
   vec3 e = vec3(0.0);
   vec3 p_offset = p + n * frame.shadow_params.z;  // normal offset against acne
-  for (uint i = 0u; i < frame.params.y; ++i) {
+  uint count = kLightCount > 0u ? kLightCount : frame.params.y;
+  for (uint i = 0u; i < count; ++i) {
     GpuLight light = lights[i];
     uint type = uint(light.position_type.w);
     vec3 l;

@@ -43,6 +43,10 @@ using mat4 = glm::mat4;
 #define PENUMBRA_PROBE_NORMAL_BIAS 0.01
 #define PENUMBRA_PROBE_REACH_SLACK (1.0 / 255.0)
 
+// Scenes with up to this many lights get a forward pipeline specialised on their count (the
+// shader's kLightCount); more lights loop over frame.params.y.
+#define PENUMBRA_UNROLLED_LIGHTS 8
+
 // Light types (GpuLight.position_type.w).
 #define PENUMBRA_LIGHT_DIRECTIONAL 0
 #define PENUMBRA_LIGHT_POINT 1

@@ -134,9 +134,10 @@ struct Renderer::Impl {
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE,
                  gbuffer_frag = VK_NULL_HANDLE, ambient_vert = VK_NULL_HANDLE, ambient_frag = VK_NULL_HANDLE,
                  ao_field_vert = VK_NULL_HANDLE, ao_field_frag = VK_NULL_HANDLE;
-  // The graphics pipelines by pass, colour format, view, flag and shadow taps (see pipeline()).
+  // The graphics pipelines by pass, colour format, view, flag, shadow taps and light count (see
+  // pipeline()).
   enum class Pass { Shadow, DepthPrepass, GBufferPrepass, Ambient, AoFields, Forward };
-  std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t>, VkPipeline> pipelines;
+  std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
   VkSampler texture_sampler = VK_NULL_HANDLE, probe_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE,
@@ -211,7 +212,7 @@ struct Renderer::Impl {
 
   Status init();
   Result<VkPipeline> pipeline(Pass pass, VkFormat format, std::uint32_t view = 0, bool flag = false,
-                              std::uint32_t shadow_taps = 0);
+                              std::uint32_t shadow_taps = 0, std::uint32_t light_count = 0);
   Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
   Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
                       VkDeviceSize size);
@@ -792,14 +793,15 @@ void Renderer::Impl::write_descriptors() {
 //   Forward         per colour format, shading only the fragments the pre-pass left in front
 //                   (depth EQUAL, no depth writes): each pixel runs the costly fragment stage once
 //                   whatever the overdraw; specialised on the debug view (constant_id 0), in
-//                   `flag` on whether the ambient passes ran (constant_id 1) and on the shadow
-//                   taps (constant_id 2; 0 without shadows).
+//                   `flag` on whether the ambient passes ran (constant_id 1), on the shadow
+//                   taps (constant_id 2; 0 without shadows) and on the light count (constant_id
+//                   3; 0: not fixed).
 Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag,
-                                            std::uint32_t shadow_taps) {
-  if (pass != Pass::Forward) view = shadow_taps = 0;
+                                            std::uint32_t shadow_taps, std::uint32_t light_count) {
+  if (pass != Pass::Forward) view = shadow_taps = light_count = 0;
   if (pass != Pass::Forward && pass != Pass::AoFields) flag = false;
   if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
-  const auto key = std::tuple{pass, format, view, flag, shadow_taps};
+  const auto key = std::tuple{pass, format, view, flag, shadow_taps, light_count};
   if (auto it = pipelines.find(key); it != pipelines.end()) return it->second;
   const bool shadow = pass == Pass::Shadow, ao = pass == Pass::AoFields, forward = pass == Pass::Forward;
   const bool screen = ao || pass == Pass::Ambient;  // no vertex buffers, no depth attachment
@@ -809,13 +811,15 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
     std::uint32_t view;
     VkBool32 flag;
     std::uint32_t shadow_taps;
-  } forward_constants{view, flag ? VK_TRUE : VK_FALSE, shadow_taps};
+    std::uint32_t light_count;
+  } forward_constants{view, flag ? VK_TRUE : VK_FALSE, shadow_taps, light_count};
   const VkBool32 ao_constants = flag ? VK_TRUE : VK_FALSE;
   const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(std::uint32_t)},
                                               {1, sizeof(std::uint32_t), sizeof(VkBool32)},
-                                              {2, sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)}};
+                                              {2, sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)},
+                                              {3, 2 * sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)}};
   const VkSpecializationInfo specialization = ao ? VkSpecializationInfo{1, entries, sizeof ao_constants, &ao_constants}
-                                                 : VkSpecializationInfo{3, entries, sizeof forward_constants,
+                                                 : VkSpecializationInfo{4, entries, sizeof forward_constants,
                                                                         &forward_constants};
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
@@ -1052,8 +1056,9 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   const bool ambient_pass = ambient_view && (probe || !ao_casters.empty());
   const bool probe_pass = ambient_pass && probe && settings.view != DebugView::AoOnly;
   const bool shadows = settings.shadows && !shadow_matrices.empty();
+  const auto light_count = static_cast<std::uint32_t>(lights.size());
   auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), ambient_pass,
-                          shadows ? settings.shadow_taps : 0);
+                          shadows ? settings.shadow_taps : 0, light_count <= PENUMBRA_UNROLLED_LIGHTS ? light_count : 0);
   if (!forward) return forward.error();
   auto prepass =
       ambient_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);

@@ -26,6 +26,7 @@
 #include "penumbra/probe_grid/probe_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
+#include "shared/layout.h"
 #include "stb_image.h"
 #include "test_device.h"
 
@@ -238,6 +239,36 @@ TEST_F(RendererTest, SkinningMovesTheWalkerOnTheGpu) {
   EXPECT_GE(c.differing, 20u) << "the pose did not change the image";
   expect_golden(*first, "courtyard_walker_t0");
   expect_golden(*second, "courtyard_walker_t04");
+}
+
+// Up to PENUMBRA_UNROLLED_LIGHTS lights the forward pipeline is specialised on their count; more
+// loop over the frame's count. Cornell with its light and with eight more point lights that reach
+// nothing it sees (range 1 cm, 50 m away): 1 and 9 lights, the two paths, the same image.
+TEST_F(RendererTest, TheUnrolledAndTheLoopedLightPathsAgree) {
+  auto s = bake_scene("cornell");
+  ASSERT_TRUE(s);
+  RenderSettings settings;
+  settings.view = DebugView::DirectOnly;
+  settings.shadow_map_size = 256;
+  auto one = renderer_->render_image(s->world, camera(*s), kWidth, kHeight, settings);
+  ASSERT_TRUE(one.ok()) << one.error().message;
+  const std::uint32_t layers = renderer_->stats().shadow_layers;  // the rect light's six
+  for (int i = 0; i < PENUMBRA_UNROLLED_LIGHTS; ++i) {
+    const Entity e = s->world.create();
+    Transform t;
+    t.translation = glm::vec3(50.0f + float(i), 50.0f, 50.0f);
+    s->world.add<Transform>(e, t);
+    Light far;
+    far.type = Light::Type::Point;
+    far.intensity = 1.0f;
+    far.range = 0.01f;
+    s->world.add<Light>(e, far);
+  }
+  s->world.update(0.0);
+  auto nine = renderer_->render_image(s->world, camera(*s), kWidth, kHeight, settings);
+  ASSERT_TRUE(nine.ok()) << nine.error().message;
+  EXPECT_EQ(renderer_->stats().shadow_layers, layers + 6u * PENUMBRA_UNROLLED_LIGHTS);
+  EXPECT_EQ(one->rgba8, nine->rgba8);
 }
 
 // The shadow filter's trade: on the courtyard's direct view one bilinear tap and the four-tap tent
