@@ -1,8 +1,10 @@
 #version 450
 // AO-field pass, vertex stage: the world-space box around caster push.draw.x's reach (the sphere
-// beyond which its field occludes nothing), 36 vertices without a vertex buffer. The pipeline
-// draws the box's back faces with depth clamp: every pixel whose view ray crosses the box is
-// shaded once, whether the camera is inside the box or not and wherever the far plane lies.
+// beyond which its field occludes nothing), 36 vertices without a vertex buffer, with depth clamp
+// (no near or far clipping). Its front faces mark in the stencil the samples behind them; its back
+// faces then shade the marked samples in front of them, those whose surface lies in the box, each
+// once. With the camera inside the box (no front faces to mark) the back faces alone shade the
+// samples in front of them.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "ao_field.glsl"

@@ -136,7 +136,7 @@ struct Renderer::Impl {
                  ao_field_vert = VK_NULL_HANDLE, ao_field_frag = VK_NULL_HANDLE;
   // The graphics pipelines by pass, colour format, view, flag, shadow taps and light count (see
   // pipeline()).
-  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, Ambient, AoFields, Forward };
+  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, Ambient, AoFieldMark, AoFields, AoFieldsInside, Forward };
   std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
@@ -167,11 +167,13 @@ struct Renderer::Impl {
   Buffer ao_field_buffer, ao_field_placeholder;
   std::vector<Entity> ao_casters;                 // the packed records' entities, in record order
   std::vector<bool> ao_caster_grid;               // their representation: grid (else radial fit)
+  std::vector<glm::vec4> ao_caster_reach;         // their world centre and reach
   std::vector<const AOFieldData*> ao_field_data;  // their fields when packed
   std::uint64_t ao_field_tick = 0;                // the newest caster change tick packed
 
   // Targets. The G-buffer and the ambient image exist only while the ambient passes run.
-  ImageResource depth, gbuffer, ambient;
+  ImageResource depth, gbuffer, ambient, ambient_depth;  // ambient_depth: per sample depth, stencil
+  VkFormat ambient_depth_format = VK_FORMAT_UNDEFINED;    // D32_SFLOAT_S8_UINT or D24_UNORM_S8_UINT
   std::uint32_t depth_width = 0, depth_height = 0, ambient_step = 0;  // 0: no ambient passes
   ImageResource shadow_map;
   std::vector<VkImageView> shadow_layer_views;
@@ -195,7 +197,8 @@ struct Renderer::Impl {
     for (auto& [k, b] : vertex_ao) alloc->destroy(b.buffer);
     for (Buffer* b : {&ones, &ao_field_buffer, &ao_field_placeholder, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
     for (auto& t : probe_textures) alloc->destroy(t);
-    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &gbuffer, &ambient, &shadow_map, &offscreen})
+    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &gbuffer, &ambient, &ambient_depth, &shadow_map,
+                             &offscreen})
       alloc->destroy(*i);
     for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
     for (auto& [key, p] : pipelines) vkDestroyPipeline(vk, p, nullptr);
@@ -317,6 +320,18 @@ Status Renderer::Impl::init() {
   sampler.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
   if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &shadow_sampler);
   if (r != VK_SUCCESS) return make_error(ErrorCode::Internal, "Renderer: cannot create samplers");
+
+  // The ambient image's depth-stencil format (the spec requires one of the two).
+  for (VkFormat f : {VK_FORMAT_D32_SFLOAT_S8_UINT, VK_FORMAT_D24_UNORM_S8_UINT}) {
+    VkFormatProperties props;
+    vkGetPhysicalDeviceFormatProperties(device->physical_device(), f, &props);
+    if (props.optimalTilingFeatures & VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT) {
+      ambient_depth_format = f;
+      break;
+    }
+  }
+  if (ambient_depth_format == VK_FORMAT_UNDEFINED)
+    return make_error(ErrorCode::Unsupported, "Renderer: the device has no depth-stencil format with stencil");
 
   forward_vert = make_module(vk, "forward.vert");
   forward_frag = make_module(vk, "forward.frag");
@@ -564,6 +579,7 @@ Status Renderer::Impl::sync_ao_fields(World& world) {
     alloc->destroy(ao_field_buffer);
     ao_casters.clear();
     ao_caster_grid.clear();
+    ao_caster_reach.clear();
     ao_field_data.clear();
     ao_field_tick = 0;
     descriptors_dirty = true;
@@ -590,7 +606,11 @@ Status Renderer::Impl::sync_ao_fields(World& world) {
   ao_field_data = std::move(fields);
   ao_field_tick = tick;
   ao_caster_grid.resize(packed->casters);
-  for (std::uint32_t i = 0; i < packed->casters; ++i) ao_caster_grid[i] = packed->data[1 + 7 * i + 4].w == 1.0f;
+  ao_caster_reach.resize(packed->casters);
+  for (std::uint32_t i = 0; i < packed->casters; ++i) {
+    ao_caster_grid[i] = packed->data[1 + 7 * i + 4].w == 1.0f;
+    ao_caster_reach[i] = packed->data[1 + 7 * i + 6];
+  }
   return {};
 }
 
@@ -659,7 +679,7 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
                                       std::uint32_t step) {
   if (!depth.image || depth_width != width || depth_height != height || ambient_step != step) {
     vkDeviceWaitIdle(vk);
-    for (ImageResource* i : {&depth, &gbuffer, &ambient}) alloc->destroy(*i);
+    for (ImageResource* i : {&depth, &gbuffer, &ambient, &ambient_depth}) alloc->destroy(*i);
     auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
     info.imageType = VK_IMAGE_TYPE_2D;
     info.format = kDepthFormat;
@@ -680,6 +700,11 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
         if (!made) return made.error();
         *image = *made;
       }
+      info.format = ambient_depth_format;
+      info.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
+      auto made = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_DEPTH_BIT | VK_IMAGE_ASPECT_STENCIL_BIT);
+      if (!made) return made.error();
+      ambient_depth = *made;
     }
     depth_width = width;
     depth_height = height;
@@ -799,12 +824,15 @@ void Renderer::Impl::write_descriptors() {
 Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag,
                                             std::uint32_t shadow_taps, std::uint32_t light_count) {
   if (pass != Pass::Forward) view = shadow_taps = light_count = 0;
-  if (pass != Pass::Forward && pass != Pass::AoFields) flag = false;
+  if (pass != Pass::Forward && pass != Pass::AoFields && pass != Pass::AoFieldsInside && pass != Pass::Ambient)
+    flag = false;
   if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
   const auto key = std::tuple{pass, format, view, flag, shadow_taps, light_count};
   if (auto it = pipelines.find(key); it != pipelines.end()) return it->second;
-  const bool shadow = pass == Pass::Shadow, ao = pass == Pass::AoFields, forward = pass == Pass::Forward;
-  const bool screen = ao || pass == Pass::Ambient;  // no vertex buffers, no depth attachment
+  const bool shadow = pass == Pass::Shadow, forward = pass == Pass::Forward, ambient_full = pass == Pass::Ambient;
+  const bool ao = pass == Pass::AoFields || pass == Pass::AoFieldsInside;  // shades a caster's box
+  const bool ao_box = ao || pass == Pass::AoFieldMark;
+  const bool screen = ao_box || ambient_full;  // no vertex buffers; the ambient image and its depth-stencil
   const bool depth_writes = pass == Pass::Shadow || pass == Pass::DepthPrepass || pass == Pass::GBufferPrepass;
   const bool forward_vertex = !shadow && !screen;  // the pre-passes run the forward vertex stage: equal depths
   const struct {
@@ -818,19 +846,19 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
                                               {1, sizeof(std::uint32_t), sizeof(VkBool32)},
                                               {2, sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)},
                                               {3, 2 * sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)}};
-  const VkSpecializationInfo specialization = ao ? VkSpecializationInfo{1, entries, sizeof ao_constants, &ao_constants}
-                                                 : VkSpecializationInfo{4, entries, sizeof forward_constants,
-                                                                        &forward_constants};
+  const VkSpecializationInfo specialization =
+      ao || ambient_full ? VkSpecializationInfo{1, entries, sizeof ao_constants, &ao_constants}  // kGrid, kProbe
+                         : VkSpecializationInfo{4, entries, sizeof forward_constants, &forward_constants};
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = ao ? ao_field_vert : pass == Pass::Ambient ? ambient_vert : forward_vertex ? forward_vert : shadow_vert;
+  stages[0].module = ao_box ? ao_field_vert : ambient_full ? ambient_vert : forward_vertex ? forward_vert : shadow_vert;
   stages[0].pName = "main";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = ao ? ao_field_frag : pass == Pass::Ambient ? ambient_frag : forward ? forward_frag : gbuffer_frag;
+  stages[1].module = ao ? ao_field_frag : ambient_full ? ambient_frag : forward ? forward_frag : gbuffer_frag;
   stages[1].pName = "main";
   stages[1].pSpecializationInfo = &specialization;
-  const bool has_fragment = forward || screen || pass == Pass::GBufferPrepass;
+  const bool has_fragment = forward || ao || ambient_full || pass == Pass::GBufferPrepass;
 
   const VkVertexInputBindingDescription bindings[] = {
       {0, sizeof(GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX},
@@ -862,10 +890,11 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   viewport.scissorCount = 1;
   auto raster = vk_struct<VkPipelineRasterizationStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
   raster.polygonMode = VK_POLYGON_MODE_FILL;
-  // Two-sided (open scenes: Cornell's front, thin walls); the AO-field boxes by their back faces.
-  raster.cullMode = ao ? VK_CULL_MODE_FRONT_BIT : VK_CULL_MODE_NONE;
+  // Two-sided (open scenes: Cornell's front, thin walls); the AO-field boxes mark by their front
+  // faces and shade by their back faces.
+  raster.cullMode = ao ? VK_CULL_MODE_FRONT_BIT : pass == Pass::AoFieldMark ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
   raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  raster.depthClampEnable = ao ? VK_TRUE : VK_FALSE;
+  raster.depthClampEnable = ao_box ? VK_TRUE : VK_FALSE;
   raster.lineWidth = 1.0f;
   raster.depthBiasEnable = shadow ? VK_TRUE : VK_FALSE;  // slope-scaled bias against shadow acne
   raster.depthBiasConstantFactor = 1.5f;
@@ -873,12 +902,30 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   auto multisample = vk_struct<VkPipelineMultisampleStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
   multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
   auto depth_state = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
-  depth_state.depthTestEnable = screen ? VK_FALSE : VK_TRUE;
-  depth_state.depthWriteEnable = depth_writes ? VK_TRUE : VK_FALSE;
+  depth_state.depthTestEnable = VK_TRUE;
+  depth_state.depthWriteEnable = depth_writes || ambient_full ? VK_TRUE : VK_FALSE;
   depth_state.depthCompareOp = depth_writes ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_EQUAL;
+  // The boxes against the samples' depths: the mark (stencil 1) where a front face lies in front
+  // of the sample's surface, the shading where a back face lies behind it (and, outside the box,
+  // the sample is marked; the stencil is reset there for the next caster).
+  if (ambient_full) depth_state.depthCompareOp = VK_COMPARE_OP_ALWAYS;
+  if (pass == Pass::AoFieldMark) {
+    depth_state.depthCompareOp = VK_COMPARE_OP_LESS;
+    depth_state.stencilTestEnable = VK_TRUE;
+    depth_state.front = {VK_STENCIL_OP_KEEP, VK_STENCIL_OP_REPLACE, VK_STENCIL_OP_KEEP, VK_COMPARE_OP_ALWAYS, 0xff, 0xff, 1};
+    depth_state.back = depth_state.front;
+  }
+  if (ao) depth_state.depthCompareOp = VK_COMPARE_OP_GREATER_OR_EQUAL;
+  if (pass == Pass::AoFields) {
+    depth_state.stencilTestEnable = VK_TRUE;
+    depth_state.front = {VK_STENCIL_OP_ZERO, VK_STENCIL_OP_ZERO, VK_STENCIL_OP_ZERO, VK_COMPARE_OP_EQUAL, 0xff, 0xff, 1};
+    depth_state.back = depth_state.front;
+  }
   VkPipelineColorBlendAttachmentState blend_attachment{};
-  blend_attachment.colorWriteMask = pass == Pass::DepthPrepass ? 0 : VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
-                                                                     VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  const bool colour_writes = pass != Pass::DepthPrepass && pass != Pass::AoFieldMark;
+  blend_attachment.colorWriteMask = colour_writes ? VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                                        VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT
+                                                  : 0;
   if (ao) {  // ambient *= 1 - A_i
     blend_attachment.blendEnable = VK_TRUE;
     blend_attachment.srcColorBlendFactor = VK_BLEND_FACTOR_DST_COLOR;
@@ -896,7 +943,8 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   auto rendering = vk_struct<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
   rendering.colorAttachmentCount = shadow ? 0 : 1;
   rendering.pColorAttachmentFormats = &format;
-  rendering.depthAttachmentFormat = screen ? VK_FORMAT_UNDEFINED : kDepthFormat;
+  rendering.depthAttachmentFormat = screen ? ambient_depth_format : kDepthFormat;
+  rendering.stencilAttachmentFormat = screen ? ambient_depth_format : VK_FORMAT_UNDEFINED;
 
   auto info = vk_struct<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
   info.pNext = &rendering;
@@ -1065,12 +1113,24 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   if (!prepass) return prepass.error();
   auto shadow = pipeline(Pass::Shadow, VK_FORMAT_UNDEFINED);
   if (!shadow) return shadow.error();
-  VkPipeline ambient_pipelines[3] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};  // probe, AO radial, AO grid
+  // The ambient passes' pipelines: the full-screen pass (with or without the probe grid), the
+  // boxes' stencil mark, their shading per representation (radial fit, grid) after a mark and,
+  // with the camera inside the box, without one.
+  VkPipeline ambient_full = VK_NULL_HANDLE, ao_mark = VK_NULL_HANDLE, ao_shade[2] = {}, ao_shade_inside[2] = {};
   if (ambient_pass) {
-    for (int k = 0; k < 3; ++k) {
-      auto made = k == 0 ? pipeline(Pass::Ambient, kAmbientFormat) : pipeline(Pass::AoFields, kAmbientFormat, 0, k == 2);
-      if (!made) return made.error();
-      ambient_pipelines[k] = *made;
+    auto full = pipeline(Pass::Ambient, kAmbientFormat, 0, probe_pass);
+    auto mark = pipeline(Pass::AoFieldMark, kAmbientFormat);
+    if (!full) return full.error();
+    if (!mark) return mark.error();
+    ambient_full = *full;
+    ao_mark = *mark;
+    for (bool grid : {false, true}) {
+      auto shade = pipeline(Pass::AoFields, kAmbientFormat, 0, grid);
+      auto inside = pipeline(Pass::AoFieldsInside, kAmbientFormat, 0, grid);
+      if (!shade) return shade.error();
+      if (!inside) return inside.error();
+      ao_shade[grid] = *shade;
+      ao_shade_inside[grid] = *inside;
     }
   }
   PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size,
@@ -1250,32 +1310,63 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
 
-    // Ambient passes at 1 / ambient_step resolution into the ambient image (cleared to 1): the
-    // probe irradiance per sample, then per AO-field caster its reach box, 1 - A_i multiplied in,
-    // so a sample pays only for the casters whose reach its view ray crosses.
+    // Ambient passes at 1 / ambient_step resolution into the ambient image: the full-screen pass
+    // (probe irradiance and open fraction 1 per sample, the sample's depth), then per AO-field
+    // caster its reach box, 1 - A_i multiplied into the samples whose surface lies in the box
+    // (depth and stencil tests, which llvmpipe runs before the fragment stage): a sample pays only
+    // for the casters whose box holds it.
     image_barrier(cmd, ambient.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT);
+    image_barrier(cmd, ambient_depth.image, VK_IMAGE_ASPECT_DEPTH_BIT | VK_IMAGE_ASPECT_STENCIL_BIT,
+                  VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                  VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, 0,
+                  VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
     const std::uint32_t ambient_width = (target.width + ambient_step - 1) / ambient_step;
     const std::uint32_t ambient_height = (target.height + ambient_step - 1) / ambient_step;
     color_attachment.imageView = ambient.view;
-    color_attachment.clearValue.color = {{1.0f, 1.0f, 1.0f, 1.0f}};
-    info.pDepthAttachment = nullptr;
+    color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the full-screen pass writes every sample
+    auto sample_depth = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+    sample_depth.imageView = ambient_depth.view;
+    sample_depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    sample_depth.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    sample_depth.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    auto sample_stencil = sample_depth;
+    sample_stencil.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    sample_stencil.clearValue.depthStencil = {1.0f, 0};
+    info.pDepthAttachment = &sample_depth;
+    info.pStencilAttachment = &sample_stencil;
     info.renderArea.extent = {ambient_width, ambient_height};
     vkCmdBeginRendering(cmd, &info);
+    color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    info.pStencilAttachment = nullptr;
     set_viewport(ambient_width, ambient_height);
-    if (probe_pass && !std::getenv("NOPROBE")) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ambient_pipelines[0]);
-      vkCmdDraw(cmd, 3, 1, 0, 0);
-    }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ambient_full);
+    vkCmdDraw(cmd, 3, 1, 0, 0);
+    // The camera is inside a box (its front faces can be behind it) when it is within the box
+    // grown by the distance to the near plane's corners (znear = P[3][2] / P[2][2] for the
+    // right-handed [0, 1]-depth projection of camera.cpp).
+    const glm::mat4& p = camera.projection;
+    const float znear = p[2][2] != 0.0f ? std::abs(p[3][2] / p[2][2]) : 0.0f;
+    const float tan_x = p[0][0] != 0.0f ? 1.0f / std::abs(p[0][0]) : 0.0f;
+    const float tan_y = p[1][1] != 0.0f ? 1.0f / std::abs(p[1][1]) : 0.0f;
+    const float margin = znear * std::sqrt(1.0f + tan_x * tan_x + tan_y * tan_y);
     for (std::uint32_t i = 0; i < ao_caster_grid.size(); ++i) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ambient_pipelines[1 + ao_caster_grid[i]]);
       gpu::DrawPush push{};
       push.draw.x = i;
       vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                          sizeof push, &push);
-      if (!std::getenv("NOAO")) vkCmdDraw(cmd, 36, 1, 0, 0);
+      const glm::vec4& reach = ao_caster_reach[i];
+      const glm::vec3 offset = glm::abs(camera.position - glm::vec3(reach));
+      const bool inside = std::max({offset.x, offset.y, offset.z}) <= reach.w + margin;
+      if (!inside) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ao_mark);
+        vkCmdDraw(cmd, 36, 1, 0, 0);
+      }
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, (inside ? ao_shade_inside : ao_shade)[ao_caster_grid[i]]);
+      vkCmdDraw(cmd, 36, 1, 0, 0);
     }
     vkCmdEndRendering(cmd);
     image_barrier(cmd, ambient.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
