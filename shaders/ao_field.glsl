@@ -2,7 +2,7 @@
 // evaluate_packed() in sdk/include/penumbra/ao_field/ao_field_gpu.h (Kontkanen & Laine 2005,
 // section 3.3; the grid of Malmer et al. 2007). Included by ao_field.vert and ao_field.frag after
 // common.glsl: the AO-field pass draws each caster's reach over the pixels it can darken (a
-// deferred pass, as for light volumes) and multiplies 1 - A_i into the open-fraction image.
+// deferred pass, as for light volumes) and multiplies 1 - A_i into the ambient image.
 
 layout(std430, set = 0, binding = PENUMBRA_BINDING_AO_FIELDS) readonly buffer AoFields { vec4 ao_fields[]; };
 

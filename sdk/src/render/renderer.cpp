@@ -811,10 +811,14 @@ void Renderer::Impl::write_descriptors() {
 //                   camera's depth, in the forward pass's rendering;
 //   GBufferPrepass  the same depth plus the G-buffer (`format` kGBufferFormat), when the ambient
 //                   passes run;
-//   Ambient         one triangle over the ambient image: the probe irradiance per sample;
-//   AoFields        one caster's reach box, back faces, depth clamp, no depth test, its 1 - A_i
-//                   multiplied into the ambient image by the blend state; `flag`: the grid
-//                   representation (constant_id 0 of ao_field.frag);
+//   Ambient         one triangle over the ambient image: the probe irradiance per sample (`flag`:
+//                   with a grid, constant_id 0 of ambient.frag) and the sample's depth;
+//   AoFieldMark     a caster's reach box, front faces, depth clamp: stencil 1 where the face lies
+//                   in front of the sample's depth (no fragment stage);
+//   AoFields        its back faces where they lie behind the sample's depth and the stencil is 1
+//                   (reset to 0): 1 - A_i multiplied into the ambient image by the blend state;
+//                   `flag`: the grid representation (constant_id 0 of ao_field.frag);
+//   AoFieldsInside  the same without the stencil test, for a camera inside the box;
 //   Forward         per colour format, shading only the fragments the pre-pass left in front
 //                   (depth EQUAL, no depth writes): each pixel runs the costly fragment stage once
 //                   whatever the overdraw; specialised on the debug view (constant_id 0), in

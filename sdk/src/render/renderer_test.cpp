@@ -157,6 +157,16 @@ class RendererTest : public ::testing::Test {
   static CameraView camera(BakedScene& s) {
     return camera_view(s.world, s.camera, float(kWidth) / float(kHeight));
   }
+  // A debug view of `world` as linear floats (RGBA per pixel) at w x h and the given ambient step.
+  static std::vector<float> linear_view(World& world, const CameraView& cam, std::uint32_t w, std::uint32_t h,
+                                        DebugView view, std::uint32_t ambient_step) {
+    RenderSettings settings;
+    settings.view = view;
+    settings.ambient_step = ambient_step;
+    auto image = renderer_->render_image(world, cam, w, h, settings, true);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
+  }
 
   static Device* device_;
   static Renderer* renderer_;
@@ -491,14 +501,7 @@ TEST_F(RendererTest, AoFieldPassMatchesTheCpuReference) {
   constexpr std::uint32_t kW = 640, kH = 480;
   const CameraView view = camera_view(s->world, s->camera, float(kW) / float(kH));
   for (std::uint32_t step : {1u, 2u}) {
-    auto render = [&](DebugView debug_view) {
-      RenderSettings settings;
-      settings.view = debug_view;
-      settings.ambient_step = step;
-      auto image = renderer_->render_image(s->world, view, kW, kH, settings, true);
-      EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
-      return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
-    };
+    auto render = [&](DebugView debug_view) { return linear_view(s->world, view, kW, kH, debug_view, step); };
     const auto ao = render(DebugView::AoOnly);
     EXPECT_EQ(renderer_->stats().ao_field_casters, 4u);
     const auto position = render(DebugView::Position);
@@ -546,14 +549,7 @@ TEST_F(RendererTest, AmbientPassesMatchThePerPixelTerms) {
   constexpr std::uint32_t kW = 640, kH = 480;
   const CameraView view = camera_view(s->world, s->camera, float(kW) / float(kH));
   for (std::uint32_t step : {1u, 2u}) {
-    auto render = [&](DebugView debug_view) {
-      RenderSettings settings;
-      settings.view = debug_view;
-      settings.ambient_step = step;
-      auto image = renderer_->render_image(s->world, view, kW, kH, settings, true);
-      EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
-      return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
-    };
+    auto render = [&](DebugView debug_view) { return linear_view(s->world, view, kW, kH, debug_view, step); };
     const auto indirect = render(DebugView::IndirectOnly);
     const auto albedo = render(DebugView::Albedo);
     const auto irradiance = render(DebugView::Irradiance);
