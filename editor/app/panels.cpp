@@ -350,7 +350,8 @@ void stats_panel(EditorModel& model, UiState& ui) {
   if (!ui.frames.wait_ms.empty())
     ImGui::Text("frame %.1f ms: GPU wait %.1f, record %.1f, submit+present %.1f", last, ui.frames.wait_ms.back(),
                 ui.frames.record_ms.back(), ui.frames.present_ms.back());
-  ImGui::Text("renderer record %.2f ms, %u draws", ui.renderer_stats.cpu_record_ms, ui.renderer_stats.draws);
+  ImGui::Text("renderer record %.2f ms, %u draws, shadow layers drawn %u of %u", ui.renderer_stats.cpu_record_ms,
+              ui.renderer_stats.draws, ui.renderer_stats.shadow_layers_rendered, ui.renderer_stats.shadow_layers);
   if (!recent.empty()) ImGui::PlotLines("##frames", recent.data(), static_cast<int>(recent.size()), 0, "frame ms", 0.0f, 100.0f, ImVec2(-1, 40));
   ImGui::Text("GPU memory %s", format_bytes(ui.renderer_stats.gpu_bytes).c_str());
   if (ImGui::BeginTable("systems", 2, ImGuiTableFlags_RowBg)) {

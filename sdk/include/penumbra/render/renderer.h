@@ -1,29 +1,36 @@
 // The forward renderer: draws a World with every lighting technique's data it finds.
 //
 // Mirrors the World into GPU resources (sync), then records a frame into a command buffer
-// (record) that draws into a RenderTarget. Passes: shadow maps for the shadowed lights, a depth
-// pre-pass (so the costly fragment stage runs once per pixel), then one forward pass (GPU
-// skinning, base colour textures, direct light with filtered shadow maps, indirect diffuse from
-// the probe grid per pixel with the leak guard's lookup, per-vertex AO (VertexAO: vertex-AO bakes,
-// pose-AO) as a vertex attribute, AO fields of moving casters per pixel on their receivers,
-// emission, tone mapping in the same pass). A pass whose data the scene lacks is skipped and costs
-// nothing. The layouts shared with the GLSL in shaders/ are defined once, in shaders/shared/layout.h.
+// (record) that draws into a RenderTarget. Passes: shadow maps for the shadowed lights (a layer
+// is drawn again only when its view or the casters within it changed); a depth pre-pass (so the
+// costly fragment stage runs once per pixel); with a probe grid or AO-field casters, in the views
+// that show them, a G-buffer (normal, AO-field receiver) in that pre-pass and the ambient passes
+// at every RenderSettings::ambient_step-th pixel: a full-screen pass evaluating the probe grid
+// with the leak guard's lookup, then per AO-field caster its reach box multiplying the caster's
+// occlusion into the samples whose surface lies in the box (depth and stencil tests); then one
+// forward pass (GPU skinning, base colour textures, direct light with filtered shadow maps, the
+// ambient image upsampled along surfaces, per-vertex AO (VertexAO: vertex-AO bakes, pose-AO) as
+// a vertex attribute, emission, tone mapping in the same pass). A pass whose data the scene lacks
+// is skipped and costs nothing. The layouts shared with the GLSL in shaders/ are defined once, in
+// shaders/shared/layout.h. On llvmpipe, which runs both sides of every branch, what is fixed for
+// a frame (debug view, shadow taps, light count, which passes ran) specialises the pipelines.
 //
 // Light models (as bake/light_sampling.h): directional illuminance, point/spot intensity with the
 // KHR_lights_punctual range window and smooth cone; a Rect light of radiance L and area A is drawn
 // as a Lambertian point emitter at its centre, intensity L A cos(theta) towards its front, with a
 // six-face (cube) shadow map, so its shadows are hard-edged where the real area light's are soft.
 // Shadow maps: directional orthographic over the bounds of every mesh, spot perspective over the
-// outer cone, point and rect six 90-degree faces; 3x3 PCF over the 2x2 comparison filter. Emissive
-// meshes cast no shadows (an emitter would occlude its own light).
+// outer cone, point and rect six 90-degree faces; PCF over the 2x2 comparison filter (a 3x3 tent
+// of four taps, or one tap: RenderSettings::shadow_taps). Emissive meshes cast no shadows (an
+// emitter would occlude its own light).
 // AO = VertexAO x the AO-field open fraction: on AOFieldReceiver surfaces (Mode::Surface) the
-// shader evaluates every caster's field per pixel as evaluate_packed() (ao_field_gpu.h) does,
-// skipping casters whose world reach does not hold the pixel and the drawn entity's own field; on
-// Mode::Entity receivers it uses AOFieldReceiver::occlusion for the whole entity. Scenes without
-// baked casters bind no field buffer and use a pipeline with the pass compiled out.
+// AO-field pass evaluates each caster's field as evaluate_packed() (ao_field_gpu.h) does, at the
+// samples within its world reach, skipping the drawn entity's own field; on Mode::Entity receivers
+// the forward pass uses AOFieldReceiver::occlusion for the whole entity. Scenes without baked
+// casters bind no field buffer and run no AO-field pass.
 // Indirect: L = albedo / pi x E_probe(x, n) x AO, E_probe the trilinear SH of the highest-priority
-// baked IrradianceProbeGrid (ties: lowest entity index), as evaluate() in probe_grid.h. The probe
-// baker stores direct + indirect light, so Lit counts direct light twice where a grid covers.
+// baked IrradianceProbeGrid (ties: lowest entity index), as evaluate() in probe_grid.h. A grid
+// baked with lighting = all holds direct light too, which Lit then counts twice (logged once).
 // Tone mapping: exposure, then the ACES filmic fit of Narkowicz (2015), then sRGB.
 //
 // Changes to the draft: sync/render_image take a mutable World (views need one; nothing is
@@ -143,7 +150,7 @@ class Renderer {
   // thread-safe.
   Status sync(World& world);
 
-  // Records shadow passes, the forward pass and tone mapping into `cmd` for `target`.
+  // Records the frame's passes (above) into `cmd` for `target`.
   // Precondition: sync() was called for this frame. Not thread-safe.
   Status record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
                 const RenderSettings& settings);
