@@ -16,9 +16,8 @@
 
 layout(std430, set = 0, binding = PENUMBRA_BINDING_LIGHTS) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = PENUMBRA_BINDING_SHADOW_MAP) uniform sampler2DArrayShadow shadow_map;
-layout(set = 0, binding = PENUMBRA_BINDING_SCENE_DEPTH) uniform sampler2D scene_depth;
-layout(set = 0, binding = PENUMBRA_BINDING_GBUFFER) uniform sampler2D gbuffer;
 layout(set = 0, binding = PENUMBRA_BINDING_AMBIENT) uniform sampler2D ambient_image;
+layout(set = 0, binding = PENUMBRA_BINDING_AMBIENT_KEY) uniform sampler2D ambient_key;
 layout(set = 1, binding = PENUMBRA_BINDING_BASE_COLOR) uniform sampler2D base_color_texture;
 
 layout(location = 0) in vec3 in_world;
@@ -121,9 +120,9 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
 // The ambient image at this pixel (normal n): (probe irradiance x open fraction x
 // ambient_scale, open fraction), upsampled from the passes' image (at step s sample (i, j) stands
 // for pixel (s i, s j)): the bilinear weights of the four nearest samples, restricted to samples
-// on this pixel's surface (their depth on this pixel's plane, which is linear in screen space,
-// within 2 % of the distance, and normals within 25 degrees: the pre-pass images), so that a
-// crate's edge does not bleed into the ground nor light leak across a wall; where none of them
+// on this pixel's surface (their 1 / clip w, which is linear in screen space on a plane, within
+// 2 % of this pixel's plane, and normals within 25 degrees: the ambient key), so that a crate's
+// edge does not bleed into the ground nor light leak across a wall; where none of them
 // is, any of the four on the surface, else this pixel's own block. A pixel whose coordinates are
 // multiples of s (every pixel at step 1) reads its own sample unchanged.
 vec4 ambient_at_pixel(vec3 n) {
@@ -132,17 +131,16 @@ vec4 ambient_at_pixel(vec3 n) {
   ivec2 q0 = p / step;
   ivec2 last = textureSize(ambient_image, 0) - 1;
   vec2 f = vec2(p - step * q0) / float(step);
-  float d = gl_FragCoord.z, tolerance = 0.02 * max(1.0 - d, 1e-7);  // 1 - depth ~ near / distance
-  vec2 slope = vec2(dFdx(d), dFdy(d));
+  float inv_w = gl_FragCoord.w, tolerance = 0.02 * inv_w;
+  vec2 slope = vec2(dFdx(inv_w), dFdy(inv_w));
   vec4 sum = vec4(0.0), any_sum = vec4(0.0);
   float weight = 0.0, any_weight = 0.0;
   for (int c = 0; c < 4; ++c) {
     ivec2 o = ivec2(c & 1, c >> 1);
     ivec2 q = min(q0 + o, last);
-    ivec2 sample_pixel = ambient_sample_pixel(q);
-    float plane = d + dot(vec2(sample_pixel - p), slope);
-    bool same = abs(texelFetch(scene_depth, sample_pixel, 0).r - plane) <= tolerance &&
-                dot(texelFetch(gbuffer, sample_pixel, 0).xyz, n) > 0.9;
+    vec4 key = texelFetch(ambient_key, q, 0);
+    float plane = inv_w + dot(vec2(ambient_sample_pixel(q) - p), slope);
+    bool same = abs(key.w - plane) <= tolerance && dot(key.xyz, n) > 0.9;
     vec4 value = texelFetch(ambient_image, q, 0);
     float w = same ? (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y) : 0.0;
     sum += w * value;

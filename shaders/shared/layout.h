@@ -33,6 +33,8 @@ using mat4 = glm::mat4;
 #define PENUMBRA_BINDING_GBUFFER 9        // sampler2D: xyz shading normal, w receiver code (below)
 #define PENUMBRA_BINDING_AMBIENT 10       // sampler2D: rgb probe irradiance x open x ambient_scale.x,
                                           // a open fraction prod (1 - A_i) over the AO-field casters
+#define PENUMBRA_BINDING_AMBIENT_KEY 11   // sampler2D: per sample its surface, xyz the normal, w 1 / clip w
+                                          // (linear in screen space on a plane): what the upsampling compares
 // Descriptor set 1 (per material): the base colour texture (sRGB; white when the material has none).
 #define PENUMBRA_BINDING_BASE_COLOR 0
 

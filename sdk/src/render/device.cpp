@@ -180,17 +180,19 @@ Result<std::unique_ptr<Device>> Device::create(const DeviceOptions& options) {
   auto supported = render_detail::vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
   supported.pNext = &features13;
   vkGetPhysicalDeviceFeatures2(impl->physical, &supported);
-  if (!features13.dynamicRendering || !features13.synchronization2 || !supported.features.depthClamp) {
+  if (!features13.dynamicRendering || !features13.synchronization2 || !supported.features.depthClamp ||
+      !supported.features.independentBlend) {
     return make_error(ErrorCode::Unsupported, "Vulkan: " + impl->name +
-                                                  " lacks dynamic rendering, synchronization2 or depth clamp; update "
-                                                  "the driver");
+                                                  " lacks dynamic rendering, synchronization2, depth clamp or "
+                                                  "independent blend; update the driver");
   }
   auto enable13 = render_detail::vk_struct<VkPhysicalDeviceVulkan13Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES);
   enable13.dynamicRendering = VK_TRUE;
   enable13.synchronization2 = VK_TRUE;
   auto enable = render_detail::vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
   enable.pNext = &enable13;
-  enable.features.depthClamp = VK_TRUE;  // the AO-field pass's boxes reach past the far plane
+  enable.features.depthClamp = VK_TRUE;        // the AO-field pass's boxes reach past the far plane
+  enable.features.independentBlend = VK_TRUE;  // it blends the ambient image, not the ambient key
   std::vector<const char*> device_extensions;
   if (options.swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
   const float priority = 1.0f;

@@ -172,7 +172,8 @@ struct Renderer::Impl {
   std::uint64_t ao_field_tick = 0;                // the newest caster change tick packed
 
   // Targets. The G-buffer and the ambient image exist only while the ambient passes run.
-  ImageResource depth, gbuffer, ambient, ambient_depth;  // ambient_depth: per sample depth, stencil
+  // ambient_key: per sample its surface (layout.h); ambient_depth: per sample depth, stencil.
+  ImageResource depth, gbuffer, ambient, ambient_key, ambient_depth;
   VkFormat ambient_depth_format = VK_FORMAT_UNDEFINED;    // D32_SFLOAT_S8_UINT or D24_UNORM_S8_UINT
   std::uint32_t depth_width = 0, depth_height = 0, ambient_step = 0;  // 0: no ambient passes
   ImageResource shadow_map;
@@ -197,8 +198,8 @@ struct Renderer::Impl {
     for (auto& [k, b] : vertex_ao) alloc->destroy(b.buffer);
     for (Buffer* b : {&ones, &ao_field_buffer, &ao_field_placeholder, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
     for (auto& t : probe_textures) alloc->destroy(t);
-    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &gbuffer, &ambient, &ambient_depth, &shadow_map,
-                             &offscreen})
+    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &gbuffer, &ambient, &ambient_key, &ambient_depth,
+                             &shadow_map, &offscreen})
       alloc->destroy(*i);
     for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
     for (auto& [key, p] : pipelines) vkDestroyPipeline(vk, p, nullptr);
@@ -254,6 +255,7 @@ Status Renderer::Impl::init() {
       {PENUMBRA_BINDING_SCENE_DEPTH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_GBUFFER, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_AMBIENT, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_AMBIENT_KEY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   };
   auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
   layout_info.bindingCount = std::size(frame_bindings);
@@ -283,7 +285,7 @@ Status Renderer::Impl::init() {
   const VkDescriptorPoolSize sizes[] = {
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4},
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES + 5 + kMaxMaterialSets},
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES + 6 + kMaxMaterialSets},
   };
   auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
   pool_info.maxSets = 1 + kMaxMaterialSets;
@@ -679,7 +681,7 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
                                       std::uint32_t step) {
   if (!depth.image || depth_width != width || depth_height != height || ambient_step != step) {
     vkDeviceWaitIdle(vk);
-    for (ImageResource* i : {&depth, &gbuffer, &ambient, &ambient_depth}) alloc->destroy(*i);
+    for (ImageResource* i : {&depth, &gbuffer, &ambient, &ambient_key, &ambient_depth}) alloc->destroy(*i);
     auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
     info.imageType = VK_IMAGE_TYPE_2D;
     info.format = kDepthFormat;
@@ -693,9 +695,10 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
     depth = *created;
     if (step > 0) {
       info.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
-      for (auto [image, format] : {std::pair{&gbuffer, kGBufferFormat}, std::pair{&ambient, kAmbientFormat}}) {
+      for (auto [image, format] : {std::pair{&gbuffer, kGBufferFormat}, std::pair{&ambient, kAmbientFormat},
+                                   std::pair{&ambient_key, kAmbientFormat}}) {
         info.format = format;
-        if (image == &ambient) info.extent = {(width + step - 1) / step, (height + step - 1) / step, 1};
+        if (image != &gbuffer) info.extent = {(width + step - 1) / step, (height + step - 1) / step, 1};
         auto made = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_COLOR_BIT);
         if (!made) return made.error();
         *image = *made;
@@ -769,12 +772,13 @@ void Renderer::Impl::write_descriptors() {
   // The ambient passes' images, or the white texture where the passes do not run (only pipelines
   // that do not run then read them).
   const bool ambient_pass = gbuffer.view != VK_NULL_HANDLE;
-  const VkDescriptorImageInfo screen_info[3] = {
+  const VkDescriptorImageInfo screen_info[4] = {
       {point_sampler, ambient_pass ? depth.view : white.image.view,
        ambient_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
       {point_sampler, ambient_pass ? gbuffer.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
-      {point_sampler, ambient_pass ? ambient.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}};
-  VkWriteDescriptorSet writes[11];
+      {point_sampler, ambient_pass ? ambient.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+      {point_sampler, ambient_pass ? ambient_key.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}};
+  VkWriteDescriptorSet writes[12];
   auto buffer_write = [&](int i, std::uint32_t binding, VkDescriptorType type, const VkDescriptorBufferInfo* info) {
     writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
     writes[i].dstSet = frame_set;
@@ -802,6 +806,7 @@ void Renderer::Impl::write_descriptors() {
   image_write(8, PENUMBRA_BINDING_SCENE_DEPTH, 1, &screen_info[0]);
   image_write(9, PENUMBRA_BINDING_GBUFFER, 1, &screen_info[1]);
   image_write(10, PENUMBRA_BINDING_AMBIENT, 1, &screen_info[2]);
+  image_write(11, PENUMBRA_BINDING_AMBIENT_KEY, 1, &screen_info[3]);
   vkUpdateDescriptorSets(vk, std::size(writes), writes, 0, nullptr);
 }
 
@@ -937,16 +942,22 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
     blend_attachment.dstColorBlendFactor = blend_attachment.dstAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
     blend_attachment.colorBlendOp = blend_attachment.alphaBlendOp = VK_BLEND_OP_ADD;
   }
+  // The ambient passes draw into the ambient image and its key (written by the full-screen pass
+  // only).
+  VkPipelineColorBlendAttachmentState blend_attachments[2] = {blend_attachment, {}};
+  if (ambient_full) blend_attachments[1].colorWriteMask = blend_attachment.colorWriteMask;
+  const std::uint32_t colour_attachments = shadow ? 0 : screen ? 2 : 1;
+  const VkFormat colour_formats[2] = {format, format};
   auto blend = vk_struct<VkPipelineColorBlendStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
-  blend.attachmentCount = shadow ? 0 : 1;
-  blend.pAttachments = &blend_attachment;
+  blend.attachmentCount = colour_attachments;
+  blend.pAttachments = blend_attachments;
   const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
   auto dynamic = vk_struct<VkPipelineDynamicStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO);
   dynamic.dynamicStateCount = 2;
   dynamic.pDynamicStates = dynamic_states;
   auto rendering = vk_struct<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
-  rendering.colorAttachmentCount = shadow ? 0 : 1;
-  rendering.pColorAttachmentFormats = &format;
+  rendering.colorAttachmentCount = colour_attachments;
+  rendering.pColorAttachmentFormats = colour_formats;
   rendering.depthAttachmentFormat = screen ? ambient_depth_format : kDepthFormat;
   rendering.stencilAttachmentFormat = screen ? ambient_depth_format : VK_FORMAT_UNDEFINED;
 
@@ -1319,10 +1330,12 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     // caster its reach box, 1 - A_i multiplied into the samples whose surface lies in the box
     // (depth and stencil tests, which llvmpipe runs before the fragment stage): a sample pays only
     // for the casters whose box holds it.
-    image_barrier(cmd, ambient.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                  VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
-                  VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                  VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT);
+    for (VkImage image : {ambient.image, ambient_key.image}) {
+      image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
+                    VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT);
+    }
     image_barrier(cmd, ambient_depth.image, VK_IMAGE_ASPECT_DEPTH_BIT | VK_IMAGE_ASPECT_STENCIL_BIT,
                   VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
                   VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, 0,
@@ -1330,8 +1343,10 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
     const std::uint32_t ambient_width = (target.width + ambient_step - 1) / ambient_step;
     const std::uint32_t ambient_height = (target.height + ambient_step - 1) / ambient_step;
-    color_attachment.imageView = ambient.view;
-    color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the full-screen pass writes every sample
+    VkRenderingAttachmentInfo ambient_attachments[2] = {color_attachment, color_attachment};
+    ambient_attachments[0].imageView = ambient.view;
+    ambient_attachments[1].imageView = ambient_key.view;
+    for (auto& a : ambient_attachments) a.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the full-screen pass writes all
     auto sample_depth = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
     sample_depth.imageView = ambient_depth.view;
     sample_depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
@@ -1340,11 +1355,14 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     auto sample_stencil = sample_depth;
     sample_stencil.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
     sample_stencil.clearValue.depthStencil = {1.0f, 0};
+    info.colorAttachmentCount = 2;
+    info.pColorAttachments = ambient_attachments;
     info.pDepthAttachment = &sample_depth;
     info.pStencilAttachment = &sample_stencil;
     info.renderArea.extent = {ambient_width, ambient_height};
     vkCmdBeginRendering(cmd, &info);
-    color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    info.colorAttachmentCount = 1;
+    info.pColorAttachments = &color_attachment;
     info.pStencilAttachment = nullptr;
     set_viewport(ambient_width, ambient_height);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ambient_full);
@@ -1373,10 +1391,12 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
       vkCmdDraw(cmd, 36, 1, 0, 0);
     }
     vkCmdEndRendering(cmd);
-    image_barrier(cmd, ambient.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                  VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    for (VkImage image : {ambient.image, ambient_key.image}) {
+      image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                    VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    }
     depth_attachment.imageLayout = forward_depth_layout;
     depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
     depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_NONE;
