@@ -306,6 +306,37 @@ TEST_F(RendererTest, ShadowTapsChangeOnlyShadowEdges) {
   EXPECT_GE(none.differing, 200u) << "without shadows the shadowed ground should be lit";
 }
 
+// The ambient image holds probe irradiance in half floats scaled by 1 / a bound over the grid, so
+// a grid a million times brighter (lights of 1e6 intensity) draws the same indirect view times 1e6
+// (linear floats, within 0.5 %), finite everywhere, instead of overflowing half floats at 65504.
+TEST_F(RendererTest, AmbientImageHoldsAMillionTimesBrighterGrid) {
+  BakedScene& s = scene("cornell");
+  Entity grid;
+  s.world.view<const IrradianceProbeGrid>().each([&](Entity e, const IrradianceProbeGrid& g) {
+    if (g.data) grid = e;
+  });
+  ASSERT_TRUE(grid);
+  const auto original = s.world.get<IrradianceProbeGrid>(grid).data;
+  auto draw = [&]() { return linear_view(s.world, camera(s), kWidth, kHeight, DebugView::IndirectOnly, 2); };
+  const auto base = draw();
+  auto bright = std::make_shared<ProbeGridData>(*original);
+  for (glm::vec3& c : bright->coefficients) c *= 1e6f;
+  s.world.patch<IrradianceProbeGrid>(grid).data = bright;
+  const auto scaled = draw();
+  s.world.patch<IrradianceProbeGrid>(grid).data = original;
+  ASSERT_EQ(base.size(), scaled.size());
+  std::size_t lit = 0;
+  for (std::size_t p = 0; p < base.size(); p += 4) {
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_TRUE(std::isfinite(scaled[p + c])) << "pixel " << p / 4;
+      if (base[p + c] < 1e-3f) continue;
+      EXPECT_NEAR(scaled[p + c] / base[p + c], 1e6, 5e3) << "pixel " << p / 4 << " channel " << c;
+      ++lit;
+    }
+  }
+  EXPECT_GE(lit, std::size_t{kWidth} * kHeight);
+}
+
 // Shadow layers are drawn again only when what they see changed: on the courtyard (sun: 1 layer,
 // lamp: 6) the first frame draws all 7, an unchanged frame none, a frame in which the walker moved
 // those that see it (the sun's and some of the lamp's faces), and that frame is bit-identical to
