@@ -97,6 +97,13 @@ bool may_intersect(const glm::mat4& clip_from_world, const Aabb& box) {
   return std::none_of(std::begin(outside), std::end(outside), [](int n) { return n == 8; });
 }
 
+void set_viewport(VkCommandBuffer cmd, std::uint32_t w, std::uint32_t h) {
+  const VkViewport vp{0.0f, 0.0f, float(w), float(h), 0.0f, 1.0f};
+  const VkRect2D scissor{{0, 0}, {w, h}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+}
+
 // Appends the bytes of `value` to `key`.
 template <typename T>
 void append_bytes(std::vector<std::byte>& key, const T& value) {
@@ -232,6 +239,15 @@ struct Renderer::Impl {
   void write_descriptors();
   Status record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
                 const RenderSettings& settings);
+  // The parts of record(): every draw of a pass; the shadow layers whose content changed; the
+  // ambient passes after the G-buffer pre-pass, with their pipelines.
+  struct AmbientPipelines {
+    VkPipeline full = VK_NULL_HANDLE, mark = VK_NULL_HANDLE, shade[2] = {}, shade_inside[2] = {};
+  };
+  void draw_all(VkCommandBuffer cmd, Pass pass, std::uint32_t layer) const;
+  void record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkPipeline shadow);
+  void record_ambient_passes(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
+                             const AmbientPipelines& passes);
   Status offscreen_frame(const CameraView& camera, std::uint32_t width, std::uint32_t height,
                          const RenderSettings& settings, bool linear_float, bool read, Image* out);
 };
@@ -705,7 +721,8 @@ Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height,
       }
       info.format = ambient_depth_format;
       info.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
-      auto made = alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_DEPTH_BIT | VK_IMAGE_ASPECT_STENCIL_BIT);
+      auto made =
+          alloc->create_image(info, VK_IMAGE_VIEW_TYPE_2D, VK_IMAGE_ASPECT_DEPTH_BIT | VK_IMAGE_ASPECT_STENCIL_BIT);
       if (!made) return made.error();
       ambient_depth = *made;
     }
@@ -921,13 +938,15 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   if (pass == Pass::AoFieldMark) {
     depth_state.depthCompareOp = VK_COMPARE_OP_LESS;
     depth_state.stencilTestEnable = VK_TRUE;
-    depth_state.front = {VK_STENCIL_OP_KEEP, VK_STENCIL_OP_REPLACE, VK_STENCIL_OP_KEEP, VK_COMPARE_OP_ALWAYS, 0xff, 0xff, 1};
+    depth_state.front = {VK_STENCIL_OP_KEEP, VK_STENCIL_OP_REPLACE, VK_STENCIL_OP_KEEP, VK_COMPARE_OP_ALWAYS,
+                         0xff, 0xff, 1};
     depth_state.back = depth_state.front;
   }
   if (ao) depth_state.depthCompareOp = VK_COMPARE_OP_GREATER_OR_EQUAL;
   if (pass == Pass::AoFields) {
     depth_state.stencilTestEnable = VK_TRUE;
-    depth_state.front = {VK_STENCIL_OP_ZERO, VK_STENCIL_OP_ZERO, VK_STENCIL_OP_ZERO, VK_COMPARE_OP_EQUAL, 0xff, 0xff, 1};
+    depth_state.front = {VK_STENCIL_OP_ZERO, VK_STENCIL_OP_ZERO, VK_STENCIL_OP_ZERO, VK_COMPARE_OP_EQUAL,
+                         0xff, 0xff, 1};
     depth_state.back = depth_state.front;
   }
   VkPipelineColorBlendAttachmentState blend_attachment{};
@@ -1121,7 +1140,8 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   const bool shadows = settings.shadows && !shadow_matrices.empty();
   const auto light_count = static_cast<std::uint32_t>(lights.size());
   auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), ambient_pass,
-                          shadows ? settings.shadow_taps : 0, light_count <= PENUMBRA_UNROLLED_LIGHTS ? light_count : 0);
+                          shadows ? settings.shadow_taps : 0,
+                          light_count <= PENUMBRA_UNROLLED_LIGHTS ? light_count : 0);
   if (!forward) return forward.error();
   auto prepass =
       ambient_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);
@@ -1131,21 +1151,21 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   // The ambient passes' pipelines: the full-screen pass (with or without the probe grid), the
   // boxes' stencil mark, their shading per representation (radial fit, grid) after a mark and,
   // with the camera inside the box, without one.
-  VkPipeline ambient_full = VK_NULL_HANDLE, ao_mark = VK_NULL_HANDLE, ao_shade[2] = {}, ao_shade_inside[2] = {};
+  AmbientPipelines ambient_pipelines;
   if (ambient_pass) {
     auto full = pipeline(Pass::Ambient, kAmbientFormat, 0, probe_pass);
     auto mark = pipeline(Pass::AoFieldMark, kAmbientFormat);
     if (!full) return full.error();
     if (!mark) return mark.error();
-    ambient_full = *full;
-    ao_mark = *mark;
+    ambient_pipelines.full = *full;
+    ambient_pipelines.mark = *mark;
     for (bool grid : {false, true}) {
       auto shade = pipeline(Pass::AoFields, kAmbientFormat, 0, grid);
       auto inside = pipeline(Pass::AoFieldsInside, kAmbientFormat, 0, grid);
       if (!shade) return shade.error();
       if (!inside) return inside.error();
-      ao_shade[grid] = *shade;
-      ao_shade_inside[grid] = *inside;
+      ambient_pipelines.shade[grid] = *shade;
+      ambient_pipelines.shade_inside[grid] = *inside;
     }
   }
   PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size,
@@ -1187,92 +1207,8 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   std::memcpy(frame_buffer.mapped, &frame, sizeof frame);
   write_descriptors();
 
-  // Every draw of a pass (the shadow pass binds positions only; only the forward pass reads
-  // materials).
-  // (a shadow pass draws the casters that may be within its layer's view)
-  auto draw_all = [&](Pass pass, std::uint32_t layer) {
-    const bool shadow_pass = pass == Pass::Shadow;  // (the pre-passes bind what the forward pass binds)
-    for (const Draw& d : draws) {
-      if (shadow_pass && (!d.casts_shadow || !may_intersect(shadow_matrices[layer], d.world_bounds))) continue;
-      gpu::DrawPush push = d.push;
-      push.draw.z = layer;
-      const VkBuffer buffers[2] = {d.mesh->vertices.buffer, d.ao};
-      const VkDeviceSize offsets[2] = {0, 0};
-      vkCmdBindVertexBuffers(cmd, 0, shadow_pass ? 1 : 2, buffers, offsets);
-      vkCmdBindIndexBuffer(cmd, d.mesh->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
-      if (pass == Pass::Forward)
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
-      vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                         sizeof push, &push);
-      vkCmdDrawIndexed(cmd, d.mesh->index_count, 1, 0, 0, 0);
-    }
-  };
-  auto set_viewport = [&](std::uint32_t w, std::uint32_t h) {
-    const VkViewport vp{0.0f, 0.0f, float(w), float(h), 0.0f, 1.0f};
-    const VkRect2D scissor{{0, 0}, {w, h}};
-    vkCmdSetViewport(cmd, 0, 1, &vp);
-    vkCmdSetScissor(cmd, 0, 1, &scissor);
-  };
-
-  // Shadow passes: one depth-only pass per shadow layer whose content changed (its key: the
-  // layer's matrix, the map's size, the casters that may be within it with their transforms and
-  // joints); the others keep what they hold.
-  std::vector<std::uint32_t> stale_layers;
-  if (shadows) {
-    for (std::uint32_t layer = 0; layer < shadow_matrices.size(); ++layer) {
-      std::vector<std::byte> key;
-      append_bytes(key, shadow_matrices[layer]);
-      append_bytes(key, shadow_size);
-      for (const Draw& d : draws) {
-        if (!d.casts_shadow || !may_intersect(shadow_matrices[layer], d.world_bounds)) continue;
-        append_bytes(key, d.mesh);
-        append_bytes(key, d.push.model);
-        for (std::uint32_t j = 0; j < d.joint_count; ++j) append_bytes(key, joints[d.push.draw.x + j]);
-      }
-      if (!shadow_initialised || key != shadow_layer_keys[layer]) {
-        shadow_layer_keys[layer] = std::move(key);
-        stale_layers.push_back(layer);
-      }
-    }
-  }
-  stats.shadow_layers = shadows ? static_cast<std::uint32_t>(shadow_matrices.size()) : 0;
-  stats.shadow_layers_rendered = static_cast<std::uint32_t>(stale_layers.size());
-  const VkImageLayout shadow_from = shadow_initialised ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 0, 1, &frame_set, 0, nullptr);
-  if (!stale_layers.empty()) {
-    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, shadow_from, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
-                  VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
-                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *shadow);
-    set_viewport(shadow_size, shadow_size);
-    for (std::uint32_t layer : stale_layers) {
-      auto depth_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-      depth_attachment.imageView = shadow_layer_views[layer];
-      depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-      depth_attachment.clearValue.depthStencil = {1.0f, 0};
-      auto info = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
-      info.renderArea = {{0, 0}, {shadow_size, shadow_size}};
-      info.layerCount = 1;
-      info.pDepthAttachment = &depth_attachment;
-      vkCmdBeginRendering(cmd, &info);
-      draw_all(Pass::Shadow, layer);
-      vkCmdEndRendering(cmd);
-    }
-    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-    shadow_initialised = true;
-  } else if (!shadow_initialised) {
-    // Unused this frame, but bound: give it a valid layout once.
-    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
-                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-    shadow_initialised = true;
-  }
+  record_shadow_layers(cmd, shadows, *shadow);
 
   // Depth pre-pass; with the ambient passes it also writes the G-buffer and is followed by them,
   // and the forward pass then reads its depth (read-only). Without them the pre-pass and the
@@ -1310,9 +1246,9 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     info.pDepthAttachment = &depth_attachment;
     vkCmdBeginRendering(cmd, &info);
     color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    set_viewport(target.width, target.height);
+    set_viewport(cmd, target.width, target.height);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
-    draw_all(Pass::GBufferPrepass, 0);
+    draw_all(cmd, Pass::GBufferPrepass, 0);
     vkCmdEndRendering(cmd);
     image_barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                   forward_depth_layout, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
@@ -1325,82 +1261,10 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
 
-    // Ambient passes at 1 / ambient_step resolution into the ambient image: the full-screen pass
-    // (probe irradiance and open fraction 1 per sample, the sample's depth), then per AO-field
-    // caster its reach box, 1 - A_i multiplied into the samples whose surface lies in the box
-    // (depth and stencil tests, which llvmpipe runs before the fragment stage): a sample pays only
-    // for the casters whose box holds it.
-    for (VkImage image : {ambient.image, ambient_key.image}) {
-      image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
-                    VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT);
-    }
-    image_barrier(cmd, ambient_depth.image, VK_IMAGE_ASPECT_DEPTH_BIT | VK_IMAGE_ASPECT_STENCIL_BIT,
-                  VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-                  VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, 0,
-                  VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
-    const std::uint32_t ambient_width = (target.width + ambient_step - 1) / ambient_step;
-    const std::uint32_t ambient_height = (target.height + ambient_step - 1) / ambient_step;
-    VkRenderingAttachmentInfo ambient_attachments[2] = {color_attachment, color_attachment};
-    ambient_attachments[0].imageView = ambient.view;
-    ambient_attachments[1].imageView = ambient_key.view;
-    for (auto& a : ambient_attachments) a.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the full-screen pass writes all
-    auto sample_depth = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-    sample_depth.imageView = ambient_depth.view;
-    sample_depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
-    sample_depth.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    sample_depth.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    auto sample_stencil = sample_depth;
-    sample_stencil.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    sample_stencil.clearValue.depthStencil = {1.0f, 0};
-    info.colorAttachmentCount = 2;
-    info.pColorAttachments = ambient_attachments;
-    info.pDepthAttachment = &sample_depth;
-    info.pStencilAttachment = &sample_stencil;
-    info.renderArea.extent = {ambient_width, ambient_height};
-    vkCmdBeginRendering(cmd, &info);
-    info.colorAttachmentCount = 1;
-    info.pColorAttachments = &color_attachment;
-    info.pStencilAttachment = nullptr;
-    set_viewport(ambient_width, ambient_height);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ambient_full);
-    vkCmdDraw(cmd, 3, 1, 0, 0);
-    // The camera is inside a box (its front faces can be behind it) when it is within the box
-    // grown by the distance to the near plane's corners (znear = P[3][2] / P[2][2] for the
-    // right-handed [0, 1]-depth projection of camera.cpp).
-    const glm::mat4& p = camera.projection;
-    const float znear = p[2][2] != 0.0f ? std::abs(p[3][2] / p[2][2]) : 0.0f;
-    const float tan_x = p[0][0] != 0.0f ? 1.0f / std::abs(p[0][0]) : 0.0f;
-    const float tan_y = p[1][1] != 0.0f ? 1.0f / std::abs(p[1][1]) : 0.0f;
-    const float margin = znear * std::sqrt(1.0f + tan_x * tan_x + tan_y * tan_y);
-    for (std::uint32_t i = 0; i < ao_caster_grid.size(); ++i) {
-      gpu::DrawPush push{};
-      push.draw.x = i;
-      vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                         sizeof push, &push);
-      const glm::vec4& reach = ao_caster_reach[i];
-      const glm::vec3 offset = glm::abs(camera.position - glm::vec3(reach));
-      const bool inside = std::max({offset.x, offset.y, offset.z}) <= reach.w + margin;
-      if (!inside) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, ao_mark);
-        vkCmdDraw(cmd, 36, 1, 0, 0);
-      }
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, (inside ? ao_shade_inside : ao_shade)[ao_caster_grid[i]]);
-      vkCmdDraw(cmd, 36, 1, 0, 0);
-    }
-    vkCmdEndRendering(cmd);
-    for (VkImage image : {ambient.image, ambient_key.image}) {
-      image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                    VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-                    VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-    }
+    record_ambient_passes(cmd, target, camera, ambient_pipelines);
     depth_attachment.imageLayout = forward_depth_layout;
     depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
     depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_NONE;
-    info.renderArea.extent = {target.width, target.height};
   }
 
   // Forward pass into the target.
@@ -1411,13 +1275,13 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   color_attachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}};
   info.pDepthAttachment = &depth_attachment;
   vkCmdBeginRendering(cmd, &info);
-  set_viewport(target.width, target.height);
+  set_viewport(cmd, target.width, target.height);
   if (!ambient_pass) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
-    draw_all(Pass::DepthPrepass, 0);
+    draw_all(cmd, Pass::DepthPrepass, 0);
   }
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *forward);
-  draw_all(Pass::Forward, 0);
+  draw_all(cmd, Pass::Forward, 0);
   vkCmdEndRendering(cmd);
   if (target.final_layout != VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL) {
     image_barrier(cmd, target.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
@@ -1428,6 +1292,169 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   stats.gpu_bytes = alloc->bytes();
   stats.cpu_record_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return {};
+}
+
+// Every draw of a pass: the shadow pass binds positions only and draws the casters that may be
+// within its layer's view; the pre-passes bind what the forward pass binds; only the forward pass
+// reads materials.
+void Renderer::Impl::draw_all(VkCommandBuffer cmd, Pass pass, std::uint32_t layer) const {
+  const bool shadow_pass = pass == Pass::Shadow;
+  for (const Draw& d : draws) {
+    if (shadow_pass && (!d.casts_shadow || !may_intersect(shadow_matrices[layer], d.world_bounds))) continue;
+    gpu::DrawPush push = d.push;
+    push.draw.z = layer;
+    const VkBuffer buffers[2] = {d.mesh->vertices.buffer, d.ao};
+    const VkDeviceSize offsets[2] = {0, 0};
+    vkCmdBindVertexBuffers(cmd, 0, shadow_pass ? 1 : 2, buffers, offsets);
+    vkCmdBindIndexBuffer(cmd, d.mesh->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+    if (pass == Pass::Forward)
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
+    vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                       sizeof push, &push);
+    vkCmdDrawIndexed(cmd, d.mesh->index_count, 1, 0, 0, 0);
+  }
+}
+
+void Renderer::Impl::record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkPipeline shadow) {
+  // Shadow passes: one depth-only pass per shadow layer whose content changed (its key: the
+  // layer's matrix, the map's size, the casters that may be within it with their transforms and
+  // joints); the others keep what they hold.
+  std::vector<std::uint32_t> stale_layers;
+  if (shadows) {
+    for (std::uint32_t layer = 0; layer < shadow_matrices.size(); ++layer) {
+      std::vector<std::byte> key;
+      append_bytes(key, shadow_matrices[layer]);
+      append_bytes(key, shadow_size);
+      for (const Draw& d : draws) {
+        if (!d.casts_shadow || !may_intersect(shadow_matrices[layer], d.world_bounds)) continue;
+        append_bytes(key, d.mesh);
+        append_bytes(key, d.push.model);
+        for (std::uint32_t j = 0; j < d.joint_count; ++j) append_bytes(key, joints[d.push.draw.x + j]);
+      }
+      if (!shadow_initialised || key != shadow_layer_keys[layer]) {
+        shadow_layer_keys[layer] = std::move(key);
+        stale_layers.push_back(layer);
+      }
+    }
+  }
+  stats.shadow_layers = shadows ? static_cast<std::uint32_t>(shadow_matrices.size()) : 0;
+  stats.shadow_layers_rendered = static_cast<std::uint32_t>(stale_layers.size());
+  const VkImageLayout shadow_from =
+      shadow_initialised ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
+  if (!stale_layers.empty()) {
+    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, shadow_from, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
+                  VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
+                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow);
+    set_viewport(cmd, shadow_size, shadow_size);
+    for (std::uint32_t layer : stale_layers) {
+      auto depth_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+      depth_attachment.imageView = shadow_layer_views[layer];
+      depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      depth_attachment.clearValue.depthStencil = {1.0f, 0};
+      auto info = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
+      info.renderArea = {{0, 0}, {shadow_size, shadow_size}};
+      info.layerCount = 1;
+      info.pDepthAttachment = &depth_attachment;
+      vkCmdBeginRendering(cmd, &info);
+      draw_all(cmd, Pass::Shadow, layer);
+      vkCmdEndRendering(cmd);
+    }
+    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    shadow_initialised = true;
+  } else if (!shadow_initialised) {
+    // Unused this frame, but bound: give it a valid layout once.
+    image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
+                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    shadow_initialised = true;
+  }
+}
+
+void Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
+                                           const AmbientPipelines& passes) {
+  // Ambient passes at 1 / ambient_step resolution into the ambient image: the full-screen pass
+  // (probe irradiance and open fraction 1 per sample, the sample's depth), then per AO-field
+  // caster its reach box, 1 - A_i multiplied into the samples whose surface lies in the box
+  // (depth and stencil tests, which llvmpipe runs before the fragment stage): a sample pays only
+  // for the casters whose box holds it.
+  for (VkImage image : {ambient.image, ambient_key.image}) {
+    image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                  VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
+                  VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                  VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT);
+  }
+  image_barrier(cmd, ambient_depth.image, VK_IMAGE_ASPECT_DEPTH_BIT | VK_IMAGE_ASPECT_STENCIL_BIT,
+                VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, 0,
+                VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+                VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
+  const std::uint32_t ambient_width = (target.width + ambient_step - 1) / ambient_step;
+  const std::uint32_t ambient_height = (target.height + ambient_step - 1) / ambient_step;
+  VkRenderingAttachmentInfo ambient_attachments[2];
+  for (int k = 0; k < 2; ++k) {
+    ambient_attachments[k] = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+    ambient_attachments[k].imageView = k == 0 ? ambient.view : ambient_key.view;
+    ambient_attachments[k].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    ambient_attachments[k].loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the full-screen pass writes every sample
+    ambient_attachments[k].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  }
+  auto sample_depth = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+  sample_depth.imageView = ambient_depth.view;
+  sample_depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+  sample_depth.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  sample_depth.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  auto sample_stencil = sample_depth;
+  sample_stencil.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  sample_stencil.clearValue.depthStencil = {1.0f, 0};
+  auto info = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
+  info.renderArea = {{0, 0}, {ambient_width, ambient_height}};
+  info.layerCount = 1;
+  info.colorAttachmentCount = 2;
+  info.pColorAttachments = ambient_attachments;
+  info.pDepthAttachment = &sample_depth;
+  info.pStencilAttachment = &sample_stencil;
+  vkCmdBeginRendering(cmd, &info);
+  set_viewport(cmd, ambient_width, ambient_height);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, passes.full);
+  vkCmdDraw(cmd, 3, 1, 0, 0);
+  // The camera is inside a box (its front faces can be behind it) when it is within the box
+  // grown by the distance to the near plane's corners (znear = P[3][2] / P[2][2] for the
+  // right-handed [0, 1]-depth projection of camera.cpp).
+  const glm::mat4& p = camera.projection;
+  const float znear = p[2][2] != 0.0f ? std::abs(p[3][2] / p[2][2]) : 0.0f;
+  const float tan_x = p[0][0] != 0.0f ? 1.0f / std::abs(p[0][0]) : 0.0f;
+  const float tan_y = p[1][1] != 0.0f ? 1.0f / std::abs(p[1][1]) : 0.0f;
+  const float margin = znear * std::sqrt(1.0f + tan_x * tan_x + tan_y * tan_y);
+  for (std::uint32_t i = 0; i < ao_caster_grid.size(); ++i) {
+    gpu::DrawPush push{};
+    push.draw.x = i;
+    vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                       sizeof push, &push);
+    const glm::vec4& reach = ao_caster_reach[i];
+    const glm::vec3 offset = glm::abs(camera.position - glm::vec3(reach));
+    const bool inside = std::max({offset.x, offset.y, offset.z}) <= reach.w + margin;
+    if (!inside) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, passes.mark);
+      vkCmdDraw(cmd, 36, 1, 0, 0);
+    }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                      (inside ? passes.shade_inside : passes.shade)[ao_caster_grid[i]]);
+    vkCmdDraw(cmd, 36, 1, 0, 0);
+  }
+  vkCmdEndRendering(cmd);
+  for (VkImage image : {ambient.image, ambient_key.image}) {
+    image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                  VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+  }
 }
 
 Status Renderer::Impl::offscreen_frame(const CameraView& camera, std::uint32_t width,
