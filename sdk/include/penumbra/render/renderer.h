@@ -89,7 +89,7 @@ struct RenderSettings {
   bool shadows = true;
   std::uint32_t shadow_map_size = 1024;
   // Taps of the hardware 2x2 comparison filter per shadow lookup: 4 (default) a tent over 3x3
-  // texels, 1 a bilinear 2x2 footprint with harder edges, about 7 ms less per 1280x720 frame on
+  // texels, 1 a bilinear 2x2 footprint with harder edges, about 10 ms less per 1280x720 frame on
   // 2-core lavapipe (README's renderer row). InvalidArgument otherwise.
   std::uint32_t shadow_taps = 4;
   // The ambient passes (the probe grid's irradiance and the AO-field casters' occlusion, in the
