@@ -27,8 +27,8 @@ using mat4 = glm::mat4;
 #define PENUMBRA_BINDING_PROBE_VALIDITY 6 // sampler3D: validity (r), reach (g, b): pack_probe_node_texels
 #define PENUMBRA_BINDING_AO_FIELDS 7      // storage vec4[]: the ao_field_gpu.h layout (a placeholder without casters)
 // The ambient passes' screen images (placeholders where they do not run), all read with
-// texelFetch: the pre-pass depth and G-buffer they read, the ambient image they write for the
-// forward pass (at 1 / RenderSettings::ambient_step of the target's size).
+// texelFetch: the pre-pass depth and G-buffer they read, the ambient image and its key they write
+// for the forward pass (at 1 / RenderSettings::ambient_step of the target's size).
 #define PENUMBRA_BINDING_SCENE_DEPTH 8    // sampler2D: the camera's depth (pre-pass)
 #define PENUMBRA_BINDING_GBUFFER 9        // sampler2D: xyz shading normal, w receiver code (below)
 #define PENUMBRA_BINDING_AMBIENT 10       // sampler2D: rgb probe irradiance x open x ambient_scale.x,
