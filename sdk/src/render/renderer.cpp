@@ -79,6 +79,14 @@ struct Draw {
   Aabb world_bounds;              // holds every posed vertex (skinned: over every joint's transform)
 };
 
+// Extends `out` by the eight corners of `box` through `m`.
+void extend_by_box(Aabb& out, const Aabb& box, const glm::mat4& m) {
+  for (int i = 0; i < 8; ++i) {
+    const glm::vec3 c((i & 1) ? box.max.x : box.min.x, (i & 2) ? box.max.y : box.min.y, (i & 4) ? box.max.z : box.min.z);
+    out.extend(glm::vec3(m * glm::vec4(c, 1.0f)));
+  }
+}
+
 // Whether any of the world box's points may lie in the clip volume of `clip_from_world` (Vulkan:
 // -w <= x, y <= w, 0 <= z <= w): false when all eight corners are outside one plane.
 bool may_intersect(const glm::mat4& clip_from_world, const Aabb& box) {
@@ -1044,24 +1052,16 @@ Status Renderer::sync(World& world) {
     d.push.emissive = glm::vec4(mat.emissive, 0.0f);
     d.casts_shadow = mat.emissive == glm::vec3(0.0f);
     const auto* pose = world.try_get<SkinPose>(e);
-    const Aabb& mesh_bounds = m.data->bounds;
-    auto extend_by_corners = [&](const glm::mat4& to_world) {
-      for (int i = 0; i < 8; ++i) {
-        const glm::vec3 c((i & 1) ? mesh_bounds.max.x : mesh_bounds.min.x,
-                          (i & 2) ? mesh_bounds.max.y : mesh_bounds.min.y,
-                          (i & 4) ? mesh_bounds.max.z : mesh_bounds.min.z);
-        d.world_bounds.extend(glm::vec3(to_world * glm::vec4(c, 1.0f)));
-      }
-    };
     if (pose && !pose->joint_matrices.empty() && !m.data->joints.empty()) {
       d.push.draw = glm::uvec4(static_cast<std::uint32_t>(r.joints.size()), 1u, 0u, 0u);
       d.joint_count = static_cast<std::uint32_t>(pose->joint_matrices.size());
       r.joints.insert(r.joints.end(), pose->joint_matrices.begin(), pose->joint_matrices.end());
       // A skinned vertex is a convex combination of its joints' transforms of it: within the
       // box of every joint's transform of the mesh's box.
-      for (const glm::mat4& joint : pose->joint_matrices) extend_by_corners(d.push.model * joint);
+      for (const glm::mat4& joint : pose->joint_matrices)
+        extend_by_box(d.world_bounds, m.data->bounds, d.push.model * joint);
     } else {
-      extend_by_corners(d.push.model);
+      extend_by_box(d.world_bounds, m.data->bounds, d.push.model);
     }
     const auto* ao = world.try_get<VertexAO>(e);
     if (ao && ao->ao.size() == m.data->positions.size()) {
@@ -1084,11 +1084,7 @@ Status Renderer::sync(World& world) {
     }
     d.push.ao_field.z = float(r.ao_caster_record(e));
     max_vertices = std::max(max_vertices, d.mesh->vertex_count);
-    for (int i = 0; i < 8; ++i) {
-      const Aabb& b = m.data->bounds;
-      const glm::vec3 c((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y, (i & 4) ? b.max.z : b.min.z);
-      r.bounds.extend(glm::vec3(d.push.model * glm::vec4(c, 1.0f)));
-    }
+    extend_by_box(r.bounds, m.data->bounds, d.push.model);  // the scene's bounds, unposed
     r.draws.push_back(d);
   }
 

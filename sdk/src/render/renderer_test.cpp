@@ -157,6 +157,14 @@ class RendererTest : public ::testing::Test {
   static CameraView camera(BakedScene& s) {
     return camera_view(s.world, s.camera, float(kWidth) / float(kHeight));
   }
+  // The entity of the world's baked IrradianceProbeGrid (the last in iteration order), or none.
+  static Entity baked_probe_grid(World& world) {
+    Entity grid;
+    world.view<const IrradianceProbeGrid>().each([&](Entity e, const IrradianceProbeGrid& g) {
+      if (g.data) grid = e;
+    });
+    return grid;
+  }
   // A debug view of `world` as linear floats (RGBA per pixel) at w x h and the given ambient step.
   static std::vector<float> linear_view(World& world, const CameraView& cam, std::uint32_t w, std::uint32_t h,
                                         DebugView view, std::uint32_t ambient_step) {
@@ -311,10 +319,7 @@ TEST_F(RendererTest, ShadowTapsChangeOnlyShadowEdges) {
 // (linear floats, within 0.5 %), finite everywhere, instead of overflowing half floats at 65504.
 TEST_F(RendererTest, AmbientImageHoldsAMillionTimesBrighterGrid) {
   BakedScene& s = scene("cornell");
-  Entity grid;
-  s.world.view<const IrradianceProbeGrid>().each([&](Entity e, const IrradianceProbeGrid& g) {
-    if (g.data) grid = e;
-  });
+  const Entity grid = baked_probe_grid(s.world);
   ASSERT_TRUE(grid);
   const auto original = s.world.get<IrradianceProbeGrid>(grid).data;
   auto draw = [&]() { return linear_view(s.world, camera(s), kWidth, kHeight, DebugView::IndirectOnly, 2); };
@@ -384,16 +389,11 @@ TEST_F(RendererTest, ShadowLayersAreKeptWhileWhatTheySeeIsUnchanged) {
   EXPECT_NE(turned, moved);
 }
 
-// The shader's probe irradiance (Irradiance view, linear float) equals evaluate() on the CPU at the
-// pixel's world position and normal (Position and Normal views) within 1%.
 // The shader adds the probe grid to its own direct light: a grid that stores all light (direct
 // included) is drawn as it is, with one logged warning per upload of such a grid.
 TEST_F(RendererTest, AnAllLightProbeGridIsDrawnWithOneWarning) {
   BakedScene& s = scene("cornell");
-  Entity grid;
-  s.world.view<const IrradianceProbeGrid>().each([&](Entity e, const IrradianceProbeGrid& g) {
-    if (g.data) grid = e;
-  });
+  const Entity grid = baked_probe_grid(s.world);
   ASSERT_TRUE(grid);
   const std::shared_ptr<const ProbeGridData> indirect = s.world.get<IrradianceProbeGrid>(grid).data;
   ASSERT_EQ(indirect->lighting, LightingContent::Indirect);  // the scenes' default grid
@@ -422,6 +422,8 @@ TEST_F(RendererTest, AnAllLightProbeGridIsDrawnWithOneWarning) {
   set_log_sink({});
 }
 
+// The shader's probe irradiance (Irradiance view, linear float) equals evaluate() on the CPU at the
+// pixel's world position and normal (Position and Normal views) within 1%.
 TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
   for (const char* name : {"cornell", "courtyard"}) {
     BakedScene& s = scene(name);
