@@ -2,7 +2,8 @@
 // by side in one run: the AO-field pass per pixel (Kontkanen & Laine 2005, the thesis section 4.1)
 // and pose-AO as a per-vertex attribute (Kontkanen & Aila 2006, section 4.2), against the same
 // scene without their data (the pass compiled out, nothing uploaded: issue 4's "costs nothing
-// otherwise").
+// otherwise"); and the frame's speed/accuracy trades on the whole scene (one shadow tap, half the
+// resolution).
 //
 // One draft bake of the courtyard (probes, AO fields, pose-AO); one World per variant, each with
 // the default components of `penumbra render` and only that variant's chunks attached: none
@@ -10,7 +11,8 @@
 // (the same at every pixel: RenderSettings::ambient_step 1), ao-fields-moving (one crate moves
 // every frame: its
 // caster record is uploaded each frame), pose-ao (the walker's VertexAO changes and is uploaded
-// every frame), all (moving crate and pose-AO). Every frame advances the World by 1/30 s
+// every frame), all (moving crate and pose-AO), all-shadow-taps-1 (RenderSettings::shadow_taps 1),
+// all-half-size (a quarter of the pixels). Every frame advances the World by 1/30 s
 // (animation, skinning, the AO systems: update_ms) and then renders it (sync, record, submit,
 // wait: render_ms) at the size given; variants take turns in rounds so that the shared machine's
 // noise falls on all of them alike. Medians and minima over every frame of every round; per frame
@@ -71,6 +73,7 @@ struct Variant {
   std::string name;
   bool ao_fields = false, moving_crate = false, pose_ao = false;
   RenderSettings settings;
+  std::uint32_t width = 0, height = 0;
   std::unique_ptr<World> world;
   std::unique_ptr<Renderer> renderer;
   CameraView camera;
@@ -101,13 +104,17 @@ Result<Report> run(const Options& options) {
   if (!device) return device.error();
 
   std::vector<Variant> variants;
-  const auto add = [&](std::string name, bool fields, bool moving, bool pose, std::uint32_t ao_step = 2) {
+  const auto add = [&](std::string name, bool fields, bool moving, bool pose, std::uint32_t ao_step = 2,
+                       std::uint32_t shadow_taps = 4, std::uint32_t divisor = 1) {
     Variant v;
     v.name = std::move(name);
     v.ao_fields = fields;
     v.moving_crate = moving;
     v.pose_ao = pose;
     v.settings.ambient_step = ao_step;
+    v.settings.shadow_taps = shadow_taps;
+    v.width = width / divisor;
+    v.height = height / divisor;
     variants.push_back(std::move(v));
   };
   add("none", false, false, false);
@@ -116,6 +123,8 @@ Result<Report> run(const Options& options) {
   add("ao-fields-moving", true, true, false);
   add("pose-ao", false, false, true);
   add("all", true, true, true);
+  add("all-shadow-taps-1", true, true, true, 2, 1);
+  add("all-half-size", true, true, true, 2, 4, 2);
   for (Variant& v : variants) {
     auto world = courtyard(camera);
     if (!world) return world.error();
@@ -124,14 +133,14 @@ Result<Report> run(const Options& options) {
     if (v.ao_fields) PENUMBRA_TRY(attach_ao_fields(*v.world, file));
     if (v.pose_ao) PENUMBRA_TRY(attach_pose_ao(*v.world, file));
     v.world->update(0.0);
-    v.camera = camera_view(*v.world, camera, float(width) / float(height));
+    v.camera = camera_view(*v.world, camera, float(v.width) / float(v.height));
     for (Entity e : v.world->view<const AOFieldCaster, const WorldTransform>().sorted_entities())
       if (glm::distance(glm::vec3(v.world->get<WorldTransform>(e).matrix[3]), glm::vec3(-3.0f, 0.4f, -6.0f)) < 1e-3f)
         v.crate = e;  // the far crate
     auto renderer = Renderer::create(**device);
     if (!renderer) return renderer.error();
     v.renderer = std::move(*renderer);
-    PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, width, height, v.settings));  // warm-up
+    PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, v.width, v.height, v.settings));  // warm-up
   }
 
   // Rounds: each variant renders frames_per_round animated frames in turn.
@@ -146,7 +155,7 @@ Result<Report> run(const Options& options) {
         v.world->update(1.0 / 30.0);
         v.update_ms.push_back(ms_since(t0));
         t0 = std::chrono::steady_clock::now();
-        PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, width, height, v.settings));
+        PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, v.width, v.height, v.settings));
         v.render_ms.push_back(ms_since(t0));
         v.vertex_ao_uploads += v.renderer->stats().vertex_ao_uploads;
         v.ao_field_bytes += v.renderer->stats().ao_field_bytes_uploaded;
@@ -161,8 +170,10 @@ Result<Report> run(const Options& options) {
   report.columns = {"variant_id", "variant", "width", "height", "frames", "update_ms", "render_ms", "render_ratio",
                     "render_min_ms", "min_ratio", "ao_field_casters", "vertex_ao_uploads_per_frame",
                     "ao_field_bytes_per_frame", "shadow_layers_per_frame"};
-  report.plot = {"courtyard frame time by AO pass (lit view, lavapipe)", "variant (0 none, 1 ao-fields, "
-                 "2 ao-fields-full, 3 ao-fields-moving, 4 pose-ao, 5 all)", "render ms (median)", 0, 6, -1, false, false, true};
+  report.plot = {"courtyard frame time by AO pass and trade (lit view, lavapipe)",
+                 "variant (0 none, 1 ao-fields, 2 ao-fields-full, 3 ao-fields-moving, 4 pose-ao, 5 all, "
+                 "6 all-shadow-taps-1, 7 all-half-size)",
+                 "render ms (median)", 0, 6, -1, false, false, true};
   const double base = median(variants[0].render_ms);
   const double base_min = *std::min_element(variants[0].render_ms.begin(), variants[0].render_ms.end());
   for (std::size_t i = 0; i < variants.size(); ++i) {
@@ -170,7 +181,7 @@ Result<Report> run(const Options& options) {
     const double render = median(v.render_ms);
     const double fastest = *std::min_element(v.render_ms.begin(), v.render_ms.end());
     const double per_frame = 1.0 / double(std::max<std::uint64_t>(v.frames, 1));
-    report.rows.push_back({std::to_string(i), v.name, std::to_string(width), std::to_string(height),
+    report.rows.push_back({std::to_string(i), v.name, std::to_string(v.width), std::to_string(v.height),
                            std::to_string(v.frames), fmt(median(v.update_ms), 3), fmt(render, 4),
                            fmt(base > 0.0 ? render / base : 0.0, 3), fmt(fastest, 4),
                            fmt(base_min > 0.0 ? fastest / base_min : 0.0, 3), std::to_string(v.casters),
@@ -182,6 +193,11 @@ Result<Report> run(const Options& options) {
                          "sensitive to other load on the machine); measured in the same run (" +
                          std::to_string(rounds) + " rounds of " + std::to_string(frames_per_round) +
                          " frames per variant)");
+  // The trades against the whole scene at the defaults (variants 5-7).
+  const double all = median(variants[5].render_ms);
+  report.notes.push_back("trades on the whole scene: one shadow tap " + fmt(median(variants[6].render_ms) / all, 3) +
+                         "x the default frame, half the width and height " +
+                         fmt(median(variants[7].render_ms) / all, 3) + "x (accuracy: README's renderer table)");
   const Variant& none = variants[0];
   const bool costs_nothing = none.casters == 0 && none.vertex_ao_uploads == 0 && none.ao_field_bytes == 0;
   report.notes.push_back("goal (issue 4): a pass costs nothing without its data: none has ao_field_casters " +
