@@ -247,12 +247,13 @@ struct Renderer::Impl {
   void write_descriptors();
   Status record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
                 const RenderSettings& settings);
-  // The parts of record(): every draw of a pass; the shadow layers whose content changed; the
+  // The parts of record(): one draw of a pass, every draw; the shadow layers whose content changed; the
   // ambient passes after the G-buffer pre-pass, with their pipelines.
   struct AmbientPipelines {
     VkPipeline full = VK_NULL_HANDLE, mark = VK_NULL_HANDLE, shade[2] = {}, shade_inside[2] = {};
   };
-  void draw_all(VkCommandBuffer cmd, Pass pass, std::uint32_t layer) const;
+  void draw(VkCommandBuffer cmd, Pass pass, const Draw& d, std::uint32_t layer) const;
+  void draw_all(VkCommandBuffer cmd, Pass pass) const;
   void record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkPipeline shadow);
   void record_ambient_passes(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
                              const AmbientPipelines& passes);
@@ -1244,7 +1245,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     color_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
     set_viewport(cmd, target.width, target.height);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
-    draw_all(cmd, Pass::GBufferPrepass, 0);
+    draw_all(cmd, Pass::GBufferPrepass);
     vkCmdEndRendering(cmd);
     image_barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                   forward_depth_layout, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
@@ -1274,10 +1275,10 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   set_viewport(cmd, target.width, target.height);
   if (!ambient_pass) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
-    draw_all(cmd, Pass::DepthPrepass, 0);
+    draw_all(cmd, Pass::DepthPrepass);
   }
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *forward);
-  draw_all(cmd, Pass::Forward, 0);
+  draw_all(cmd, Pass::Forward);
   vkCmdEndRendering(cmd);
   if (target.final_layout != VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL) {
     image_barrier(cmd, target.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
@@ -1290,46 +1291,47 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   return {};
 }
 
-// Every draw of a pass: the shadow pass binds positions only and draws the casters that may be
-// within its layer's view; the pre-passes bind what the forward pass binds; only the forward pass
-// reads materials.
-void Renderer::Impl::draw_all(VkCommandBuffer cmd, Pass pass, std::uint32_t layer) const {
-  const bool shadow_pass = pass == Pass::Shadow;
-  for (const Draw& d : draws) {
-    if (shadow_pass && (!d.casts_shadow || !may_intersect(shadow_matrices[layer], d.world_bounds))) continue;
-    gpu::DrawPush push = d.push;
-    push.draw.z = layer;
-    const VkBuffer buffers[2] = {d.mesh->vertices.buffer, d.ao};
-    const VkDeviceSize offsets[2] = {0, 0};
-    vkCmdBindVertexBuffers(cmd, 0, shadow_pass ? 1 : 2, buffers, offsets);
-    vkCmdBindIndexBuffer(cmd, d.mesh->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
-    if (pass == Pass::Forward)
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
-    vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                       sizeof push, &push);
-    vkCmdDrawIndexed(cmd, d.mesh->index_count, 1, 0, 0, 0);
-  }
+// One draw of a pass: the shadow pass binds positions only (into shadow layer `layer`), the
+// pre-passes bind what the forward pass binds, only the forward pass reads materials.
+void Renderer::Impl::draw(VkCommandBuffer cmd, Pass pass, const Draw& d, std::uint32_t layer) const {
+  gpu::DrawPush push = d.push;
+  push.draw.z = layer;
+  const VkBuffer buffers[2] = {d.mesh->vertices.buffer, d.ao};
+  const VkDeviceSize offsets[2] = {0, 0};
+  vkCmdBindVertexBuffers(cmd, 0, pass == Pass::Shadow ? 1 : 2, buffers, offsets);
+  vkCmdBindIndexBuffer(cmd, d.mesh->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+  if (pass == Pass::Forward)
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
+  vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                     sizeof push, &push);
+  vkCmdDrawIndexed(cmd, d.mesh->index_count, 1, 0, 0, 0);
+}
+
+void Renderer::Impl::draw_all(VkCommandBuffer cmd, Pass pass) const {
+  for (const Draw& d : draws) draw(cmd, pass, d, 0);
 }
 
 void Renderer::Impl::record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkPipeline shadow) {
   // Shadow passes: one depth-only pass per shadow layer whose content changed (its key: the
   // layer's matrix, the map's size, the casters that may be within it with their transforms and
-  // joints); the others keep what they hold.
-  std::vector<std::uint32_t> stale_layers;
+  // joints); the others keep what they hold. A layer draws only those casters.
+  std::vector<std::pair<std::uint32_t, std::vector<const Draw*>>> stale_layers;
   if (shadows) {
     for (std::uint32_t layer = 0; layer < shadow_matrices.size(); ++layer) {
+      std::vector<const Draw*> casters;
       std::vector<std::byte> key;
       append_bytes(key, shadow_matrices[layer]);
       append_bytes(key, shadow_size);
       for (const Draw& d : draws) {
         if (!d.casts_shadow || !may_intersect(shadow_matrices[layer], d.world_bounds)) continue;
+        casters.push_back(&d);
         append_bytes(key, d.mesh);
         append_bytes(key, d.push.model);
         for (std::uint32_t j = 0; j < d.joint_count; ++j) append_bytes(key, joints[d.push.draw.x + j]);
       }
       if (!shadow_initialised || key != shadow_layer_keys[layer]) {
         shadow_layer_keys[layer] = std::move(key);
-        stale_layers.push_back(layer);
+        stale_layers.emplace_back(layer, std::move(casters));
       }
     }
   }
@@ -1344,7 +1346,7 @@ void Renderer::Impl::record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkP
                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow);
     set_viewport(cmd, shadow_size, shadow_size);
-    for (std::uint32_t layer : stale_layers) {
+    for (const auto& [layer, casters] : stale_layers) {
       auto depth_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
       depth_attachment.imageView = shadow_layer_views[layer];
       depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
@@ -1356,7 +1358,7 @@ void Renderer::Impl::record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkP
       info.layerCount = 1;
       info.pDepthAttachment = &depth_attachment;
       vkCmdBeginRendering(cmd, &info);
-      draw_all(cmd, Pass::Shadow, layer);
+      for (const Draw* d : casters) draw(cmd, Pass::Shadow, *d, layer);
       vkCmdEndRendering(cmd);
     }
     image_barrier(cmd, shadow_map.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
