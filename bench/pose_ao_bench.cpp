@@ -29,6 +29,7 @@
 #include "penumbra/pose_ao/pose_ao_baker.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
+#include "penumbra/scene/gltf.h"
 
 namespace penumbra::bench {
 namespace {

@@ -50,7 +50,7 @@
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/probe_grid/probe_baker.h"
+#include "penumbra/probe_grid/probe_grid_baker.h"
 #include "penumbra/scene/builtin.h"
 
 namespace penumbra::bench {

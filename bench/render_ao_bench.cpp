@@ -25,13 +25,13 @@
 #include <vector>
 
 #include "bench.h"
-#include "penumbra/ao_field/ao_field_baker.h"
+#include "penumbra/ao_field/ao_field.h"
 #include "penumbra/bake/baker.h"
+#include "penumbra/bakers.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/pose_ao/pose_ao_system.h"
-#include "penumbra/probe_grid/probe_system.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 
@@ -53,20 +53,24 @@ double median(std::vector<double> v) {
 // load_world.cpp), the modules' systems registered.
 Result<std::unique_ptr<World>> courtyard(Entity& camera) {
   auto world = std::make_unique<World>();
-  register_scene_systems(*world);
-  register_probe_grid(*world);
-  register_ao_field(*world);
-  register_pose_ao(*world);
+  register_lighting(*world);
+  register_bakers(*world);
   auto loaded = load_builtin(*world, "courtyard");
   if (!loaded) return loaded.error();
   camera = loaded->camera;
   world->update(0.0);
-  add_default_pose_ao(*world, Preset::Draft);
-  auto grid = add_default_probe_grid(*world, Preset::Draft);
-  if (!grid) return grid.error();
-  add_default_ao_field_casters(*world, Preset::Draft);
-  world->update(0.0);
+  PENUMBRA_TRY(add_default_lighting(*world, Preset::Draft, false));
   return world;
+}
+
+// The chunks of `file` that the named modules own.
+BakeFile chunks_of(const BakeFile& file, std::initializer_list<std::string_view> modules) {
+  BakeFile out = file;
+  std::erase_if(out.chunks, [&](const BakeChunk& c) {
+    const LightingModule* m = lighting_module_for_chunk(c.type);
+    return m == nullptr || std::find(modules.begin(), modules.end(), m->name) == modules.end();
+  });
+  return out;
 }
 
 struct Variant {
@@ -95,7 +99,7 @@ Result<Report> run(const Options& options) {
   settings.preset = Preset::Draft;
   ThreadPool pool(options.threads);
   JobContext jobs(&pool);
-  auto baked = bake_world(**baked_world, {"probes", "aofields", "poseao"}, settings, jobs);
+  auto baked = bake_world(**baked_world, {"probe-grid", "ao-field", "pose-ao"}, settings, jobs);
   if (!baked) return baked.error();
   const BakeFile& file = baked->file;
 
@@ -129,9 +133,9 @@ Result<Report> run(const Options& options) {
     auto world = courtyard(camera);
     if (!world) return world.error();
     v.world = std::move(*world);
-    PENUMBRA_TRY(attach_probe_grids(*v.world, file));
-    if (v.ao_fields) PENUMBRA_TRY(attach_ao_fields(*v.world, file));
-    if (v.pose_ao) PENUMBRA_TRY(attach_pose_ao(*v.world, file));
+    PENUMBRA_TRY(attach_bake(*v.world, chunks_of(file, {"probe-grid"})));
+    if (v.ao_fields) PENUMBRA_TRY(attach_bake(*v.world, chunks_of(file, {"ao-field"})));
+    if (v.pose_ao) PENUMBRA_TRY(attach_bake(*v.world, chunks_of(file, {"pose-ao"})));
     v.world->update(0.0);
     v.camera = camera_view(*v.world, camera, float(v.width) / float(v.height));
     for (Entity e : v.world->view<const AOFieldCaster, const WorldTransform>().sorted_entities())

@@ -13,6 +13,7 @@
 #include "penumbra/pose_ao/pose_ao.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/components.h"
+#include "penumbra/scene/entity_key.h"
 
 namespace penumbra::editor {
 
@@ -72,6 +73,8 @@ std::unique_ptr<World> snapshot(World& src, const std::vector<Entity>& only) {
     copy_component<Light>(src, *dst, s, d);
     copy_component<Static>(src, *dst, s, d);
     copy_component<Name>(src, *dst, s, d);
+    // The source's key, so that the chunks name the document's entities (scene/entity_key.h).
+    if (std::string key = entity_key(src, s); !key.empty()) dst->add<EntityKey>(d, EntityKey{std::move(key)});
     if (const Parent* p = src.try_get<Parent>(s)) dst->add<Parent>(d, Parent{remap(p->entity)});
     if (const Animator* a = src.try_get<Animator>(s)) {
       Animator copy = *a;
@@ -107,9 +110,9 @@ const char* to_string(BakeStatus::State state) {
 
 std::vector<std::string> bakers_for(World& world, Entity e) {
   std::vector<std::string> names;
-  if (world.has<IrradianceProbeGrid>(e)) names.push_back("probes");
-  if (world.has<AOFieldCaster>(e)) names.push_back("aofields");
-  if (world.has<SkinnedPoseAO>(e)) names.push_back("poseao");
+  if (world.has<IrradianceProbeGrid>(e)) names.push_back("probe-grid");
+  if (world.has<AOFieldCaster>(e)) names.push_back("ao-field");
+  if (world.has<SkinnedPoseAO>(e)) names.push_back("pose-ao");
   return names;
 }
 

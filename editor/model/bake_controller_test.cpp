@@ -13,6 +13,7 @@
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/components.h"
+#include "penumbra/scene/entity_key.h"
 
 namespace penumbra::editor {
 namespace {
@@ -27,7 +28,7 @@ TEST(BakeController, BakesInTheBackgroundAndAttachesOnPoll) {
   model.bake_settings.preset = Preset::Draft;
   Document& doc = *model.document();
   const Entity grid = *doc.find("probe grid");
-  ASSERT_TRUE(model.bake({"probes"}).ok());
+  ASSERT_TRUE(model.bake({"probe-grid"}).ok());
   // The live World keeps running while the bake works on its snapshot.
   const Entity crate = *doc.find("crate");
   int frames = 0;
@@ -43,7 +44,7 @@ TEST(BakeController, BakesInTheBackgroundAndAttachesOnPoll) {
   ASSERT_EQ(status.state, BakeStatus::State::Done) << status.error;
   EXPECT_GT(status.seconds, 0.0);
   ASSERT_EQ(status.report.items.size(), 1u);
-  EXPECT_EQ(status.report.items[0].baker, "probes");
+  EXPECT_EQ(status.report.items[0].baker, "probe-grid");
   EXPECT_EQ(status.bytes, status.report.items[0].bytes);
   // Per-stage progress: the ray scene and the probe stages, each complete.
   ASSERT_GE(status.stages.size(), 3u);
@@ -53,7 +54,7 @@ TEST(BakeController, BakesInTheBackgroundAndAttachesOnPoll) {
   // The results are attached to the live component and kept for saving.
   const auto& data = doc.world().get<IrradianceProbeGrid>(grid).data;
   ASSERT_NE(data, nullptr);
-  EXPECT_EQ(data->entity_index, grid.index);
+  EXPECT_EQ(data->key, entity_key(doc.world(), grid));
   EXPECT_GT(data->valid_fraction(), 0.5f);
   ASSERT_TRUE(doc.has_bake());
   EXPECT_EQ(doc.baked().chunks.size(), 1u);
@@ -94,9 +95,9 @@ TEST(BakeController, CancelStopsTheBakeAndAttachesNothing) {
   ASSERT_TRUE(model.open("builtin:courtyard", Preset::High).ok());
   model.bake_settings.preset = Preset::High;
   const Entity grid = *model.document()->find("probe grid");
-  ASSERT_TRUE(model.bake({"probes"}).ok());
+  ASSERT_TRUE(model.bake({"probe-grid"}).ok());
   // A second bake while one runs is refused.
-  auto busy = model.bake({"probes"});
+  auto busy = model.bake({"probe-grid"});
   ASSERT_FALSE(busy.ok());
   EXPECT_NE(busy.error().message.find("already running"), std::string::npos);
   model.bakes().cancel();
@@ -133,7 +134,7 @@ TEST(BakeController, SelectionBakesOnlyTheSelectedComponent) {
   ASSERT_TRUE(model.poll());
   ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
   ASSERT_EQ(doc.baked().chunks.size(), 1u);
-  EXPECT_EQ(doc.baked().chunks[0].label, "probes:" + std::to_string(grid.index));
+  EXPECT_EQ(doc.baked().chunks[0].label, "probe-grid:probe grid");
 }
 
 TEST(BakeController, SavedBakeLoadsIntoAFreshDocument) {
@@ -144,7 +145,7 @@ TEST(BakeController, SavedBakeLoadsIntoAFreshDocument) {
   auto nothing = model.document()->save_bake(path);
   ASSERT_FALSE(nothing.ok());
   EXPECT_NE(nothing.error().message.find("nothing is baked yet"), std::string::npos);
-  ASSERT_TRUE(model.bake({"probes"}).ok());
+  ASSERT_TRUE(model.bake({"probe-grid"}).ok());
   model.bakes().wait();
   ASSERT_TRUE(model.poll());
   ASSERT_TRUE(model.document()->save_bake(path).ok());

@@ -7,30 +7,16 @@
 #include <unistd.h>
 
 #include "load_world.h"
-#include "penumbra/ao_field/ao_field_baker.h"
-#include "penumbra/pose_ao/pose_ao_system.h"
-#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra::editor {
-
-namespace {
-
-// Every module's "attach baked chunks to components" entry point; vertex AO has none (its chunk
-// is kept in the file only).
-using AttachFn = Status (*)(World&, const BakeFile&);
-constexpr AttachFn kAttachers[] = {attach_probe_grids, attach_ao_fields, attach_pose_ao};
-
-}  // namespace
 
 Result<std::unique_ptr<Document>> Document::open(std::string_view source, Preset preset) {
   std::unique_ptr<Document> doc(new Document);
   doc->source_ = std::string(source);
   if (Status s = cli::load_world(doc->world_, source, preset); !s)
     return Error{s.error().code, "open " + std::string(source) + ": " + s.error().message};
-  // The default grid of a built-in scene gets a name so that scripts and the hierarchy can refer to it.
-  for (Entity e : doc->world_.view<IrradianceProbeGrid>().sorted_entities())
-    if (!doc->world_.has<Name>(e)) doc->world_.add<Name>(e, Name{"probe grid"});
   return doc;
 }
 
@@ -64,7 +50,7 @@ std::string Document::label(Entity e) {
 }
 
 Status Document::attach(BakeFile file) {
-  for (AttachFn fn : kAttachers) PENUMBRA_TRY(fn(world_, file));
+  PENUMBRA_TRY(attach_bake(world_, file));
   // Keep the chunks: replace those of the same type and label.
   for (BakeChunk& chunk : file.chunks) {
     bool replaced = false;
@@ -84,9 +70,7 @@ Status Document::attach(BakeFile file) {
 Status Document::open_bake(const std::filesystem::path& path) {
   auto file = read_bake_file(path);
   if (!file) return file.error();
-  for (AttachFn fn : kAttachers)
-    if (Status s = fn(world_, *file); !s)
-      return Error{s.error().code, path.string() + ": " + s.error().message};
+  if (Status s = attach_bake(world_, *file); !s) return Error{s.error().code, path.string() + ": " + s.error().message};
   baked_ = std::move(*file);
   return {};
 }

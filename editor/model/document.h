@@ -9,7 +9,7 @@
 #include <string_view>
 
 #include "penumbra/bake/baker.h"
-#include "penumbra/bake/pbake.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/ecs/world.h"
 #include "undo.h"
 
@@ -35,7 +35,7 @@ class Document {
   // The entity's Name, or "#INDEX" when it has none.
   std::string label(Entity e);
 
-  // Attaches a bake's chunks to the components they belong to (every module's attach function) and
+  // Attaches a bake's chunks to the components they belong to (attach_bake) and
   // keeps them: chunks replace kept ones of the same type and label, the others stay (a bake of
   // the selection updates only its chunks). Errors name the chunk; nothing is kept then.
   Status attach(BakeFile file);

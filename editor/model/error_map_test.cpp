@@ -39,7 +39,7 @@ TEST(ErrorMap, FurnaceGridMatchesTheReferenceWithinItsNoise) {
   EXPECT_NE(unbaked.error().message.find("bake the probe grid first"), std::string::npos);
 
   model.bake_settings.preset = Preset::Medium;
-  ASSERT_TRUE(model.bake({"probes"}).ok());
+  ASSERT_TRUE(model.bake({"probe-grid"}).ok());
   model.bakes().wait();
   ASSERT_TRUE(model.poll());
   ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;

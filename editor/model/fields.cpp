@@ -396,7 +396,7 @@ std::string format_field_value(const FieldDesc& f, const FieldValue& value) {
 std::span<const ComponentPreset> component_presets() {
   static const std::vector<ComponentPreset> presets = [] {
     std::vector<ComponentPreset> p;
-    p.push_back({"probes", "IrradianceProbeGrid", has<IrradianceProbeGrid>(), [](World& w, Entity e, Preset q) {
+    p.push_back({"probe-grid", "IrradianceProbeGrid", has<IrradianceProbeGrid>(), [](World& w, Entity e, Preset q) {
                    IrradianceProbeGrid& g = w.patch<IrradianceProbeGrid>(e);
                    IrradianceProbeGrid next = IrradianceProbeGrid::preset(q);
                    next.box = g.box;
@@ -406,7 +406,7 @@ std::span<const ComponentPreset> component_presets() {
                    next.data = g.data;
                    g = std::move(next);
                  }});
-    p.push_back({"aofields", "AOFieldCaster", has<AOFieldCaster>(), [](World& w, Entity e, Preset q) {
+    p.push_back({"ao-field", "AOFieldCaster", has<AOFieldCaster>(), [](World& w, Entity e, Preset q) {
                    AOFieldCaster& c = w.patch<AOFieldCaster>(e);
                    AOFieldCaster next = AOFieldCaster::preset(q);
                    next.representation = c.representation;
@@ -414,7 +414,7 @@ std::span<const ComponentPreset> component_presets() {
                    next.data = c.data;
                    c = std::move(next);
                  }});
-    p.push_back({"poseao", "SkinnedPoseAO", has<SkinnedPoseAO>(), [](World& w, Entity e, Preset q) {
+    p.push_back({"pose-ao", "SkinnedPoseAO", has<SkinnedPoseAO>(), [](World& w, Entity e, Preset q) {
                    SkinnedPoseAO& c = w.patch<SkinnedPoseAO>(e);
                    SkinnedPoseAO next = SkinnedPoseAO::preset(q);
                    next.range_margin = c.range_margin;

@@ -69,7 +69,7 @@ std::string format_field_value(const FieldDesc& field, const FieldValue& value);
 
 // A quality preset of a lighting component, applied by the inspector and by `preset ENTITY WHAT P`.
 struct ComponentPreset {
-  std::string technique;  // the script's word, e.g. "probes" (also the baker's name)
+  std::string technique;  // the script's word, e.g. "probe-grid" (also the baker's name)
   std::string component;  // e.g. "IrradianceProbeGrid"
   std::function<bool(World&, Entity)> present;
   // Sets the preset's quality knobs with World::patch, keeping placement (box, priority, blending)

@@ -184,7 +184,7 @@ TEST(LightingViews, PoseAOBakesThroughTheSnapshotLikeAForegroundBake) {
   model.bake_threads = 2;
   Document& doc = *model.document();
   const Entity body = *doc.find("character_mesh");
-  EXPECT_EQ(bakers_for(doc.world(), body), std::vector<std::string>{"poseao"});
+  EXPECT_EQ(bakers_for(doc.world(), body), std::vector<std::string>{"pose-ao"});
   auto unbaked = pose_ao_summary(doc.world(), body);
   ASSERT_TRUE(unbaked.ok());
   EXPECT_FALSE(unbaked->baked);
@@ -199,7 +199,7 @@ TEST(LightingViews, PoseAOBakesThroughTheSnapshotLikeAForegroundBake) {
   BakeSettings settings;
   settings.preset = Preset::Draft;
   settings.seed = 11;
-  auto direct = bake_world(fresh, {"poseao"}, settings, serial);
+  auto direct = bake_world(fresh, {"pose-ao"}, settings, serial);
   ASSERT_TRUE(direct.ok()) << direct.error().message;
   ASSERT_EQ(direct->file.chunks.size(), 1u);
   EXPECT_TRUE(direct->file.chunks[0].payload == doc.baked().chunks[0].payload);
@@ -243,7 +243,7 @@ TEST(LightingViews, PoseAOFieldsAndPreset) {
   const FieldDesc* margin = find_field("SkinnedPoseAO", "range_margin");
   ASSERT_NE(margin, nullptr);
   margin->set(w, body, FieldValue(0.5f));
-  const ComponentPreset* preset = find_preset("poseao");
+  const ComponentPreset* preset = find_preset("pose-ao");
   ASSERT_NE(preset, nullptr);
   ASSERT_TRUE(preset->present(w, body));
   preset->apply(w, body, Preset::High);

@@ -21,8 +21,8 @@ TEST(Script, ParsesEveryActionAndSkipsComments) {
       "select \"probe grid\"\n"
       "set lamp Light.intensity 40\n"
       "set crate Transform.translation 1, 0.4, 2\n"
-      "preset \"probe grid\" probes draft\n"
-      "bake probes,aofields medium\n"
+      "preset \"probe grid\" probe-grid draft\n"
+      "bake probe-grid,ao-field medium\n"
       "bake selection\n"
       "wait\n"
       "frames 3\n"
@@ -64,7 +64,7 @@ TEST(Script, BadLinesNameTheLineAndTheFix) {
       {"set lamp Light.intensity -3", "outside [0,"},
       {"set x ProbeLit.covered true", "written by the runtime"},
       {"preset grid lightmaps draft", "unknown technique 'lightmaps'"},
-      {"preset grid probes ultra", "unknown preset 'ultra'"},
+      {"preset grid probe-grid ultra", "unknown preset 'ultra'"},
       {"bake", "'bake' takes all, selection or baker names"},
       {"bake all ultra", "optional preset"},
       {"wait 3", "'wait' takes no arguments"},
@@ -92,7 +92,7 @@ TEST(ScriptRunner, SavedEditsReplayToTheSameValues) {
   ASSERT_TRUE(doc.undo().set(w, lamp, *find_field("Light", "intensity"), FieldValue(33.5f)).ok());
   ASSERT_TRUE(doc.undo().set(w, crate, *find_field("Transform", "rotation"),
                              *parse_field_value(*find_field("Transform", "rotation"), "0 30 0")).ok());
-  const ComponentPreset& p = *find_preset("probes");
+  const ComponentPreset& p = *find_preset("probe-grid");
   ASSERT_TRUE(doc.undo().record(w, grid, p.component, "preset", [&] { p.apply(w, grid, Preset::High); }).ok());
   ASSERT_TRUE(doc.undo().set(w, lamp, *find_field("Light", "range"), FieldValue(3.0f)).ok());
   ASSERT_TRUE(doc.undo().undo(w));  // undone edits are not saved

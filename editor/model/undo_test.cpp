@@ -85,7 +85,7 @@ TEST(Undo, PresetIsOneEntryOfTheChangedFields) {
   World& w = doc->world();
   const Entity grid = *doc->find("probe grid");
   const IrradianceProbeGrid before = w.get<IrradianceProbeGrid>(grid);  // medium (the default)
-  const ComponentPreset& p = *find_preset("probes");
+  const ComponentPreset& p = *find_preset("probe-grid");
   ASSERT_TRUE(doc->undo().record(w, grid, p.component, "preset", [&] { p.apply(w, grid, Preset::Draft); }).ok());
   const IrradianceProbeGrid& draft = w.get<IrradianceProbeGrid>(grid);
   const IrradianceProbeGrid expected = IrradianceProbeGrid::preset(Preset::Draft);

@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include "penumbra/bake/pbake.h"
-#include "penumbra/probe_grid/probe_baker.h"
+#include "penumbra/core/pbake.h"
+#include "penumbra/probe_grid/probe_grid_baker.h"
 #include "stb_image.h"
 
 namespace {

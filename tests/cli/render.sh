@@ -24,7 +24,7 @@ expect_exit 2 "$PENUMBRA" render builtin:cornell -o "$scratch/x.png" --width 0
 expect_exit 1 "$PENUMBRA" render builtin:cornell --bake "$scratch/missing.pbake" -o "$scratch/x.png"; expect_output "missing.pbake"
 # The AO passes: a courtyard bake with AO fields and pose-AO darkens the ao view, and --time moves
 # the walker (its pose-AO with it).
-expect_exit 0 "$PENUMBRA" bake builtin:courtyard -o "$scratch/y.pbake" --preset draft --only aofields,poseao
+expect_exit 0 "$PENUMBRA" bake builtin:courtyard -o "$scratch/y.pbake" --preset draft --only ao-field,pose-ao
 for t in 0 0.4; do
   expect_exit 0 "$PENUMBRA" render builtin:courtyard --bake "$scratch/y.pbake" -o "$scratch/y$t.png" --view ao \
     --width 64 --height 48 --time "$t"

@@ -9,5 +9,5 @@ expect_exit 2 "$PENUMBRA" bake builtin:cornell -o "$scratch/a.pbake" --preset ul
 expect_exit 2 "$PENUMBRA" bench;               expect_output "one benchmark name"
 expect_exit 2 "$PENUMBRA" bench nosuch;        expect_output "no benchmark named 'nosuch'"
 expect_exit 0 "$PENUMBRA" bench --list;        expect_output "ecs"; expect_output "rays"; expect_output "probe-grid"; expect_output "ao-field"
-expect_exit 0 "$PENUMBRA" bake --list;         expect_output "vertex-ao"; expect_output "probes"; expect_output "aofields"
+expect_exit 0 "$PENUMBRA" bake --list;         expect_output "vertex-ao"; expect_output "probe-grid"; expect_output "ao-field"
 finish

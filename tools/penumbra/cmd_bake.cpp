@@ -6,8 +6,9 @@
 #include <sstream>
 
 #include "cli.h"
+#include "penumbra/runtime.h"
 #include "penumbra/bake/baker.h"
-#include "penumbra/bake/pbake.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/core/memory.h"
 
 namespace penumbra::cli {
@@ -119,19 +120,18 @@ int cmd_info(Args args) {
   auto file = read_bake_file(path);
   if (!file) return fail(kFailure, file.error().message);
 
-  // Bakers describe their own chunks; any World knows every registered baker.
-  World world;
-  if (Status s = load_world(world, "builtin:furnace"); !s) return fail(kFailure, s.error().message);
-
   std::printf("%s\n  format version %u, written by Penumbra %s\n  input hash %s\n  %zu chunks, %s in all\n",
               path.c_str(), file->format_version, file->sdk_version.c_str(), hex64(file->input_hash).c_str(),
               file->chunks.size(), format_bytes(std::filesystem::file_size(path)).c_str());
   for (const BakeChunk& chunk : file->chunks) {
     std::printf("  chunk %s v%u '%s': %s\n", fourcc_to_string(chunk.type).c_str(), chunk.version, chunk.label.c_str(),
                 format_bytes(chunk.payload.size()).c_str());
-    for (const Baker& b : world.resource<BakerRegistry>().all())
-      if (b.describe)
-        for (const auto& line : b.describe(chunk)) std::printf("      %s\n", line.c_str());
+    // Each module describes its own chunks.
+    const LightingModule* module = lighting_module_for_chunk(chunk.type);
+    if (module == nullptr)
+      std::printf("      (no linked lighting module reads this chunk type)\n");
+    else if (module->describe)
+      for (const auto& line : module->describe(chunk)) std::printf("      %s\n", line.c_str());
   }
   return kSuccess;
 }

@@ -8,25 +8,13 @@
 #include <vector>
 
 #include "cli.h"
-#include "penumbra/ao_field/ao_field_baker.h"
-#include "penumbra/bake/pbake.h"
-#include "penumbra/bake/vertex_ao.h"
-#include "penumbra/pose_ao/pose_ao_system.h"
-#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra::cli {
 namespace {
-
-// Attaches every technique's baked data in `file` to the World.
-Status attach_bake(World& world, const BakeFile& file) {
-  PENUMBRA_TRY(attach_probe_grids(world, file));
-  PENUMBRA_TRY(attach_ao_fields(world, file));
-  PENUMBRA_TRY(attach_pose_ao(world, file));
-  PENUMBRA_TRY(attach_vertex_ao(world, file));  // the renderer's per-vertex AO attribute
-  return {};
-}
 
 std::optional<double> parse_number(const std::string& text) {
   try {

@@ -10,12 +10,13 @@
 
 namespace penumbra::cli {
 
-// Registers every linked module's systems and bakers with `world` (once per World).
+// Registers every module's runtime (register_lighting) and baker (register_bakers) with `world`
+// (once per World).
 void register_modules(World& world);
 
 // Loads `builtin:NAME` or a glTF path into `world`, registers every module's systems and bakers and
-// runs one update so that world transforms and poses are current. Built-in scenes get a default
-// probe grid with the settings of `preset`.
+// runs one update so that world transforms and poses are current. Built-in scenes get every
+// module's default components with the settings of `preset` (add_default_lighting).
 Status load_world(World& world, std::string_view scene, Preset preset = Preset::Medium);
 
 }  // namespace penumbra::cli

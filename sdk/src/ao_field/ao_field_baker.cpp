@@ -20,13 +20,13 @@
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/scene/entity_key.h"
 #include "ao_fit.h"
 
 namespace penumbra {
 
 namespace {
 
-constexpr std::uint32_t kChunkType = fourcc("AOFC");
 constexpr double kPi = std::numbers::pi;
 constexpr std::uint32_t kSupportDirections = 1024;
 constexpr std::size_t kMaxNormalSupports = 65536;  // triangle normals used as extra support directions
@@ -98,7 +98,9 @@ Result<std::vector<BakeChunk>> bake_fields(BakeInputs& in) {
       if (!fresh) return fresh.error();
       data = std::move(*fresh);
     }
-    data.entity_index = e.index;
+    auto key = bake_key(in, e, context);
+    if (!key) return key.error();
+    data.key = std::move(*key);
     chunks.push_back(write_ao_field_chunk(data));
     auto ptr = std::make_shared<const AOFieldData>(std::move(data));
     if (shared == baked.end()) baked.push_back({mesh, caster, ptr});
@@ -111,7 +113,7 @@ void hash_field_inputs(World& world, const BakeSettings&, Hasher& h) {
   h.add(kAOFieldChunkVersion);
   for (Entity e : caster_entities(world)) {
     const AOFieldCaster& c = world.get<AOFieldCaster>(e);
-    h.add(e.index);
+    h.add(std::string_view(entity_key(world, e)));
     h.add(static_cast<std::uint32_t>(c.representation));
     h.add(c.resolution);
     h.add(c.supersample);
@@ -431,147 +433,12 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
   return data;
 }
 
-BakeChunk write_ao_field_chunk(const AOFieldData& data) {
-  ByteWriter w;
-  w.write(data.entity_index);
-  w.write(static_cast<std::uint32_t>(data.representation));
-  w.write(data.resolution);
-  w.write(data.grid_size);
-  w.write(data.centre);
-  w.write(data.bounding_radius);
-  w.write(data.r_far);
-  w.write(data.fade_start);
-  w.write(data.inside_occlusion);
-  w.write(data.inside_exponent);
-  w.write(data.clamped_fits);
-  w.write_vector(data.texels);
-  w.write_vector(data.nodes);
-  return BakeChunk{kChunkType, kAOFieldChunkVersion, "aofield:" + std::to_string(data.entity_index), w.take()};
-}
-
-Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk) {
-  const std::string context = "chunk 'AOFC' (" + chunk.label + ")";
-  const auto bad = [&](const std::string& what) {
-    return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the ao fields");
-  };
-  PENUMBRA_TRY(check_chunk(chunk, kChunkType, kAOFieldChunkVersion, context));
-  AOFieldData d;
-  ByteReader r(chunk.payload, context);
-  std::uint32_t representation = 0;
-  PENUMBRA_TRY(r.read(d.entity_index));
-  PENUMBRA_TRY(r.read(representation));
-  PENUMBRA_TRY(r.read(d.resolution));
-  PENUMBRA_TRY(r.read(d.grid_size));
-  PENUMBRA_TRY(r.read(d.centre));
-  PENUMBRA_TRY(r.read(d.bounding_radius));
-  PENUMBRA_TRY(r.read(d.r_far));
-  PENUMBRA_TRY(r.read(d.fade_start));
-  PENUMBRA_TRY(r.read(d.inside_occlusion));
-  PENUMBRA_TRY(r.read(d.inside_exponent));
-  PENUMBRA_TRY(r.read(d.clamped_fits));
-  if (representation > static_cast<std::uint32_t>(AOFieldRepresentation::Grid))
-    return bad("representation " + std::to_string(representation) + " is unknown");
-  d.representation = static_cast<AOFieldRepresentation>(representation);
-  const bool grid = d.representation == AOFieldRepresentation::Grid;
-  if (grid ? (d.resolution != 0 || d.grid_size < 4 || d.grid_size > 128)
-           : (d.resolution < 1 || d.resolution > 256 || d.grid_size != 0))
-    return bad("resolution " + std::to_string(d.resolution) + " / grid_size " + std::to_string(d.grid_size) +
-               " do not fit the " + to_string(d.representation) + " representation");
-  const std::size_t count = 6 * std::size_t{d.resolution} * d.resolution;
-  const std::size_t node_count = std::size_t{d.grid_size} * d.grid_size * d.grid_size;
-  PENUMBRA_TRY(r.read_vector(d.texels, count));
-  PENUMBRA_TRY(r.read_vector(d.nodes, node_count));
-  PENUMBRA_TRY(r.finish());
-  if (d.texels.size() != count || d.nodes.size() != node_count)
-    return bad("it holds " + std::to_string(d.texels.size()) + " texels and " + std::to_string(d.nodes.size()) +
-               " grid vertices, not " + std::to_string(count) + " and " + std::to_string(node_count));
-  const bool finite_centre = std::isfinite(d.centre.x) && std::isfinite(d.centre.y) && std::isfinite(d.centre.z);
-  if (!finite_centre || !(d.bounding_radius >= 0.0f && std::isfinite(d.bounding_radius)) ||
-      !(d.r_far > 0.0f && std::isfinite(d.r_far)))
-    return bad("the centre, bounding radius or falloff distance is not finite and positive");
-  if (!(d.fade_start > 0.0f && d.fade_start < 1.0f) || !(d.inside_occlusion >= 0.0f && d.inside_occlusion <= 1.0f) ||
-      !(d.inside_exponent > 0.0f && std::isfinite(d.inside_exponent)))
-    return bad("the fade or inside settings are out of range");
-  for (std::size_t i = 0; i < count; ++i) {
-    const AOFieldTexel& t = d.texels[i];
-    const bool ok = std::isfinite(t.a) && std::isfinite(t.b) && std::isfinite(t.c) && t.r0 >= 0.0f &&
-                    std::isfinite(t.r0) && std::isfinite(t.c0.x) && std::isfinite(t.c0.y) && std::isfinite(t.c0.z);
-    if (!ok) return bad("texel " + std::to_string(i) + " has a non-finite or negative value");
-  }
-  constexpr float kFourPi = 4.0f * std::numbers::pi_v<float>;
-  for (std::size_t i = 0; i < node_count; ++i) {
-    const AOFieldGridNode& n = d.nodes[i];
-    const float len = glm::length(n.weighted_direction);
-    if (!(n.omega >= 0.0f && n.omega <= kFourPi) || !(len <= n.omega * 1.0001f + 1e-6f))
-      return bad("grid vertex " + std::to_string(i) + " has a solid angle outside [0, 4 pi] or a direction longer "
-                 "than it");
-  }
-  return d;
-}
-
-std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk) {
-  if (chunk.type != kChunkType) return {};
-  auto d = read_ao_field_chunk(chunk);
-  if (!d) return {d.error().message};
-  char line[240];
-  if (d->representation == AOFieldRepresentation::Grid)
-    std::snprintf(line, sizeof line, "ao field grid %u^3, falloff %.3g (bounding radius %.3g), %s", d->grid_size,
-                  static_cast<double>(d->r_far), static_cast<double>(d->bounding_radius),
-                  format_bytes(d->bytes()).c_str());
-  else
-    std::snprintf(line, sizeof line,
-                  "ao field radial fit %ux%u per face, falloff %.3g (bounding radius %.3g), %s, %u clamped fits",
-                  d->resolution, d->resolution, static_cast<double>(d->r_far),
-                  static_cast<double>(d->bounding_radius), format_bytes(d->bytes()).c_str(), d->clamped_fits);
-  return {line};
-}
-
-void register_ao_field(World& world) {
-  Baker b;
-  b.name = "aofields";
-  b.description = "ambient occlusion fields of moving rigid casters (Kontkanen & Laine 2005)";
+void register_ao_field_baker(World& world) {
+  Baker b = baker_for(ao_field_module());
   b.stages = 1;
   b.hash_inputs = hash_field_inputs;
   b.bake = bake_fields;
-  b.describe = describe_ao_field_chunk;
   world.resource<BakerRegistry>().add(std::move(b));
-  register_ao_field_system(world);
-}
-
-std::size_t add_default_ao_field_casters(World& world, Preset preset) {
-  std::size_t added = 0;
-  for (Entity e : world.view<Mesh, WorldTransform>().sorted_entities()) {
-    if (!world.get<Mesh>(e).data) continue;
-    const bool is_static = world.has<Static>(e), skinned = world.has<Skin>(e);
-    if (!is_static && !skinned && !world.has<AOFieldCaster>(e)) {
-      const AOFieldCaster caster = AOFieldCaster::preset(preset);
-      if (validate_ao_field_caster(caster, world.get<WorldTransform>(e).matrix, "ao field").ok()) {
-        world.add<AOFieldCaster>(e, caster);
-        ++added;
-      }
-    }
-    if ((is_static || skinned) && !world.has<AOFieldReceiver>(e)) {
-      AOFieldReceiver r;
-      r.mode = is_static ? AOFieldReceiver::Mode::Surface : AOFieldReceiver::Mode::Entity;
-      world.add<AOFieldReceiver>(e, r);
-    }
-  }
-  return added;
-}
-
-Status attach_ao_fields(World& world, const BakeFile& file) {
-  for (const BakeChunk& chunk : file.chunks) {
-    if (chunk.type != kChunkType) continue;
-    auto data = read_ao_field_chunk(chunk);
-    if (!data) return data.error();
-    const Entity e = world.find_entity(data->entity_index);
-    if (!world.has<AOFieldCaster>(e))
-      return make_error(ErrorCode::NotFound, "chunk 'AOFC' (" + chunk.label + "): entity " +
-                                                 std::to_string(data->entity_index) +
-                                                 " has no AOFieldCaster in this World; re-bake the scene");
-    world.patch<AOFieldCaster>(e).data = std::make_shared<const AOFieldData>(std::move(*data));
-  }
-  return {};
 }
 
 }  // namespace penumbra

@@ -15,11 +15,14 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "penumbra/ao_field/ao_field_system.h"
+#include "penumbra/bake/baker.h"
 #include "penumbra/bake/integrators.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/mesh.h"
 
 namespace penumbra {
@@ -244,12 +247,12 @@ TEST(AOFieldBake, RejectsEmptyMeshAndShortFalloff) {
 
 TEST(AOFieldBake, ChunkRoundTripAndCorruption) {
   AOFieldData field = bake(settings(4, 8, 64), make_box(glm::vec3(0.5f)));
-  field.entity_index = 12;
+  field.key = "crates/crate a";
   const BakeChunk chunk = write_ao_field_chunk(field);
-  EXPECT_EQ(chunk.label, "aofield:12");
+  EXPECT_EQ(chunk.label, "ao-field:crates/crate a");
   auto back = read_ao_field_chunk(chunk);
   ASSERT_TRUE(back.ok()) << back.error().message;
-  EXPECT_EQ(back->entity_index, 12u);
+  EXPECT_EQ(back->key, "crates/crate a");
   EXPECT_EQ(back->resolution, field.resolution);
   EXPECT_EQ(std::memcmp(back->texels.data(), field.texels.data(), field.texels.size() * sizeof(AOFieldTexel)), 0);
   EXPECT_FALSE(describe_ao_field_chunk(chunk).empty());
@@ -271,13 +274,15 @@ TEST(AOFieldBake, ChunkRoundTripAndCorruption) {
 
 TEST(AOFieldBake, BakerThroughBakeWorldAndAttach) {
   World w;
-  register_ao_field(w);
+  register_ao_field_system(w);
+  register_ao_field_baker(w);
   const Entity crate = w.create();
+  w.add<Name>(crate, Name{"crate"});
   w.add<Mesh>(crate, Mesh{std::make_shared<const MeshData>(make_box(glm::vec3(0.5f)))});
   w.add<WorldTransform>(crate, WorldTransform{glm::translate(glm::mat4(1.0f), glm::vec3(0, 0.5f, 0))});
   w.add<AOFieldCaster>(crate, settings(4, 8, 64));
   JobContext jobs;
-  auto result = bake_world(w, {"aofields"}, BakeSettings{}, jobs);
+  auto result = bake_world(w, {"ao-field"}, BakeSettings{}, jobs);
   ASSERT_TRUE(result.ok()) << result.error().message;
   const BakeChunk* chunk = result->file.find(fourcc("AOFC"));
   ASSERT_NE(chunk, nullptr);
@@ -289,11 +294,11 @@ TEST(AOFieldBake, BakerThroughBakeWorldAndAttach) {
   EXPECT_EQ(evaluate(field, m, glm::vec3(100.0f, 0.0f, 0.0f), glm::vec3(0, 1, 0)), 0.0f);
   // Attach to a fresh component.
   w.patch<AOFieldCaster>(crate).data = nullptr;
-  ASSERT_TRUE(attach_ao_fields(w, result->file).ok());
+  ASSERT_TRUE(attach_bake(w, result->file).ok());
   EXPECT_NE(w.get<AOFieldCaster>(crate).data, nullptr);
   // Non-uniform scale: the bake fails naming the entity and the fix.
   w.patch<WorldTransform>(crate).matrix = glm::scale(glm::mat4(1.0f), glm::vec3(1, 2, 1));
-  auto bad = bake_world(w, {"aofields"}, BakeSettings{}, jobs);
+  auto bad = bake_world(w, {"ao-field"}, BakeSettings{}, jobs);
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message.find("non-uniform scale"), std::string::npos);
   EXPECT_NE(bad.error().message.find("entity " + std::to_string(crate.index)), std::string::npos);

@@ -178,7 +178,7 @@ TEST(AOFieldGrid, BitIdenticalAtOneAndTwoThreads) {
 
 TEST(AOFieldGrid, ChunkRoundTripAndCorruption) {
   AOFieldData field = bake(grid_settings(8, 32), make_box(glm::vec3(0.5f)));
-  field.entity_index = 4;
+  field.key = "crate";
   const BakeChunk chunk = write_ao_field_chunk(field);
   auto back = read_ao_field_chunk(chunk);
   ASSERT_TRUE(back.ok()) << back.error().message;
@@ -194,7 +194,7 @@ TEST(AOFieldGrid, ChunkRoundTripAndCorruption) {
   auto big = read_ao_field_chunk(write_ao_field_chunk(broken));
   ASSERT_FALSE(big.ok());
   EXPECT_NE(big.error().message.find("grid vertex 5"), std::string::npos);
-  EXPECT_NE(big.error().message.find("aofield:4"), std::string::npos);
+  EXPECT_NE(big.error().message.find("ao-field:crate"), std::string::npos);
   broken = field;
   broken.resolution = 4;
   auto mixed = read_ao_field_chunk(write_ao_field_chunk(broken));

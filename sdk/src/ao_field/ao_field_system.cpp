@@ -11,6 +11,7 @@
 
 #include "penumbra/ao_field/ao_field.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/scene/components.h"
 
 namespace penumbra {
 
@@ -104,5 +105,65 @@ void register_ao_field_system(World& world) {
   desc.run = [](World& w, const SystemContext& ctx) { update_ao_field_receivers(w, ctx.last_run); };
   world.add_system(std::move(desc));
 }
+
+std::size_t add_default_ao_field_casters(World& world, Preset preset) {
+  std::size_t added = 0;
+  for (Entity e : world.view<Mesh, WorldTransform>().sorted_entities()) {
+    if (!world.get<Mesh>(e).data) continue;
+    const bool is_static = world.has<Static>(e), skinned = world.has<Skin>(e);
+    if (!is_static && !skinned && !world.has<AOFieldCaster>(e)) {
+      const AOFieldCaster caster = AOFieldCaster::preset(preset);
+      if (validate_ao_field_caster(caster, world.get<WorldTransform>(e).matrix, "ao field").ok()) {
+        world.add<AOFieldCaster>(e, caster);
+        ++added;
+      }
+    }
+    if ((is_static || skinned) && !world.has<AOFieldReceiver>(e)) {
+      AOFieldReceiver r;
+      r.mode = is_static ? AOFieldReceiver::Mode::Surface : AOFieldReceiver::Mode::Entity;
+      world.add<AOFieldReceiver>(e, r);
+    }
+  }
+  return added;
+}
+
+namespace {
+
+Status attach_ao_field(World& world, const BakeChunk& chunk, const EntityKeys& keys) {
+  auto data = read_ao_field_chunk(chunk);
+  if (!data) return data.error();
+  const std::string context = "chunk 'AOFC' (" + chunk.label + ")";
+  auto e = keys.find(data->key, context);
+  if (!e) return e.error();
+  if (!world.has<AOFieldCaster>(*e))
+    return make_error(ErrorCode::NotFound, context + ": entity '" + data->key +
+                                               "' has no AOFieldCaster in this World; re-bake the scene");
+  world.patch<AOFieldCaster>(*e).data = std::make_shared<const AOFieldData>(std::move(*data));
+  return {};
+}
+
+// Built-in scenes: their movable crates cast AO fields.
+Status add_defaults(World& world, Preset preset, bool authored) {
+  if (!authored) add_default_ao_field_casters(world, preset);
+  return {};
+}
+
+constexpr std::uint32_t kChunkTypes[] = {kAOFieldChunkType};
+
+}  // namespace
+
+const LightingModule& ao_field_module() {
+  static const LightingModule module{
+      .name = "ao-field",
+      .description = "ambient occlusion fields of moving rigid casters (Kontkanen & Laine 2005)",
+      .chunk_types = kChunkTypes,
+      .register_runtime = register_ao_field_system,
+      .attach = attach_ao_field,
+      .describe = describe_ao_field_chunk,
+      .add_defaults = add_defaults,
+  };
+  return module;
+}
+
 
 }  // namespace penumbra

@@ -104,7 +104,8 @@ TEST(AOFieldSystem, ManyCastersStayInRangeAndTheSystemRuns) {
 
 TEST(AOFieldSystem, CourtyardCratesCastOnTheWalker) {
   World w;
-  register_ao_field(w);
+  register_ao_field_system(w);
+  register_ao_field_baker(w);
   register_scene_systems(w);
   ASSERT_TRUE(load_builtin(w, "courtyard").ok());
   w.update(0.0);
@@ -123,17 +124,20 @@ TEST(AOFieldSystem, CourtyardCratesCastOnTheWalker) {
   EXPECT_GT(surfaces, 10u);
   EXPECT_EQ(entities, 1u);  // the walker
   JobContext jobs;
-  auto result = bake_world(w, {"aofields"}, BakeSettings{}, jobs);
+  auto result = bake_world(w, {"ao-field"}, BakeSettings{}, jobs);
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_EQ(result->file.chunks.size(), 4u);
   // The crates share one mesh and their settings: one bake, four chunks naming their entities.
   std::vector<AOFieldData> fields;
   for (const BakeChunk& c : result->file.chunks) fields.push_back(*read_ao_field_chunk(c));
+  const EntityKeys keys = EntityKeys::build(w);
   for (const AOFieldData& f : fields) {
     EXPECT_EQ(std::memcmp(f.texels.data(), fields[0].texels.data(), f.texels.size() * sizeof(AOFieldTexel)), 0);
-    EXPECT_TRUE(w.has<AOFieldCaster>(w.find_entity(f.entity_index)));
+    auto e = keys.find(f.key, "test");
+    ASSERT_TRUE(e.ok()) << e.error().message;
+    EXPECT_TRUE(w.has<AOFieldCaster>(*e));
   }
-  EXPECT_NE(fields[0].entity_index, fields[3].entity_index);
+  EXPECT_NE(fields[0].key, fields[3].key);
   // The walker's occlusion from the crates; then one crate is set down beside it: darker.
   Entity walker, crate;
   w.view<AOFieldReceiver>().each([&](Entity e, AOFieldReceiver& r) {

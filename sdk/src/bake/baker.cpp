@@ -19,21 +19,26 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-const char* to_string(Preset preset) {
-  switch (preset) {
-    case Preset::Draft: return "draft";
-    case Preset::Medium: return "medium";
-    case Preset::High: return "high";
-  }
-  return "medium";
+Baker baker_for(const LightingModule& module) {
+  Baker b;
+  b.name = std::string(module.name);
+  b.description = std::string(module.description);
+  b.describe = module.describe;
+  return b;
 }
 
-Result<Preset> parse_preset(std::string_view text) {
-  if (text == "draft") return Preset::Draft;
-  if (text == "medium") return Preset::Medium;
-  if (text == "high") return Preset::High;
-  return make_error(ErrorCode::InvalidArgument,
-                    "unknown preset '" + std::string(text) + "'; use draft, medium or high");
+Result<std::string> bake_key(const BakeInputs& in, Entity e, std::string_view what) {
+  std::string key = entity_key(in.world, e);
+  const std::string where(what);
+  if (key.empty())
+    return make_error(ErrorCode::InvalidInput, where + " has neither a Name nor an EntityKey, so its baked data "
+                                                       "could not find it again; name the entity or set an EntityKey");
+  auto found = in.keys.find(key, where);
+  if (!found) return found.error();
+  if (*found != e)
+    return make_error(ErrorCode::InvalidInput, where + ": its key '" + key + "' is another entity's; give it a unique "
+                                                       "name or EntityKey");
+  return key;
 }
 
 void BakerRegistry::add(Baker baker) {
@@ -148,10 +153,11 @@ Result<BakeResult> bake_world(World& world, const std::vector<std::string>& name
   result.report.triangles = rays->triangle_count();
 
   MemoryBudget budget(settings.memory_limit_bytes);
+  const EntityKeys keys = EntityKeys::build(world);
   for (const Baker* b : *bakers) {
     if (jobs.cancelled()) return make_error(ErrorCode::Cancelled, "the bake was cancelled");
     start = std::chrono::steady_clock::now();
-    BakeInputs inputs{world, *rays, settings, jobs, budget};
+    BakeInputs inputs{world, *rays, settings, jobs, budget, keys};
     auto chunks = b->bake(inputs);
     if (!chunks) return Error{chunks.error().code, b->name + ": " + chunks.error().message};
     BakeReport::Item item;

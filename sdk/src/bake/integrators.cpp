@@ -103,10 +103,6 @@ Status check_points(std::size_t points, std::size_t out, const char* what) {
 
 }  // namespace
 
-const char* to_string(LightingContent content) {
-  return content == LightingContent::Indirect ? "indirect" : "all";
-}
-
 AoEstimate ambient_occlusion(const RayScene& scene, glm::vec3 x, glm::vec3 n, float max_distance,
                              std::uint32_t rays, Rng& rng) {
   const glm::vec3 origin = x + scene.ray_epsilon(x) * n;

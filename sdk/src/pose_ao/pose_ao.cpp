@@ -2,6 +2,8 @@
 // the GPU layout (see pose_ao.h).
 #include "penumbra/pose_ao/pose_ao.h"
 
+#include "penumbra/core/memory.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>

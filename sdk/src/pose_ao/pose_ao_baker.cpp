@@ -15,18 +15,20 @@
 #include <glm/gtc/quaternion.hpp>
 #include <glm/mat3x3.hpp>
 
+#include "penumbra/bake/baker.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/core/log.h"
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
+#include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/scene/animation.h"
+#include "penumbra/scene/entity_key.h"
 #include "ridge.h"
 
 namespace penumbra {
 
 namespace {
 
-constexpr std::uint32_t kChunkType = fourcc("PSAO");
 constexpr std::uint64_t kPoseStreamTag = 0x706f7365616f5f70ull;  // random poses
 constexpr std::uint64_t kRayStreamTag = 0x7261795f73636d62ull;   // ray scrambles
 
@@ -650,137 +652,66 @@ Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& set
     }
   auto data = fit_pose_ao(training, *rig, *mesh->data, settings, 0, jobs, warnings, context);
   if (!data) return data.error();
-  data->entity_index = e.index;
   return data;
 }
 
-// ---------------------------------------------------------------------------------------------
-// The PSAO chunk.
+namespace {
 
-BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
-  ByteWriter w;
-  w.write(d.entity_index);
-  w.write(d.vertex_count);
-  w.write(d.joint_count);
-  w.write(d.poses);
-  w.write(d.rays_per_vertex);
-  w.write(d.requested_locality);
-  w.write(d.locality);
-  w.write(d.lambda);
-  w.write(d.training_rmse);
-  w.write_vector(d.joint_parents);
-  w.write(static_cast<std::uint64_t>(d.groups.size()));
-  for (const PoseAOGroup& g : d.groups) {
-    w.write(g.joints);
-    w.write(g.joint_count);
-    w.write(g.first);
-    w.write(g.count);
-    w.write(g.coefficient_offset);
+Result<std::vector<BakeChunk>> bake_all(BakeInputs& in) {
+  std::vector<BakeChunk> chunks;
+  for (Entity e : pose_ao_meshes(in.world)) {
+    const SkinnedPoseAO settings = in.world.get<SkinnedPoseAO>(e);
+    auto data = bake_pose_ao(in.world, e, settings, in.settings.seed, in.jobs, in.budget);
+    if (!data) return data.error();
+    auto key = bake_key(in, e, "pose-AO mesh (entity " + std::to_string(e.index) + ")");
+    if (!key) return key.error();
+    data->key = std::move(*key);
+    chunks.push_back(write_pose_ao_chunk(*data));
+    // Attach what the file holds (16-bit coefficients), so the runtime matches a reload.
+    auto stored = read_pose_ao_chunk(chunks.back());
+    if (!stored) return stored.error();
+    in.world.patch<SkinnedPoseAO>(e).data = std::make_shared<const PoseAOData>(std::move(*stored));
   }
-  w.write_vector(d.vertex_order);
-  std::vector<std::uint16_t> halves(d.coefficients.size());
-  for (std::size_t i = 0; i < halves.size(); ++i) halves[i] = glm::packHalf1x16(d.coefficients[i]);
-  w.write_vector(halves);
-  w.write_vector(d.bind_ao);
-  w.write_vector(d.mean_ao);
-  return BakeChunk{kChunkType, kPoseAOChunkVersion, "poseao:" + std::to_string(d.entity_index), w.take()};
+  return chunks;
 }
 
-Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
-  const std::string context = "chunk 'PSAO' (" + chunk.label + ")";
-  const auto bad = [&](const std::string& what) {
-    return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the pose-AO");
-  };
-  PENUMBRA_TRY(check_chunk(chunk, kChunkType, kPoseAOChunkVersion, context));
-  PoseAOData d;
-  ByteReader r(chunk.payload, context);
-  PENUMBRA_TRY(r.read(d.entity_index));
-  PENUMBRA_TRY(r.read(d.vertex_count));
-  PENUMBRA_TRY(r.read(d.joint_count));
-  PENUMBRA_TRY(r.read(d.poses));
-  PENUMBRA_TRY(r.read(d.rays_per_vertex));
-  PENUMBRA_TRY(r.read(d.requested_locality));
-  PENUMBRA_TRY(r.read(d.locality));
-  PENUMBRA_TRY(r.read(d.lambda));
-  PENUMBRA_TRY(r.read(d.training_rmse));
-  const std::uint32_t V = d.vertex_count, J = d.joint_count;
-  if (V == 0 || V > (1u << 30)) return bad("vertex count " + std::to_string(V) + " is outside 1..2^30");
-  if (J == 0 || J > 65535) return bad("joint count " + std::to_string(J) + " is outside 1..65535");
-  if (d.locality > d.requested_locality || d.requested_locality > kPoseAOMaxLocality)
-    return bad("locality " + std::to_string(d.locality) + " of " + std::to_string(d.requested_locality) + " is out of range");
-  if (!(std::isfinite(d.lambda) && d.lambda >= 0.0f) || !std::isfinite(d.training_rmse))
-    return bad("lambda or training RMSE is not finite");
-  PENUMBRA_TRY(r.read_vector(d.joint_parents, J));
-  if (d.joint_parents.size() != J) return bad("joint parents do not match " + std::to_string(J) + " joints");
-  for (std::size_t j = 0; j < J; ++j)
-    if (d.joint_parents[j] < -1 || d.joint_parents[j] >= static_cast<std::int32_t>(J) ||
-        d.joint_parents[j] == static_cast<std::int32_t>(j))
-      return bad("joint " + std::to_string(j) + " has parent " + std::to_string(d.joint_parents[j]));
-  std::uint64_t groups = 0;
-  PENUMBRA_TRY(r.read(groups));
-  if (groups == 0 || groups > V) return bad(std::to_string(groups) + " joint sets for " + std::to_string(V) + " vertices");
-  d.groups.resize(static_cast<std::size_t>(groups));
-  std::uint64_t vertices = 0, coefficients = 0;
-  for (std::size_t i = 0; i < d.groups.size(); ++i) {
-    PoseAOGroup& g = d.groups[i];
-    PENUMBRA_TRY(r.read(g.joints));
-    PENUMBRA_TRY(r.read(g.joint_count));
-    PENUMBRA_TRY(r.read(g.first));
-    PENUMBRA_TRY(r.read(g.count));
-    PENUMBRA_TRY(r.read(g.coefficient_offset));
-    bool ok = g.joint_count <= d.locality && g.count >= 1 && g.first == vertices && g.coefficient_offset == coefficients;
-    for (std::uint32_t k = 0; ok && k < g.joint_count; ++k)
-      ok = g.joints[k] < J && (k == 0 || g.joints[k] > g.joints[k - 1]);
-    if (!ok) return bad("joint set " + std::to_string(i) + " is malformed (joints, count or offsets)");
-    vertices += g.count;
-    coefficients += std::uint64_t{g.coefficient_count()} * g.count;
-    if (vertices > V) return bad("the joint sets hold more than " + std::to_string(V) + " vertices");
+void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
+  h.add(kPoseAOChunkVersion);
+  for (Entity e : pose_ao_meshes(world)) {
+    const SkinnedPoseAO& s = world.get<SkinnedPoseAO>(e);
+    h.add(std::string_view(entity_key(world, e)));
+    h.add(s.reference_poses);
+    h.add(s.clip_poses);
+    h.add(s.rays_per_vertex);
+    h.add(s.locality);
+    h.add(s.lambda);
+    h.add(s.range_margin);
+    h.add(s.default_range);
+    h.add(s.joint_ranges);
+    const Skin& skin = world.get<Skin>(e);
+    h.add(skin.inverse_bind);
+    for (Entity j : skin.joints)
+      if (const Transform* t = world.alive(j) ? world.try_get<Transform>(j) : nullptr) h.add(t->matrix());
+    // The clips that drive the ranges: their keys.
+    world.view<Animator>().each([&](Entity, Animator& a) {
+      if (!a.clips) return;
+      for (const AnimationClip& clip : *a.clips)
+        for (const AnimationChannel& ch : clip.channels) {
+          h.add(ch.times);
+          h.add(ch.values);
+        }
+    });
   }
-  if (vertices != V) return bad("the joint sets hold " + std::to_string(vertices) + " of " + std::to_string(V) + " vertices");
-  PENUMBRA_TRY(r.read_vector(d.vertex_order, V));
-  if (d.vertex_order.size() != V) return bad("the vertex order does not hold " + std::to_string(V) + " vertices");
-  std::vector<std::uint8_t> seen(V, 0);
-  for (std::uint32_t v : d.vertex_order) {
-    if (v >= V || seen[v]) return bad("the vertex order is not a permutation (vertex " + std::to_string(v) + ")");
-    seen[v] = 1;
-  }
-  std::vector<std::uint16_t> halves;
-  PENUMBRA_TRY(r.read_vector(halves, coefficients));
-  if (halves.size() != coefficients) return bad("the coefficient count does not match the joint sets");
-  d.coefficients.resize(halves.size());
-  for (std::size_t i = 0; i < halves.size(); ++i) {
-    d.coefficients[i] = glm::unpackHalf1x16(halves[i]);
-    if (!std::isfinite(d.coefficients[i])) return bad("coefficient " + std::to_string(i) + " is not finite");
-  }
-  PENUMBRA_TRY(r.read_vector(d.bind_ao, V));
-  PENUMBRA_TRY(r.read_vector(d.mean_ao, V));
-  PENUMBRA_TRY(r.finish());
-  if (d.bind_ao.size() != V || d.mean_ao.size() != V) return bad("the baselines do not hold one AO per vertex");
-  for (std::size_t v = 0; v < V; ++v)
-    if (!(d.bind_ao[v] >= 0.0f && d.bind_ao[v] <= 1.0f && d.mean_ao[v] >= 0.0f && d.mean_ao[v] <= 1.0f))
-      return bad("vertex " + std::to_string(v) + " has a baseline AO outside [0, 1]");
-  return d;
 }
 
-std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk) {
-  if (chunk.type != kChunkType) return {};
-  auto d = read_pose_ao_chunk(chunk);
-  if (!d) return {d.error().message};
-  char line[256];
-  std::vector<std::string> out;
-  std::snprintf(line, sizeof line, "%u vertices, %u joints, %zu joint sets, %u poses x %u rays, locality %u, lambda %.3g",
-                d->vertex_count, d->joint_count, d->groups.size(), d->poses, d->rays_per_vertex, d->locality,
-                static_cast<double>(d->lambda));
-  out.emplace_back(line);
-  std::snprintf(line, sizeof line, "training RMSE %.4f, %.1f B per vertex (16-bit coefficients), %s", 
-                static_cast<double>(d->training_rmse), d->bytes_per_vertex(), format_bytes(d->bytes()).c_str());
-  out.emplace_back(line);
-  if (d->locality < d->requested_locality) {
-    std::snprintf(line, sizeof line, "warning: locality reduced from %u to %u joints (too few poses); bake more poses",
-                  d->requested_locality, d->locality);
-    out.emplace_back(line);
-  }
-  return out;
+}  // namespace
+
+void register_pose_ao_baker(World& world) {
+  Baker b = baker_for(pose_ao_module());
+  b.stages = 2;  // per mesh: poses, fit
+  b.hash_inputs = hash_inputs;
+  b.bake = bake_all;
+  world.resource<BakerRegistry>().add(std::move(b));
 }
 
 }  // namespace penumbra

@@ -8,6 +8,9 @@
 #include <filesystem>
 #include <string>
 
+#include "penumbra/scene/entity_key.h"
+#include "penumbra/scene/gltf.h"
+#include "penumbra/runtime.h"
 #include "penumbra/bake/baker.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/pose_ao/pose_ao_baker.h"
@@ -304,22 +307,23 @@ TEST(PoseAOBake, BakeWorldAttachAndTheSystemFollowTheWalkCycle) {
   Walker w;
   World& world = *w.world;
   register_scene_systems(world);
-  register_pose_ao(world);
+  register_pose_ao_system(world);
+  register_pose_ao_baker(world);
   EXPECT_EQ(add_default_pose_ao(world, Preset::Draft), 1u);
   EXPECT_EQ(add_default_pose_ao(world, Preset::Draft), 0u);
   SkinnedPoseAO& s = world.patch<SkinnedPoseAO>(w.mesh);
   s = quick();
   world.update(0.0);
   JobContext jobs;
-  auto baked = bake_world(world, {"poseao"}, BakeSettings{}, jobs);
+  auto baked = bake_world(world, {"pose-ao"}, BakeSettings{}, jobs);
   ASSERT_TRUE(baked) << baked.error().message;
   ASSERT_EQ(baked->file.chunks.size(), 1u);
-  EXPECT_EQ(baked->file.chunks[0].label, "poseao:" + std::to_string(w.mesh.index));
+  EXPECT_EQ(baked->file.chunks[0].label, chunk_label("pose-ao", entity_key(world, w.mesh)));
   ASSERT_TRUE(world.get<SkinnedPoseAO>(w.mesh).data);
 
   // A fresh component loads the chunk.
   world.patch<SkinnedPoseAO>(w.mesh).data.reset();
-  ASSERT_TRUE(attach_pose_ao(world, baked->file));
+  ASSERT_TRUE(attach_bake(world, baked->file));
   ASSERT_TRUE(world.get<SkinnedPoseAO>(w.mesh).data);
 
   // Two times of the walk cycle: the AO differs, and stays in [0, 1].
@@ -337,7 +341,7 @@ TEST(PoseAOBake, BakeWorldAttachAndTheSystemFollowTheWalkCycle) {
 
   // A chunk for an entity without the component is refused.
   world.remove<SkinnedPoseAO>(w.mesh);
-  auto refused = attach_pose_ao(world, baked->file);
+  auto refused = attach_bake(world, baked->file);
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().code, ErrorCode::NotFound);
 }

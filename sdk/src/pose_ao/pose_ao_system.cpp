@@ -1,20 +1,17 @@
 // Pose-AO runtime: PoseAOSystem, loading baked data, default components and the registration of
-// the "poseao" baker (see pose_ao_system.h).
+// the "pose-ao" baker (see pose_ao_system.h).
 #include "penumbra/pose_ao/pose_ao_system.h"
 
 #include <string>
 #include <utility>
 
-#include "penumbra/bake/ray_scene.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/pose_ao/pose_ao_baker.h"
+#include "penumbra/pose_ao/pose_ao.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra {
 
 namespace {
-
-constexpr std::uint32_t kChunkType = fourcc("PSAO");
 
 bool skinned_mesh(World& world, Entity e) {
   const Mesh* mesh = world.try_get<Mesh>(e);
@@ -23,15 +20,14 @@ bool skinned_mesh(World& world, Entity e) {
          mesh->data->weights.size() == mesh->data->positions.size();
 }
 
-// The meshes to bake, in entity-index order.
-std::vector<Entity> pose_ao_entities(World& world) {
+}  // namespace
+
+std::vector<Entity> pose_ao_meshes(World& world) {
   std::vector<Entity> out;
   for (Entity e : world.view<SkinnedPoseAO, WorldTransform>().sorted_entities())
     if (skinned_mesh(world, e)) out.push_back(e);
   return out;
 }
-
-}  // namespace
 
 std::size_t update_pose_ao(World& world, std::uint64_t since) {
   std::vector<Entity> due;
@@ -63,22 +59,44 @@ void register_pose_ao_system(World& world) {
   world.add_system(std::move(desc));
 }
 
-Status attach_pose_ao(World& world, const BakeFile& file) {
-  for (const BakeChunk& chunk : file.chunks) {
-    if (chunk.type != kChunkType) continue;
-    auto data = read_pose_ao_chunk(chunk);
-    if (!data) return data.error();
-    const Entity e = world.find_entity(data->entity_index);
-    const Mesh* mesh = world.has<SkinnedPoseAO>(e) ? world.try_get<Mesh>(e) : nullptr;
-    if (mesh == nullptr || !mesh->data || mesh->data->positions.size() != data->vertex_count)
-      return make_error(ErrorCode::NotFound, "chunk 'PSAO' (" + chunk.label + "): entity " +
-                                                 std::to_string(data->entity_index) +
-                                                 " has no SkinnedPoseAO on a mesh of " +
-                                                 std::to_string(data->vertex_count) +
-                                                 " vertices in this World; re-bake the scene");
-    world.patch<SkinnedPoseAO>(e).data = std::make_shared<const PoseAOData>(std::move(*data));
-  }
+namespace {
+
+Status attach_pose_ao(World& world, const BakeChunk& chunk, const EntityKeys& keys) {
+  auto data = read_pose_ao_chunk(chunk);
+  if (!data) return data.error();
+  const std::string context = "chunk 'PSAO' (" + chunk.label + ")";
+  auto e = keys.find(data->key, context);
+  if (!e) return e.error();
+  const Mesh* mesh = world.has<SkinnedPoseAO>(*e) ? world.try_get<Mesh>(*e) : nullptr;
+  if (mesh == nullptr || !mesh->data || mesh->data->positions.size() != data->vertex_count)
+    return make_error(ErrorCode::NotFound, context + ": entity '" + data->key + "' has no SkinnedPoseAO on a mesh of " +
+                                               std::to_string(data->vertex_count) +
+                                               " vertices in this World; re-bake the scene");
+  world.patch<SkinnedPoseAO>(*e).data = std::make_shared<const PoseAOData>(std::move(*data));
   return {};
+}
+
+// Every skinned mesh, built-in or authored, gets pose-AO settings unless it brings its own.
+Status add_defaults(World& world, Preset preset, bool) {
+  add_default_pose_ao(world, preset);
+  return {};
+}
+
+constexpr std::uint32_t kChunkTypes[] = {kPoseAOChunkType};
+
+}  // namespace
+
+const LightingModule& pose_ao_module() {
+  static const LightingModule module{
+      .name = "pose-ao",
+      .description = "skinned pose-AO (per-vertex linear AO in the joint rotations, Kontkanen & Aila 2006)",
+      .chunk_types = kChunkTypes,
+      .register_runtime = register_pose_ao_system,
+      .attach = attach_pose_ao,
+      .describe = describe_pose_ao_chunk,
+      .add_defaults = add_defaults,
+  };
+  return module;
 }
 
 std::size_t add_default_pose_ao(World& world, Preset preset) {
@@ -88,66 +106,6 @@ std::size_t add_default_pose_ao(World& world, Preset preset) {
   });
   for (Entity e : meshes) world.add<SkinnedPoseAO>(e, SkinnedPoseAO::preset(preset));
   return meshes.size();
-}
-
-namespace {
-
-Result<std::vector<BakeChunk>> bake_all(BakeInputs& in) {
-  std::vector<BakeChunk> chunks;
-  for (Entity e : pose_ao_entities(in.world)) {
-    const SkinnedPoseAO settings = in.world.get<SkinnedPoseAO>(e);
-    auto data = bake_pose_ao(in.world, e, settings, in.settings.seed, in.jobs, in.budget);
-    if (!data) return data.error();
-    chunks.push_back(write_pose_ao_chunk(*data));
-    // Attach what the file holds (16-bit coefficients), so the runtime matches a reload.
-    auto stored = read_pose_ao_chunk(chunks.back());
-    if (!stored) return stored.error();
-    in.world.patch<SkinnedPoseAO>(e).data = std::make_shared<const PoseAOData>(std::move(*stored));
-  }
-  return chunks;
-}
-
-void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
-  h.add(kPoseAOChunkVersion);
-  for (Entity e : pose_ao_entities(world)) {
-    const SkinnedPoseAO& s = world.get<SkinnedPoseAO>(e);
-    h.add(e.index);
-    h.add(s.reference_poses);
-    h.add(s.clip_poses);
-    h.add(s.rays_per_vertex);
-    h.add(s.locality);
-    h.add(s.lambda);
-    h.add(s.range_margin);
-    h.add(s.default_range);
-    h.add(s.joint_ranges);
-    const Skin& skin = world.get<Skin>(e);
-    h.add(skin.inverse_bind);
-    for (Entity j : skin.joints)
-      if (const Transform* t = world.alive(j) ? world.try_get<Transform>(j) : nullptr) h.add(t->matrix());
-    // The clips that drive the ranges: their keys.
-    world.view<Animator>().each([&](Entity, Animator& a) {
-      if (!a.clips) return;
-      for (const AnimationClip& clip : *a.clips)
-        for (const AnimationChannel& ch : clip.channels) {
-          h.add(ch.times);
-          h.add(ch.values);
-        }
-    });
-  }
-}
-
-}  // namespace
-
-void register_pose_ao(World& world) {
-  Baker b;
-  b.name = "poseao";
-  b.description = "skinned pose-AO (per-vertex linear AO in the joint rotations, Kontkanen & Aila 2006)";
-  b.stages = 2;  // per mesh: poses, fit
-  b.hash_inputs = hash_inputs;
-  b.bake = bake_all;
-  b.describe = describe_pose_ao_chunk;
-  world.resource<BakerRegistry>().add(std::move(b));
-  register_pose_ao_system(world);
 }
 
 }  // namespace penumbra

@@ -1,7 +1,7 @@
 // Probe-grid bake against closed forms: the furnace, an infinite lit floor (at any scale and
 // light intensity), geometry that swallows the grid; determinism, budget, cancellation, and the
 // baker / system round trip through bake_world.
-#include "penumbra/probe_grid/probe_baker.h"
+#include "penumbra/probe_grid/probe_grid_baker.h"
 
 #include <gtest/gtest.h>
 
@@ -13,10 +13,12 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "penumbra/bake/baker.h"
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/probe_grid/probe_grid_system.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/mesh.h"
 
@@ -426,7 +428,8 @@ TEST(ProbeBaker, OverBudgetFailsBeforeAllocatingAndCancelStops) {
 TEST(ProbeBaker, BakeWorldAttachAndLightAReceiver) {
   World w;
   register_transform_systems(w);
-  register_probe_grid(w);
+  register_probe_grid_system(w);
+  register_probe_grid_baker(w);
   ASSERT_TRUE(load_builtin(w, "cornell").ok());
   w.update(0.0);
   auto grid = add_default_probe_grid(w, Preset::Draft);
@@ -441,7 +444,7 @@ TEST(ProbeBaker, BakeWorldAttachAndLightAReceiver) {
 
   BakeSettings settings;
   JobContext jobs;
-  auto result = bake_world(w, {"probes"}, settings, jobs);
+  auto result = bake_world(w, {"probe-grid"}, settings, jobs);
   ASSERT_TRUE(result.ok()) << result.error().message;
   const BakeChunk* chunk = result->file.find(fourcc("PRBG"));
   ASSERT_NE(chunk, nullptr);
@@ -463,10 +466,10 @@ TEST(ProbeBaker, BakeWorldAttachAndLightAReceiver) {
   auto grid2 = add_default_probe_grid(again, Preset::Draft);
   ASSERT_TRUE(grid2.ok());
   ASSERT_EQ(grid2->index, grid->index);
-  ASSERT_TRUE(attach_probe_grids(again, result->file).ok());
+  ASSERT_TRUE(attach_bake(again, result->file).ok());
   EXPECT_EQ(again.get<IrradianceProbeGrid>(*grid2).data->coefficients, data.coefficients);
   World empty;
-  EXPECT_EQ(attach_probe_grids(empty, result->file).error().code, ErrorCode::NotFound);
+  EXPECT_EQ(attach_bake(empty, result->file).error().code, ErrorCode::NotFound);
 }
 
 }  // namespace

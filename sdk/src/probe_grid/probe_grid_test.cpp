@@ -17,8 +17,8 @@
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/probe_grid/probe_baker.h"
-#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/probe_grid/probe_grid_baker.h"
+#include "penumbra/probe_grid/probe_grid_system.h"
 #include "penumbra/scene/mesh.h"
 
 namespace penumbra {
@@ -317,18 +317,18 @@ TEST(ProbeGridTextures, SlotsHoldCoefficientChannelsAndFilterLikeTheCpu) {
 TEST(ProbeGridChunk, RoundTripsAndRejectsDamage) {
   ProbeGridData d = synthetic(box_grid({0, 0, 0}, {2, 1, 1}, {3, 2, 2}), ProbeShOrder::L1,
                               [](glm::vec3 p, int c) { return p * float(c + 1); });
-  d.entity_index = 42;
+  d.key = "level/probe grid";
   d.validity[3] = 0.0f;
   d.filled[3] = 1;
   const BakeChunk chunk = write_probe_grid_chunk(d);
-  EXPECT_EQ(chunk.label, "probes:42");
+  EXPECT_EQ(chunk.label, "probe-grid:level/probe grid");
   auto back = read_probe_grid_chunk(chunk);
   ASSERT_TRUE(back.ok()) << back.error().message;
   EXPECT_EQ(back->coefficients, d.coefficients);
   EXPECT_EQ(back->validity, d.validity);
   EXPECT_EQ(back->filled, d.filled);
   EXPECT_EQ(back->layout.resolution, d.layout.resolution);
-  EXPECT_EQ(back->entity_index, 42u);
+  EXPECT_EQ(back->key, "level/probe grid");
   EXPECT_EQ(back->sh_order, ProbeShOrder::L1);
   const auto lines = describe_probe_grid_chunk(chunk);
   ASSERT_EQ(lines.size(), 2u);

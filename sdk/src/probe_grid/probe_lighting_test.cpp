@@ -3,7 +3,7 @@
 // integrator's reference); All = Indirect + the direct-only bake at the nodes with the same seed;
 // indirect bakes are bit-identical at 1 and 2 threads; the version 2 chunk round-trips and version 1
 // reads as All; validation, input hash, default grid.
-#include "penumbra/probe_grid/probe_baker.h"
+#include "penumbra/probe_grid/probe_grid_baker.h"
 
 #include <gtest/gtest.h>
 
@@ -14,10 +14,11 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "penumbra/bake/baker.h"
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/probe_grid/probe_grid_system.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/mesh.h"
 
@@ -202,7 +203,7 @@ TEST(ProbeLighting, AllIsIndirectPlusDirectAtTheNodes) {
 
 ProbeGridData small_data(LightingContent lighting) {
   ProbeGridData d;
-  d.entity_index = 7;
+  d.key = "probe grid";
   d.layout.resolution = {2, 2, 2};
   d.sh_order = ProbeShOrder::L1;
   d.sampling = ProbeSampling::Fitted;
@@ -213,16 +214,18 @@ ProbeGridData small_data(LightingContent lighting) {
   return d;
 }
 
-TEST(ProbeLighting, ChunkRoundTripsAndOlderVersionsRead) {
+TEST(ProbeLighting, ChunkRoundTripsAndOtherVersionsAreRefused) {
   for (LightingContent lighting : {LightingContent::All, LightingContent::Indirect}) {
     for (bool guard : {false, true}) {
       ProbeGridData d = small_data(lighting);
       if (guard)
         for (int i = 0; i < 8 * 6; ++i) d.reach.push_back(static_cast<std::uint8_t>(37 * i));
       const BakeChunk chunk = write_probe_grid_chunk(d);
-      EXPECT_EQ(chunk.version, 3u);
+      EXPECT_EQ(chunk.version, kProbeGridChunkVersion);
+      EXPECT_EQ(chunk.label, "probe-grid:probe grid");
       auto back = read_probe_grid_chunk(chunk);
       ASSERT_TRUE(back.ok()) << back.error().message;
+      EXPECT_EQ(back->key, d.key);
       EXPECT_EQ(back->lighting, lighting);
       EXPECT_EQ(back->coefficients, d.coefficients);
       EXPECT_EQ(back->reach, d.reach);
@@ -237,46 +240,19 @@ TEST(ProbeLighting, ChunkRoundTripsAndOlderVersionsRead) {
   auto sr = read_probe_grid_chunk(write_probe_grid_chunk(short_reach));
   ASSERT_FALSE(sr.ok());
   EXPECT_NE(sr.error().message.find("8 nodes"), std::string::npos) << sr.error().message;
-  // Version 2's layout: version 3 less the reach (a grid without the leak guard).
-  {
-    const ProbeGridData d = small_data(LightingContent::Indirect);
-    BakeChunk v2 = write_probe_grid_chunk(d);
-    v2.payload.resize(v2.payload.size() - sizeof(std::uint64_t));  // the empty reach vector's count
-    v2.version = 2;
-    auto read = read_probe_grid_chunk(v2);
-    ASSERT_TRUE(read.ok()) << read.error().message;
-    EXPECT_TRUE(read->reach.empty());
-    EXPECT_EQ(read->coefficients, d.coefficients);
-  }
-  // Version 1's layout: the same fields without `lighting`; it stored direct + indirect.
+  // Chunks keyed by bake-time entity index (versions 1 to 3) and future versions are refused,
+  // naming both versions and asking for a re-bake.
   const ProbeGridData d = small_data(LightingContent::Indirect);
-  ByteWriter v1;
-  v1.write(d.entity_index);
-  v1.write(d.layout.resolution);
-  v1.write(glm::mat4(1.0f));
-  v1.write(static_cast<std::uint32_t>(d.sh_order));
-  v1.write(static_cast<std::uint32_t>(d.sampling));
-  v1.write_vector(d.coefficients);
-  v1.write_vector(d.validity);
-  v1.write_vector(d.filled);
-  const BakeChunk old{fourcc("PRBG"), 1, "probes:7", v1.take()};
-  auto read = read_probe_grid_chunk(old);
-  ASSERT_TRUE(read.ok()) << read.error().message;
-  EXPECT_EQ(read->lighting, LightingContent::All);
-  EXPECT_EQ(read->coefficients, d.coefficients);
-  EXPECT_EQ(read->sampling, ProbeSampling::Fitted);
-  // A version 3 payload labelled version 1 (or the reverse) has the wrong size: a clear error.
-  BakeChunk mislabelled = write_probe_grid_chunk(d);
-  mislabelled.version = 1;
-  EXPECT_FALSE(read_probe_grid_chunk(mislabelled).ok());
-  // A future version is refused, naming both versions.
-  BakeChunk future = write_probe_grid_chunk(d);
-  future.version = 4;
-  auto f = read_probe_grid_chunk(future);
-  ASSERT_FALSE(f.ok());
-  EXPECT_EQ(f.error().code, ErrorCode::Unsupported);
-  EXPECT_NE(f.error().message.find("version 4"), std::string::npos) << f.error().message;
-  EXPECT_NE(f.error().message.find("version 3"), std::string::npos) << f.error().message;
+  for (std::uint32_t version : {3u, kProbeGridChunkVersion + 1}) {
+    BakeChunk other = write_probe_grid_chunk(d);
+    other.version = version;
+    auto f = read_probe_grid_chunk(other);
+    ASSERT_FALSE(f.ok());
+    EXPECT_EQ(f.error().code, ErrorCode::Unsupported);
+    EXPECT_NE(f.error().message.find("version " + std::to_string(version)), std::string::npos) << f.error().message;
+    EXPECT_NE(f.error().message.find("version " + std::to_string(kProbeGridChunkVersion)), std::string::npos)
+        << f.error().message;
+  }
   // An unknown lighting value in the payload.
   ProbeGridData bad = d;
   bad.lighting = static_cast<LightingContent>(5);
@@ -296,7 +272,8 @@ TEST(ProbeLighting, ValidationHashAndTheDefaultGrid) {
 
   World w;
   register_transform_systems(w);
-  register_probe_grid(w);
+  register_probe_grid_system(w);
+  register_probe_grid_baker(w);
   ASSERT_TRUE(load_builtin(w, "cornell").ok());
   w.update(0.0);
   auto grid = add_default_probe_grid(w, Preset::Draft);
@@ -304,10 +281,10 @@ TEST(ProbeLighting, ValidationHashAndTheDefaultGrid) {
   EXPECT_EQ(w.get<IrradianceProbeGrid>(*grid).lighting, LightingContent::Indirect);  // for the SDK's renderer
   w.update(0.0);
   const BakeSettings settings;
-  const std::uint64_t indirect = bake_input_hash(w, {"probes"}, settings);
-  EXPECT_EQ(indirect, bake_input_hash(w, {"probes"}, settings));
+  const std::uint64_t indirect = bake_input_hash(w, {"probe-grid"}, settings);
+  EXPECT_EQ(indirect, bake_input_hash(w, {"probe-grid"}, settings));
   w.patch<IrradianceProbeGrid>(*grid).lighting = LightingContent::All;
-  EXPECT_NE(indirect, bake_input_hash(w, {"probes"}, settings));
+  EXPECT_NE(indirect, bake_input_hash(w, {"probe-grid"}, settings));
 }
 
 }  // namespace

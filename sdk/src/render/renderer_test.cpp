@@ -17,13 +17,16 @@
 
 #include "penumbra/ao_field/ao_field_baker.h"
 #include "penumbra/ao_field/ao_field_gpu.h"
+#include "penumbra/ao_field/ao_field_system.h"
 #include "penumbra/bake/baker.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/log.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/pose_ao/pose_ao_baker.h"
 #include "penumbra/pose_ao/pose_ao_system.h"
-#include "penumbra/probe_grid/probe_system.h"
+#include "penumbra/probe_grid/probe_grid_baker.h"
+#include "penumbra/probe_grid/probe_grid_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 #include "shared/layout.h"
@@ -50,9 +53,16 @@ struct SceneOptions {
 std::unique_ptr<BakedScene> bake_scene(std::string_view name, SceneOptions options = {}) {
   auto s = std::make_unique<BakedScene>();
   register_scene_systems(s->world);
-  register_probe_grid(s->world);
-  if (options.ao_fields) register_ao_field(s->world);
-  if (options.pose_ao) register_pose_ao(s->world);
+  register_probe_grid_system(s->world);
+  register_probe_grid_baker(s->world);
+  if (options.ao_fields) {
+    register_ao_field_system(s->world);
+    register_ao_field_baker(s->world);
+  }
+  if (options.pose_ao) {
+    register_pose_ao_system(s->world);
+    register_pose_ao_baker(s->world);
+  }
   auto loaded = load_builtin(s->world, name);
   EXPECT_TRUE(loaded.ok());
   if (!loaded.ok()) return nullptr;
@@ -60,14 +70,14 @@ std::unique_ptr<BakedScene> bake_scene(std::string_view name, SceneOptions optio
   s->world.update(0.0);
   auto grid = add_default_probe_grid(s->world, Preset::Draft);
   EXPECT_TRUE(grid.ok()) << (grid.ok() ? "" : grid.error().message);
-  std::vector<std::string> bakers = {"probes"};
+  std::vector<std::string> bakers = {"probe-grid"};
   if (options.ao_fields) {
     EXPECT_GT(add_default_ao_field_casters(s->world, Preset::Draft), 0u);
-    bakers.push_back("aofields");
+    bakers.push_back("ao-field");
   }
   if (options.pose_ao) {
     EXPECT_GT(add_default_pose_ao(s->world, Preset::Draft), 0u);
-    bakers.push_back("poseao");
+    bakers.push_back("pose-ao");
   }
   BakeSettings settings;
   settings.preset = Preset::Draft;

@@ -13,7 +13,6 @@
 
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
-#include "penumbra/scene/gltf.h"
 #include "penumbra/scene/mesh.h"
 
 namespace penumbra {
@@ -397,26 +396,6 @@ Result<LoadedScene> load_builtin(World& world, std::string_view name) {
   for (const std::string& n : builtin_scene_names()) valid += (valid.empty() ? "" : ", ") + n;
   return make_error(ErrorCode::NotFound,
                     "builtin:" + std::string(name) + ": no such built-in scene; valid names: " + valid);
-}
-
-Result<LoadedScene> load_scene(World& world, std::string_view spec) {
-  constexpr std::string_view kPrefix = "builtin:";
-  if (spec.substr(0, kPrefix.size()) == kPrefix) return load_builtin(world, spec.substr(kPrefix.size()));
-  auto imported = import_gltf(world, std::filesystem::path(spec));
-  if (!imported) return imported.error();
-  LoadedScene scene;
-  scene.name = std::filesystem::path(spec).filename().string();
-  scene.root = imported->root;
-  for (Entity e : imported->nodes)
-    if (e && world.has<Camera>(e)) {
-      scene.camera = e;
-      break;
-    }
-  scene.mesh_entities = imported->mesh_entities;
-  scene.triangles = imported->triangles;
-  scene.dropped_degenerate = imported->dropped_degenerate;
-  scene.warnings = std::move(imported->warnings);
-  return scene;
 }
 
 }  // namespace penumbra

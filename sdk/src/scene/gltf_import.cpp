@@ -4,6 +4,8 @@
 // file validates everything else and builds the entities (see gltf.h for the mapping).
 #include "penumbra/scene/gltf.h"
 
+#include "penumbra/scene/builtin.h"
+
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -815,6 +817,26 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
   }
   if (!result) importer.roll_back();
   return result;
+}
+
+Result<LoadedScene> load_scene(World& world, std::string_view spec) {
+  constexpr std::string_view kPrefix = "builtin:";
+  if (spec.substr(0, kPrefix.size()) == kPrefix) return load_builtin(world, spec.substr(kPrefix.size()));
+  auto imported = import_gltf(world, std::filesystem::path(spec));
+  if (!imported) return imported.error();
+  LoadedScene scene;
+  scene.name = std::filesystem::path(spec).filename().string();
+  scene.root = imported->root;
+  for (Entity e : imported->nodes)
+    if (e && world.has<Camera>(e)) {
+      scene.camera = e;
+      break;
+    }
+  scene.mesh_entities = imported->mesh_entities;
+  scene.triangles = imported->triangles;
+  scene.dropped_degenerate = imported->dropped_degenerate;
+  scene.warnings = std::move(imported->warnings);
+  return scene;
 }
 
 }  // namespace penumbra

@@ -25,14 +25,16 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
-#include "penumbra/bake/baker.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
+#include "penumbra/lighting/settings.h"
 
 namespace penumbra {
 
@@ -124,7 +126,7 @@ struct AOFieldGridNode {
 
 // Baked field of one caster, in the caster's local frame.
 struct AOFieldData {
-  std::uint32_t entity_index = 0;  // Entity::index of the caster at bake time
+  std::string key;                 // the caster entity's stable key (scene/entity_key.h)
   AOFieldRepresentation representation = AOFieldRepresentation::RadialFit;
   std::uint32_t resolution = 0;    // texels per face edge (RadialFit; 0 for a Grid)
   std::uint32_t grid_size = 0;     // vertices per axis (Grid; 0 for a RadialFit)
@@ -239,5 +241,14 @@ AOFieldCap evaluate_cap(const AOFieldData& field, const glm::mat4& caster_world,
 // light and too dark. The ao-field bench measures both against the ray-traced union. Cost:
 // O(count^2) acos. Thread-safe.
 float combine_caps(std::span<const AOFieldCap> caps);
+
+// The "AOFC" chunk of one field (label "ao-field:<key>") and its reader; read() checks the
+// version, sizes and that every value is finite and in range, naming the chunk in its errors.
+inline constexpr std::uint32_t kAOFieldChunkType = fourcc("AOFC");
+inline constexpr std::uint32_t kAOFieldChunkVersion = 3;  // 3: keyed by the caster's entity key
+BakeChunk write_ao_field_chunk(const AOFieldData& data);
+Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk);
+// Lines for `penumbra info`: resolution, radii, bytes, clamped fits.
+std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk);
 
 }  // namespace penumbra

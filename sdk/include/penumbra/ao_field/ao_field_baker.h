@@ -37,15 +37,13 @@
 #include <vector>
 
 #include "penumbra/ao_field/ao_field.h"
-#include "penumbra/bake/pbake.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/ecs/world.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra {
-
-inline constexpr std::uint32_t kAOFieldChunkVersion = 2;  // 2: representation, grid_size and grid vertices
 
 // Bakes the field of `mesh` (in its local frame) with `caster`'s settings. Validates the
 // settings (validate_ao_field_caster with an identity matrix) and the mesh (InvalidInput when it
@@ -58,30 +56,11 @@ inline constexpr std::uint32_t kAOFieldChunkVersion = 2;  // 2: representation, 
 Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& mesh, std::uint64_t seed,
                                   JobContext& jobs, MemoryBudget& budget, std::string_view context = "ao field");
 
-// The "AOFC" chunk of one field (label "aofield:<entity index>") and its reader; read() checks the
-// version, sizes and that every value is finite and in range, naming the chunk in its errors.
-BakeChunk write_ao_field_chunk(const AOFieldData& data);
-Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk);
-// Lines for `penumbra info`: resolution, radii, bytes, clamped fits.
-std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk);
-
-// Registers the "aofields" baker: one AOFC chunk per entity with AOFieldCaster, Mesh and
-// WorldTransform (entity order), each baked in its mesh frame after validating the entity's world
-// matrix (non-uniform scale is rejected naming the entity; entities sharing a MeshData and
-// settings are baked once, the first in entity order); the data is also attached to the
-// components; and the "ao-field" system (ao_field_system.h). The one call the tool and games make.
-void register_ao_field(World& world);
-
-// Gives a scene made without lighting components (the built-in scenes) its AO fields: every rigid
-// movable mesh (a Mesh with data and a WorldTransform, neither Static nor skinned, with no
-// AOFieldCaster yet, whose world matrix passes validate_ao_field_caster) gets
-// AOFieldCaster::preset(preset); every Static mesh gets a Surface receiver (the renderer's
-// per-pixel pass) and every skinned mesh an Entity receiver (normal +Y: the walker's feet), unless
-// they have an AOFieldReceiver. Returns the number of casters added. Cost: O(entities).
-std::size_t add_default_ao_field_casters(World& world, Preset preset);
-
-// Attaches the AOFC chunks of `file` to the AOFieldCaster components of the same entity index.
-// Fails with InvalidInput for a corrupt chunk and NotFound when the entity has no caster.
-Status attach_ao_fields(World& world, const BakeFile& file);
+// Registers the "ao-field" baker: one AOFC chunk per entity with AOFieldCaster, Mesh and
+// WorldTransform (entity order, keyed by entity key), each baked in its mesh frame after validating
+// the entity's world matrix (non-uniform scale is rejected naming the entity; entities sharing a
+// MeshData and settings are baked once, the first in entity order); the data is also attached to
+// the components.
+void register_ao_field_baker(World& world);
 
 }  // namespace penumbra

@@ -1,11 +1,15 @@
 // The runtime half of ambient occlusion fields: the system that gives AOFieldReceiver entities the
-// combined occlusion of the casters near them.
+// combined occlusion of the casters near them, default casters and receivers, and the module
+// descriptor (attaching an AOFC chunk sets the AOFieldCaster::data of the entity its key names).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 
+#include "penumbra/ao_field/ao_field.h"
 #include "penumbra/ecs/world.h"
+#include "penumbra/lighting/module.h"
+#include "penumbra/lighting/settings.h"
 
 namespace penumbra {
 
@@ -24,7 +28,16 @@ std::size_t update_ao_field_receivers(World& world, std::uint64_t since);
 
 // Registers system "ao-field" in Phase::Lighting (reads WorldTransform, AOFieldCaster; writes
 // AOFieldReceiver), calling update_ao_field_receivers with the system's last-run tick.
-// register_ao_field() (ao_field_baker.h) calls it.
 void register_ao_field_system(World& world);
+
+// Gives a scene made without lighting components (the built-in scenes) its AO fields: every rigid
+// movable mesh (a Mesh with data and a WorldTransform, neither Static nor skinned, with no
+// AOFieldCaster yet, whose world matrix passes validate_ao_field_caster) gets
+// AOFieldCaster::preset(preset); every Static mesh gets a Surface receiver (the renderer's
+// per-pixel pass) and every skinned mesh an Entity receiver (normal +Y: the walker's feet), unless
+// they have an AOFieldReceiver. Returns the number of casters added. Cost: O(entities).
+std::size_t add_default_ao_field_casters(World& world, Preset preset);
+
+const LightingModule& ao_field_module();
 
 }  // namespace penumbra

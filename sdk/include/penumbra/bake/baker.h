@@ -1,6 +1,8 @@
 // Bakers: the offline half of every lighting technique. A module registers its Baker with a
-// World's BakerRegistry; `bake_world` builds the RayScene once, runs the selected bakers in
-// registration order and collects their chunks into a BakeFile (penumbra/bake/pbake.h).
+// World's BakerRegistry (register_bakers() in penumbra/bakers.h registers every module's);
+// `bake_world` builds the RayScene once, runs the selected bakers in registration order and
+// collects their chunks into a BakeFile (penumbra/core/pbake.h), which attach_bake()
+// (penumbra/runtime.h) loads back through the same modules.
 #pragma once
 
 #include <cstdint>
@@ -9,21 +11,19 @@
 #include <string_view>
 #include <vector>
 
-#include "penumbra/bake/pbake.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/core/hash.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
+#include "penumbra/lighting/module.h"
+#include "penumbra/lighting/settings.h"
+#include "penumbra/scene/entity_key.h"
 
 namespace penumbra {
 
 class RayScene;
-
-// Quality presets shared by every technique: each maps them to its own sample counts.
-enum class Preset : std::uint8_t { Draft, Medium, High };
-const char* to_string(Preset preset);
-Result<Preset> parse_preset(std::string_view text);  // "draft", "medium", "high"
 
 struct BakeSettings {
   Preset preset = Preset::Medium;
@@ -39,10 +39,16 @@ struct BakeInputs {
   const BakeSettings& settings;
   JobContext& jobs;
   MemoryBudget& budget;
+  const EntityKeys& keys;  // every keyed entity of the World, for bake_key()
 };
 
+// The stable key (scene/entity_key.h) that a chunk names entity `e` by. InvalidInput naming `what`
+// (the entity, e.g. "probe grid 'hall' (entity 12)") when it has no key or shares it with another
+// entity: give it a unique Name or an EntityKey.
+Result<std::string> bake_key(const BakeInputs& in, Entity e, std::string_view what);
+
 struct Baker {
-  std::string name;         // what `--only` names, e.g. "vertex-ao"
+  std::string name;         // the module's name, what `--only` names, e.g. "vertex-ao"
   std::string description;  // one line for `penumbra bake --help`
   int stages = 1;           // how many progress stages bake() opens
   // Adds everything bake() reads (scene content it depends on, its settings) to the input hash,
@@ -52,6 +58,9 @@ struct Baker {
   // Human-readable lines about one of its chunks, for `penumbra info`; empty when not its chunk.
   std::function<std::vector<std::string>(const BakeChunk&)> describe;
 };
+
+// A Baker with the module's name, description and describe(); the module sets the rest.
+Baker baker_for(const LightingModule& module);
 
 // The bakers a World knows: world.resource<BakerRegistry>().
 class BakerRegistry {

@@ -24,6 +24,7 @@
 #include "penumbra/core/random.h"
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
+#include "penumbra/lighting/settings.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra {
@@ -76,15 +77,6 @@ struct WorldLight {
 // The lights of the World, in entity-index order. Lights with non-finite transforms or a zero-area
 // rect are skipped with a logged warning. Cost: O(lights).
 std::vector<WorldLight> gather_lights(World& world);
-
-// Which light an irradiance estimate counts (the split of a path at its first surface hit):
-//   All: direct + indirect, the whole E(x, n).
-//   Indirect: the light that reflected at least once on its way to x, i.e. E minus the lights'
-//     direct light at x and minus the emission of the surfaces x sees. What a renderer that draws
-//     direct light itself (shadow maps) adds from a probe grid; note that such a renderer must then
-//     draw emissive surfaces' light on others itself too (the SDK's renderer does not).
-enum class LightingContent : std::uint8_t { All, Indirect };
-const char* to_string(LightingContent content);  // "all", "indirect"
 
 struct IrradianceSettings {
   std::uint32_t samples = 64;             // paths per point (each also does next-event estimation at x)

@@ -30,8 +30,9 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
-#include "penumbra/bake/baker.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
+#include "penumbra/lighting/settings.h"
 
 namespace penumbra {
 
@@ -105,7 +106,7 @@ struct PoseAOGroup {
 
 // Baked data of one skinned mesh.
 struct PoseAOData {
-  std::uint32_t entity_index = 0;  // Entity::index of the mesh at bake time
+  std::string key;  // the mesh entity's stable key (scene/entity_key.h)
   std::uint32_t vertex_count = 0;
   std::uint32_t joint_count = 0;
   std::vector<std::int32_t> joint_parents;  // per skin joint: its parent joint, -1 for a root
@@ -162,5 +163,18 @@ PoseAOGpuBuffers pack_pose_ao_gpu(const PoseAOData& data);
 void pack_pose_ao_theta(std::span<const float> features, std::vector<float>& out);
 // The shader's arithmetic on the CPU, for one vertex (tests compare it with evaluate_pose_ao).
 float evaluate_pose_ao_gpu(const PoseAOGpuBuffers& buffers, std::span<const float> theta, std::uint32_t vertex);
+
+// The "PSAO" chunk of one mesh (label "pose-ao:<key>"): coefficients as IEEE 16-bit halves
+// (relative error <= 2^-11 per coefficient; the pose-ao bench prints what it costs in AO), the
+// rest as written. The reader checks the version, every size and index, that the groups
+// partition the vertices, finiteness and [0, 1] baselines, naming the chunk in its errors.
+inline constexpr std::uint32_t kPoseAOChunkType = fourcc("PSAO");
+inline constexpr std::uint32_t kPoseAOChunkVersion = 2;  // 2: keyed by the mesh's entity key
+BakeChunk write_pose_ao_chunk(const PoseAOData& data);
+Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk);
+
+// Lines for `penumbra info`: vertices, joints, groups, poses, rays, locality, lambda, training
+// RMSE, bytes per vertex (and a warning when locality was reduced).
+std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk);
 
 }  // namespace penumbra

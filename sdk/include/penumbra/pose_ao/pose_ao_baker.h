@@ -1,6 +1,5 @@
 // The pose-AO baker (Kontkanen & Aila 2006; the thesis, section 4.2): reference poses, ray-traced
-// per-vertex self-occlusion of each posed mesh, and the per-vertex ridge regression; the "PSAO"
-// .pbake chunk.
+// per-vertex self-occlusion of each posed mesh, and the per-vertex ridge regression.
 //
 // Steps (bake_pose_ao runs them; the pose-ao bench calls them one by one to sweep the settings):
 //   1. make_pose_rig: the skin's joint hierarchy, bind local transforms (from the inverse bind
@@ -18,7 +17,7 @@
 #include <utility>
 #include <vector>
 
-#include "penumbra/bake/pbake.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/ecs/transform.h"
@@ -26,8 +25,6 @@
 #include "penumbra/scene/components.h"
 
 namespace penumbra {
-
-inline constexpr std::uint32_t kPoseAOChunkVersion = 1;
 
 // A pose: the local transform of every skin joint.
 using Pose = std::vector<Transform>;
@@ -140,15 +137,9 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
 Result<PoseAOData> bake_pose_ao(World& world, Entity mesh_entity, const SkinnedPoseAO& settings, std::uint64_t seed,
                                 JobContext& jobs, MemoryBudget& budget, std::vector<std::string>* warnings = nullptr);
 
-// The "PSAO" chunk of one mesh (label "poseao:<entity index>"): coefficients as IEEE 16-bit halves
-// (relative error <= 2^-11 per coefficient; the pose-ao bench prints what it costs in AO), the
-// rest as written. The reader checks the version, every size and index, that the groups
-// partition the vertices, finiteness and [0, 1] baselines, naming the chunk in its errors.
-BakeChunk write_pose_ao_chunk(const PoseAOData& data);
-Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk);
-
-// Lines for `penumbra info`: vertices, joints, groups, poses, rays, locality, lambda, training
-// RMSE, bytes per vertex (and a warning when locality was reduced).
-std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk);
+// Registers the "pose-ao" baker: one PSAO chunk per SkinnedPoseAO entity with Mesh and Skin, in
+// entity order, keyed by entity key; the baked data, as read back from its chunk (16-bit
+// coefficients), is attached to the components.
+void register_pose_ao_baker(World& world);
 
 }  // namespace penumbra

@@ -1,14 +1,15 @@
 // The runtime half of skinned pose-AO: PoseAOSystem writes each character's per-vertex AO (into
-// VertexAO, scene/components.h) every frame its pose changed; loading baked data; default
-// components; registration.
+// VertexAO, scene/components.h) every frame its pose changed; default components; the module
+// descriptor (attaching a PSAO chunk sets the SkinnedPoseAO::data of the entity its key names;
+// NotFound when that entity's mesh has another vertex count).
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
-#include "penumbra/bake/baker.h"
-#include "penumbra/bake/pbake.h"
 #include "penumbra/ecs/world.h"
+#include "penumbra/lighting/module.h"
+#include "penumbra/lighting/settings.h"
 #include "penumbra/pose_ao/pose_ao.h"
 #include "penumbra/scene/components.h"
 
@@ -27,18 +28,14 @@ std::size_t update_pose_ao(World& world, std::uint64_t since);
 // VertexAO), calling update_pose_ao with the system's last-run tick. Run after "skinning".
 void register_pose_ao_system(World& world);
 
-// Registers the "poseao" baker (one PSAO chunk per SkinnedPoseAO entity with Mesh and Skin, in
-// entity order; the baked data, as read back from its chunk, is attached to the components) and
-// the system above. The one call the tool and games make.
-void register_pose_ao(World& world);
-
-// Attaches the PSAO chunks of `file` to the SkinnedPoseAO components of the same entity index.
-// Fails with InvalidInput for a corrupt chunk, and with NotFound naming the index when the entity
-// has no SkinnedPoseAO or its mesh has another vertex count (re-bake the scene).
-Status attach_pose_ao(World& world, const BakeFile& file);
+// The entities the pose-AO bake covers, in entity-index order: SkinnedPoseAO and WorldTransform
+// on a Mesh with joints and weights for every vertex, and a Skin.
+std::vector<Entity> pose_ao_meshes(World& world);
 
 // Gives every skinned mesh (Mesh with joints and weights, Skin) without a SkinnedPoseAO one with
 // the preset's settings. Returns how many were added.
 std::size_t add_default_pose_ao(World& world, Preset preset);
+
+const LightingModule& pose_ao_module();
 
 }  // namespace penumbra

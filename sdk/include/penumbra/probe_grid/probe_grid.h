@@ -5,7 +5,7 @@
 //
 // A grid of nodes x_i over a box stores per node the SH irradiance (RGB, L1 or L2). At runtime a
 // receiver at x with normal n gets E(x, n) = sum_i B_i(x) E_i(n), the plain trilinear
-// interpolation of the node expansions evaluated at n. The bake (probe_baker.h) chooses E_i by
+// interpolation of the node expansions evaluated at n. The bake (probe_grid_baker.h) chooses E_i by
 // point sampling (the classic irradiance volume) or by the paper's supersampling over each node's
 // tent B_i restricted to the domain of interest; the runtime is the same for both.
 //
@@ -25,13 +25,14 @@
 // oblique to the grid hides a corner only where it crosses the corner's axis lines.
 //
 // This header holds the authoring component (IrradianceProbeGrid), the receiver component
-// (ProbeLit), the baked data (ProbeGridData), the grid's geometry (ProbeGridLayout), the CPU
-// evaluation and the GPU texture layout. Units: metres; irradiance in W/m^2 per RGB channel.
+// (ProbeLit), the baked data (ProbeGridData) and its PRBG chunk, the grid's geometry
+// (ProbeGridLayout), the CPU evaluation and the GPU texture layout. Units: metres; irradiance in W/m^2 per RGB channel.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -39,10 +40,10 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
-#include "penumbra/bake/baker.h"
-#include "penumbra/bake/integrators.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
 #include "penumbra/core/sh.h"
+#include "penumbra/lighting/settings.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra {
@@ -91,12 +92,12 @@ struct IrradianceProbeGrid {
   // surfaces hit by the node's rays are lit with k - 1 bounces; kProbeAllBounces = all.
   std::uint32_t bounces = 2;
   std::uint32_t hit_samples = 2;  // irradiance paths at each ray hit (>= 2)
-  // What the nodes store (integrators.h, LightingContent). Indirect (the default, and every
+  // What the nodes store (lighting/settings.h, LightingContent). Indirect (the default, and every
   // preset's): only light that reflected at least once (no lights' direct light, no emission seen
   // straight from the node), for a renderer that draws direct light itself with shadow maps, as the
   // SDK's does; an All grid there counts direct light twice and smears its shadows over the node
   // spacing. All: direct + indirect, for a renderer that draws no dynamic direct light on
-  // probe-lit objects (the grid is their whole lighting; issue 3's grids, .pbake version 1).
+  // probe-lit objects (the grid is their whole lighting).
   LightingContent lighting = LightingContent::Indirect;
   // Domain of interest: a sample point is outside when more than this fraction of its rays first
   // hits a back face (0 for watertight scenes; 0.05-0.5 for open geometry).
@@ -164,7 +165,7 @@ Result<ProbeGridLayout> probe_grid_layout(const IrradianceProbeGrid& grid, const
 
 // Baked data of one grid: per node the irradiance SH (cosine-convolved, RGB) and the coverage.
 struct ProbeGridData {
-  std::uint32_t entity_index = 0;  // Entity::index of the grid at bake time
+  std::string key;  // the grid entity's stable key (scene/entity_key.h)
   ProbeGridLayout layout;
   ProbeShOrder sh_order = ProbeShOrder::L2;
   ProbeSampling sampling = ProbeSampling::Supersampled;
@@ -238,5 +239,14 @@ ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexel
 // b = -y + 256 (+z) + 65536 (-z), both 0 without reach data; a 0. The shader fetches the eight
 // corners unfiltered. Cost: O(nodes). Thread-safe.
 std::vector<glm::vec4> pack_probe_node_texels(const ProbeGridData& data);
+
+// The "PRBG" chunk of one grid (label "probe-grid:<key>") and its reader. read() checks the
+// version, sizes, resolution and that every value is finite, and names the chunk in its errors.
+inline constexpr std::uint32_t kProbeGridChunkType = fourcc("PRBG");
+inline constexpr std::uint32_t kProbeGridChunkVersion = 4;  // 4: keyed by the grid's entity key
+BakeChunk write_probe_grid_chunk(const ProbeGridData& data);
+Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk);
+// Lines for `penumbra info`: grid size, order, mode, lighting, valid fraction, filled nodes, bytes.
+std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk);
 
 }  // namespace penumbra

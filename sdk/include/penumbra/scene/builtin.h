@@ -1,5 +1,5 @@
-// Built-in scenes, built procedurally so the repository needs no asset files, and the one entry
-// point that loads either a built-in scene or a glTF file.
+// Built-in scenes, built procedurally so the repository needs no asset files (load_scene in
+// gltf.h loads either a built-in scene or a glTF file).
 //
 //   cornell    the Cornell Box (Cornell University Program of Computer Graphics measurements),
 //              metres, open at the front (-Z), one Light{Rect} under the ceiling, a Camera at
@@ -54,8 +54,5 @@ std::vector<std::string> builtin_scene_names();
 // Cost: milliseconds (the largest scene has a few thousand triangles).
 Result<LoadedScene> load_builtin(World& world, std::string_view name);
 
-// "builtin:NAME" loads a built-in scene; anything else is a path to a .gltf or .glb file
-// (import_gltf with default options).
-Result<LoadedScene> load_scene(World& world, std::string_view spec);
 
 }  // namespace penumbra

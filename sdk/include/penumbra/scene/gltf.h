@@ -22,6 +22,7 @@
 
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
+#include "penumbra/scene/builtin.h"
 
 namespace penumbra {
 
@@ -51,5 +52,9 @@ struct ImportedScene {
 // Unsupported (a required extension or feature Penumbra does not handle), Io (unreadable file).
 Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& path,
                                   const ImportOptions& options = {});
+
+// "builtin:NAME" loads a built-in scene (builtin.h); anything else is a path to a .gltf or .glb
+// file (import_gltf with default options).
+Result<LoadedScene> load_scene(World& world, std::string_view spec);
 
 }  // namespace penumbra

@@ -1,13 +1,13 @@
-// The runtime half of the probe grid: the system that lights ProbeLit entities, loading baked
-// grids into their components, the default grid for a scene without one, and the registration
-// the tool and games call.
+// The runtime half of the probe grid: the system that lights ProbeLit entities, the default grid
+// for a scene without one, and the module descriptor (attaching a PRBG chunk sets the
+// IrradianceProbeGrid::data of the entity its key names, with World::patch so receivers update).
 #pragma once
 
 #include <cstdint>
 
-#include "penumbra/bake/baker.h"
-#include "penumbra/bake/pbake.h"
 #include "penumbra/ecs/world.h"
+#include "penumbra/lighting/module.h"
+#include "penumbra/lighting/settings.h"
 #include "penumbra/probe_grid/probe_grid.h"
 
 namespace penumbra {
@@ -33,20 +33,12 @@ std::size_t update_probe_lighting(World& world, std::uint64_t since);
 // writes ProbeLit), calling update_probe_lighting with the system's last-run tick.
 void register_probe_grid_system(World& world);
 
-// Registers the "probes" baker (one PRBG chunk per IrradianceProbeGrid entity with a
-// WorldTransform, in entity order; the baked data is also attached to the components) and the
-// system above. The one call the tool and games make.
-void register_probe_grid(World& world);
-
-// Attaches the PRBG chunks of `file` to the IrradianceProbeGrid components of the same entity
-// index (patching them, so receivers update). Fails with InvalidInput for a corrupt chunk, and
-// with NotFound naming the index when a chunk's entity has no grid component (re-bake the scene).
-Status attach_probe_grids(World& world, const BakeFile& file);
-
-// Gives a scene without an IrradianceProbeGrid one: an entity whose box is the static geometry's
+// Gives a scene without an IrradianceProbeGrid one: an entity named "probe grid" whose box is the static geometry's
 // bounds inset by 2% (at least 1 cm) on every side, with the preset's settings (Indirect lighting,
 // for the SDK's renderer, which draws direct light itself). Returns the
 // existing grid entity when there is one, and InvalidInput when the World has no static geometry.
 Result<Entity> add_default_probe_grid(World& world, Preset preset);
+
+const LightingModule& probe_grid_module();
 
 }  // namespace penumbra

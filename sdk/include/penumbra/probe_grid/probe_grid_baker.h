@@ -30,17 +30,14 @@
 #include <string_view>
 
 #include "penumbra/bake/integrators.h"
-#include "penumbra/bake/pbake.h"
+#include "penumbra/core/pbake.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/memory.h"
+#include "penumbra/ecs/world.h"
 #include "penumbra/probe_grid/probe_grid.h"
 
 namespace penumbra {
-
-// Version 2 added ProbeGridData::lighting (version 1 chunks are read as LightingContent::All);
-// version 3 the leak guard's reach (version 2 chunks read without it).
-inline constexpr std::uint32_t kProbeGridChunkVersion = 3;
 
 // Bakes one grid. Validates it first (probe_grid_layout), reserves the node arrays in `budget`
 // before allocating (OutOfBudget names the grid and suggests a larger spacing), traces each node's
@@ -57,13 +54,9 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
                                       const RayScene& scene, std::span<const WorldLight> lights, std::uint64_t seed,
                                       JobContext& jobs, MemoryBudget& budget, std::string_view context = "probe grid");
 
-// The "PRBG" chunk of one grid (label "probes:<entity index>") and its reader. read() checks the
-// version (1 to 3), sizes, resolution and that every value is finite, and names the chunk in its
-// errors.
-BakeChunk write_probe_grid_chunk(const ProbeGridData& data);
-Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk);
-
-// Lines for `penumbra info`: grid size, order, mode, lighting, valid fraction, filled nodes, bytes.
-std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk);
+// Registers the "probe-grid" baker: one PRBG chunk per IrradianceProbeGrid entity with a
+// WorldTransform, in entity order, keyed by its entity key; the baked data is also attached to the
+// components.
+void register_probe_grid_baker(World& world);
 
 }  // namespace penumbra

@@ -1,6 +1,6 @@
-// Probe-grid runtime: the lighting system for ProbeLit receivers, loading baked grids, the default
-// grid and the registration of the "probes" baker (see probe_system.h).
-#include "penumbra/probe_grid/probe_system.h"
+// Probe-grid runtime: the lighting system for ProbeLit receivers, attaching baked grids, the
+// default grid and the module descriptor (see probe_grid_system.h).
+#include "penumbra/probe_grid/probe_grid_system.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,16 +9,12 @@
 
 #include <glm/common.hpp>
 
-#include "penumbra/bake/integrators.h"
-#include "penumbra/bake/ray_scene.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/probe_grid/probe_baker.h"
+#include "penumbra/lighting/module.h"
 
 namespace penumbra {
 
 namespace {
-
-constexpr std::uint32_t kChunkType = fourcc("PRBG");
 
 // A baked grid as the system uses it this update.
 struct ActiveGrid {
@@ -117,21 +113,6 @@ void register_probe_grid_system(World& world) {
   world.add_system(std::move(desc));
 }
 
-Status attach_probe_grids(World& world, const BakeFile& file) {
-  for (const BakeChunk& chunk : file.chunks) {
-    if (chunk.type != kChunkType) continue;
-    auto data = read_probe_grid_chunk(chunk);
-    if (!data) return data.error();
-    const Entity e = world.find_entity(data->entity_index);
-    if (!world.has<IrradianceProbeGrid>(e))
-      return make_error(ErrorCode::NotFound, "chunk 'PRBG' (" + chunk.label + "): entity " +
-                                                 std::to_string(data->entity_index) +
-                                                 " has no IrradianceProbeGrid in this World; re-bake the scene");
-    world.patch<IrradianceProbeGrid>(e).data = std::make_shared<const ProbeGridData>(std::move(*data));
-  }
-  return {};
-}
-
 Result<Entity> add_default_probe_grid(World& world, Preset preset) {
   Entity existing;
   world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid&) {
@@ -157,6 +138,7 @@ Result<Entity> add_default_probe_grid(World& world, Preset preset) {
   grid.box.min = bounds.min + inset;
   grid.box.max = glm::max(bounds.max - inset, grid.box.min + 0.01f);
   const Entity e = world.create();
+  world.add<Name>(e, Name{"probe grid"});
   world.add<IrradianceProbeGrid>(e, std::move(grid));
   world.add<Transform>(e);
   world.add<WorldTransform>(e);
@@ -165,68 +147,40 @@ Result<Entity> add_default_probe_grid(World& world, Preset preset) {
 
 namespace {
 
-// The grids to bake, in entity-index order.
-std::vector<Entity> grid_entities(World& world) {
-  return world.view<IrradianceProbeGrid, WorldTransform>().sorted_entities();
+Status attach_probe_grid(World& world, const BakeChunk& chunk, const EntityKeys& keys) {
+  auto data = read_probe_grid_chunk(chunk);
+  if (!data) return data.error();
+  const std::string context = "chunk 'PRBG' (" + chunk.label + ")";
+  auto e = keys.find(data->key, context);
+  if (!e) return e.error();
+  if (!world.has<IrradianceProbeGrid>(*e))
+    return make_error(ErrorCode::NotFound, context + ": entity '" + data->key +
+                                               "' has no IrradianceProbeGrid in this World; re-bake the scene");
+  world.patch<IrradianceProbeGrid>(*e).data = std::make_shared<const ProbeGridData>(std::move(*data));
+  return {};
 }
 
-std::string grid_context(World& world, Entity e) {
-  const Name* name = world.try_get<Name>(e);
-  return "probe grid " + (name ? "'" + name->value + "' " : std::string()) + "(entity " + std::to_string(e.index) +
-         ")";
+Status add_defaults(World& world, Preset preset, bool authored) {
+  if (authored) return {};
+  auto grid = add_default_probe_grid(world, preset);
+  return grid ? Status{} : Status{grid.error()};
 }
 
-Result<std::vector<BakeChunk>> bake_probes(BakeInputs& in) {
-  const std::vector<Entity> entities = grid_entities(in.world);
-  const std::vector<WorldLight> lights = gather_lights(in.world);
-  std::vector<BakeChunk> chunks;
-  for (Entity e : entities) {
-    const IrradianceProbeGrid grid = in.world.get<IrradianceProbeGrid>(e);
-    auto data = bake_probe_grid(grid, in.world.get<WorldTransform>(e).matrix, in.rays, lights, in.settings.seed,
-                                in.jobs, in.budget, grid_context(in.world, e));
-    if (!data) return data.error();
-    data->entity_index = e.index;
-    chunks.push_back(write_probe_grid_chunk(*data));
-    in.world.patch<IrradianceProbeGrid>(e).data = std::make_shared<const ProbeGridData>(std::move(*data));
-  }
-  return chunks;
-}
-
-void hash_probe_inputs(World& world, const BakeSettings&, Hasher& h) {
-  h.add(kProbeGridChunkVersion);
-  for (Entity e : grid_entities(world)) {
-    const IrradianceProbeGrid& g = world.get<IrradianceProbeGrid>(e);
-    h.add(e.index);
-    h.add(g.box.min);
-    h.add(g.box.max);
-    h.add(g.resolution);
-    h.add(g.spacing);
-    h.add(g.sh_order);
-    h.add(g.sampling);
-    h.add(g.samples_per_node);
-    h.add(g.rays_per_sample);
-    h.add(g.bounces);
-    h.add(g.hit_samples);
-    h.add(g.lighting);
-    h.add(g.back_face_threshold);
-    h.add(g.deringing_window);
-    h.add(g.leak_guard);
-    h.add(world.get<WorldTransform>(e).matrix);
-  }
-}
+constexpr std::uint32_t kChunkTypes[] = {kProbeGridChunkType};
 
 }  // namespace
 
-void register_probe_grid(World& world) {
-  Baker b;
-  b.name = "probes";
-  b.description = "irradiance probe grids (SH per node, point, supersampled (Kontkanen & Laine 2006) or fitted)";
-  b.stages = 3;  // per grid (samples, fill, fit); a scene usually has one
-  b.hash_inputs = hash_probe_inputs;
-  b.bake = bake_probes;
-  b.describe = describe_probe_grid_chunk;
-  world.resource<BakerRegistry>().add(std::move(b));
-  register_probe_grid_system(world);
+const LightingModule& probe_grid_module() {
+  static const LightingModule module{
+      .name = "probe-grid",
+      .description = "irradiance probe grids (SH per node, point, supersampled (Kontkanen & Laine 2006) or fitted)",
+      .chunk_types = kChunkTypes,
+      .register_runtime = register_probe_grid_system,
+      .attach = attach_probe_grid,
+      .describe = describe_probe_grid_chunk,
+      .add_defaults = add_defaults,
+  };
+  return module;
 }
 
 }  // namespace penumbra

@@ -1,4 +1,4 @@
-#include "penumbra/bake/pbake.h"
+#include "penumbra/core/pbake.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
-// The .pbake container (see penumbra/bake/pbake.h for the layout).
-#include "penumbra/bake/pbake.h"
+// The .pbake container (see penumbra/core/pbake.h for the layout).
+#include "penumbra/core/pbake.h"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -1,8 +1,9 @@
 // Probe-grid bake (see probe_baker.h): Kontkanen & Laine 2006, "Sampling Precomputed Volumetric
 // Lighting", section 3 (supersampling over the trilinear basis functions, the domain of interest)
 // against the point-sampled irradiance volume of Greger et al. 1998.
-#include "penumbra/probe_grid/probe_baker.h"
+#include "penumbra/probe_grid/probe_grid_baker.h"
 
+#include "penumbra/bake/baker.h"
 #include "penumbra/bake/light_sampling.h"
 
 #include <algorithm>
@@ -18,13 +19,15 @@
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/core/sh.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_grid_system.h"
+#include "penumbra/scene/entity_key.h"
 #include "probe_fit.h"
 
 namespace penumbra {
 
 namespace {
 
-constexpr std::uint32_t kChunkType = fourcc("PRBG");
 constexpr float kPi = 3.14159265358979323846f;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::uint32_t kRectLightSamples = 16;
@@ -374,100 +377,68 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   return data;
 }
 
-BakeChunk write_probe_grid_chunk(const ProbeGridData& data) {
-  ByteWriter w;
-  w.write(data.entity_index);
-  w.write(data.layout.resolution);
-  w.write(data.layout.grid_to_world);
-  w.write(static_cast<std::uint32_t>(data.sh_order));
-  w.write(static_cast<std::uint32_t>(data.sampling));
-  w.write(static_cast<std::uint32_t>(data.lighting));  // version 2
-  w.write_vector(data.coefficients);
-  w.write_vector(data.validity);
-  w.write_vector(data.filled);
-  w.write_vector(data.reach);  // version 3
-  return BakeChunk{kChunkType, kProbeGridChunkVersion, "probes:" + std::to_string(data.entity_index), w.take()};
+namespace {
+
+// The grids to bake, in entity-index order.
+std::vector<Entity> grid_entities(World& world) {
+  return world.view<IrradianceProbeGrid, WorldTransform>().sorted_entities();
 }
 
-Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
-  const std::string context = "chunk 'PRBG' (" + chunk.label + ")";
-  const auto bad = [&](const std::string& what) {
-    return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the probe grid");
-  };
-  // Version 1 (before the lighting field) stored direct + indirect: read as All. Version 2 has no
-  // reach (a grid without the leak guard).
-  const bool known = chunk.type == kChunkType && chunk.version >= 1 && chunk.version <= kProbeGridChunkVersion;
-  const std::uint32_t version = known ? chunk.version : kProbeGridChunkVersion;
-  PENUMBRA_TRY(check_chunk(chunk, kChunkType, version, context));
-  ProbeGridData data;
-  ByteReader r(chunk.payload, context);
-  std::uint32_t order = 0, sampling = 0, lighting = 0;
-  PENUMBRA_TRY(r.read(data.entity_index));
-  PENUMBRA_TRY(r.read(data.layout.resolution));
-  PENUMBRA_TRY(r.read(data.layout.grid_to_world));
-  PENUMBRA_TRY(r.read(order));
-  PENUMBRA_TRY(r.read(sampling));
-  if (version >= 2) PENUMBRA_TRY(r.read(lighting));
-  const glm::uvec3 res = data.layout.resolution;
-  if (res.x < 2 || res.y < 2 || res.z < 2 || std::uint64_t{res.x} * res.y * res.z > kMaxProbeNodes)
-    return bad("resolution " + std::to_string(res.x) + "x" + std::to_string(res.y) + "x" + std::to_string(res.z) +
-               " is outside 2.." + std::to_string(kMaxProbeNodes) + " nodes");
-  if (order != 1 && order != 2) return bad("SH order " + std::to_string(order) + " is not L1 or L2");
-  if (sampling > 2) return bad("sampling mode " + std::to_string(sampling) + " is unknown");
-  if (lighting > 1) return bad("lighting " + std::to_string(lighting) + " is neither all (0) nor indirect (1)");
-  data.lighting = static_cast<LightingContent>(lighting);
-  data.sh_order = static_cast<ProbeShOrder>(order);
-  data.sampling = static_cast<ProbeSampling>(sampling);
-  const glm::mat4& m = data.layout.grid_to_world;
-  const glm::mat3 axes(m);
-  const float det = glm::determinant(axes);
-  bool finite_matrix = std::isfinite(det) && det != 0.0f;
-  for (int c = 0; c < 4; ++c)
-    for (int k = 0; k < 4; ++k) finite_matrix = finite_matrix && std::isfinite(m[c][k]);
-  if (!finite_matrix) return bad("the grid transform is singular or not finite");
-  data.layout.world_to_grid = glm::inverse(m);
-  data.layout.spacing =
-      glm::vec3(glm::length(axes[0]), glm::length(axes[1]), glm::length(axes[2])) / glm::vec3(res - 1u);
-  const std::size_t nodes = data.node_count();
-  const std::size_t count = static_cast<std::size_t>(sh_coefficients(data.sh_order));
-  PENUMBRA_TRY(r.read_vector(data.coefficients, nodes * count));
-  PENUMBRA_TRY(r.read_vector(data.validity, nodes));
-  PENUMBRA_TRY(r.read_vector(data.filled, nodes));
-  if (version >= 3) PENUMBRA_TRY(r.read_vector(data.reach, nodes * 6));
-  PENUMBRA_TRY(r.finish());
-  if (data.coefficients.size() != nodes * count || data.validity.size() != nodes || data.filled.size() != nodes ||
-      (!data.reach.empty() && data.reach.size() != nodes * 6))
-    return bad("array sizes do not match " + std::to_string(nodes) + " nodes");
-  for (std::size_t i = 0; i < data.coefficients.size(); ++i)
-    for (int c = 0; c < 3; ++c)
-      if (!std::isfinite(data.coefficients[i][c]))
-        return bad("node " + std::to_string(i / count) + " has a non-finite coefficient");
-  for (std::size_t n = 0; n < nodes; ++n)
-    if (!(data.validity[n] >= 0.0f && data.validity[n] <= 1.0f) || data.filled[n] > 1)
-      return bad("node " + std::to_string(n) + " has validity or fill flag out of range");
-  return data;
+std::string grid_context(World& world, Entity e) {
+  const Name* name = world.try_get<Name>(e);
+  return "probe grid " + (name ? "'" + name->value + "' " : std::string()) + "(entity " + std::to_string(e.index) +
+         ")";
 }
 
-std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk) {
-  if (chunk.type != kChunkType) return {};
-  auto data = read_probe_grid_chunk(chunk);
-  if (!data) return {data.error().message};
-  const glm::uvec3 r = data->layout.resolution;
-  const auto filled = std::count(data->filled.begin(), data->filled.end(), std::uint8_t{1});
-  char line[240];
-  std::snprintf(line, sizeof line, "grid %ux%ux%u (%zu nodes), spacing %.3g x %.3g x %.3g m, %s, %s, %s lighting", r.x,
-                r.y, r.z, data->node_count(), static_cast<double>(data->layout.spacing.x),
-                static_cast<double>(data->layout.spacing.y), static_cast<double>(data->layout.spacing.z),
-                to_string(data->sh_order), to_string(data->sampling), to_string(data->lighting));
-  std::vector<std::string> out{line};
-  std::snprintf(line, sizeof line,
-                "valid %.1f%% of nodes, %ld filled from neighbours, leak guard %s, %s (%llu B per node)",
-                100.0 * static_cast<double>(data->valid_fraction()), static_cast<long>(filled),
-                data->reach.empty() ? "off" : "on",
-                format_bytes(data->node_count() * data->bytes_per_node()).c_str(),
-                static_cast<unsigned long long>(data->bytes_per_node()));
-  out.emplace_back(line);
-  return out;
+Result<std::vector<BakeChunk>> bake_probes(BakeInputs& in) {
+  const std::vector<Entity> entities = grid_entities(in.world);
+  const std::vector<WorldLight> lights = gather_lights(in.world);
+  std::vector<BakeChunk> chunks;
+  for (Entity e : entities) {
+    const IrradianceProbeGrid grid = in.world.get<IrradianceProbeGrid>(e);
+    auto data = bake_probe_grid(grid, in.world.get<WorldTransform>(e).matrix, in.rays, lights, in.settings.seed,
+                                in.jobs, in.budget, grid_context(in.world, e));
+    if (!data) return data.error();
+    auto key = bake_key(in, e, grid_context(in.world, e));
+    if (!key) return key.error();
+    data->key = std::move(*key);
+    chunks.push_back(write_probe_grid_chunk(*data));
+    in.world.patch<IrradianceProbeGrid>(e).data = std::make_shared<const ProbeGridData>(std::move(*data));
+  }
+  return chunks;
+}
+
+void hash_probe_inputs(World& world, const BakeSettings&, Hasher& h) {
+  h.add(kProbeGridChunkVersion);
+  for (Entity e : grid_entities(world)) {
+    const IrradianceProbeGrid& g = world.get<IrradianceProbeGrid>(e);
+    h.add(std::string_view(entity_key(world, e)));
+    h.add(g.box.min);
+    h.add(g.box.max);
+    h.add(g.resolution);
+    h.add(g.spacing);
+    h.add(g.sh_order);
+    h.add(g.sampling);
+    h.add(g.samples_per_node);
+    h.add(g.rays_per_sample);
+    h.add(g.bounces);
+    h.add(g.hit_samples);
+    h.add(g.lighting);
+    h.add(g.back_face_threshold);
+    h.add(g.deringing_window);
+    h.add(g.leak_guard);
+    h.add(world.get<WorldTransform>(e).matrix);
+  }
+}
+
+}  // namespace
+
+void register_probe_grid_baker(World& world) {
+  Baker b = baker_for(probe_grid_module());
+  b.stages = 3;  // per grid (samples, fill, fit); a scene usually has one
+  b.hash_inputs = hash_probe_inputs;
+  b.bake = bake_probes;
+  world.resource<BakerRegistry>().add(std::move(b));
 }
 
 }  // namespace penumbra

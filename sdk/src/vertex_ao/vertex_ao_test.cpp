@@ -1,13 +1,18 @@
 // The vertex-AO baker and the bake driver: closed form inside the furnace, determinism, input
 // hashing, chunk round trip and damage, errors for unknown bakers and budgets.
-#include "penumbra/bake/vertex_ao.h"
+#include "penumbra/vertex_ao/vertex_ao_baker.h"
 
 #include <gtest/gtest.h>
 
+#include "penumbra/bake/baker.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
+#include "penumbra/scene/components.h"
+#include "penumbra/scene/entity_key.h"
+#include "penumbra/vertex_ao/vertex_ao.h"
 
 namespace penumbra {
 namespace {
@@ -16,7 +21,7 @@ namespace {
 World scene_world(std::string_view name) {
   World world;
   register_scene_systems(world);
-  register_vertex_ao(world);
+  register_vertex_ao_baker(world);
   EXPECT_TRUE(load_builtin(world, name).ok());
   world.update(0.0);
   return world;
@@ -87,11 +92,11 @@ TEST(VertexAo, ChunkRoundTripsAndRejectsDamage) {
   VertexAoData data;
   data.max_distance = 2.0f;
   data.rays = 64;
-  data.entries.push_back({7u, {0.0f, 0.5f, 1.0f}});
+  data.entries.push_back({"walls/north", {0.0f, 0.5f, 1.0f}});
   const BakeChunk chunk = write_vertex_ao_chunk(data);
   auto back = read_vertex_ao_chunk(chunk);
   ASSERT_TRUE(back.ok()) << back.error().message;
-  EXPECT_EQ(back->entries[0].entity_index, 7u);
+  EXPECT_EQ(back->entries[0].key, "walls/north");
   EXPECT_EQ(back->entries[0].ao, data.entries[0].ao);
 
   BakeChunk short_chunk = chunk;
@@ -113,43 +118,67 @@ TEST(VertexAo, ChunkRoundTripsAndRejectsDamage) {
   EXPECT_EQ(unsupported.error().code, ErrorCode::Unsupported);
 }
 
-// The baked values reach the entities as VertexAO, one per vertex of their mesh; a chunk naming
-// a missing entity or a mesh of another size is a NotFound naming the entity.
-TEST(VertexAo, AttachGivesTheBakedEntitiesTheirVertexAO) {
+// The baked values reach the entities as VertexAO, one per vertex of their mesh, found by their
+// keys: a World built in another order (every index shifted) gets the same values on the same
+// meshes. A key that matches nothing, or a mesh of another size, is a NotFound naming the key.
+TEST(VertexAo, AttachFindsTheBakedEntitiesByKeyWhateverTheirIndex) {
   World world = scene_world("courtyard");
   BakeSettings settings;
   settings.preset = Preset::Draft;
   auto result = bake(world, settings, 2);
   ASSERT_TRUE(result.ok()) << result.error().message;
-  ASSERT_TRUE(attach_vertex_ao(world, result->file).ok());
   auto data = read_vertex_ao_chunk(result->file.chunks[0]);
   ASSERT_TRUE(data.ok());
-  ASSERT_FALSE(data->entries.empty());
+  ASSERT_GT(data->entries.size(), 3u);
+
+  World shifted;
+  for (int i = 0; i < 7; ++i) shifted.create();
+  register_scene_systems(shifted);
+  ASSERT_TRUE(load_builtin(shifted, "courtyard").ok());
+  shifted.update(0.0);
+  ASSERT_TRUE(attach_bake(shifted, result->file).ok());
+  const EntityKeys keys = EntityKeys::build(shifted);
   for (const auto& entry : data->entries) {
-    const Entity e = world.find_entity(entry.entity_index);
-    ASSERT_TRUE(world.has<VertexAO>(e));
-    EXPECT_EQ(world.get<VertexAO>(e).ao, entry.ao);
-    EXPECT_EQ(world.get<VertexAO>(e).ao.size(), world.get<Mesh>(e).data->positions.size());
+    auto e = keys.find(entry.key, "test");
+    ASSERT_TRUE(e.ok()) << e.error().message;
+    ASSERT_TRUE(shifted.has<VertexAO>(*e)) << entry.key;
+    EXPECT_EQ(shifted.get<VertexAO>(*e).ao, entry.ao) << entry.key;
+    EXPECT_NE(*e, *EntityKeys::build(world).find(entry.key, "test")) << "the indices differ";
   }
   // Attaching again replaces the values through patch (the renderer sees a new change tick).
-  const Entity first = world.find_entity(data->entries[0].entity_index);
-  const std::uint64_t tick = world.changed_tick<VertexAO>(first);
-  update_world_transforms(world);  // advances the tick
-  ASSERT_TRUE(attach_vertex_ao(world, result->file).ok());
-  EXPECT_GT(world.changed_tick<VertexAO>(first), tick);
+  const Entity first = *keys.find(data->entries[0].key, "test");
+  const std::uint64_t tick = shifted.changed_tick<VertexAO>(first);
+  update_world_transforms(shifted);  // advances the tick
+  ASSERT_TRUE(attach_bake(shifted, result->file).ok());
+  EXPECT_GT(shifted.changed_tick<VertexAO>(first), tick);
 
   VertexAoData wrong = *data;
   wrong.entries.resize(1);
   wrong.entries[0].ao.push_back(1.0f);
   BakeFile file;
   file.chunks.push_back(write_vertex_ao_chunk(wrong));
-  Status s = attach_vertex_ao(world, file);
+  Status s = attach_bake(shifted, file);
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.error().code, ErrorCode::NotFound);
-  EXPECT_NE(s.error().message.find("entity " + std::to_string(wrong.entries[0].entity_index)), std::string::npos);
-  wrong.entries[0].entity_index = 100000;
+  EXPECT_NE(s.error().message.find("'" + wrong.entries[0].key + "'"), std::string::npos) << s.error().message;
+  wrong.entries[0].key = "no/such/mesh";
   file.chunks[0] = write_vertex_ao_chunk(wrong);
-  EXPECT_FALSE(attach_vertex_ao(world, file).ok());
+  s = attach_bake(shifted, file);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("no entity has the key 'no/such/mesh'"), std::string::npos) << s.error().message;
+}
+
+// An entity that bakes data needs a key: an unnamed static mesh is refused by index, with the fix.
+TEST(VertexAo, UnkeyedEntitiesAreRefusedNamingTheFix) {
+  World world = scene_world("cornell");
+  for (Entity e : world.view<Static, Mesh>().sorted_entities()) {
+    world.remove<Name>(e);
+    break;
+  }
+  auto result = bake(world, BakeSettings{}, 1);
+  ASSERT_FALSE(result.ok());
+  EXPECT_NE(result.error().message.find("has neither a Name nor an EntityKey"), std::string::npos)
+      << result.error().message;
 }
 
 TEST(BakeWorld, UnknownBakerAndBudgetAreClearErrors) {

@@ -1,0 +1,54 @@
+// A lighting module's descriptor: the one thing each technique exports (`<module>_module()`, declared
+// in its system header). The SDK's list of modules is sdk/src/runtime/modules.inc; games use it
+// through penumbra/runtime.h (register_lighting, attach_bake) and tools through penumbra/bakers.h.
+//
+// What a module provides, and where (every module folder has the same files):
+//   <module>.h          component(s), baked data, CPU evaluation, the chunk's reader and writer
+//   <module>_system.h   runtime system, default components, the descriptor
+//   <module>_baker.h    the offline bake (Embree) and register_<module>_baker()
+//   <module>_gpu.h      GPU layout shared with the shaders (modules with GPU data)
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "penumbra/core/pbake.h"
+#include "penumbra/core/result.h"
+#include "penumbra/ecs/world.h"
+#include "penumbra/lighting/settings.h"
+#include "penumbra/scene/entity_key.h"
+
+namespace penumbra {
+
+struct LightingModule {
+  // The one name of the technique: its baker, `penumbra bake --only`, `penumbra bench`, the editor
+  // panel and the prefix of its chunk labels ("probe-grid").
+  std::string_view name;
+  std::string_view description;  // one line for `penumbra bake --help`
+  // The chunk types (fourcc) it writes and attaches.
+  std::span<const std::uint32_t> chunk_types;
+  // Registers its systems with a World (once per World; register_lighting calls it).
+  void (*register_runtime)(World& world) = nullptr;
+  // Attaches one chunk of one of its types to the entity its key names (`keys`), replacing what the
+  // component held (World::patch, so systems and the renderer notice). InvalidInput for a corrupt
+  // chunk, NotFound naming the key when no entity of this World has it or it lacks the component.
+  Status (*attach)(World& world, const BakeChunk& chunk, const EntityKeys& keys) = nullptr;
+  // Lines about one of its chunks for `penumbra info` and bake reports.
+  std::vector<std::string> (*describe)(const BakeChunk& chunk) = nullptr;
+  // Gives a scene the module's default components with the preset's settings: `authored` is true
+  // for a scene that brings its own lighting components (a glTF file), false for one made without
+  // them (the built-in scenes). Null: the module adds none.
+  Status (*add_defaults)(World& world, Preset preset, bool authored) = nullptr;
+
+  bool owns(std::uint32_t chunk_type) const;
+};
+
+// "<module name>:<entity key>": a chunk's label, for people and for telling one entity's chunk from
+// another's (the key itself is in the payload). A label longer than kPbakeMaxLabel bytes keeps the
+// key's tail: "<module name>:~<last bytes of the key>".
+std::string chunk_label(std::string_view module_name, std::string_view key);
+
+}  // namespace penumbra

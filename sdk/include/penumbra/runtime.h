@@ -1,0 +1,42 @@
+// What a game calls: the runtime half of every lighting module (no Embree, no glTF importer).
+//
+//   World world;
+//   register_lighting(world);                        // once
+//   ... build or import the scene ...
+//   auto file = read_bake_file("level.pbake");       // penumbra/core/pbake.h
+//   if (file) attach_bake(world, *file);             // baked data onto the components
+//   world.update(dt);                                // every frame
+#pragma once
+
+#include <span>
+#include <string_view>
+
+#include "penumbra/core/pbake.h"
+#include "penumbra/core/result.h"
+#include "penumbra/ecs/world.h"
+#include "penumbra/lighting/module.h"
+
+namespace penumbra {
+
+// The SDK's modules (sdk/src/runtime/modules.inc), in registration order.
+std::span<const LightingModule* const> lighting_modules();
+// The module named `name`, or nullptr.
+const LightingModule* find_lighting_module(std::string_view name);
+// The module whose chunk type `type` is, or nullptr.
+const LightingModule* lighting_module_for_chunk(std::uint32_t type);
+
+// Registers the scene systems (animation, transforms, skinning) and every module's runtime
+// systems with `world`. Call once per World, before the first update.
+void register_lighting(World& world);
+
+// Every module's add_defaults (module.h) in the modules' order, then one world.update(0) so that
+// the new components' transforms are current. Stops at the first error.
+Status add_default_lighting(World& world, Preset preset, bool authored);
+
+// Attaches every chunk of `file` to the entities its keys name, through the module that owns the
+// chunk's type (chunks of types no linked module owns are skipped with a logged warning). Fails at
+// the first chunk that is corrupt or names a key this World lacks (the error names the chunk and
+// the key). Cost: O(entities) to index the keys, then each module's attach.
+Status attach_bake(World& world, const BakeFile& file);
+
+}  // namespace penumbra

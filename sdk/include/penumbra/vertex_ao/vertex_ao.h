@@ -1,0 +1,47 @@
+// Per-vertex ambient occlusion of static meshes (module "vertex-ao"): the classic baked vertex AO,
+// and the simplest module that shows the pattern every technique follows (settings with presets,
+// deterministic parallel bake, a versioned .pbake chunk keyed by entity, a reader for it).
+//
+// A(x, n) = (1/pi) \int V(x, w) max(0, w.n) dw within max_distance (1 = open), at every vertex of
+// every entity with Static + Mesh, from the vertex's position and normal in world space. The values
+// reach the renderer as VertexAO (scene/components.h).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "penumbra/core/pbake.h"
+#include "penumbra/core/result.h"
+#include "penumbra/lighting/settings.h"
+
+namespace penumbra {
+
+struct VertexAoSettings {
+  float max_distance = 1.0f;  // metres; occluders farther away do not darken
+  std::uint32_t rays = 256;   // per vertex
+  static VertexAoSettings preset(Preset preset);  // draft 64, medium 256, high 1024 rays
+};
+
+// The baked data: one AO value per vertex for each baked entity.
+struct VertexAoData {
+  struct Entry {
+    std::string key;        // the entity's stable key (scene/entity_key.h)
+    std::vector<float> ao;  // one per vertex of the entity's MeshData
+  };
+  float max_distance = 0.0f;
+  std::uint32_t rays = 0;
+  std::vector<Entry> entries;
+
+  std::uint64_t bytes() const;
+};
+
+inline constexpr std::uint32_t kVertexAoChunkType = fourcc("VXAO");
+inline constexpr std::uint32_t kVertexAoChunkVersion = 2;  // 2: entries keyed by entity key
+
+// Serialises to / reads from the "VXAO" chunk (one per bake, label "vertex-ao"). read() checks
+// sizes and value ranges and names the chunk in its errors.
+BakeChunk write_vertex_ao_chunk(const VertexAoData& data);
+Result<VertexAoData> read_vertex_ao_chunk(const BakeChunk& chunk);
+
+}  // namespace penumbra

@@ -1,0 +1,139 @@
+// The PSAO chunk of a pose-AO mesh (see pose_ao.h).
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <glm/gtc/packing.hpp>
+
+#include "penumbra/core/memory.h"
+#include "penumbra/lighting/module.h"
+#include "penumbra/pose_ao/pose_ao.h"
+
+namespace penumbra {
+
+BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
+  ByteWriter w;
+  w.write_string(d.key);
+  w.write(d.vertex_count);
+  w.write(d.joint_count);
+  w.write(d.poses);
+  w.write(d.rays_per_vertex);
+  w.write(d.requested_locality);
+  w.write(d.locality);
+  w.write(d.lambda);
+  w.write(d.training_rmse);
+  w.write_vector(d.joint_parents);
+  w.write(static_cast<std::uint64_t>(d.groups.size()));
+  for (const PoseAOGroup& g : d.groups) {
+    w.write(g.joints);
+    w.write(g.joint_count);
+    w.write(g.first);
+    w.write(g.count);
+    w.write(g.coefficient_offset);
+  }
+  w.write_vector(d.vertex_order);
+  std::vector<std::uint16_t> halves(d.coefficients.size());
+  for (std::size_t i = 0; i < halves.size(); ++i) halves[i] = glm::packHalf1x16(d.coefficients[i]);
+  w.write_vector(halves);
+  w.write_vector(d.bind_ao);
+  w.write_vector(d.mean_ao);
+  return BakeChunk{kPoseAOChunkType, kPoseAOChunkVersion, chunk_label("pose-ao", d.key), w.take()};
+}
+
+Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
+  const std::string context = "chunk 'PSAO' (" + chunk.label + ")";
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidInput, context + ": " + what + "; re-bake the pose-AO");
+  };
+  PENUMBRA_TRY(check_chunk(chunk, kPoseAOChunkType, kPoseAOChunkVersion, context));
+  PoseAOData d;
+  ByteReader r(chunk.payload, context);
+  PENUMBRA_TRY(r.read_string(d.key));
+  PENUMBRA_TRY(r.read(d.vertex_count));
+  PENUMBRA_TRY(r.read(d.joint_count));
+  PENUMBRA_TRY(r.read(d.poses));
+  PENUMBRA_TRY(r.read(d.rays_per_vertex));
+  PENUMBRA_TRY(r.read(d.requested_locality));
+  PENUMBRA_TRY(r.read(d.locality));
+  PENUMBRA_TRY(r.read(d.lambda));
+  PENUMBRA_TRY(r.read(d.training_rmse));
+  const std::uint32_t V = d.vertex_count, J = d.joint_count;
+  if (V == 0 || V > (1u << 30)) return bad("vertex count " + std::to_string(V) + " is outside 1..2^30");
+  if (J == 0 || J > 65535) return bad("joint count " + std::to_string(J) + " is outside 1..65535");
+  if (d.locality > d.requested_locality || d.requested_locality > kPoseAOMaxLocality)
+    return bad("locality " + std::to_string(d.locality) + " of " + std::to_string(d.requested_locality) + " is out of range");
+  if (!(std::isfinite(d.lambda) && d.lambda >= 0.0f) || !std::isfinite(d.training_rmse))
+    return bad("lambda or training RMSE is not finite");
+  PENUMBRA_TRY(r.read_vector(d.joint_parents, J));
+  if (d.joint_parents.size() != J) return bad("joint parents do not match " + std::to_string(J) + " joints");
+  for (std::size_t j = 0; j < J; ++j)
+    if (d.joint_parents[j] < -1 || d.joint_parents[j] >= static_cast<std::int32_t>(J) ||
+        d.joint_parents[j] == static_cast<std::int32_t>(j))
+      return bad("joint " + std::to_string(j) + " has parent " + std::to_string(d.joint_parents[j]));
+  std::uint64_t groups = 0;
+  PENUMBRA_TRY(r.read(groups));
+  if (groups == 0 || groups > V) return bad(std::to_string(groups) + " joint sets for " + std::to_string(V) + " vertices");
+  d.groups.resize(static_cast<std::size_t>(groups));
+  std::uint64_t vertices = 0, coefficients = 0;
+  for (std::size_t i = 0; i < d.groups.size(); ++i) {
+    PoseAOGroup& g = d.groups[i];
+    PENUMBRA_TRY(r.read(g.joints));
+    PENUMBRA_TRY(r.read(g.joint_count));
+    PENUMBRA_TRY(r.read(g.first));
+    PENUMBRA_TRY(r.read(g.count));
+    PENUMBRA_TRY(r.read(g.coefficient_offset));
+    bool ok = g.joint_count <= d.locality && g.count >= 1 && g.first == vertices && g.coefficient_offset == coefficients;
+    for (std::uint32_t k = 0; ok && k < g.joint_count; ++k)
+      ok = g.joints[k] < J && (k == 0 || g.joints[k] > g.joints[k - 1]);
+    if (!ok) return bad("joint set " + std::to_string(i) + " is malformed (joints, count or offsets)");
+    vertices += g.count;
+    coefficients += std::uint64_t{g.coefficient_count()} * g.count;
+    if (vertices > V) return bad("the joint sets hold more than " + std::to_string(V) + " vertices");
+  }
+  if (vertices != V) return bad("the joint sets hold " + std::to_string(vertices) + " of " + std::to_string(V) + " vertices");
+  PENUMBRA_TRY(r.read_vector(d.vertex_order, V));
+  if (d.vertex_order.size() != V) return bad("the vertex order does not hold " + std::to_string(V) + " vertices");
+  std::vector<std::uint8_t> seen(V, 0);
+  for (std::uint32_t v : d.vertex_order) {
+    if (v >= V || seen[v]) return bad("the vertex order is not a permutation (vertex " + std::to_string(v) + ")");
+    seen[v] = 1;
+  }
+  std::vector<std::uint16_t> halves;
+  PENUMBRA_TRY(r.read_vector(halves, coefficients));
+  if (halves.size() != coefficients) return bad("the coefficient count does not match the joint sets");
+  d.coefficients.resize(halves.size());
+  for (std::size_t i = 0; i < halves.size(); ++i) {
+    d.coefficients[i] = glm::unpackHalf1x16(halves[i]);
+    if (!std::isfinite(d.coefficients[i])) return bad("coefficient " + std::to_string(i) + " is not finite");
+  }
+  PENUMBRA_TRY(r.read_vector(d.bind_ao, V));
+  PENUMBRA_TRY(r.read_vector(d.mean_ao, V));
+  PENUMBRA_TRY(r.finish());
+  if (d.bind_ao.size() != V || d.mean_ao.size() != V) return bad("the baselines do not hold one AO per vertex");
+  for (std::size_t v = 0; v < V; ++v)
+    if (!(d.bind_ao[v] >= 0.0f && d.bind_ao[v] <= 1.0f && d.mean_ao[v] >= 0.0f && d.mean_ao[v] <= 1.0f))
+      return bad("vertex " + std::to_string(v) + " has a baseline AO outside [0, 1]");
+  return d;
+}
+
+std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk) {
+  auto d = read_pose_ao_chunk(chunk);
+  if (!d) return {d.error().message};
+  char line[256];
+  std::vector<std::string> out;
+  std::snprintf(line, sizeof line, "%u vertices, %u joints, %zu joint sets, %u poses x %u rays, locality %u, lambda %.3g",
+                d->vertex_count, d->joint_count, d->groups.size(), d->poses, d->rays_per_vertex, d->locality,
+                static_cast<double>(d->lambda));
+  out.emplace_back(line);
+  std::snprintf(line, sizeof line, "training RMSE %.4f, %.1f B per vertex (16-bit coefficients), %s", 
+                static_cast<double>(d->training_rmse), d->bytes_per_vertex(), format_bytes(d->bytes()).c_str());
+  out.emplace_back(line);
+  if (d->locality < d->requested_locality) {
+    std::snprintf(line, sizeof line, "warning: locality reduced from %u to %u joints (too few poses); bake more poses",
+                  d->requested_locality, d->locality);
+    out.emplace_back(line);
+  }
+  return out;
+}
+
+}  // namespace penumbra

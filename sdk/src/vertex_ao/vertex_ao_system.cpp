@@ -1,0 +1,75 @@
+// Vertex AO's module descriptor: attaching VXAO chunks and describing them (see vertex_ao_system.h).
+#include "penumbra/vertex_ao/vertex_ao_system.h"
+
+#include <algorithm>
+#include <cstdio>
+
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+
+namespace {
+
+Status attach_vertex_ao(World& world, const BakeChunk& chunk, const EntityKeys& keys) {
+  auto data = read_vertex_ao_chunk(chunk);
+  if (!data) return data.error();
+  for (VertexAoData::Entry& entry : data->entries) {
+    auto e = keys.find(entry.key, "chunk 'VXAO'");
+    if (!e) return e.error();
+    const Mesh* mesh = world.try_get<Mesh>(*e);
+    if (mesh == nullptr || !mesh->data || mesh->data->positions.size() != entry.ao.size())
+      return make_error(ErrorCode::NotFound, "chunk 'VXAO': entity '" + entry.key + "' has no mesh of " +
+                                                 std::to_string(entry.ao.size()) +
+                                                 " vertices in this World; re-bake the scene");
+    if (world.has<VertexAO>(*e)) {
+      world.patch<VertexAO>(*e).ao = std::move(entry.ao);
+    } else {
+      world.add<VertexAO>(*e, VertexAO{std::move(entry.ao)});
+    }
+  }
+  return {};
+}
+
+std::vector<std::string> describe_vertex_ao(const BakeChunk& chunk) {
+  auto data = read_vertex_ao_chunk(chunk);
+  if (!data) return {data.error().message};
+  std::size_t vertices = 0;
+  double sum = 0.0;
+  float lo = 1.0f, hi = 0.0f;
+  for (const auto& e : data->entries)
+    for (float a : e.ao) {
+      ++vertices;
+      sum += a;
+      lo = std::min(lo, a);
+      hi = std::max(hi, a);
+    }
+  char line[200];
+  std::snprintf(line, sizeof line, "%zu meshes, %zu vertices, %u rays/vertex, max distance %.3g m", data->entries.size(),
+                vertices, data->rays, static_cast<double>(data->max_distance));
+  std::vector<std::string> out{line};
+  if (vertices > 0) {
+    std::snprintf(line, sizeof line, "AO mean %.3f, min %.3f, max %.3f", sum / static_cast<double>(vertices),
+                  static_cast<double>(lo), static_cast<double>(hi));
+    out.emplace_back(line);
+  }
+  return out;
+}
+
+constexpr std::uint32_t kChunkTypes[] = {kVertexAoChunkType};
+
+}  // namespace
+
+const LightingModule& vertex_ao_module() {
+  static const LightingModule module{
+      .name = "vertex-ao",
+      .description = "per-vertex ambient occlusion of static meshes",
+      .chunk_types = kChunkTypes,
+      .register_runtime = nullptr,
+      .attach = attach_vertex_ao,
+      .describe = describe_vertex_ao,
+      .add_defaults = nullptr,  // it bakes every Static mesh
+  };
+  return module;
+}
+
+}  // namespace penumbra
