@@ -29,7 +29,7 @@
 #include "penumbra/pose_ao/pose_ao_baker.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
-#include "penumbra/scene/gltf.h"
+#include "penumbra/import/gltf.h"
 
 namespace penumbra::bench {
 namespace {

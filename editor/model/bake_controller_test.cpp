@@ -166,5 +166,36 @@ TEST(BakeController, SavedBakeLoadsIntoAFreshDocument) {
   EXPECT_NE(missing.error().message.find(path.string()), std::string::npos) << missing.error().message;
 }
 
+// Baked vertex AO reaches the document's static meshes (the renderer's per-vertex AO attribute),
+// after a bake and after opening the saved file in a fresh document.
+TEST(BakeController, VertexAOIsAttachedAfterABakeAndAReload) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  ASSERT_TRUE(model.bake({"vertex-ao"}).ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
+  World& world = model.document()->world();
+  const std::vector<Entity> meshes = world.view<Static, Mesh>().sorted_entities();
+  ASSERT_FALSE(meshes.empty());
+  double sum = 0.0;
+  std::size_t values = 0;
+  for (Entity e : meshes) {
+    ASSERT_TRUE(world.has<VertexAO>(e)) << model.document()->label(e);
+    EXPECT_EQ(world.get<VertexAO>(e).ao.size(), world.get<Mesh>(e).data->positions.size());
+    for (float a : world.get<VertexAO>(e).ao) sum += a, ++values;
+  }
+  EXPECT_LT(sum / double(values), 0.99) << "the box's corners are occluded";
+  const auto path = temp_path("cornell_vxao.pbake");
+  ASSERT_TRUE(model.document()->save_bake(path).ok());
+  auto fresh = Document::open("builtin:cornell", Preset::Draft);
+  ASSERT_TRUE(fresh.ok());
+  ASSERT_TRUE((*fresh)->open_bake(path).ok());
+  for (Entity e : (*fresh)->world().view<Static, Mesh>().sorted_entities())
+    EXPECT_TRUE((*fresh)->world().has<VertexAO>(e)) << (*fresh)->label(e);
+  std::filesystem::remove(path);
+}
+
 }  // namespace
 }  // namespace penumbra::editor

@@ -2,7 +2,7 @@
 
 #include "penumbra/bakers.h"
 #include "penumbra/runtime.h"
-#include "penumbra/scene/gltf.h"
+#include "penumbra/import/gltf.h"
 
 namespace penumbra::cli {
 

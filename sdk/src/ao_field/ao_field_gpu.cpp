@@ -177,15 +177,6 @@ Result<AOFieldGpuBuffer> pack_ao_fields_gpu(std::span<const AOFieldGpuCaster> ca
   return out;
 }
 
-Result<AOFieldGpuBuffer> pack_ao_fields_gpu(World& world) {
-  std::vector<AOFieldGpuCaster> casters;
-  for (Entity e : world.view<AOFieldCaster, WorldTransform>().sorted_entities()) {
-    const AOFieldCaster& c = world.get<AOFieldCaster>(e);
-    if (c.data) casters.push_back({c.data.get(), world.get<WorldTransform>(e).matrix});
-  }
-  return pack_ao_fields_gpu(casters);
-}
-
 float evaluate_packed(const AOFieldGpuBuffer& buffer, glm::vec3 x, glm::vec3 n) {
   const std::vector<glm::vec4>& data = buffer.data;
   if (data.empty()) return 0.0f;

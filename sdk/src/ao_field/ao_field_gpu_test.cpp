@@ -133,23 +133,5 @@ TEST(AOFieldGpu, PackingErrorsAndEdgeCases) {
   EXPECT_EQ(evaluate_packed(AOFieldGpuBuffer{}, glm::vec3(0.6f, 0.0f, 0.0f), glm::vec3(0, 1, 0)), 0.0f);
 }
 
-TEST(AOFieldGpu, PacksTheBakedCastersOfAWorld) {
-  const Fixture f;
-  World w;
-  for (std::size_t i = 0; i < f.casters.size(); ++i) {
-    const Entity e = w.create();
-    AOFieldCaster c;
-    c.data = std::make_shared<const AOFieldData>(*f.casters[i].field);
-    w.add<AOFieldCaster>(e, c);
-    w.add<WorldTransform>(e, WorldTransform{f.casters[i].world});
-  }
-  w.add<AOFieldCaster>(w.create(), AOFieldCaster{});  // not baked: skipped
-  auto from_world = pack_ao_fields_gpu(w);
-  auto from_list = pack_ao_fields_gpu(f.casters);
-  ASSERT_TRUE(from_world.ok() && from_list.ok());
-  EXPECT_EQ(from_world->casters, 3u);
-  EXPECT_EQ(from_world->data, from_list->data);
-}
-
 }  // namespace
 }  // namespace penumbra

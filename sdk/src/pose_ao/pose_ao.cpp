@@ -166,37 +166,4 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
   }
 }
 
-PoseAOGpuBuffers pack_pose_ao_gpu(const PoseAOData& data) {
-  constexpr std::uint32_t kStride = PoseAOGpuBuffers::kGpuStride;
-  PoseAOGpuBuffers out;
-  out.vertex_count = data.vertex_count;
-  out.joint_count = data.joint_count;
-  out.coefficients.assign(std::size_t{data.vertex_count} * kStride, 0.0f);
-  out.joints.assign(std::size_t{data.vertex_count} * kPoseAOMaxLocality, data.joint_count);
-  for (const PoseAOGroup& g : data.groups)
-    for (std::uint32_t i = 0; i < g.count; ++i) {
-      const std::size_t v = data.vertex_order[g.first + i];
-      for (std::uint32_t c = 0; c < g.coefficient_count(); ++c)
-        out.coefficients[v * kStride + c] = data.coefficients[g.coefficient_offset + std::size_t{c} * g.count + i];
-      for (std::uint32_t k = 0; k < g.joint_count; ++k) out.joints[v * kPoseAOMaxLocality + k] = g.joints[k];
-    }
-  return out;
-}
-
-void pack_pose_ao_theta(std::span<const float> features, std::vector<float>& out) {
-  out.assign(features.begin(), features.end());
-  out.resize(features.size() + kPoseFeaturesPerJoint, 0.0f);
-}
-
-float evaluate_pose_ao_gpu(const PoseAOGpuBuffers& buffers, std::span<const float> theta, std::uint32_t vertex) {
-  const float* c = buffers.coefficients.data() + std::size_t{vertex} * PoseAOGpuBuffers::kGpuStride;
-  float ao = c[0];
-  for (std::uint32_t k = 0; k < kPoseAOMaxLocality; ++k) {
-    const std::size_t j = buffers.joints[std::size_t{vertex} * kPoseAOMaxLocality + k];
-    for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e)
-      ao += c[1 + kPoseFeaturesPerJoint * k + e] * theta[j * kPoseFeaturesPerJoint + e];
-  }
-  return std::clamp(ao, 0.0f, 1.0f);
-}
-
 }  // namespace penumbra

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "penumbra/scene/entity_key.h"
-#include "penumbra/scene/gltf.h"
+#include "penumbra/import/gltf.h"
 #include "penumbra/runtime.h"
 #include "penumbra/bake/baker.h"
 #include "penumbra/ecs/transform.h"

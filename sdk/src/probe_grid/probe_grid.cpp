@@ -12,7 +12,6 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
-#include <glm/gtc/packing.hpp>
 #include <glm/matrix.hpp>
 
 namespace penumbra {
@@ -231,10 +230,9 @@ glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {
   return sh_evaluate_non_negative(interpolate(data, x, n), n, data.sh_order == ProbeShOrder::L1 ? 2 : 3);
 }
 
-ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexelFormat format) {
+ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data) {
   ProbeGridTextures t;
   t.extent = data.layout.resolution;
-  t.format = format;
   t.world_to_grid = data.layout.world_to_grid;
   const std::size_t count = static_cast<std::size_t>(sh_coefficients(data.sh_order));
   const std::size_t slots = count * 3;
@@ -249,13 +247,7 @@ ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexel
         if (s < slots) texel[k] = data.coefficients[n * count + s / 3][static_cast<int>(s % 3)];
       }
       std::byte* dst = t.data.data() + (tex * nodes + n) * t.texel_bytes();
-      if (format == ProbeTexelFormat::RGBA32F) {
-        std::memcpy(dst, texel, sizeof texel);
-      } else {
-        const std::uint16_t half[4] = {glm::packHalf1x16(texel[0]), glm::packHalf1x16(texel[1]),
-                                       glm::packHalf1x16(texel[2]), glm::packHalf1x16(texel[3])};
-        std::memcpy(dst, half, sizeof half);
-      }
+      std::memcpy(dst, texel, sizeof texel);
     }
   }
   return t;

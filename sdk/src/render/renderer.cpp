@@ -552,7 +552,7 @@ Status Renderer::Impl::sync_probe_grid(World& world) {
                            "adds its own direct light, so direct light counts twice; bake it with lighting = indirect");
 
   // The probe_grid.h GPU layout (float32: the sampler's trilinear filter is the CPU's interpolation).
-  const ProbeGridTextures packed = pack_probe_grid_textures(*probe, ProbeTexelFormat::RGBA32F);
+  const ProbeGridTextures packed = pack_probe_grid_textures(*probe);
   // The ambient image's scale: 1 / a bound on the irradiance anywhere (per node and channel the sum
   // of |coefficient| x 1.1 >= max |Y_k| of the L2 basis), so that half floats hold any grid.
   const std::size_t per_node = sh_coefficients(probe->sh_order);

@@ -9,7 +9,7 @@
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
-#include "penumbra/scene/gltf.h"
+#include "penumbra/import/gltf.h"
 
 namespace penumbra {
 namespace {

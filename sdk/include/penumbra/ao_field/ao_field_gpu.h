@@ -63,9 +63,6 @@ struct AOFieldGpuBuffer {
 // fields' bytes x ~1.15 plus 66 KB of table. Thread-safe.
 Result<AOFieldGpuBuffer> pack_ao_fields_gpu(std::span<const AOFieldGpuCaster> casters);
 
-// The casters of a World: every entity with a baked AOFieldCaster and a WorldTransform, in entity
-// order (View::sorted_entities). Same errors. Cost as above.
-Result<AOFieldGpuBuffer> pack_ao_fields_gpu(World& world);
 
 // The combined occlusion 1 - prod (1 - A_i) at world point x with unit world normal n, read from
 // the buffer alone, step by step as the shader does (see above). Agrees with accumulate_open on

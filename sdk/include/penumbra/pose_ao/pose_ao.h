@@ -144,26 +144,6 @@ void pose_features(std::span<const std::int32_t> parents, std::span<const glm::m
 // per vertex). Thread-safe (writes only `ao`).
 void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao);
 
-// GPU layout for the vertex-shader path. Per vertex (in mesh vertex order) `coefficients` holds
-// kGpuStride floats: [0] the bias, [1 + 9 k + e] entry e of joint slot k (zero for unused slots),
-// and `joints` holds 4 joint indices; an unused slot names joint `joint_count`, whose 9 features
-// in the per-frame theta buffer are zero (no branch in the shader). Per frame the shader reads
-// the theta buffer of (joint_count + 1) x 9 floats (pack_pose_ao_theta) and computes
-//   ao = clamp(c[0] + sum_k sum_e c[1 + 9 k + e] theta[9 joints[k] + e], 0, 1).
-struct PoseAOGpuBuffers {
-  static constexpr std::uint32_t kGpuStride = pose_ao_coefficients(kPoseAOMaxLocality);  // 37
-  std::uint32_t vertex_count = 0;
-  std::uint32_t joint_count = 0;
-  std::vector<float> coefficients;        // vertex_count x kGpuStride
-  std::vector<std::uint32_t> joints;      // vertex_count x 4
-};
-// Packs the data into that layout. Cost: O(vertices x 37). Thread-safe.
-PoseAOGpuBuffers pack_pose_ao_gpu(const PoseAOData& data);
-// The per-frame theta buffer: the features followed by 9 zeros. Thread-safe.
-void pack_pose_ao_theta(std::span<const float> features, std::vector<float>& out);
-// The shader's arithmetic on the CPU, for one vertex (tests compare it with evaluate_pose_ao).
-float evaluate_pose_ao_gpu(const PoseAOGpuBuffers& buffers, std::span<const float> theta, std::uint32_t vertex);
-
 // The "PSAO" chunk of one mesh (label "pose-ao:<key>"): coefficients as IEEE 16-bit halves
 // (relative error <= 2^-11 per coefficient; the pose-ao bench prints what it costs in AO), the
 // rest as written. The reader checks the version, every size and index, that the groups

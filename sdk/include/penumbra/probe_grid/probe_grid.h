@@ -222,17 +222,16 @@ glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n);
 // 0 slice z = 0 row y = 0 first, x fastest, then rows, slices, textures. The shader computes
 // uvw = ((world_to_grid * x).xyz * (resolution - 1) + 0.5) / resolution and lets the sampler's
 // trilinear filter do the interpolation, then evaluates the SH as sh_evaluate and clamps at 0.
-enum class ProbeTexelFormat : std::uint8_t { RGBA32F, RGBA16F };
+// Texels are RGBA32F: the sampler's trilinear filter is then the CPU's interpolation.
 struct ProbeGridTextures {
   glm::uvec3 extent{0u};
   std::uint32_t textures = 0;
-  ProbeTexelFormat format = ProbeTexelFormat::RGBA16F;
   glm::mat4 world_to_grid{1.0f};
   std::vector<std::byte> data;
-  std::size_t texel_bytes() const { return format == ProbeTexelFormat::RGBA32F ? 16 : 8; }
+  static constexpr std::size_t texel_bytes() { return 16; }
 };
 // Packs the data into that layout. Cost: O(nodes x coefficients). Thread-safe.
-ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data, ProbeTexelFormat format);
+ProbeGridTextures pack_probe_grid_textures(const ProbeGridData& data);
 
 // The node texture beside them (one RGBA32F texel per node, same order): r the validity; g and b
 // the leak guard's reach bytes as exact integers below 2^24, g = +x + 256 (-x) + 65536 (+y),

@@ -33,12 +33,9 @@
 // baked with lighting = all holds direct light too, which Lit then counts twice (logged once).
 // Tone mapping: exposure, then the ACES filmic fit of Narkowicz (2015), then sRGB.
 //
-// Changes to the draft: sync/render_image take a mutable World (views need one; nothing is
-// written); DebugView gains Position, Normal and Irradiance (linear data views for tests and the
-// editor); render_frame() renders without read-back (what `penumbra render --frames` times);
-// the per-vertex AO hook is the VertexAO component (scene/components.h). One frame in flight: record() rewrites the
-// per-frame buffers, so the previous frame's submission must have finished (Swapchain::acquire
-// and render_image wait for it).
+// sync() and render_image() take a mutable World (views need one; nothing is written). One frame
+// in flight: record() rewrites the per-frame buffers, so the previous frame's submission must have
+// finished (Swapchain::acquire and render_image wait for it).
 #pragma once
 
 #include <cstdint>

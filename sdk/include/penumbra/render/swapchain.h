@@ -2,7 +2,7 @@
 //
 // One frame in flight: acquire() waits for the previous present()'s submission. An sRGB surface
 // format is preferred (the renderer's shader encodes sRGB itself on UNORM targets). Not
-// thread-safe. Changes to the draft: out_of_date() tells a failed acquire/present that needs
+// thread-safe. out_of_date() tells a failed acquire/present that needs
 // resize() from other errors (InvalidInput with "out of date" in the message).
 #pragma once
 

@@ -1,4 +1,4 @@
-#include "penumbra/scene/gltf.h"
+#include "penumbra/import/gltf.h"
 
 #include <cmath>
 #include <cctype>

@@ -2,7 +2,7 @@
 // storage", 3.7 "Geometry", 3.8 "Texture data", 3.11 "Animations"; KHR_lights_punctual;
 // KHR_materials_emissive_strength). tinygltf parses JSON, loads buffers and decodes images; this
 // file validates everything else and builds the entities (see gltf.h for the mapping).
-#include "penumbra/scene/gltf.h"
+#include "penumbra/import/gltf.h"
 
 #include "penumbra/scene/builtin.h"
 
