@@ -192,6 +192,11 @@ void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
     case FieldKind::Color:
       changed = ImGui::ColorEdit3(id.c_str(), &std::get<glm::vec3>(v).x, ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
       break;
+    case FieldKind::Count3: {
+      const std::uint32_t lo = static_cast<std::uint32_t>(f.min), hi = static_cast<std::uint32_t>(f.max);
+      changed = ImGui::DragScalarN(id.c_str(), ImGuiDataType_U32, &std::get<glm::uvec3>(v).x, 3, f.speed, &lo, &hi);
+      break;
+    }
     case FieldKind::Rotation: {
       glm::vec3 degrees = glm::degrees(glm::eulerAngles(std::get<glm::quat>(v)));
       if (ImGui::DragFloat3(id.c_str(), &degrees.x, 0.5f)) {
@@ -202,6 +207,8 @@ void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
     }
   }
   if (f.read_only) ImGui::EndDisabled();
+  if (!f.help.empty() && ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
+    ImGui::SetTooltip("%s%s%s", f.help.c_str(), f.unit.empty() ? "" : "; unit: ", f.unit.c_str());
   if (changed) {
     if (Status s = doc.undo().set(w, e, f, v, /*merge=*/true); !s) ui.message = s.error().message;
   }

@@ -8,10 +8,8 @@
 #include <algorithm>
 
 #include "load_world.h"
-#include "penumbra/ao_field/ao_field.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/pose_ao/pose_ao.h"
-#include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/scene/entity_key.h"
 
@@ -86,11 +84,9 @@ std::unique_ptr<World> snapshot(World& src, const std::vector<Entity>& only) {
       for (Entity& j : copy.joints) j = remap(j);
       dst->add<Skin>(d, std::move(copy));
     }
-    if (selected(s)) {
-      copy_component<IrradianceProbeGrid>(src, *dst, s, d);
-      copy_component<AOFieldCaster>(src, *dst, s, d);
-      copy_component<SkinnedPoseAO>(src, *dst, s, d);
-    }
+    if (selected(s))
+      for (const LightingModule* m : lighting_modules())
+        for (const ComponentInfo* c : m->components) c->copy(src, s, *dst, d);
   }
   return dst;
 }
@@ -109,10 +105,14 @@ const char* to_string(BakeStatus::State state) {
 }
 
 std::vector<std::string> bakers_for(World& world, Entity e) {
+  // The modules whose authoring component (the one with presets) the entity has.
   std::vector<std::string> names;
-  if (world.has<IrradianceProbeGrid>(e)) names.push_back("probe-grid");
-  if (world.has<AOFieldCaster>(e)) names.push_back("ao-field");
-  if (world.has<SkinnedPoseAO>(e)) names.push_back("pose-ao");
+  for (const LightingModule* m : lighting_modules())
+    for (const ComponentInfo* c : m->components)
+      if (c->set_preset_fields != nullptr && c->present(world, e)) {
+        names.emplace_back(m->name);
+        break;
+      }
   return names;
 }
 

@@ -8,35 +8,17 @@
 
 #include <glm/gtc/quaternion.hpp>
 
-#include "penumbra/ao_field/ao_field.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/pose_ao/pose_ao.h"
-#include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/lighting/field_list.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra::editor {
 
 namespace {
 
-// Converts a member's type to and from the FieldValue alternative that holds it.
-template <class M>
-FieldValue to_value(const M& m) {
-  if constexpr (std::is_same_v<M, bool> || std::is_same_v<M, float> || std::is_same_v<M, glm::vec2> ||
-                std::is_same_v<M, glm::vec3> || std::is_same_v<M, glm::quat>)
-    return m;
-  else if constexpr (std::is_enum_v<M>)
-    return static_cast<std::int64_t>(m);
-  else
-    return static_cast<std::int64_t>(m);
-}
-template <class M>
-M from_value(const FieldValue& v) {
-  if constexpr (std::is_same_v<M, bool> || std::is_same_v<M, float> || std::is_same_v<M, glm::vec2> ||
-                std::is_same_v<M, glm::vec3> || std::is_same_v<M, glm::quat>)
-    return std::get<M>(v);
-  else
-    return static_cast<M>(std::get<std::int64_t>(v));
-}
+using fields::from_value;
+using fields::to_value;
 
 template <class C>
 std::function<bool(World&, Entity)> has() {
@@ -132,77 +114,27 @@ std::vector<FieldDesc> build_fields() {
   t.push_back(member("loop", FieldKind::Bool, &Animator::loop));
   t.push_back(member("playing", FieldKind::Bool, &Animator::playing));
 
-  // IrradianceProbeGrid (probe_grid): the box as two corners, the quality knobs, blending.
-  {
-    FieldDesc lo;
-    lo.component = "IrradianceProbeGrid";
-    lo.name = "box_min";
-    lo.kind = FieldKind::Vec3;
-    lo.min = -1e6;
-    lo.max = 1e6;
-    lo.speed = 0.02f;
-    lo.present = has<IrradianceProbeGrid>();
-    lo.get = [](World& w, Entity e) { return FieldValue(w.get<IrradianceProbeGrid>(e).box.min); };
-    lo.set = [](World& w, Entity e, const FieldValue& v) {
-      w.patch<IrradianceProbeGrid>(e).box.min = std::get<glm::vec3>(v);
-    };
-    FieldDesc hi = lo;
-    hi.name = "box_max";
-    hi.get = [](World& w, Entity e) { return FieldValue(w.get<IrradianceProbeGrid>(e).box.max); };
-    hi.set = [](World& w, Entity e, const FieldValue& v) {
-      w.patch<IrradianceProbeGrid>(e).box.max = std::get<glm::vec3>(v);
-    };
-    t.push_back(std::move(lo));
-    t.push_back(std::move(hi));
-  }
-  t.push_back(member("spacing", FieldKind::Float, &IrradianceProbeGrid::spacing, 1e-3, 1e6, 0.01f));
-  t.push_back(with_choices(member("sh_order", FieldKind::Enum, &IrradianceProbeGrid::sh_order), {"L1", "L2"}));
-  // The enum's values start at 1 (L1 = 1): map the choice index onto them.
-  t.back().get = [](World& w, Entity e) {
-    return FieldValue(std::int64_t{w.get<IrradianceProbeGrid>(e).sh_order == ProbeShOrder::L1 ? 0 : 1});
-  };
-  t.back().set = [](World& w, Entity e, const FieldValue& v) {
-    w.patch<IrradianceProbeGrid>(e).sh_order = std::get<std::int64_t>(v) == 0 ? ProbeShOrder::L1 : ProbeShOrder::L2;
-  };
-  t.push_back(with_choices(member("sampling", FieldKind::Enum, &IrradianceProbeGrid::sampling),
-                           {"point", "supersampled", "fitted"}));
-  t.push_back(member("samples_per_node", FieldKind::Count, &IrradianceProbeGrid::samples_per_node, 1.0, 1e6, 0.2f));
-  t.push_back(member("rays_per_sample", FieldKind::Count, &IrradianceProbeGrid::rays_per_sample, 1.0, 1e6, 0.2f));
-  t.push_back(member("bounces", FieldKind::Count, &IrradianceProbeGrid::bounces, 0.0, 64.0, 0.05f));
-  t.push_back(member("hit_samples", FieldKind::Count, &IrradianceProbeGrid::hit_samples, 2.0, 1e6, 0.1f));
-  t.push_back(member("back_face_threshold", FieldKind::Float, &IrradianceProbeGrid::back_face_threshold, 0.0, 1.0,
-                     0.005f));
-  t.push_back(member("deringing_window", FieldKind::Float, &IrradianceProbeGrid::deringing_window, 0.0, 100.0));
-  t.push_back(member("leak_guard", FieldKind::Bool, &IrradianceProbeGrid::leak_guard));
-  t.push_back(member("priority", FieldKind::Int, &IrradianceProbeGrid::priority, -1e9, 1e9, 0.1f));
-  t.push_back(member("blend_distance", FieldKind::Float, &IrradianceProbeGrid::blend_distance, 0.0, 1e6));
-
-  // ProbeLit (probe_grid): written by the probe-grid system.
-  t.push_back(read_only(member("covered", FieldKind::Bool, &ProbeLit::covered)));
-
-  // AOFieldCaster / AOFieldReceiver (ao_field).
-  t.push_back(with_choices(member("representation", FieldKind::Enum, &AOFieldCaster::representation),
-                           {"radial-fit", "grid"}));
-  t.push_back(member("resolution", FieldKind::Count, &AOFieldCaster::resolution, 1.0, 256.0, 0.1f));
-  t.push_back(member("supersample", FieldKind::Count, &AOFieldCaster::supersample, 1.0, 4.0, 0.02f));
-  t.push_back(member("grid_size", FieldKind::Count, &AOFieldCaster::grid_size, 4.0, 128.0, 0.1f));
-  t.push_back(member("radial_samples", FieldKind::Count, &AOFieldCaster::radial_samples, 3.0, 1024.0, 0.2f));
-  t.push_back(member("rays_per_sample", FieldKind::Count, &AOFieldCaster::rays_per_sample, 16.0, 1e6, 1.0f));
-  t.push_back(member("falloff_distance", FieldKind::Float, &AOFieldCaster::falloff_distance, 0.0, 1e6));
-  t.push_back(member("fade_start", FieldKind::Float, &AOFieldCaster::fade_start, 1e-3, 0.999, 0.005f));
-  t.push_back(member("inside_occlusion", FieldKind::Float, &AOFieldCaster::inside_occlusion, 0.0, 1.0, 0.005f));
-  t.push_back(member("inside_exponent", FieldKind::Float, &AOFieldCaster::inside_exponent, 1e-3, 100.0));
-  t.push_back(member("normal", FieldKind::Vec3, &AOFieldReceiver::normal, -1.0, 1.0));
-  t.push_back(read_only(member("occlusion", FieldKind::Float, &AOFieldReceiver::occlusion, 0.0, 1.0)));
-
-  // SkinnedPoseAO (pose_ao): the ranges validate_pose_ao accepts (joint_ranges are not edited here).
-  t.push_back(member("reference_poses", FieldKind::Count, &SkinnedPoseAO::reference_poses, 0.0, 1e6, 1.0f));
-  t.push_back(member("clip_poses", FieldKind::Count, &SkinnedPoseAO::clip_poses, 0.0, 1e5, 0.2f));
-  t.push_back(member("rays_per_vertex", FieldKind::Count, &SkinnedPoseAO::rays_per_vertex, 1.0, 1e6, 0.5f));
-  t.push_back(member("locality", FieldKind::Count, &SkinnedPoseAO::locality, 0.0, kPoseAOMaxLocality, 0.05f));
-  t.push_back(member("lambda", FieldKind::Float, &SkinnedPoseAO::lambda, 0.0, 1e6, 1e-4f));
-  t.push_back(member("range_margin", FieldKind::Float, &SkinnedPoseAO::range_margin, 0.0, 100.0, 0.005f));
-  t.push_back(member("default_range", FieldKind::Float, &SkinnedPoseAO::default_range, 0.0, 3.1415926, 0.005f));
+  // Every lighting module's components, from their field lists.
+  for (const LightingModule* m : lighting_modules())
+    for (const ComponentInfo* c : m->components)
+      for (const FieldInfo& info : c->fields) {
+        FieldDesc f;
+        f.component = std::string(c->name);
+        f.name = std::string(info.name);
+        f.kind = info.type;
+        for (std::string_view choice : info.choices) f.choices.emplace_back(choice);
+        f.min = info.min;
+        f.max = info.max;
+        f.speed = info.speed;
+        f.unit = std::string(info.unit);
+        f.help = std::string(info.help);
+        f.read_only = info.read_only;
+        f.present = [c](World& w, Entity e) { return c->present(w, e); };
+        f.get = [c, get = info.get](World& w, Entity e) { return get(c->find(w, e)); };
+        if (info.set)
+          f.set = [c, set = info.set](World& w, Entity e, const FieldValue& v) { set(c->patch(w, e), v); };
+        t.push_back(std::move(f));
+      }
   return t;
 }
 
@@ -236,6 +168,7 @@ std::string kind_help(const FieldDesc& f) {
     case FieldKind::Vec2: return "two numbers (x y)";
     case FieldKind::Vec3: return "three numbers (x y z)";
     case FieldKind::Color: return "three numbers (r g b)";
+    case FieldKind::Count3: return "three whole numbers (x y z)";
     case FieldKind::Rotation: return "three Euler angles in degrees (x y z)";
   }
   return "a value";
@@ -305,6 +238,13 @@ Result<FieldValue> parse_field_value(const FieldDesc& f, std::string_view text) 
         if (n.size() != 3) return bad();
         value = glm::vec3(static_cast<float>(n[0]), static_cast<float>(n[1]), static_cast<float>(n[2]));
         break;
+      case FieldKind::Count3:
+        if (n.size() != 3) return bad();
+        for (double x : n)
+          if (!(x >= 0.0 && x < 4294967296.0 && x == std::floor(x))) return bad();
+        value = glm::uvec3(static_cast<std::uint32_t>(n[0]), static_cast<std::uint32_t>(n[1]),
+                           static_cast<std::uint32_t>(n[2]));
+        break;
       case FieldKind::Rotation:
         if (n.size() != 3 || !std::isfinite(n[0]) || !std::isfinite(n[1]) || !std::isfinite(n[2])) return bad();
         value = glm::quat(glm::radians(glm::vec3(static_cast<float>(n[0]), static_cast<float>(n[1]),
@@ -348,6 +288,11 @@ Status check_field_value(const FieldDesc& f, const FieldValue& value) {
       const glm::vec3 v = std::get<glm::vec3>(value);
       return in_range(v.x) && in_range(v.y) && in_range(v.z) ? Status{} : out_of_range();
     }
+    case FieldKind::Count3: {
+      if (!std::holds_alternative<glm::uvec3>(value)) return wrong_type();
+      const glm::uvec3 v = std::get<glm::uvec3>(value);
+      return in_range(v.x) && in_range(v.y) && in_range(v.z) ? Status{} : out_of_range();
+    }
     case FieldKind::Rotation: {
       if (!std::holds_alternative<glm::quat>(value)) return wrong_type();
       const glm::quat q = std::get<glm::quat>(value);
@@ -383,6 +328,11 @@ std::string format_field_value(const FieldDesc& f, const FieldValue& value) {
                     static_cast<double>(v.z));
       break;
     }
+    case FieldKind::Count3: {
+      const glm::uvec3 v = std::get<glm::uvec3>(value);
+      std::snprintf(buf, sizeof buf, "%u %u %u", v.x, v.y, v.z);
+      break;
+    }
     case FieldKind::Rotation: {
       const glm::vec3 d = glm::degrees(glm::eulerAngles(std::get<glm::quat>(value)));
       std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g", static_cast<double>(d.x), static_cast<double>(d.y),
@@ -394,35 +344,15 @@ std::string format_field_value(const FieldDesc& f, const FieldValue& value) {
 }
 
 std::span<const ComponentPreset> component_presets() {
+  // Per module, its components that have presets.
   static const std::vector<ComponentPreset> presets = [] {
     std::vector<ComponentPreset> p;
-    p.push_back({"probe-grid", "IrradianceProbeGrid", has<IrradianceProbeGrid>(), [](World& w, Entity e, Preset q) {
-                   IrradianceProbeGrid& g = w.patch<IrradianceProbeGrid>(e);
-                   IrradianceProbeGrid next = IrradianceProbeGrid::preset(q);
-                   next.box = g.box;
-                   next.resolution = g.resolution;
-                   next.priority = g.priority;
-                   next.blend_distance = g.blend_distance;
-                   next.data = g.data;
-                   g = std::move(next);
-                 }});
-    p.push_back({"ao-field", "AOFieldCaster", has<AOFieldCaster>(), [](World& w, Entity e, Preset q) {
-                   AOFieldCaster& c = w.patch<AOFieldCaster>(e);
-                   AOFieldCaster next = AOFieldCaster::preset(q);
-                   next.representation = c.representation;
-                   next.falloff_distance = c.falloff_distance;
-                   next.data = c.data;
-                   c = std::move(next);
-                 }});
-    p.push_back({"pose-ao", "SkinnedPoseAO", has<SkinnedPoseAO>(), [](World& w, Entity e, Preset q) {
-                   SkinnedPoseAO& c = w.patch<SkinnedPoseAO>(e);
-                   SkinnedPoseAO next = SkinnedPoseAO::preset(q);
-                   next.range_margin = c.range_margin;
-                   next.default_range = c.default_range;
-                   next.joint_ranges = c.joint_ranges;
-                   next.data = c.data;
-                   c = std::move(next);
-                 }});
+    for (const LightingModule* m : lighting_modules())
+      for (const ComponentInfo* c : m->components) {
+        if (c->set_preset_fields == nullptr) continue;
+        p.push_back({std::string(m->name), std::string(c->name), [c](World& w, Entity e) { return c->present(w, e); },
+                     [c](World& w, Entity e, Preset q) { apply_preset(*c, w, e, q); }});
+      }
     return p;
   }();
   return presets;

@@ -1,6 +1,7 @@
 // The editable fields of every component the editor knows: one table that the inspector draws,
 // the script's `set ENTITY COMPONENT.FIELD VALUE` parses, and undo records (before/after values).
-// A module that adds a component adds its fields here, and its preset to component_presets().
+// The scene's components are listed here; every lighting module's come from its field lists
+// (LightingModule::components, lighting/fields.h), and so do the presets.
 #pragma once
 
 #include <cstdint>
@@ -8,33 +9,19 @@
 #include <span>
 #include <string>
 #include <string_view>
-#include <variant>
 #include <vector>
 
-#include <glm/ext/quaternion_float.hpp>
-#include <glm/vec2.hpp>
-#include <glm/vec3.hpp>
-
-#include "penumbra/bake/baker.h"
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
+#include "penumbra/lighting/fields.h"
+#include "penumbra/lighting/settings.h"
 
 namespace penumbra::editor {
 
-// A field's value. Rotations are quaternions (the inspector and scripts show Euler degrees).
-using FieldValue = std::variant<bool, std::int64_t, float, glm::vec2, glm::vec3, glm::quat>;
-
-enum class FieldKind : std::uint8_t {
-  Bool,      // bool
-  Int,       // std::int64_t, any integer
-  Count,     // std::int64_t, >= min (unsigned fields)
-  Enum,      // std::int64_t, index into `choices`
-  Float,     // float
-  Vec2,      // glm::vec2
-  Vec3,      // glm::vec3
-  Color,     // glm::vec3, linear RGB
-  Rotation,  // glm::quat
-};
+// A field's value and kind: the lighting layer's (lighting/fields.h). Rotations are quaternions
+// (the inspector and scripts show Euler degrees).
+using FieldValue = penumbra::FieldValue;
+using FieldKind = penumbra::FieldType;
 
 struct FieldDesc {
   std::string component;             // component_name(), e.g. "Light"
@@ -43,6 +30,8 @@ struct FieldDesc {
   std::vector<std::string> choices;  // Enum: the names of the values, e.g. {"L1", "L2"}
   double min = -1e30, max = 1e30;    // accepted range (scalars and each vector component)
   float speed = 0.01f;               // drag speed for the inspector
+  std::string unit;                  // e.g. "m"; empty for none
+  std::string help;                  // one line for a tooltip
   bool read_only = false;            // written by systems or bakers (shown, not edited)
   std::function<bool(World&, Entity)> present;
   std::function<FieldValue(World&, Entity)> get;
@@ -69,7 +58,7 @@ std::string format_field_value(const FieldDesc& field, const FieldValue& value);
 
 // A quality preset of a lighting component, applied by the inspector and by `preset ENTITY WHAT P`.
 struct ComponentPreset {
-  std::string technique;  // the script's word, e.g. "probe-grid" (also the baker's name)
+  std::string technique;  // the script's word: the module's name, e.g. "probe-grid"
   std::string component;  // e.g. "IrradianceProbeGrid"
   std::function<bool(World&, Entity)> present;
   // Sets the preset's quality knobs with World::patch, keeping placement (box, priority, blending)

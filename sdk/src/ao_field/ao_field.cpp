@@ -454,30 +454,8 @@ AOFieldCaster AOFieldCaster::preset(Preset preset) {
 }
 
 Status validate_ao_field_caster(const AOFieldCaster& c, const glm::mat4& m, std::string_view context) {
-  if (c.representation != AOFieldRepresentation::RadialFit && c.representation != AOFieldRepresentation::Grid)
-    return bad_setting(context, "representation " + std::to_string(static_cast<std::uint32_t>(c.representation)) +
-                                    " is unknown; use RadialFit or Grid");
-  if (c.supersample < 1 || c.supersample > 4)
-    return bad_setting(context, "supersample " + std::to_string(c.supersample) + " is outside 1..4; use 2");
-  if (c.grid_size < 4 || c.grid_size > 128)
-    return bad_setting(context, "grid_size " + std::to_string(c.grid_size) +
-                                    " is outside 4..128 vertices per axis; use 16, 32 or 48");
-  if (c.resolution < 1 || c.resolution > 256)
-    return bad_setting(context, "resolution " + std::to_string(c.resolution) +
-                                    " is outside 1..256 texels per face; use 8, 16 or 32");
-  if (c.radial_samples < 3 || c.radial_samples > 1024)
-    return bad_setting(context, "radial_samples " + std::to_string(c.radial_samples) +
-                                    " is outside 3..1024; the fit of three coefficients needs at least 3 radii");
-  if (c.rays_per_sample < 16)
-    return bad_setting(context, "rays_per_sample " + std::to_string(c.rays_per_sample) + " is below 16; use 64 or more");
-  if (!std::isfinite(c.falloff_distance) || c.falloff_distance < 0.0f)
-    return bad_setting(context, "falloff_distance must be finite and >= 0 (0 derives 6 x the bounding radius)");
-  if (!(c.fade_start > 0.0f && c.fade_start < 1.0f))
-    return bad_setting(context, "fade_start must be in (0, 1), e.g. 0.8");
-  if (!(c.inside_occlusion >= 0.0f && c.inside_occlusion <= 1.0f))
-    return bad_setting(context, "inside_occlusion must be in [0, 1]");
-  if (!(c.inside_exponent > 0.0f && std::isfinite(c.inside_exponent)))
-    return bad_setting(context, "inside_exponent must be finite and > 0, e.g. 2");
+  // Each setting's range: the field list (ao_field_fields.cpp).
+  PENUMBRA_TRY(check_fields(ao_field_caster_info(), &c, context));
   for (int col = 0; col < 4; ++col)
     for (int row = 0; row < 4; ++row)
       if (!std::isfinite(m[col][row])) return bad_setting(context, "the world transform is not finite");

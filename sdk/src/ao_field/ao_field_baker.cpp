@@ -114,16 +114,7 @@ void hash_field_inputs(World& world, const BakeSettings&, Hasher& h) {
   for (Entity e : caster_entities(world)) {
     const AOFieldCaster& c = world.get<AOFieldCaster>(e);
     h.add(std::string_view(entity_key(world, e)));
-    h.add(static_cast<std::uint32_t>(c.representation));
-    h.add(c.resolution);
-    h.add(c.supersample);
-    h.add(c.grid_size);
-    h.add(c.radial_samples);
-    h.add(c.rays_per_sample);
-    h.add(c.falloff_distance);
-    h.add(c.fade_start);
-    h.add(c.inside_occlusion);
-    h.add(c.inside_exponent);
+    hash_fields(ao_field_caster_info(), &c, h);
     h.add(world.get<WorldTransform>(e).matrix);  // validation (uniform scale) depends on it
   }
 }

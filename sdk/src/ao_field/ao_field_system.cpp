@@ -149,6 +149,7 @@ Status add_defaults(World& world, Preset preset, bool authored) {
 }
 
 constexpr std::uint32_t kChunkTypes[] = {kAOFieldChunkType};
+const ComponentInfo* const kComponents[] = {&ao_field_caster_info(), &ao_field_receiver_info()};
 
 }  // namespace
 
@@ -157,6 +158,7 @@ const LightingModule& ao_field_module() {
       .name = "ao-field",
       .description = "ambient occlusion fields of moving rigid casters (Kontkanen & Laine 2005)",
       .chunk_types = kChunkTypes,
+      .components = kComponents,
       .register_runtime = register_ao_field_system,
       .attach = attach_ao_field,
       .describe = describe_ao_field_chunk,

@@ -29,16 +29,8 @@ Status validate_pose_ao(const SkinnedPoseAO& s, std::size_t joint_count, std::st
   };
   if (std::uint64_t{s.reference_poses} + s.clip_poses == 0)
     return bad("reference_poses and clip_poses are both 0; use at least 50 reference poses (the presets use 100-1000)");
-  if (s.rays_per_vertex == 0) return bad("rays_per_vertex is 0; use at least 16 (the presets use 32-128)");
-  if (s.locality > kPoseAOMaxLocality)
-    return bad("locality " + std::to_string(s.locality) + " exceeds " + std::to_string(kPoseAOMaxLocality) +
-               " joints per vertex; lower it");
-  if (!(std::isfinite(s.lambda) && s.lambda >= 0.0f))
-    return bad("lambda must be finite and >= 0 (1e-3 is a good start)");
-  if (!(std::isfinite(s.range_margin) && s.range_margin >= 0.0f))
-    return bad("range_margin must be finite and >= 0 (a fraction of each clip range, e.g. 0.25)");
-  if (!(std::isfinite(s.default_range) && s.default_range >= 0.0f))
-    return bad("default_range must be finite and >= 0 radians");
+  // Each setting's range: the field list (pose_ao_fields.cpp).
+  PENUMBRA_TRY(check_fields(skinned_pose_ao_info(), &s, context));
   if (!s.joint_ranges.empty()) {
     if (s.joint_ranges.size() != joint_count)
       return bad("joint_ranges has " + std::to_string(s.joint_ranges.size()) + " entries but the skin has " +

@@ -680,14 +680,8 @@ void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
   for (Entity e : pose_ao_meshes(world)) {
     const SkinnedPoseAO& s = world.get<SkinnedPoseAO>(e);
     h.add(std::string_view(entity_key(world, e)));
-    h.add(s.reference_poses);
-    h.add(s.clip_poses);
-    h.add(s.rays_per_vertex);
-    h.add(s.locality);
-    h.add(s.lambda);
-    h.add(s.range_margin);
-    h.add(s.default_range);
-    h.add(s.joint_ranges);
+    hash_fields(skinned_pose_ao_info(), &s, h);
+    h.add(s.joint_ranges);  // a list, not a field
     const Skin& skin = world.get<Skin>(e);
     h.add(skin.inverse_bind);
     for (Entity j : skin.joints)

@@ -83,6 +83,7 @@ Status add_defaults(World& world, Preset preset, bool) {
 }
 
 constexpr std::uint32_t kChunkTypes[] = {kPoseAOChunkType};
+const ComponentInfo* const kComponents[] = {&skinned_pose_ao_info()};
 
 }  // namespace
 
@@ -91,6 +92,7 @@ const LightingModule& pose_ao_module() {
       .name = "pose-ao",
       .description = "skinned pose-AO (per-vertex linear AO in the joint rotations, Kontkanen & Aila 2006)",
       .chunk_types = kChunkTypes,
+      .components = kComponents,
       .register_runtime = register_pose_ao_system,
       .attach = attach_pose_ao,
       .describe = describe_pose_ao_chunk,

@@ -86,23 +86,8 @@ std::string vec_text(glm::vec3 v) {
 
 Result<ProbeGridLayout> probe_grid_layout(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
                                           std::string_view context) {
-  // Sampling knobs.
-  if (grid.samples_per_node == 0 || grid.rays_per_sample == 0)
-    return invalid(context, "samples_per_node and rays_per_sample must be at least 1 (got " +
-                                std::to_string(grid.samples_per_node) + " and " +
-                                std::to_string(grid.rays_per_sample) + "); use a preset");
-  if (grid.hit_samples < 2)
-    return invalid(context, "hit_samples is " + std::to_string(grid.hit_samples) + "; use at least 2");
-  if (!(grid.back_face_threshold >= 0.0f && grid.back_face_threshold <= 1.0f))
-    return invalid(context, "back_face_threshold " + std::to_string(grid.back_face_threshold) +
-                                " is outside [0, 1]; use 0 for watertight scenes, 0.1 otherwise");
-  if (!(grid.deringing_window >= 0.0f) || !std::isfinite(grid.deringing_window))
-    return invalid(context, "deringing_window must be 0 (off) or a positive width");
-  if (grid.lighting != LightingContent::All && grid.lighting != LightingContent::Indirect)
-    return invalid(context, "lighting " + std::to_string(static_cast<int>(grid.lighting)) +
-                                " is unknown; use LightingContent::Indirect (the renderer draws direct light) or All");
-  if (!(grid.blend_distance >= 0.0f) || !std::isfinite(grid.blend_distance))
-    return invalid(context, "blend_distance must be 0 (one spacing) or a positive distance in metres");
+  // Each setting's range and finiteness: the field list (probe_grid_fields.cpp).
+  PENUMBRA_TRY(check_fields(irradiance_probe_grid_info(), &grid, context));
 
   // The box: explicit world-space AABB, or the unit cube through the world matrix.
   glm::mat4 grid_to_world;

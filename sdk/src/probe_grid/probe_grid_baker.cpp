@@ -413,20 +413,7 @@ void hash_probe_inputs(World& world, const BakeSettings&, Hasher& h) {
   for (Entity e : grid_entities(world)) {
     const IrradianceProbeGrid& g = world.get<IrradianceProbeGrid>(e);
     h.add(std::string_view(entity_key(world, e)));
-    h.add(g.box.min);
-    h.add(g.box.max);
-    h.add(g.resolution);
-    h.add(g.spacing);
-    h.add(g.sh_order);
-    h.add(g.sampling);
-    h.add(g.samples_per_node);
-    h.add(g.rays_per_sample);
-    h.add(g.bounces);
-    h.add(g.hit_samples);
-    h.add(g.lighting);
-    h.add(g.back_face_threshold);
-    h.add(g.deringing_window);
-    h.add(g.leak_guard);
+    hash_fields(irradiance_probe_grid_info(), &g, h);
     h.add(world.get<WorldTransform>(e).matrix);
   }
 }

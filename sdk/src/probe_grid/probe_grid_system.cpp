@@ -167,6 +167,7 @@ Status add_defaults(World& world, Preset preset, bool authored) {
 }
 
 constexpr std::uint32_t kChunkTypes[] = {kProbeGridChunkType};
+const ComponentInfo* const kComponents[] = {&irradiance_probe_grid_info(), &probe_lit_info()};
 
 }  // namespace
 
@@ -175,6 +176,7 @@ const LightingModule& probe_grid_module() {
       .name = "probe-grid",
       .description = "irradiance probe grids (SH per node, point, supersampled (Kontkanen & Laine 2006) or fitted)",
       .chunk_types = kChunkTypes,
+      .components = kComponents,
       .register_runtime = register_probe_grid_system,
       .attach = attach_probe_grid,
       .describe = describe_probe_grid_chunk,

@@ -34,6 +34,7 @@
 
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
+#include "penumbra/lighting/fields.h"
 #include "penumbra/lighting/settings.h"
 
 namespace penumbra {
@@ -250,5 +251,9 @@ BakeChunk write_ao_field_chunk(const AOFieldData& data);
 Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk);
 // Lines for `penumbra info`: resolution, radii, bytes, clamped fits.
 std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk);
+
+// The field lists (lighting/fields.h) of AOFieldCaster and AOFieldReceiver.
+const ComponentInfo& ao_field_caster_info();
+const ComponentInfo& ao_field_receiver_info();
 
 }  // namespace penumbra

@@ -3,7 +3,8 @@
 // through penumbra/runtime.h (register_lighting, attach_bake) and tools through penumbra/bakers.h.
 //
 // What a module provides, and where (every module folder has the same files):
-//   <module>.h          component(s), baked data, CPU evaluation, the chunk's reader and writer
+//   <module>.h          component(s) and their field lists (<module>_fields.cpp), baked data, CPU
+//                       evaluation, the chunk's reader and writer (<module>_chunk.cpp)
 //   <module>_system.h   runtime system, default components, the descriptor
 //   <module>_baker.h    the offline bake (Embree) and register_<module>_baker()
 //   <module>_gpu.h      GPU layout shared with the shaders (modules with GPU data)
@@ -18,6 +19,7 @@
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
+#include "penumbra/lighting/fields.h"
 #include "penumbra/lighting/settings.h"
 #include "penumbra/scene/entity_key.h"
 
@@ -30,6 +32,8 @@ struct LightingModule {
   std::string_view description;  // one line for `penumbra bake --help`
   // The chunk types (fourcc) it writes and attaches.
   std::span<const std::uint32_t> chunk_types;
+  // Its components' field lists (fields.h), authoring components first.
+  std::span<const ComponentInfo* const> components;
   // Registers its systems with a World (once per World; register_lighting calls it).
   void (*register_runtime)(World& world) = nullptr;
   // Attaches one chunk of one of its types to the entity its key names (`keys`), replacing what the

@@ -32,6 +32,7 @@
 
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
+#include "penumbra/lighting/fields.h"
 #include "penumbra/lighting/settings.h"
 
 namespace penumbra {
@@ -156,5 +157,8 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk);
 // Lines for `penumbra info`: vertices, joints, groups, poses, rays, locality, lambda, training
 // RMSE, bytes per vertex (and a warning when locality was reduced).
 std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk);
+
+// The field list (lighting/fields.h) of SkinnedPoseAO.
+const ComponentInfo& skinned_pose_ao_info();
 
 }  // namespace penumbra

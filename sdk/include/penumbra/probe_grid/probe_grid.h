@@ -43,6 +43,7 @@
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
 #include "penumbra/core/sh.h"
+#include "penumbra/lighting/fields.h"
 #include "penumbra/lighting/settings.h"
 #include "penumbra/scene/components.h"
 
@@ -247,5 +248,9 @@ BakeChunk write_probe_grid_chunk(const ProbeGridData& data);
 Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk);
 // Lines for `penumbra info`: grid size, order, mode, lighting, valid fraction, filled nodes, bytes.
 std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk);
+
+// The field lists (lighting/fields.h) of IrradianceProbeGrid and ProbeLit.
+const ComponentInfo& irradiance_probe_grid_info();
+const ComponentInfo& probe_lit_info();
 
 }  // namespace penumbra

@@ -1,0 +1,170 @@
+// The module list and every component's field list: one name and chunk type per module, defaults
+// and presets within the fields' ranges, presets that keep placement, and an input hash that
+// follows every hashed field (and ignores the others), changing each field in turn.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <set>
+#include <string>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/bakers.h"
+#include "penumbra/runtime.h"
+#include "penumbra/scene/builtin.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+namespace {
+
+// The courtyard with every module's default components: a probe grid, AO-field casters and
+// receivers, pose-AO on the walker.
+World courtyard() {
+  World world;
+  register_lighting(world);
+  register_bakers(world);
+  EXPECT_TRUE(load_builtin(world, "courtyard").ok());
+  world.update(0.0);
+  EXPECT_TRUE(add_default_lighting(world, Preset::Draft, false).ok());
+  return world;
+}
+
+// A value of the field's type, within its range, different from `v`.
+FieldValue changed(const FieldInfo& f, const FieldValue& v) {
+  const auto step = [&](double x, double delta) {
+    const double up = x + delta;
+    return up <= f.max ? up : x - delta;
+  };
+  switch (f.type) {
+    case FieldType::Bool: return !std::get<bool>(v);
+    case FieldType::Enum: {
+      const auto n = static_cast<std::int64_t>(f.choices.size());
+      return (std::get<std::int64_t>(v) + 1) % n;
+    }
+    case FieldType::Int:
+    case FieldType::Count: return static_cast<std::int64_t>(step(double(std::get<std::int64_t>(v)), 1.0));
+    case FieldType::Float: {
+      const float x = std::get<float>(v);
+      return static_cast<float>(step(x, 0.01 * (f.max - f.min) < 0.25 ? 0.01 * (f.max - f.min) : 0.25));
+    }
+    case FieldType::Vec2: return std::get<glm::vec2>(v) + glm::vec2(0.125f, 0.0f);
+    case FieldType::Vec3:
+    case FieldType::Color: {
+      glm::vec3 x = std::get<glm::vec3>(v);
+      x.y = static_cast<float>(step(x.y, 0.125));
+      return x;
+    }
+    case FieldType::Count3: return std::get<glm::uvec3>(v) + glm::uvec3(0u, 1u, 0u);
+    case FieldType::Rotation: return std::get<glm::quat>(v) * glm::quat(glm::vec3(0.0f, 0.25f, 0.0f));
+  }
+  return v;
+}
+
+TEST(LightingModules, OneNameAndChunkTypeEach) {
+  std::set<std::string> names;
+  std::set<std::uint32_t> types;
+  for (const LightingModule* m : lighting_modules()) {
+    EXPECT_TRUE(names.insert(std::string(m->name)).second) << m->name;
+    EXPECT_EQ(find_lighting_module(m->name), m);
+    EXPECT_NE(m->attach, nullptr) << m->name;
+    EXPECT_NE(m->describe, nullptr) << m->name;
+    for (std::uint32_t t : m->chunk_types) {
+      EXPECT_TRUE(types.insert(t).second) << fourcc_to_string(t);
+      EXPECT_EQ(lighting_module_for_chunk(t), m);
+    }
+  }
+  // Each module's baker has the module's name.
+  World world = courtyard();
+  for (const LightingModule* m : lighting_modules())
+    EXPECT_NE(world.resource<BakerRegistry>().find(m->name), nullptr) << m->name;
+  EXPECT_EQ(world.resource<BakerRegistry>().all().size(), lighting_modules().size());
+}
+
+TEST(LightingModules, DefaultsAndPresetsLieWithinTheFieldRanges) {
+  for (const LightingModule* m : lighting_modules())
+    for (const ComponentInfo* c : m->components) {
+      std::set<std::string_view> fields;
+      for (const FieldInfo& f : c->fields) {
+        EXPECT_TRUE(fields.insert(f.name).second) << c->name << "." << f.name;
+        EXPECT_NE(f.get, nullptr);
+        EXPECT_EQ(f.set == nullptr, f.read_only) << c->name << "." << f.name;
+        EXPECT_FALSE(f.read_only && (f.hashed || f.preset)) << c->name << "." << f.name;
+        if (f.type == FieldType::Enum) EXPECT_EQ(f.max, double(f.choices.size() - 1)) << f.name;
+      }
+      Status d = check_fields(*c, c->defaults, c->name);
+      EXPECT_TRUE(d.ok()) << d.error().message;
+    }
+}
+
+// Every hashed field of every authoring component changes the module's input hash; the fields
+// that the bake does not read (priority, blending, receivers) leave it alone. A field added to a
+// component's list without `hashed` that the bake reads fails here only if someone marks it; one
+// marked hashed but missed by hash_fields fails here always.
+TEST(LightingModules, TheInputHashFollowsEachHashedFieldAndIgnoresTheOthers) {
+  World world = courtyard();
+  BakeSettings settings;
+  for (const LightingModule* m : lighting_modules()) {
+    const std::vector<std::string> bakers{std::string(m->name)};
+    for (const ComponentInfo* c : m->components) {
+      if (std::all_of(c->fields.begin(), c->fields.end(), [](const FieldInfo& f) { return f.read_only; })) continue;
+      // The first entity with the component.
+      Entity e;
+      for (Entity candidate : world.view<Name>().sorted_entities())
+        if (c->present(world, candidate)) {
+          e = candidate;
+          break;
+        }
+      ASSERT_TRUE(e) << "the courtyard has no " << c->name;
+      for (const FieldInfo& f : c->fields) {
+        if (f.read_only) continue;
+        const FieldValue before = f.get(c->find(world, e));
+        const std::uint64_t base = bake_input_hash(world, bakers, settings);
+        const FieldValue after = changed(f, before);
+        ASSERT_TRUE(check_field_value(f, after).ok()) << c->name << "." << f.name;
+        ASSERT_NE(before, after) << c->name << "." << f.name;
+        f.set(c->patch(world, e), after);
+        const std::uint64_t edited = bake_input_hash(world, bakers, settings);
+        if (f.hashed)
+          EXPECT_NE(edited, base) << c->name << "." << f.name << " is hashed but does not change the input hash";
+        else
+          EXPECT_EQ(edited, base) << c->name << "." << f.name << " is not read by the bake but changes its hash";
+        f.set(c->patch(world, e), before);
+        EXPECT_EQ(bake_input_hash(world, bakers, settings), base) << c->name << "." << f.name;
+      }
+    }
+  }
+}
+
+// A preset sets the preset fields and keeps every other one (placement, blending, content).
+TEST(LightingModules, PresetsSetTheirFieldsAndKeepTheRest) {
+  World world = courtyard();
+  for (const LightingModule* m : lighting_modules())
+    for (const ComponentInfo* c : m->components) {
+      if (c->set_preset_fields == nullptr) continue;
+      Entity e;
+      for (Entity candidate : world.view<Name>().sorted_entities())
+        if (c->present(world, candidate)) e = candidate;
+      ASSERT_TRUE(e) << c->name;
+      // Move every settable field off its value, then apply the high preset.
+      std::vector<FieldValue> moved;
+      for (const FieldInfo& f : c->fields) {
+        moved.push_back(f.read_only ? f.get(c->find(world, e)) : changed(f, f.get(c->find(world, e))));
+        if (!f.read_only) f.set(c->patch(world, e), moved.back());
+      }
+      apply_preset(*c, world, e, Preset::High);
+      Status s = check_fields(*c, c->find(world, e), c->name);
+      EXPECT_TRUE(s.ok()) << s.error().message;
+      std::size_t set_by_preset = 0;
+      for (std::size_t i = 0; i < c->fields.size(); ++i) {
+        const FieldInfo& f = c->fields[i];
+        if (f.preset) {
+          ++set_by_preset;
+        } else {
+          EXPECT_EQ(f.get(c->find(world, e)), moved[i]) << c->name << "." << f.name << " is not a preset field";
+        }
+      }
+      EXPECT_GT(set_by_preset, 0u) << c->name;
+    }
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,118 @@
+// Field lists: range checks, hashing and presets derived from them (see fields.h).
+#include "penumbra/lighting/fields.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace penumbra {
+
+namespace {
+
+const char* type_name(FieldType type) {
+  switch (type) {
+    case FieldType::Bool: return "true or false";
+    case FieldType::Int: return "an integer";
+    case FieldType::Count: return "a non-negative integer";
+    case FieldType::Enum: return "one of its choices";
+    case FieldType::Float: return "a number";
+    case FieldType::Vec2: return "two numbers";
+    case FieldType::Vec3: return "three numbers";
+    case FieldType::Color: return "a linear RGB colour";
+    case FieldType::Count3: return "three non-negative integers";
+    case FieldType::Rotation: return "a rotation";
+  }
+  return "a value";
+}
+
+bool holds_type(FieldType type, const FieldValue& v) {
+  switch (type) {
+    case FieldType::Bool: return std::holds_alternative<bool>(v);
+    case FieldType::Int:
+    case FieldType::Count:
+    case FieldType::Enum: return std::holds_alternative<std::int64_t>(v);
+    case FieldType::Float: return std::holds_alternative<float>(v);
+    case FieldType::Vec2: return std::holds_alternative<glm::vec2>(v);
+    case FieldType::Vec3:
+    case FieldType::Color: return std::holds_alternative<glm::vec3>(v);
+    case FieldType::Count3: return std::holds_alternative<glm::uvec3>(v);
+    case FieldType::Rotation: return std::holds_alternative<glm::quat>(v);
+  }
+  return false;
+}
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+}  // namespace
+
+const FieldInfo* ComponentInfo::field(std::string_view field_name) const {
+  for (const FieldInfo& f : fields)
+    if (f.name == field_name) return &f;
+  return nullptr;
+}
+
+Status check_field_value(const FieldInfo& f, const FieldValue& v) {
+  const std::string where = "field '" + std::string(f.name) + "'";
+  if (!holds_type(f.type, v))
+    return make_error(ErrorCode::InvalidArgument, where + " takes " + type_name(f.type));
+  // Every scalar component, as a double (a rotation is only checked for finiteness).
+  double values[4];
+  int n = 0;
+  bool ranged = true;
+  std::visit(
+      [&](const auto& x) {
+        using X = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<X, bool>) {
+          ranged = false;
+        } else if constexpr (std::is_same_v<X, std::int64_t> || std::is_same_v<X, float>) {
+          values[n++] = static_cast<double>(x);
+        } else {
+          ranged = !std::is_same_v<X, glm::quat>;
+          for (int i = 0; i < static_cast<int>(X::length()); ++i) values[n++] = static_cast<double>(x[i]);
+        }
+      },
+      v);
+  const std::string unit = f.unit.empty() ? std::string() : " " + std::string(f.unit);
+  for (int i = 0; i < n; ++i) {
+    if (!std::isfinite(values[i]))
+      return make_error(ErrorCode::InvalidArgument, where + " is NaN or infinite; give a finite value");
+    if (ranged && (values[i] < f.min || values[i] > f.max)) {
+      std::string message = where + " = " + number(values[i]) + unit + " is outside " + number(f.min) + ".." +
+                            number(f.max) + unit;
+      if (f.type == FieldType::Enum) {
+        message = where + " = " + number(values[i]) + " is not one of ";
+        for (std::size_t c = 0; c < f.choices.size(); ++c) message += (c ? ", " : "") + std::string(f.choices[c]);
+      }
+      if (!f.help.empty()) message += " (" + std::string(f.help) + ")";
+      return make_error(ErrorCode::InvalidArgument, message);
+    }
+  }
+  return {};
+}
+
+Status check_fields(const ComponentInfo& info, const void* component, std::string_view context) {
+  for (const FieldInfo& f : info.fields) {
+    if (f.read_only) continue;
+    if (Status s = check_field_value(f, f.get(component)); !s)
+      return Error{s.error().code, std::string(context) + ": " + s.error().message};
+  }
+  return {};
+}
+
+void hash_fields(const ComponentInfo& info, const void* component, Hasher& h) {
+  for (const FieldInfo& f : info.fields) {
+    if (!f.hashed) continue;
+    const FieldValue v = f.get(component);
+    h.add(v.index());
+    std::visit([&](const auto& x) { h.add(x); }, v);
+  }
+}
+
+void apply_preset(const ComponentInfo& info, World& world, Entity e, Preset preset) {
+  info.set_preset_fields(info, info.patch(world, e), preset);
+}
+
+}  // namespace penumbra
