@@ -71,6 +71,7 @@ using mat4 = glm::mat4;
 #define PENUMBRA_VIEW_POSITION 6
 #define PENUMBRA_VIEW_NORMAL 7
 #define PENUMBRA_VIEW_IRRADIANCE 8
+#define PENUMBRA_VIEW_COUNT 9
 
 struct FrameUniforms {
   mat4 view_proj;          // world -> clip

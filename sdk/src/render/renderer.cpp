@@ -24,6 +24,15 @@
 #include "spirv.h"
 #include "vk_util.h"
 
+// The debug views' numbers are the shader's (layout.h): the specialisation constant kView.
+static_assert(int(penumbra::DebugView::Lit) == PENUMBRA_VIEW_LIT && int(penumbra::DebugView::DirectOnly) == PENUMBRA_VIEW_DIRECT &&
+              int(penumbra::DebugView::IndirectOnly) == PENUMBRA_VIEW_INDIRECT &&
+              int(penumbra::DebugView::AoOnly) == PENUMBRA_VIEW_AO && int(penumbra::DebugView::Albedo) == PENUMBRA_VIEW_ALBEDO &&
+              int(penumbra::DebugView::ProbeValidity) == PENUMBRA_VIEW_VALIDITY &&
+              int(penumbra::DebugView::Position) == PENUMBRA_VIEW_POSITION &&
+              int(penumbra::DebugView::Normal) == PENUMBRA_VIEW_NORMAL &&
+              int(penumbra::DebugView::Irradiance) == PENUMBRA_VIEW_IRRADIANCE &&
+              penumbra::kDebugViewCount == PENUMBRA_VIEW_COUNT);
 // The shader's leak-guard constants are the CPU lookup's (probe_grid.h).
 static_assert(float(PENUMBRA_PROBE_NORMAL_BIAS) == penumbra::kProbeNormalBias);
 static_assert(float(PENUMBRA_PROBE_REACH_SLACK) == penumbra::kProbeReachSlack);

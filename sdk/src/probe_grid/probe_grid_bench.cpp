@@ -10,12 +10,12 @@
 // closed blocks (outside them: the paper's case, nodes inside solid geometry), in the same column.
 // Errors are relative to the mean reference irradiance. An L1 row reuses the
 // L2 bake truncated to its first four coefficients (same bake time; only the stored bytes differ).
-// Goals (issue 3): at the same spacing, leak RMSE <= 0.5 x point with bake time <= 1.5 x point; the
+// Goals: at the same spacing, leak RMSE <= 0.5 x point with bake time <= 1.5 x point; the
 // notes give supersampled/point and fitted/point, and fitted/supersampled overall RMSE (goal <= 1).
 // Every mode is baked without and with the leak guard (probe_grid.h; rows "MODE+guard"). The
 // notes compare modes at the same runtime (plain: the paper's comparison; guarded: ours) and the
 // guarded modes against plain point sampling, the classic irradiance volume a studio has today.
-// Those rows bake lighting = all (issue 3's grids, the whole irradiance). The rows with lighting =
+// Those rows bake lighting = all (the whole irradiance). The rows with lighting =
 // indirect bake grids of the light that reflected at least once, at every spacing and the
 // largest sample count, against the indirect reference at the same receivers (integrators.h); their
 // errors are relative to the mean total irradiance, so they read as the error of a renderer that

@@ -10,7 +10,7 @@
 // solid are dropped: a ray from them first hits a back face), split into inside / outside the
 // convex hull by the field's hull distance; and "ground" points on the plane the caster rests on
 // (normal +Y) within 2 bounding radii. Free-space normals are random over the hemisphere facing
-// the field centre. Reference: 1 - ambient_occlusion() of the caster alone. Goal (issue 6): mean
+// the field centre. Reference: 1 - ambient_occlusion() of the caster alone. Goal: mean
 // absolute error <= 0.03 outside the hull for 16x16 on the convex shapes; <= 50 ns per receiver
 // per caster.
 //

@@ -12,7 +12,7 @@
 // coefficients, after a chunk round trip); a note gives what the halves cost against floats.
 // ns_per_vertex: pose parameters + evaluate_pose_ao per frame on one thread, over the vertices
 // (the best of many blocks of 10 frames).
-// Goals (issue 7): linear RMSE <= 0.7x the better baseline on CesiumMan; <= 5 ns per vertex.
+// Goals: linear RMSE <= 0.7x the better baseline on CesiumMan; <= 5 ns per vertex.
 #include <algorithm>
 #include <chrono>
 #include <cmath>

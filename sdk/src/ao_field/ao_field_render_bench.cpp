@@ -1,7 +1,7 @@
 // `penumbra bench render-ao`: what the renderer's AO passes cost per frame on the courtyard, side
 // by side in one run: the AO-field pass per pixel (Kontkanen & Laine 2005, the thesis section 4.1)
 // and pose-AO as a per-vertex attribute (Kontkanen & Aila 2006, section 4.2), against the same
-// scene without their data (the pass compiled out, nothing uploaded: issue 4's "costs nothing
+// scene without their data (the pass compiled out, nothing uploaded: the "costs nothing
 // otherwise"); and the frame's speed/accuracy trades on the whole scene (one shadow tap, half the
 // resolution).
 //
@@ -204,7 +204,7 @@ Result<Report> run(const Options& options) {
                          fmt(median(variants[7].render_ms) / all, 3) + "x (accuracy: README's renderer table)");
   const Variant& none = variants[0];
   const bool costs_nothing = none.casters == 0 && none.vertex_ao_uploads == 0 && none.ao_field_bytes == 0;
-  report.notes.push_back("goal (issue 4): a pass costs nothing without its data: none has ao_field_casters " +
+  report.notes.push_back("goal: a pass costs nothing without its data: none has ao_field_casters " +
                          std::to_string(none.casters) + " (the AO-field pass compiled out), " +
                          std::to_string(none.vertex_ao_uploads) + " vertex AO uploads, " +
                          std::to_string(none.ao_field_bytes) + " AO-field bytes (" +
