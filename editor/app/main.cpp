@@ -181,10 +181,9 @@ int run(const Options& options) {
         const CameraView camera = ui.camera.view(size.x / std::max(size.y, 1.0f));
         ui.camera_now = camera;
         if (ui.show_ui) {
-          if (ui.error_map) draw_error_map(*ui.error_map, size, ImGui::GetBackgroundDrawList());
-          draw_probe_overlay(doc.world(), camera, size, ui.overlay, ImGui::GetBackgroundDrawList());
-          draw_ao_field_overlay(doc.world(), doc.selection(), camera, size, ui.ao_overlay,
-                                ImGui::GetBackgroundDrawList());
+          ViewContext view{doc.world(), doc.selection(), camera, size, ui.message};
+          for (const EditorExtension& x : editor_extensions())
+            if (x.draw_overlay) x.draw_overlay(view, ImGui::GetBackgroundDrawList());
         }
         ImGui::Render();
         (*viewport)->set_render_scale(ui.render_scale);

@@ -12,12 +12,9 @@
 #include <glm/gtc/quaternion.hpp>
 #include <imgui.h>
 
-#include "lighting_views.h"
-#include "penumbra/ao_field/ao_field.h"
+#include "overlays.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/pose_ao/pose_ao.h"
-#include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/builtin.h"
 
 namespace penumbra::editor {
@@ -91,19 +88,6 @@ CostPlot read_cost_plot(const std::string& path, const std::string& x_column, co
   return plot;
 }
 
-void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* dl) {
-  const float w = size.x / static_cast<float>(map.columns), h = size.y / static_cast<float>(map.rows);
-  for (std::uint32_t r = 0; r < map.rows; ++r)
-    for (std::uint32_t c = 0; c < map.columns; ++c) {
-      const float e = map.relative_error[std::size_t{r} * map.columns + c];
-      if (std::isnan(e)) continue;
-      const float t = std::clamp(e / 0.5f, 0.0f, 1.0f);  // 0 blue .. 0.5 and more red
-      const ImU32 colour = ImGui::ColorConvertFloat4ToU32(ImVec4(t, 0.2f * (1.0f - t), 1.0f - t, 0.55f));
-      dl->AddRectFilled(ImVec2(static_cast<float>(c) * w, static_cast<float>(r) * h),
-                        ImVec2(static_cast<float>(c + 1) * w, static_cast<float>(r + 1) * h), colour);
-    }
-}
-
 namespace {
 
 void report(UiState& ui, const Status& s, const std::string& done = {}) {
@@ -121,9 +105,8 @@ void hierarchy_node(Document& doc, Entity e) {
   if (doc.selection() == e) flags |= ImGuiTreeNodeFlags_Selected;
   std::string label = doc.label(e);
   if (w.has<Light>(e)) label += "  [light]";
-  if (w.has<IrradianceProbeGrid>(e)) label += "  [probes]";
-  if (w.has<AOFieldCaster>(e)) label += "  [ao field]";
-  if (w.has<SkinnedPoseAO>(e)) label += "  [pose ao]";
+  for (const EditorExtension& x : editor_extensions())
+    if (x.applies(w, e)) label += "  [" + x.tag + "]";
   const bool open = ImGui::TreeNodeEx(reinterpret_cast<void*>(static_cast<std::uintptr_t>(e.index) + 1), flags, "%s",
                                       label.c_str());
   if (ImGui::IsItemClicked()) doc.select(e);
@@ -215,51 +198,10 @@ void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
   if (ImGui::IsItemDeactivatedAfterEdit()) doc.undo().end_merge();
 }
 
-void baked_summary(World& w, Entity e) {
-  if (const auto* g = w.try_get<IrradianceProbeGrid>(e)) {
-    if (g->data) {
-      const ProbeGridData& d = *g->data;
-      ImGui::Text("baked: %ux%ux%u nodes, %s, %.0f%% valid, %s", d.layout.resolution.x, d.layout.resolution.y,
-                  d.layout.resolution.z, to_string(d.sampling), 100.0 * d.valid_fraction(), format_bytes(d.bytes()).c_str());
-    } else {
-      ImGui::TextDisabled("not baked");
-    }
-  }
-  if (const auto* c = w.try_get<AOFieldCaster>(e)) {
-    if (const AOFieldData* d = c->data.get()) {
-      if (d->representation == AOFieldRepresentation::Grid)
-        ImGui::Text("baked: grid %u^3, %s", d->grid_size, format_bytes(d->bytes()).c_str());
-      else
-        ImGui::Text("baked: radial fit %u^2 x 6 texels, %s, %u clamped fits", d->resolution,
-                    format_bytes(d->bytes()).c_str(), d->clamped_fits);
-      ImGui::TextDisabled("centre %.3g %.3g %.3g, bounding radius %.3g, falloff %.3g (mesh units)", d->centre.x,
-                          d->centre.y, d->centre.z, d->bounding_radius, d->r_far);
-    } else {
-      ImGui::TextDisabled("not baked");
-    }
-  }
-  if (w.has<SkinnedPoseAO>(e)) {
-    auto s = pose_ao_summary(w, e);
-    if (!s || !s->baked) {
-      ImGui::TextDisabled("not baked");
-    } else {
-      ImGui::Text("baked: %s (%.1f B per vertex stored), %zu joint sets", format_bytes(s->bytes).c_str(),
-                  s->bytes_per_vertex, s->joint_sets);
-      ImGui::TextDisabled("%u vertices, %u joints, %u poses x %u rays, locality %u of %u, lambda %.3g", s->vertices,
-                          s->joints, s->poses, s->rays_per_vertex, s->locality, s->requested_locality,
-                          static_cast<double>(s->lambda));
-      ImGui::Text("training RMSE %.4f", static_cast<double>(s->training_rmse));
-      if (s->has_values) {
-        // This frame's per-vertex AO (the pose-ao system's output), 1 = open.
-        ImGui::Text("this frame: AO min %.3f mean %.3f max %.3f", static_cast<double>(s->current.min),
-                    static_cast<double>(s->current.mean), static_cast<double>(s->current.max));
-        float bins[AOStats::kBins];
-        for (std::size_t i = 0; i < AOStats::kBins; ++i) bins[i] = static_cast<float>(s->current.histogram[i]);
-        ImGui::PlotHistogram("##poseao", bins, static_cast<int>(AOStats::kBins), 0, "vertices by AO, 0 .. 1", 0.0f,
-                             FLT_MAX, ImVec2(-1, 60));
-      }
-    }
-  }
+// What each module says about the entity (its baked data, its runtime outputs).
+void module_lines(World& w, Entity e) {
+  for (const EditorExtension& x : editor_extensions())
+    if (x.inspector) x.inspector(w, e);
 }
 
 void inspector_panel(Document& doc, UiState& ui) {
@@ -277,10 +219,6 @@ void inspector_panel(Document& doc, UiState& ui) {
   if (const Mesh* m = w.try_get<Mesh>(e); m && m->data)
     ImGui::TextDisabled("Mesh '%s': %zu triangles, %s%s", m->data->name.c_str(), m->data->triangle_count(),
                         format_bytes(m->data->bytes()).c_str(), w.has<Static>(e) ? ", static" : "");
-  if (const ProbeLit* lit = w.try_get<ProbeLit>(e)) {
-    const glm::vec3 up = probe_lit_irradiance(*lit, glm::vec3(0, 1, 0));
-    ImGui::TextDisabled("ProbeLit: E(up) = %.3g %.3g %.3g W/m^2%s", up.x, up.y, up.z, lit->covered ? "" : " (no grid)");
-  }
   for (const std::string& component : field_components()) {
     const FieldDesc* first = nullptr;
     for (const FieldDesc& f : editable_fields())
@@ -301,11 +239,11 @@ void inspector_panel(Document& doc, UiState& ui) {
           report(ui, s);
         }
       }
-      baked_summary(w, e);
     }
     for (const FieldDesc& f : editable_fields())
       if (f.component == component) field_widget(doc, e, f, ui);
   }
+  module_lines(w, e);
   ImGui::End();
 }
 
@@ -385,9 +323,13 @@ void view_panel(EditorModel& model, UiState& ui) {
   ImGui::SetNextWindowPos(ImVec2(260, 560), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSize(ImVec2(460, 170), ImGuiCond_FirstUseEver);
   ImGui::Begin("View");
-  int view = static_cast<int>(ui.render.view);
-  if (ImGui::Combo("debug view", &view, "lit\0direct\0indirect\0ao\0albedo\0validity\0position\0normal\0irradiance\0"))
-    ui.render.view = static_cast<DebugView>(view);
+  if (ImGui::BeginCombo("debug view", std::string(debug_view_name(ui.render.view)).c_str())) {
+    for (int v = 0; v < kDebugViewCount; ++v)
+      if (ImGui::Selectable(std::string(debug_view_name(static_cast<DebugView>(v))).c_str(),
+                            v == static_cast<int>(ui.render.view)))
+        ui.render.view = static_cast<DebugView>(v);
+    ImGui::EndCombo();
+  }
   ImGui::DragFloat("exposure", &ui.render.exposure, 0.01f, 0.01f, 100.0f);
   ImGui::SliderFloat("3D resolution", &ui.render_scale, 0.25f, 1.0f, "x%.2f");
   ImGui::Checkbox("shadows", &ui.render.shadows);
@@ -402,48 +344,20 @@ void view_panel(EditorModel& model, UiState& ui) {
   int mode = ui.camera.mode() == CameraControl::Mode::Orbit ? 0 : 1;
   if (ImGui::Combo("camera", &mode, "orbit (drag, wheel, middle-drag)\0fly (drag, WASD QE)\0"))
     ui.camera.set_mode(mode == 0 ? CameraControl::Mode::Orbit : CameraControl::Mode::Fly);
-  if (ui.error_job.running()) {
-    ImGui::Button("Error heat map: computing...");
-  } else if (ImGui::Button("Error heat map")) {
-    ErrorMapRequest request;
-    request.camera = ui.camera_now;
-    request.reference.samples = 64;
-    report(ui, ui.error_job.start(model.document()->world(), request), "computing the error map");
-  }
-  if (auto done = ui.error_job.take()) {
-    if (done->ok()) ui.error_map = std::move(done->value());
-    else ui.message = done->error().message;
-  }
-  if (ui.error_map) {
-    ImGui::SameLine();
-    ImGui::Text("mean |E_probe - E_ref| / E_ref %.1f%% over %u cells (reference noise %.1f%%, %.1f s)",
-                100.0 * ui.error_map->mean, ui.error_map->cells, 100.0 * ui.error_map->reference_noise,
-                ui.error_map->seconds);
-    ImGui::SameLine();
-    if (ImGui::SmallButton("clear")) ui.error_map.reset();
-  }
-  ImGui::Checkbox("probes", &ui.overlay.probes);
-  ImGui::SameLine();
-  ImGui::Checkbox("invalid probes", &ui.overlay.invalid);
-  ImGui::SameLine();
-  ImGui::Checkbox("grid bounds", &ui.overlay.bounds);
-  ImGui::Checkbox("AO field bounds", &ui.ao_overlay.bounds);
-  ImGui::SameLine();
-  ImGui::Checkbox("AO field slice", &ui.ao_overlay.slice);
-  ImGui::SameLine();
-  ImGui::SetNextItemWidth(80);
-  ImGui::DragFloat("slice height", &ui.ao_overlay.height, 0.01f, -10.0f, 10.0f, "%.2f m");
+  // Each module's controls (overlays, its own views).
+  ViewContext view{model.document()->world(), model.document()->selection(), ui.camera_now, {}, ui.message};
+  for (const EditorExtension& x : editor_extensions())
+    if (x.view_options) x.view_options(view);
   ImGui::End();
 }
 
 CostPlotSource cost_plot_source(World& world, Entity e) {
-  if (!world.alive(e)) return {"probe-grid", "rmse", "", ""};
-  if (const auto* grid = world.try_get<IrradianceProbeGrid>(e))
-    return {"probe-grid", "rmse", "mode", std::string(to_string(grid->sampling)) + (grid->leak_guard ? "+guard" : "")};
-  if (const auto* caster = world.try_get<AOFieldCaster>(e))
-    return {"ao-field", "mae", "representation", to_string(caster->representation)};
-  if (world.try_get<SkinnedPoseAO>(e)) return {"pose-ao", "rmse", "method", "linear"};
-  return {"probe-grid", "rmse", "", ""};
+  const auto extensions = editor_extensions();
+  for (const EditorExtension& x : extensions)
+    if (x.cost_plot && world.alive(e) && x.applies(world, e)) return x.cost_plot(world, e);
+  for (const EditorExtension& x : extensions)
+    if (x.cost_plot) return x.cost_plot(world, Entity::null());
+  return {};
 }
 
 void plot_panel(Document& doc, UiState& ui) {

@@ -9,8 +9,7 @@
 
 #include "camera_control.h"
 #include "editor_model.h"
-#include "error_map.h"
-#include "overlays.h"
+#include "extension.h"
 #include "viewport.h"
 #include "penumbra/render/renderer.h"
 
@@ -46,19 +45,13 @@ struct CostPlot {
 CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column,
                         const std::string& mark_column = {}, const std::string& mark_value = {});
 
-// The bench behind the selected entity's lighting component (probe-grid, ao-field, pose-ao; the
-// probe grid's, unmarked, for any other selection), the error column its plot shows, and the CSV
-// column and value of the component's current mode, to mark its rows.
-struct CostPlotSource {
-  std::string bench, y_column, mark_column, mark_value;
-};
+// The bench behind the selected entity's lighting component (the first editor extension that
+// applies to it; the first extension's, unmarked, for any other selection): extension.h.
 CostPlotSource cost_plot_source(World& world, Entity selected);
 
 struct UiState {
   CameraControl camera;
   RenderSettings render;
-  ProbeOverlay overlay;
-  AOFieldOverlay ao_overlay;  // of the selected caster
   bool show_ui = true;
   float render_scale = 1.0f;  // of the 3D view (Viewport::set_render_scale)
   FrameTimes frames;
@@ -67,17 +60,11 @@ struct UiState {
   char scene_path[512] = "builtin:courtyard";
   char bake_path[512] = "scene.pbake";
   char edits_path[512] = "edits.txt";
-  char bench_path[512] = "bench-results/probe-grid.csv";  // where `penumbra bench probe-grid` writes by default
+  char bench_path[512] = "";  // the plot's CSV: bench-results/<bench>.csv, where `penumbra bench` writes by default
   std::string plot_source;  // the bench and mode the plot shows (the selection's; see plot_panel)
   CostPlot plot;
-  // The error heat map: computed on demand for the camera of the moment, shown until cleared.
-  ErrorMapJob error_job;
-  std::optional<ErrorMap> error_map;
-  CameraView camera_now;  // this frame's camera (the heat map's request)
+  CameraView camera_now;  // this frame's camera (what the View panel's controls see)
 };
-
-// Draws the heat map's cells over the viewport (blue: exact, red: 50% or more off).
-void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* draw_list);
 
 // Every panel, the menu bar and the status bar.
 void draw_panels(EditorModel& model, UiState& ui);

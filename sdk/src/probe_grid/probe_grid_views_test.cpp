@@ -2,7 +2,7 @@
 // everywhere) a grid baked with 2 bounces misses exactly the rho^2 of it that takes more; without a
 // bake it refuses;
 // the map is the same at any thread count.
-#include "error_map.h"
+#include "probe_grid_views.h"
 
 #include <cmath>
 

@@ -1,5 +1,5 @@
 // The probe grid's error heat map against the reference (error_map.h).
-#include "error_map.h"
+#include "probe_grid_views.h"
 
 #include <chrono>
 #include <cmath>

@@ -1,0 +1,158 @@
+// The probe grid in the editor (extension.h): the baked grid's summary, the node and bounds overlay,
+// the error heat map against the path-traced reference, and the probe-grid bench's plot.
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include <imgui.h>
+
+#include "extension.h"
+#include "overlays.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/sh.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/probe_grid/probe_grid.h"
+#include "probe_grid_views.h"
+
+namespace penumbra::editor {
+namespace {
+
+struct ProbeOverlay {
+  bool probes = true;      // node positions coloured by E(+Y)
+  bool invalid = true;     // nodes without an in-domain sample (filled by dilation) as red rings
+  bool bounds = true;      // the grid box
+  float exposure = 0.3f;   // the courtyard's nodes see 1-10 W/m^2
+  int max_points = 20000;  // per grid; larger grids are subsampled by a stride
+};
+
+// The View panel's state: the overlay's options and the heat map, computed on demand for the
+// camera of the moment and shown until cleared.
+struct State {
+  ProbeOverlay overlay;
+  ErrorMapJob error_job;
+  std::optional<ErrorMap> error_map;
+};
+State& state() {
+  static State s;
+  return s;
+}
+
+bool applies(World& w, Entity e) { return w.has<IrradianceProbeGrid>(e); }
+
+void inspector(World& w, Entity e) {
+  if (const ProbeLit* lit = w.try_get<ProbeLit>(e)) {
+    const glm::vec3 up = probe_lit_irradiance(*lit, glm::vec3(0, 1, 0));
+    ImGui::TextDisabled("ProbeLit: E(up) = %.3g %.3g %.3g W/m^2%s", up.x, up.y, up.z, lit->covered ? "" : " (no grid)");
+  }
+  if (!applies(w, e)) return;
+  const IrradianceProbeGrid& g = w.get<IrradianceProbeGrid>(e);
+  if (!g.data) {
+    ImGui::TextDisabled("not baked");
+    return;
+  }
+  const ProbeGridData& d = *g.data;
+  ImGui::Text("baked: %ux%ux%u nodes, %s, %.0f%% valid, %s", d.layout.resolution.x, d.layout.resolution.y,
+              d.layout.resolution.z, to_string(d.sampling), 100.0 * d.valid_fraction(), format_bytes(d.bytes()).c_str());
+}
+
+void view_options(ViewContext& view) {
+  State& s = state();
+  if (s.error_job.running()) {
+    ImGui::Button("Error heat map: computing...");
+  } else if (ImGui::Button("Error heat map")) {
+    ErrorMapRequest request;
+    request.camera = view.camera;
+    request.reference.samples = 64;
+    const Status started = s.error_job.start(view.world, request);
+    view.message = started ? "computing the error map" : started.error().message;
+  }
+  if (auto done = s.error_job.take()) {
+    if (done->ok()) s.error_map = std::move(done->value());
+    else view.message = done->error().message;
+  }
+  if (s.error_map) {
+    ImGui::SameLine();
+    ImGui::Text("mean |E_probe - E_ref| / E_ref %.1f%% over %u cells (reference noise %.1f%%, %.1f s)",
+                100.0 * s.error_map->mean, s.error_map->cells, 100.0 * s.error_map->reference_noise,
+                s.error_map->seconds);
+    ImGui::SameLine();
+    if (ImGui::SmallButton("clear")) s.error_map.reset();
+  }
+  ImGui::Checkbox("probes", &s.overlay.probes);
+  ImGui::SameLine();
+  ImGui::Checkbox("invalid probes", &s.overlay.invalid);
+  ImGui::SameLine();
+  ImGui::Checkbox("grid bounds", &s.overlay.bounds);
+}
+
+// The heat map's cells over the viewport (blue: exact, red: 50% or more off).
+void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* dl) {
+  const float w = size.x / static_cast<float>(map.columns), h = size.y / static_cast<float>(map.rows);
+  for (std::uint32_t r = 0; r < map.rows; ++r)
+    for (std::uint32_t c = 0; c < map.columns; ++c) {
+      const float e = map.relative_error[std::size_t{r} * map.columns + c];
+      if (std::isnan(e)) continue;
+      const float t = std::clamp(e / 0.5f, 0.0f, 1.0f);  // 0 blue .. 0.5 and more red
+      const ImU32 colour = ImGui::ColorConvertFloat4ToU32(ImVec4(t, 0.2f * (1.0f - t), 1.0f - t, 0.55f));
+      dl->AddRectFilled(ImVec2(static_cast<float>(c) * w, static_cast<float>(r) * h),
+                        ImVec2(static_cast<float>(c + 1) * w, static_cast<float>(r + 1) * h), colour);
+    }
+}
+
+// Every IrradianceProbeGrid: its bounds always, its nodes once baked.
+void draw_overlay(ViewContext& view, ImDrawList* dl) {
+  const State& s = state();
+  if (s.error_map) draw_error_map(*s.error_map, view.size, dl);
+  const ProbeOverlay& options = s.overlay;
+  World& world = view.world;
+  for (Entity e : world.view<IrradianceProbeGrid, WorldTransform>().sorted_entities()) {
+    const IrradianceProbeGrid& grid = world.get<IrradianceProbeGrid>(e);
+    const ProbeGridData* data = grid.data.get();
+    // Bounds: of the baked layout when there is data, else of the authored settings.
+    if (options.bounds) {
+      if (data) {
+        draw_box(dl, view.camera, view.size, data->layout.grid_to_world, IM_COL32(255, 220, 60, 220));
+      } else if (auto layout = probe_grid_layout(grid, world.get<WorldTransform>(e).matrix, "probe grid"); layout) {
+        draw_box(dl, view.camera, view.size, layout->grid_to_world, IM_COL32(255, 220, 60, 140));
+      }
+    }
+    if (!data || (!options.probes && !options.invalid)) continue;
+    const std::size_t count = data->node_count();
+    const std::size_t stride =
+        std::max<std::size_t>(1, count / static_cast<std::size_t>(std::max(options.max_points, 1)));
+    const glm::uvec3 r = data->layout.resolution;
+    for (std::size_t n = 0; n < count; n += stride) {
+      const glm::uvec3 ijk(static_cast<unsigned>(n % r.x), static_cast<unsigned>((n / r.x) % r.y),
+                           static_cast<unsigned>(n / (std::size_t{r.x} * r.y)));
+      const auto p = project(view.camera, data->layout.node_position(ijk), view.size);
+      if (!p || p->x < 0 || p->y < 0 || p->x > view.size.x || p->y > view.size.y) continue;
+      const bool invalid = data->filled[n] != 0;
+      if (invalid && options.invalid) {
+        dl->AddCircle(ImVec2(p->x, p->y), 4.0f, IM_COL32(255, 40, 40, 255), 8, 2.0f);
+      } else if (!invalid && options.probes) {
+        const glm::vec3 c =
+            irradiance_colour(sh_evaluate_non_negative(data->node(n), glm::vec3(0, 1, 0)), options.exposure);
+        dl->AddCircleFilled(ImVec2(p->x, p->y), 3.5f, to_imgui(c));
+        dl->AddCircle(ImVec2(p->x, p->y), 3.5f, IM_COL32(0, 0, 0, 160), 8, 1.0f);
+      }
+    }
+  }
+}
+
+CostPlotSource cost_plot(World& w, Entity e) {
+  if (!w.alive(e) || !w.has<IrradianceProbeGrid>(e)) return {"probe-grid", "rmse", "", ""};
+  const IrradianceProbeGrid& g = w.get<IrradianceProbeGrid>(e);
+  return {"probe-grid", "rmse", "mode", std::string(to_string(g.sampling)) + (g.leak_guard ? "+guard" : "")};
+}
+
+}  // namespace
+
+PENUMBRA_EDITOR_EXTENSION({.module = "probe-grid",
+                           .tag = "probes",
+                           .applies = applies,
+                           .inspector = inspector,
+                           .view_options = view_options,
+                           .draw_overlay = draw_overlay,
+                           .cost_plot = cost_plot});
+
+}  // namespace penumbra::editor
