@@ -34,8 +34,8 @@ struct BakeRequest {
   bool low_priority = true;    // nice the bake threads so the UI thread wins the CPU
 };
 
-// The bakers that bake entity `e`'s components ("probe-grid" for a grid, "ao-field" for a caster,
-// "pose-ao" for a skinned mesh with SkinnedPoseAO).
+// The bakers that bake entity `e`'s components: the modules whose authoring component (the one
+// with presets, LightingModule::components) the entity has.
 std::vector<std::string> bakers_for(World& world, Entity e);
 
 struct BakeStage {

@@ -58,8 +58,8 @@ std::string format_field_value(const FieldDesc& field, const FieldValue& value);
 
 // A quality preset of a lighting component, applied by the inspector and by `preset ENTITY WHAT P`.
 struct ComponentPreset {
-  std::string technique;  // the script's word: the module's name, e.g. "probe-grid"
-  std::string component;  // e.g. "IrradianceProbeGrid"
+  std::string technique;  // the script's word: the module's name (LightingModule::name)
+  std::string component;  // its component's type name (ComponentInfo::name)
   std::function<bool(World&, Entity)> present;
   // Sets the preset's quality knobs with World::patch, keeping placement (box, priority, blending)
   // and baked data.

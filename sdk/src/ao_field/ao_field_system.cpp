@@ -132,12 +132,8 @@ namespace {
 Status attach_ao_field(World& world, const BakeChunk& chunk, const EntityKeys& keys) {
   auto data = read_ao_field_chunk(chunk);
   if (!data) return data.error();
-  const std::string context = "chunk 'AOFC' (" + chunk.label + ")";
-  auto e = keys.find(data->key, context);
+  auto e = keyed_owner<AOFieldCaster>(world, keys, data->key, "chunk 'AOFC' (" + chunk.label + ")", "AOFieldCaster");
   if (!e) return e.error();
-  if (!world.has<AOFieldCaster>(*e))
-    return make_error(ErrorCode::NotFound, context + ": entity '" + data->key +
-                                               "' has no AOFieldCaster in this World; re-bake the scene");
   world.patch<AOFieldCaster>(*e).data = std::make_shared<const AOFieldData>(std::move(*data));
   return {};
 }

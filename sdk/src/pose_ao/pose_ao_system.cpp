@@ -65,11 +65,11 @@ Status attach_pose_ao(World& world, const BakeChunk& chunk, const EntityKeys& ke
   auto data = read_pose_ao_chunk(chunk);
   if (!data) return data.error();
   const std::string context = "chunk 'PSAO' (" + chunk.label + ")";
-  auto e = keys.find(data->key, context);
+  auto e = keyed_owner<SkinnedPoseAO>(world, keys, data->key, context, "SkinnedPoseAO");
   if (!e) return e.error();
-  const Mesh* mesh = world.has<SkinnedPoseAO>(*e) ? world.try_get<Mesh>(*e) : nullptr;
+  const Mesh* mesh = world.try_get<Mesh>(*e);
   if (mesh == nullptr || !mesh->data || mesh->data->positions.size() != data->vertex_count)
-    return make_error(ErrorCode::NotFound, context + ": entity '" + data->key + "' has no SkinnedPoseAO on a mesh of " +
+    return make_error(ErrorCode::NotFound, context + ": entity '" + data->key + "' has no mesh of " +
                                                std::to_string(data->vertex_count) +
                                                " vertices in this World; re-bake the scene");
   world.patch<SkinnedPoseAO>(*e).data = std::make_shared<const PoseAOData>(std::move(*data));

@@ -150,12 +150,9 @@ namespace {
 Status attach_probe_grid(World& world, const BakeChunk& chunk, const EntityKeys& keys) {
   auto data = read_probe_grid_chunk(chunk);
   if (!data) return data.error();
-  const std::string context = "chunk 'PRBG' (" + chunk.label + ")";
-  auto e = keys.find(data->key, context);
+  auto e = keyed_owner<IrradianceProbeGrid>(world, keys, data->key, "chunk 'PRBG' (" + chunk.label + ")",
+                                            "IrradianceProbeGrid");
   if (!e) return e.error();
-  if (!world.has<IrradianceProbeGrid>(*e))
-    return make_error(ErrorCode::NotFound, context + ": entity '" + data->key +
-                                               "' has no IrradianceProbeGrid in this World; re-bake the scene");
   world.patch<IrradianceProbeGrid>(*e).data = std::make_shared<const ProbeGridData>(std::move(*data));
   return {};
 }

@@ -50,6 +50,20 @@ struct LightingModule {
   bool owns(std::uint32_t chunk_type) const;
 };
 
+// The entity that a chunk's key names, which must have component C (an attach function's first
+// step). NotFound naming `context`, the key and `component` when no entity has the key or it lacks
+// the component (re-bake the scene); InvalidInput when the key is ambiguous.
+template <class C>
+Result<Entity> keyed_owner(const World& world, const EntityKeys& keys, std::string_view key, std::string_view context,
+                           std::string_view component) {
+  auto e = keys.find(key, context);
+  if (!e) return e.error();
+  if (!world.has<C>(*e))
+    return make_error(ErrorCode::NotFound, std::string(context) + ": entity '" + std::string(key) + "' has no " +
+                                               std::string(component) + " in this World; re-bake the scene");
+  return *e;
+}
+
 // "<module name>:<entity key>": a chunk's label, for people and for telling one entity's chunk from
 // another's (the key itself is in the payload). A label longer than kPbakeMaxLabel bytes keeps the
 // key's tail: "<module name>:~<last bytes of the key>".
