@@ -30,14 +30,14 @@ struct ViewContext {
   World& world;
   Entity selection;
   const CameraView& camera;  // this frame's
-  glm::vec2 size;            // the viewport, pixels
+  glm::vec2 size;            // the viewport, pixels (zero for the View panel's controls)
   std::string& message;      // the status bar (errors and notices)
 };
 
 struct EditorExtension {
   std::string module;  // LightingModule::name
   std::string tag;     // shown in the hierarchy after entities it applies to, e.g. "probes"
-  bool (*applies)(World& world, Entity e) = nullptr;  // the entity has the module's authoring component
+  bool (*applies)(World& world, Entity e);  // the entity has the module's authoring component (required)
   // Inspector lines under the entity's fields: its baked data, its runtime outputs (called for every
   // selected entity; it shows nothing when the entity has none of the module's components).
   void (*inspector)(World& world, Entity e) = nullptr;

@@ -104,6 +104,14 @@ const char* to_string(BakeStatus::State state) {
   return "idle";
 }
 
+std::string bakeable_components() {
+  std::string out;
+  for (const LightingModule* m : lighting_modules())
+    for (const ComponentInfo* c : m->components)
+      if (c->set_preset_fields != nullptr) out += (out.empty() ? "" : " or ") + std::string(c->name);
+  return out;
+}
+
 std::vector<std::string> bakers_for(World& world, Entity e) {
   // The modules whose authoring component (the one with presets) the entity has.
   std::vector<std::string> names;
@@ -139,8 +147,8 @@ Status BakeController::start(Document& doc, const BakeRequest& request) {
     }
   if (!request.entities.empty() && request.bakers.empty())
     return make_error(ErrorCode::InvalidArgument,
-                      "bake selection: the selected entities have no lighting component to bake; select a probe grid, "
-                      "an AO-field caster or a skinned mesh with pose-AO");
+                      "bake selection: the selected entities have no lighting component to bake; select an entity "
+                      "with " + bakeable_components());
 
   std::shared_ptr<World> snap = snapshot(world, request.entities);
   {

@@ -3,7 +3,7 @@
 // the live World; when the bake finishes, poll() (main thread) attaches the results to the
 // document and they show up in the next frame.
 //
-// The snapshot keeps entity indices (baked chunks name entities by index) and copies what the
+// The snapshot keeps entity indices (and each entity's key, scene/entity_key.h, so the chunks name the document's entities) and copies what the
 // bakers read: transforms, meshes, materials, lights, the Static tag, names, the hierarchy, skins
 // and animators (their entity handles remapped to the snapshot's) and the lighting components
 // being baked (all of them, or the selection's). A module whose baker reads another
@@ -34,6 +34,8 @@ struct BakeRequest {
   bool low_priority = true;    // nice the bake threads so the UI thread wins the CPU
 };
 
+// The authoring components a selection bake can bake, for messages: "IrradianceProbeGrid or ...".
+std::string bakeable_components();
 // The bakers that bake entity `e`'s components: the modules whose authoring component (the one
 // with presets, LightingModule::components) the entity has.
 std::vector<std::string> bakers_for(World& world, Entity e);

@@ -51,11 +51,16 @@ std::string Document::label(Entity e) {
 
 Status Document::attach(BakeFile file) {
   PENUMBRA_TRY(attach_bake(world_, file));
-  // Keep the chunks: replace those of the same type and label.
+  // Keep the chunks: replace those of the same type and entity key (a scene-wide chunk, by type).
+  const auto key_of = [](const BakeChunk& c) {
+    const LightingModule* m = lighting_module_for_chunk(c.type);
+    return m != nullptr && m->chunk_key ? m->chunk_key(c) : c.label;
+  };
   for (BakeChunk& chunk : file.chunks) {
     bool replaced = false;
+    const std::string key = key_of(chunk);
     for (BakeChunk& kept : baked_.chunks)
-      if (kept.type == chunk.type && kept.label == chunk.label) {
+      if (kept.type == chunk.type && key_of(kept) == key) {
         kept = std::move(chunk);
         replaced = true;
         break;

@@ -18,8 +18,8 @@ namespace penumbra::editor {
 class Document {
  public:
   // Loads `source` ("builtin:NAME" or a .gltf/.glb path) into a new World with every module's
-  // systems and bakers (the tool's load_world; built-in scenes get a default probe grid with
-  // `preset`, named "probe grid"). Errors name the source and say how to fix it.
+  // systems and bakers (the tool's load_world; built-in scenes get every module's default
+  // components with `preset`). Errors name the source and say how to fix it.
   static Result<std::unique_ptr<Document>> open(std::string_view source, Preset preset = Preset::Medium);
 
   World& world() { return world_; }
@@ -36,7 +36,7 @@ class Document {
   std::string label(Entity e);
 
   // Attaches a bake's chunks to the components they belong to (attach_bake) and
-  // keeps them: chunks replace kept ones of the same type and label, the others stay (a bake of
+  // keeps them: chunks replace kept ones of the same type and entity key, the others stay (a bake of
   // the selection updates only its chunks). Errors name the chunk; nothing is kept then.
   Status attach(BakeFile file);
   // Reads and attaches a .pbake file (replacing what was kept).

@@ -26,8 +26,8 @@ Status EditorModel::bake_selection() {
   if (!document_) return make_error(ErrorCode::InvalidArgument, "bake: no scene is open; open one first");
   const Entity e = document_->selection();
   if (!document_->world().alive(e))
-    return make_error(ErrorCode::InvalidArgument, "bake selection: nothing is selected; select a probe grid, an "
-                                                  "AO-field caster or a skinned mesh with pose-AO");
+    return make_error(ErrorCode::InvalidArgument,
+                      "bake selection: nothing is selected; select an entity with " + bakeable_components());
   BakeRequest request;
   request.bakers = bakers_for(document_->world(), e);
   request.entities = {e};

@@ -259,7 +259,12 @@ Result<FieldValue> parse_field_value(const FieldDesc& f, std::string_view text) 
 
 Status check_field_value(const FieldDesc& f, const FieldValue& value) {
   const std::string where = f.component + "." + f.name + ": ";
-  const auto in_range = [&](double v) { return std::isfinite(v) && v >= f.min && v <= f.max; };
+  // Float kinds compare with the bounds as floats (a bound like 0.999 is accepted).
+  const bool single = f.kind == FieldKind::Float || f.kind == FieldKind::Vec2 || f.kind == FieldKind::Vec3 ||
+                      f.kind == FieldKind::Color;
+  const double lo = single ? static_cast<double>(static_cast<float>(f.min)) : f.min;
+  const double hi = single ? static_cast<double>(static_cast<float>(f.max)) : f.max;
+  const auto in_range = [&](double v) { return std::isfinite(v) && v >= lo && v <= hi; };
   const auto out_of_range = [&] {
     return make_error(ErrorCode::InvalidArgument,
                       where + "the value is outside " + range_text(f) + "; give a finite value in that range");

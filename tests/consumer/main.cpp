@@ -42,7 +42,9 @@ int main(int argc, char** argv) {
   if (!(e.x > 0.0f && std::isfinite(e.x))) return fail("probe irradiance is not positive");
 
   // AO fields: the walker (an Entity receiver) is occluded by the crates by some amount in [0, 1).
-  const Entity walker = *EntityKeys::build(world).find("character/character_mesh", "consumer");
+  auto found = EntityKeys::build(world).find("character/character_mesh", "consumer");
+  if (!found) return fail("walker", found.error().message);
+  const Entity walker = *found;
   const AOFieldReceiver* receiver = world.try_get<AOFieldReceiver>(walker);
   std::size_t casters = 0;
   world.view<AOFieldCaster>().each([&](AOFieldCaster& c) { casters += c.data ? 1 : 0; });

@@ -30,13 +30,15 @@ const LightingModule* lighting_module_for_chunk(std::uint32_t type);
 void register_lighting(World& world);
 
 // Every module's add_defaults (module.h) in the modules' order, then one world.update(0) so that
-// the new components' transforms are current. Stops at the first error.
+// the new components' transforms are current. A module that fails does not stop the others; the
+// first error is returned.
 Status add_default_lighting(World& world, Preset preset, bool authored);
 
 // Attaches every chunk of `file` to the entities its keys name, through the module that owns the
 // chunk's type (chunks of types no linked module owns are skipped with a logged warning). Fails at
 // the first chunk that is corrupt or names a key this World lacks (the error names the chunk and
-// the key). Cost: O(entities) to index the keys, then each module's attach.
+// the key); the chunks before it stay attached. Cost: O(entities) to index the keys, then each
+// module's attach.
 Status attach_bake(World& world, const BakeFile& file);
 
 }  // namespace penumbra

@@ -17,6 +17,7 @@
 
 #include "penumbra/bake/baker.h"
 #include "penumbra/bake/ray_scene.h"
+#include "penumbra/core/hash.h"
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/ecs/transform.h"
@@ -90,16 +91,21 @@ Result<std::vector<BakeChunk>> bake_fields(BakeInputs& in) {
     const auto shared = std::find_if(baked.begin(), baked.end(), [&](const Baked& b) {
       return b.mesh == mesh && same_settings(b.settings, caster);
     });
+    auto key = bake_key(in, e, context);
+    if (!key) return key.error();
     AOFieldData data;
     if (shared != baked.end()) {
       data = *shared->data;
     } else {
-      auto fresh = bake_ao_field(caster, *mesh, in.settings.seed ^ e.index, in.jobs, in.budget, context);
+      // The caster's random streams follow its key, not its index: the same scene built in another
+      // order bakes the same field.
+      Hasher seed;
+      seed.add(in.settings.seed);
+      seed.add(std::string_view(*key));
+      auto fresh = bake_ao_field(caster, *mesh, seed.digest(), in.jobs, in.budget, context);
       if (!fresh) return fresh.error();
       data = std::move(*fresh);
     }
-    auto key = bake_key(in, e, context);
-    if (!key) return key.error();
     data.key = std::move(*key);
     chunks.push_back(write_ao_field_chunk(data));
     auto ptr = std::make_shared<const AOFieldData>(std::move(data));

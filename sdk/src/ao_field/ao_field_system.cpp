@@ -145,17 +145,18 @@ Status add_defaults(World& world, Preset preset, bool authored) {
 }
 
 constexpr std::uint32_t kChunkTypes[] = {kAOFieldChunkType};
-const ComponentInfo* const kComponents[] = {&ao_field_caster_info(), &ao_field_receiver_info()};
 
 }  // namespace
 
 const LightingModule& ao_field_module() {
+  static const ComponentInfo* const components[] = {&ao_field_caster_info(), &ao_field_receiver_info()};
   static const LightingModule module{
       .name = "ao-field",
       .description = "ambient occlusion fields of moving rigid casters (Kontkanen & Laine 2005)",
       .chunk_types = kChunkTypes,
-      .components = kComponents,
+      .components = components,
       .register_runtime = register_ao_field_system,
+      .chunk_key = leading_chunk_key,
       .attach = attach_ao_field,
       .describe = describe_ao_field_chunk,
       .add_defaults = add_defaults,

@@ -41,6 +41,20 @@ Result<std::string> bake_key(const BakeInputs& in, Entity e, std::string_view wh
   return key;
 }
 
+Result<std::vector<std::string>> bake_keys(const BakeInputs& in, const std::vector<Entity>& entities,
+                                           std::string_view what) {
+  std::vector<std::string> keys;
+  keys.reserve(entities.size());
+  for (Entity e : entities) {
+    const Name* name = in.world.try_get<Name>(e);
+    auto key = bake_key(in, e, std::string(what) + (name ? " '" + name->value + "'" : std::string()) + " (entity " +
+                                   std::to_string(e.index) + ")");
+    if (!key) return key.error();
+    keys.push_back(std::move(*key));
+  }
+  return keys;
+}
+
 void BakerRegistry::add(Baker baker) {
   for (Baker& b : bakers_)
     if (b.name == baker.name) {
@@ -58,7 +72,7 @@ const Baker* BakerRegistry::find(std::string_view name) const {
 
 void hash_scene(World& world, Hasher& h) {
   for (Entity e : world.view<Mesh>().sorted_entities()) {
-    h.add(e.index);
+    h.add(std::string_view(entity_key(world, e)));
     const Mesh& mesh = world.get<Mesh>(e);
     if (mesh.data) {
       h.add(mesh.data->positions);
@@ -77,7 +91,7 @@ void hash_scene(World& world, Hasher& h) {
     }
   }
   for (Entity e : world.view<Light>().sorted_entities()) {
-    h.add(e.index);
+    h.add(std::string_view(entity_key(world, e)));
     const Light& l = world.get<Light>(e);
     h.add(l.type);
     h.add(l.color);

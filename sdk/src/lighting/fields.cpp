@@ -79,7 +79,12 @@ Status check_field_value(const FieldInfo& f, const FieldValue& v) {
   for (int i = 0; i < n; ++i) {
     if (!std::isfinite(values[i]))
       return make_error(ErrorCode::InvalidArgument, where + " is NaN or infinite; give a finite value");
-    if (ranged && (values[i] < f.min || values[i] > f.max)) {
+    // Float fields are compared with the bounds as floats, so that a bound like 0.999 is accepted.
+    const bool single = f.type == FieldType::Float || f.type == FieldType::Vec2 || f.type == FieldType::Vec3 ||
+                        f.type == FieldType::Color;
+    const double lo = single ? static_cast<double>(static_cast<float>(f.min)) : f.min;
+    const double hi = single ? static_cast<double>(static_cast<float>(f.max)) : f.max;
+    if (ranged && (values[i] < lo || values[i] > hi)) {
       std::string message = where + " = " + number(values[i]) + unit + " is outside " + number(f.min) + ".." +
                             number(f.max) + unit;
       if (f.type == FieldType::Enum) {

@@ -658,14 +658,16 @@ Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& set
 namespace {
 
 Result<std::vector<BakeChunk>> bake_all(BakeInputs& in) {
+  const std::vector<Entity> meshes = pose_ao_meshes(in.world);
+  auto keys = bake_keys(in, meshes, "pose-AO mesh");
+  if (!keys) return keys.error();
   std::vector<BakeChunk> chunks;
-  for (Entity e : pose_ao_meshes(in.world)) {
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    const Entity e = meshes[i];
     const SkinnedPoseAO settings = in.world.get<SkinnedPoseAO>(e);
     auto data = bake_pose_ao(in.world, e, settings, in.settings.seed, in.jobs, in.budget);
     if (!data) return data.error();
-    auto key = bake_key(in, e, "pose-AO mesh (entity " + std::to_string(e.index) + ")");
-    if (!key) return key.error();
-    data->key = std::move(*key);
+    data->key = std::move((*keys)[i]);
     chunks.push_back(write_pose_ao_chunk(*data));
     // Attach what the file holds (16-bit coefficients), so the runtime matches a reload.
     auto stored = read_pose_ao_chunk(chunks.back());

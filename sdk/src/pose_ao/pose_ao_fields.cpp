@@ -30,7 +30,7 @@ constexpr FieldInfo kFields[] = {
     member<&SkinnedPoseAO::range_margin>({.name = "range_margin", .type = T::Float, .min = 0, .max = 100,
                                           .help = "clip ranges widened by this fraction on each side",
                                           .hashed = true, .speed = 0.005f}),
-    member<&SkinnedPoseAO::default_range>({.name = "default_range", .type = T::Float, .min = 0, .max = 3.1415926,
+    member<&SkinnedPoseAO::default_range>({.name = "default_range", .type = T::Float, .min = 0, .max = 3.1416,
                                            .unit = "rad", .help = "+- range of every joint without clips",
                                            .hashed = true, .speed = 0.005f}),
 };

@@ -83,17 +83,18 @@ Status add_defaults(World& world, Preset preset, bool) {
 }
 
 constexpr std::uint32_t kChunkTypes[] = {kPoseAOChunkType};
-const ComponentInfo* const kComponents[] = {&skinned_pose_ao_info()};
 
 }  // namespace
 
 const LightingModule& pose_ao_module() {
+  static const ComponentInfo* const components[] = {&skinned_pose_ao_info()};
   static const LightingModule module{
       .name = "pose-ao",
       .description = "skinned pose-AO (per-vertex linear AO in the joint rotations, Kontkanen & Aila 2006)",
       .chunk_types = kChunkTypes,
-      .components = kComponents,
+      .components = components,
       .register_runtime = register_pose_ao_system,
+      .chunk_key = leading_chunk_key,
       .attach = attach_pose_ao,
       .describe = describe_pose_ao_chunk,
       .add_defaults = add_defaults,

@@ -1,4 +1,4 @@
-// Probe-grid bake (see probe_baker.h): Kontkanen & Laine 2006, "Sampling Precomputed Volumetric
+// Probe-grid bake (see probe_grid_baker.h): Kontkanen & Laine 2006, "Sampling Precomputed Volumetric
 // Lighting", section 3 (supersampling over the trilinear basis functions, the domain of interest)
 // against the point-sampled irradiance volume of Greger et al. 1998.
 #include "penumbra/probe_grid/probe_grid_baker.h"
@@ -392,16 +392,17 @@ std::string grid_context(World& world, Entity e) {
 
 Result<std::vector<BakeChunk>> bake_probes(BakeInputs& in) {
   const std::vector<Entity> entities = grid_entities(in.world);
+  auto keys = bake_keys(in, entities, "probe grid");
+  if (!keys) return keys.error();
   const std::vector<WorldLight> lights = gather_lights(in.world);
   std::vector<BakeChunk> chunks;
-  for (Entity e : entities) {
+  for (std::size_t i = 0; i < entities.size(); ++i) {
+    const Entity e = entities[i];
     const IrradianceProbeGrid grid = in.world.get<IrradianceProbeGrid>(e);
     auto data = bake_probe_grid(grid, in.world.get<WorldTransform>(e).matrix, in.rays, lights, in.settings.seed,
                                 in.jobs, in.budget, grid_context(in.world, e));
     if (!data) return data.error();
-    auto key = bake_key(in, e, grid_context(in.world, e));
-    if (!key) return key.error();
-    data->key = std::move(*key);
+    data->key = std::move((*keys)[i]);
     chunks.push_back(write_probe_grid_chunk(*data));
     in.world.patch<IrradianceProbeGrid>(e).data = std::make_shared<const ProbeGridData>(std::move(*data));
   }

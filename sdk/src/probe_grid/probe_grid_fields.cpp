@@ -30,7 +30,7 @@ constexpr FieldInfo kGridFields[] = {
     member<&IrradianceProbeGrid::resolution>({.name = "resolution", .type = T::Count3, .min = 0, .max = 4096,
                                               .unit = "nodes", .help = "nodes per axis (each >= 2); 0 0 0 derives them from spacing",
                                               .hashed = true, .speed = 0.1f}),
-    member<&IrradianceProbeGrid::spacing>({.name = "spacing", .type = T::Float, .min = 1e-3, .max = 1e6, .unit = "m",
+    member<&IrradianceProbeGrid::spacing>({.name = "spacing", .type = T::Float, .min = 0, .max = 1e6, .unit = "m",
                                            .help = "distance between nodes when resolution is 0", .preset = true,
                                            .hashed = true}),
     {.name = "sh_order", .type = T::Enum, .min = 0, .max = 1, .choices = kOrders,

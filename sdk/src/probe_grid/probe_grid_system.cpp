@@ -164,17 +164,18 @@ Status add_defaults(World& world, Preset preset, bool authored) {
 }
 
 constexpr std::uint32_t kChunkTypes[] = {kProbeGridChunkType};
-const ComponentInfo* const kComponents[] = {&irradiance_probe_grid_info(), &probe_lit_info()};
 
 }  // namespace
 
 const LightingModule& probe_grid_module() {
+  static const ComponentInfo* const components[] = {&irradiance_probe_grid_info(), &probe_lit_info()};
   static const LightingModule module{
       .name = "probe-grid",
       .description = "irradiance probe grids (SH per node, point, supersampled (Kontkanen & Laine 2006) or fitted)",
       .chunk_types = kChunkTypes,
-      .components = kComponents,
+      .components = components,
       .register_runtime = register_probe_grid_system,
+      .chunk_key = leading_chunk_key,
       .attach = attach_probe_grid,
       .describe = describe_probe_grid_chunk,
       .add_defaults = add_defaults,

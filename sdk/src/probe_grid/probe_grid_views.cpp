@@ -1,4 +1,4 @@
-// The probe grid's error heat map against the reference (error_map.h).
+// The probe grid's error heat map against the reference (probe_grid_views.h).
 #include "probe_grid_views.h"
 
 #include <chrono>

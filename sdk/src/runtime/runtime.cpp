@@ -40,10 +40,12 @@ void register_lighting(World& world) {
 }
 
 Status add_default_lighting(World& world, Preset preset, bool authored) {
+  Status first;
   for (const LightingModule* m : lighting_modules())
-    if (m->add_defaults) PENUMBRA_TRY(m->add_defaults(world, preset, authored));
+    if (m->add_defaults)
+      if (Status s = m->add_defaults(world, preset, authored); !s && first) first = s;
   world.update(0.0);
-  return {};
+  return first;
 }
 
 Status attach_bake(World& world, const BakeFile& file) {

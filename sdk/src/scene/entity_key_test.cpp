@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
 
@@ -35,6 +37,30 @@ TEST(EntityKey, NamePathBelowTheRootWithDuplicateSiblingsNumbered) {
   EXPECT_EQ(entity_key(w, unnamed), "");
   EXPECT_EQ(entity_key(w, named(w, "child", unnamed)), "child");  // an unnamed root is left out too
   EXPECT_EQ(entity_key(w, Entity::null()), "");
+  // A host key on an ancestor prefixes its subtree; on the root, every key below it.
+  w.add<EntityKey>(body, EntityKey{"hero"});
+  EXPECT_EQ(entity_key(w, mesh), "hero/mesh");
+  w.add<EntityKey>(root, EntityKey{"level-2"});
+  EXPECT_EQ(entity_key(w, named(w, "Floor", root)), "level-2/Floor");
+  // An unnamed node on the path leaves no key; the index gives the same keys as one by one.
+  const Entity hidden = w.create();
+  set_parent(w, hidden, root);
+  EXPECT_EQ(entity_key(w, named(w, "leaf", hidden)), "");
+  const EntityKeys keys = EntityKeys::build(w);
+  for (Entity e : {body, mesh, twin, third})
+    EXPECT_EQ(*keys.find(entity_key(w, e), "test"), e) << entity_key(w, e);
+}
+
+// Ten thousand siblings under one root: the index is built in linear time (a quadratic sibling scan
+// would take seconds) and numbers the shared names in order.
+TEST(EntityKey, ManySiblingsAreIndexedOnceEach) {
+  World w;
+  const Entity root = named(w, "scene");
+  std::vector<Entity> crates;
+  for (int i = 0; i < 10000; ++i) crates.push_back(named(w, "crate", root));
+  const EntityKeys keys = EntityKeys::build(w);
+  EXPECT_EQ(*keys.find("crate", "test"), crates[0]);
+  EXPECT_EQ(*keys.find("crate[9999]", "test"), crates[9999]);
 }
 
 // The same scene created in another order (other indices) resolves each key to the same node.

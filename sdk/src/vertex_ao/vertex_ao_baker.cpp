@@ -39,6 +39,8 @@ namespace {
 Result<std::vector<BakeChunk>> bake_vertex_ao(BakeInputs& in) {
   const VertexAoSettings settings = VertexAoSettings::preset(in.settings.preset);
   const std::vector<Entity> entities = static_meshes(in.world);
+  auto keys = bake_keys(in, entities, "vertex-AO mesh");
+  if (!keys) return keys.error();
 
   // Gather every vertex in world space; normals by the inverse transpose.
   std::size_t total = 0;
@@ -66,7 +68,9 @@ Result<std::vector<BakeChunk>> bake_vertex_ao(BakeInputs& in) {
   ao.max_distance = settings.max_distance;
   ao.rays = settings.rays;
   ao.seed = in.settings.seed;
-  PENUMBRA_TRY(ambient_occlusion(in.rays, points, ao, estimates, in.jobs));
+  const Status traced = ambient_occlusion(in.rays, points, ao, estimates, in.jobs);
+  in.budget.release(total * (sizeof(SurfacePoint) + sizeof(AoEstimate)));
+  PENUMBRA_TRY(traced);
 
   VertexAoData data;
   data.max_distance = settings.max_distance;
@@ -74,14 +78,11 @@ Result<std::vector<BakeChunk>> bake_vertex_ao(BakeInputs& in) {
   std::size_t next = 0;
   for (Entity e : entities) {
     VertexAoData::Entry entry;
-    auto key = bake_key(in, e, "vertex-AO mesh (entity " + std::to_string(e.index) + ")");
-    if (!key) return key.error();
-    entry.key = std::move(*key);
+    entry.key = std::move((*keys)[data.entries.size()]);
     entry.ao.resize(in.world.get<Mesh>(e).data->positions.size());
     for (float& a : entry.ao) a = estimates[next++].value;
     data.entries.push_back(std::move(entry));
   }
-  in.budget.release(total * (sizeof(SurfacePoint) + sizeof(AoEstimate)));
   std::vector<BakeChunk> chunks;
   chunks.push_back(write_vertex_ao_chunk(data));
   return chunks;

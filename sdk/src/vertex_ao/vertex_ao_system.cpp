@@ -65,6 +65,7 @@ const LightingModule& vertex_ao_module() {
       .description = "per-vertex ambient occlusion of static meshes",
       .chunk_types = kChunkTypes,
       .register_runtime = nullptr,
+      .chunk_key = [](const BakeChunk&) { return std::string(); },  // one chunk for every mesh
       .attach = attach_vertex_ao,
       .describe = describe_vertex_ao,
       .add_defaults = nullptr,  // it bakes every Static mesh

@@ -81,7 +81,7 @@ struct AOFieldCaster {
   float inside_occlusion = 1.0f;
   float inside_exponent = 2.0f;
 
-  // The baked data (set by the baker or attach_ao_fields()); null until baked.
+  // The baked data (set by the baker or attach_bake(), penumbra/runtime.h); null until baked.
   std::shared_ptr<const AOFieldData> data;
 
   // Quality presets (radial fit): draft 8x8 per face, 16 radii, 64 rays; medium 16x16, 32 radii,

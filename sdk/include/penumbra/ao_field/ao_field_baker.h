@@ -2,7 +2,7 @@
 // the convex-hull distance r0, the caster's true solid angle and average occluded direction at
 // log-spaced radii from the hull to the falloff distance (ray traced against the caster alone),
 // the fit of Omega(r) = 1 / (a r^2 + b r + c) with a positive denominator, and the fit of C0; the
-// "AOFC" .pbake chunk; the baker registration.
+// baker registration (the AOFC chunk: ao_field.h).
 //
 // Steps, per texel direction w (field origin: the area-weighted centroid of the surface, which
 // lies inside the convex hull):

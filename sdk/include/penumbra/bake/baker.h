@@ -46,6 +46,10 @@ struct BakeInputs {
 // (the entity, e.g. "probe grid 'hall' (entity 12)") when it has no key or shares it with another
 // entity: give it a unique Name or an EntityKey.
 Result<std::string> bake_key(const BakeInputs& in, Entity e, std::string_view what);
+// bake_key of each of `entities`, before any ray is traced: the first without a unique key fails
+// the bake, named as "<what> '<Name>' (entity <index>)".
+Result<std::vector<std::string>> bake_keys(const BakeInputs& in, const std::vector<Entity>& entities,
+                                           std::string_view what);
 
 struct Baker {
   std::string name;         // the module's name, what `--only` names, e.g. "vertex-ao"
@@ -55,7 +59,7 @@ struct Baker {
   // so that an unchanged scene is not baked again.
   std::function<void(World&, const BakeSettings&, Hasher&)> hash_inputs;
   std::function<Result<std::vector<BakeChunk>>(BakeInputs&)> bake;
-  // Human-readable lines about one of its chunks, for `penumbra info`; empty when not its chunk.
+  // Human-readable lines about one of its chunks (the module's describe, LightingModule).
   std::function<std::vector<std::string>(const BakeChunk&)> describe;
 };
 
@@ -73,8 +77,8 @@ class BakerRegistry {
   std::vector<Baker> bakers_;
 };
 
-// Hashes the geometry, materials, lights and transforms of every entity with a Mesh or Light, in
-// entity order: the part of the input hash that every baker shares.
+// Hashes the geometry, materials, lights and transforms of every entity with a Mesh or Light, with
+// its entity key, in entity order: the part of the input hash that every baker shares.
 void hash_scene(World& world, Hasher& hasher);
 
 // The input hash of a bake of `names` with `settings` (the seed included, the thread count not).

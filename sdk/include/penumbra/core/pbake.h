@@ -71,7 +71,7 @@ struct BakeFile {
 
 // The first check of every chunk reader: InvalidArgument when `chunk` is not of `type`, Unsupported
 // when its layout version is not `version` (naming both and asking for a re-bake). `context`
-// names the chunk in the message, e.g. "chunk 'PRBG' (probes:12)".
+// names the chunk in the message, e.g. "chunk 'PRBG' (probe-grid:hall)".
 Status check_chunk(const BakeChunk& chunk, std::uint32_t type, std::uint32_t version, std::string_view context);
 
 // What the header and chunk table say, without reading the payloads.

@@ -2,8 +2,8 @@
 // whether a quality preset sets it and whether it enters the bake's input hash. Everything that
 // needs to know a component's settings is derived from its list: the range checks of the module's
 // validation (check_fields), the baker's input hash (hash_fields), the preset policy
-// (apply_preset: preset fields from the preset, the rest kept), the editor's inspector rows and
-// script syntax, and the glTF extension. A module defines its lists in <module>_fields.cpp with
+// (apply_preset: preset fields from the preset, the rest kept), and the editor's inspector rows
+// and script syntax. A module defines its lists in <module>_fields.cpp with
 // the helpers of field_list.h and lists them in its descriptor (LightingModule::components).
 #pragma once
 
@@ -41,7 +41,7 @@ enum class FieldType : std::uint8_t {
 };
 
 struct FieldInfo {
-  std::string_view name;  // e.g. "samples_per_node": the inspector row, the script's and glTF's key
+  std::string_view name;  // e.g. "samples_per_node": the inspector row and the script's key
   FieldType type = FieldType::Float;
   double min = -1e30, max = 1e30;             // accepted range (scalars and each vector component)
   std::span<const std::string_view> choices;  // Enum: the values' names, index = stored value
@@ -81,7 +81,7 @@ Status check_field_value(const FieldInfo& field, const FieldValue& value);
 Status check_fields(const ComponentInfo& info, const void* component, std::string_view context);
 // Adds every hashed field of `component`, in list order, to `hasher`: the input hash of its
 // settings. A field the bake reads must be hashed, else an edit leaves the bake cache stale
-// (lighting_fields_test changes each field in turn).
+// (lighting_modules_test changes each field in turn).
 void hash_fields(const ComponentInfo& info, const void* component, Hasher& hasher);
 // Sets the preset's value of every preset field of the component of `e` (World::patch), keeping
 // every other field and the baked data. Precondition: info.present(world, e) and

@@ -36,6 +36,9 @@ struct LightingModule {
   std::span<const ComponentInfo* const> components;
   // Registers its systems with a World (once per World; register_lighting calls it).
   void (*register_runtime)(World& world) = nullptr;
+  // The key of the entity one of its chunks belongs to; empty for a chunk of the whole scene. What
+  // a host that keeps chunks (the editor) replaces a re-baked entity's chunk by.
+  std::string (*chunk_key)(const BakeChunk& chunk) = nullptr;
   // Attaches one chunk of one of its types to the entity its key names (`keys`), replacing what the
   // component held (World::patch, so systems and the renderer notice). InvalidInput for a corrupt
   // chunk, NotFound naming the key when no entity of this World has it or it lacks the component.
@@ -43,8 +46,9 @@ struct LightingModule {
   // Lines about one of its chunks for `penumbra info` and bake reports.
   std::vector<std::string> (*describe)(const BakeChunk& chunk) = nullptr;
   // Gives a scene the module's default components with the preset's settings: `authored` is true
-  // for a scene that brings its own lighting components (a glTF file), false for one made without
-  // them (the built-in scenes). Null: the module adds none.
+  // for an imported scene (a glTF file), which gets only what every such scene needs (pose-AO
+  // settings on skinned meshes), false for the built-in scenes, made without lighting components,
+  // which get a probe grid and AO-field casters too. Null: the module adds none.
   Status (*add_defaults)(World& world, Preset preset, bool authored) = nullptr;
 
   bool owns(std::uint32_t chunk_type) const;
@@ -63,6 +67,10 @@ Result<Entity> keyed_owner(const World& world, const EntityKeys& keys, std::stri
                                                std::string(component) + " in this World; re-bake the scene");
   return *e;
 }
+
+// chunk_key for chunks whose payload starts with the entity's key (ByteWriter::write_string); empty
+// when the payload is too short to hold one.
+std::string leading_chunk_key(const BakeChunk& chunk);
 
 // "<module name>:<entity key>": a chunk's label, for people and for telling one entity's chunk from
 // another's (the key itself is in the payload). A label longer than kPbakeMaxLabel bytes keeps the

@@ -79,7 +79,7 @@ struct SkinnedPoseAO {
   // Ranges set by hand, one per skin joint (empty: from the clips as above).
   std::vector<JointRange> joint_ranges;
 
-  // The baked data (set by the baker or attach_pose_ao()); null until baked.
+  // The baked data (set by the baker or attach_bake(), penumbra/runtime.h); null until baked.
   std::shared_ptr<const PoseAOData> data;
 
   // Quality presets: draft 100 random poses, 32 rays, 3 joints; medium 250 poses, 64 rays, 4

@@ -115,7 +115,7 @@ struct IrradianceProbeGrid {
   int priority = 0;
   float blend_distance = 0.0f;
 
-  // The baked data (set by the baker or attach_probe_grids()); null until baked.
+  // The baked data (set by the baker or attach_bake(), penumbra/runtime.h); null until baked.
   std::shared_ptr<const ProbeGridData> data;
 
   // Quality presets: draft S=8, 16 rays, 1 bounce, spacing 2 m, supersampled; medium S=32, 16 rays,

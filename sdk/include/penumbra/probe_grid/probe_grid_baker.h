@@ -1,6 +1,6 @@
 // The probe-grid baker: per node irradiance SH by point sampling or by the supersampling of
 // Kontkanen & Laine 2006 (section 3.2 of the thesis), with the domain of interest, validity and
-// fill of invalid nodes; the "PRBG" .pbake chunk.
+// fill of invalid nodes, and the baker's registration (the PRBG chunk: probe_grid.h).
 //
 // Incident radiance at a sample point y (the estimator, documented once here):
 //   - lights (directional, point, spot, rect) by next-event estimation from y: each unoccluded

@@ -113,7 +113,7 @@ struct SkinPose {
 // Per-vertex ambient occlusion of a Mesh entity, the one per-vertex AO concept: ao[v] in [0, 1]
 // (1 = open) for vertex v of its MeshData, multiplied into the ambient (indirect) light by the
 // renderer; ignored when the size does not match the mesh. Written by whoever computes it: a
-// loaded vertex-AO bake (static meshes, bake/vertex_ao.h), PoseAOSystem every frame the pose
+// loaded vertex-AO bake (static meshes, vertex_ao/vertex_ao.h), PoseAOSystem every frame the pose
 // changed (skinned meshes, pose_ao_system.h). Write it with World::patch: readers (the renderer's
 // upload) redo work only when its change tick moved.
 struct VertexAO {
