@@ -34,7 +34,7 @@ struct BakeRequest {
   bool low_priority = true;    // nice the bake threads so the UI thread wins the CPU
 };
 
-// The authoring components a selection bake can bake, for messages: "IrradianceProbeGrid or ...".
+// The authoring components a selection bake can bake (their type names joined by " or "), for messages.
 std::string bakeable_components();
 // The bakers that bake entity `e`'s components: the modules whose authoring component (the one
 // with presets, LightingModule::components) the entity has.
