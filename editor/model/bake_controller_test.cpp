@@ -10,7 +10,9 @@
 
 #include "editor_model.h"
 #include "load_world.h"
+#include "penumbra/ao_field/ao_field.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/lighting/module.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/scene/entity_key.h"
@@ -195,6 +197,30 @@ TEST(BakeController, VertexAOIsAttachedAfterABakeAndAReload) {
   for (Entity e : (*fresh)->world().view<Static, Mesh>().sorted_entities())
     EXPECT_TRUE((*fresh)->world().has<VertexAO>(e)) << (*fresh)->label(e);
   std::filesystem::remove(path);
+}
+
+// Two casters whose keys share their last 24 bytes get the same cut chunk label; re-baking one
+// keeps the other's chunk (the document matches chunks by entity key, not by label).
+TEST(BakeController, ChunksWithTheSameCutLabelAreKeptApart) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  World& w = model.document()->world();
+  std::vector<Entity> casters = w.view<AOFieldCaster>().sorted_entities();
+  ASSERT_GE(casters.size(), 2u);
+  w.add<EntityKey>(casters[0], EntityKey{"level-north/storage/shelves/wooden-crate"});
+  w.add<EntityKey>(casters[1], EntityKey{"level-south/storage/shelves/wooden-crate"});
+  for (Entity e : {casters[0], casters[1], casters[0]}) {
+    model.document()->select(e);
+    ASSERT_TRUE(model.bake_selection().ok());
+    model.bakes().wait();
+    ASSERT_TRUE(model.poll());
+    ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
+  }
+  const auto& chunks = model.document()->baked().chunks;
+  ASSERT_EQ(chunks.size(), 2u);
+  EXPECT_EQ(chunks[0].label, chunks[1].label) << "the labels are cut to the same tail";
+  EXPECT_NE(leading_chunk_key(chunks[0]), leading_chunk_key(chunks[1]));
 }
 
 }  // namespace

@@ -49,12 +49,6 @@ FieldDesc with_choices(FieldDesc f, std::vector<std::string> choices) {
   return f;
 }
 
-FieldDesc read_only(FieldDesc f) {
-  f.read_only = true;
-  f.set = nullptr;
-  return f;
-}
-
 std::vector<FieldDesc> build_fields() {
   std::vector<FieldDesc> t;
   constexpr double kBig = 1e30;

@@ -88,7 +88,9 @@ TEST(LightingModules, DefaultsAndPresetsLieWithinTheFieldRanges) {
         EXPECT_NE(f.get, nullptr);
         EXPECT_EQ(f.set == nullptr, f.read_only) << c->name << "." << f.name;
         EXPECT_FALSE(f.read_only && (f.hashed || f.preset)) << c->name << "." << f.name;
-        if (f.type == FieldType::Enum) EXPECT_EQ(f.max, double(f.choices.size() - 1)) << f.name;
+        if (f.type == FieldType::Enum) {
+          EXPECT_EQ(f.max, double(f.choices.size() - 1)) << f.name;
+        }
       }
       Status d = check_fields(*c, c->defaults, c->name);
       EXPECT_TRUE(d.ok()) << d.error().message;

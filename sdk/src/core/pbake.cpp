@@ -377,7 +377,7 @@ Result<BakeFile> read_bake_file(const std::filesystem::path& path) {
     chunk.version = c.version;
     chunk.label = c.label;
     chunk.payload.resize(static_cast<std::size_t>(c.size));
-    std::memcpy(chunk.payload.data(), payload, chunk.payload.size());
+    if (!chunk.payload.empty()) std::memcpy(chunk.payload.data(), payload, chunk.payload.size());
     file.chunks.push_back(std::move(chunk));
     previous_end = c.offset + c.size;
   }

@@ -75,7 +75,8 @@ Status check_field_value(const FieldInfo& f, const FieldValue& v) {
         }
       },
       v);
-  const std::string unit = f.unit.empty() ? std::string() : " " + std::string(f.unit);
+  std::string unit;  // " m", or empty
+  if (!f.unit.empty()) unit.append(" ").append(f.unit);
   for (int i = 0; i < n; ++i) {
     if (!std::isfinite(values[i]))
       return make_error(ErrorCode::InvalidArgument, where + " is NaN or infinite; give a finite value");
@@ -89,7 +90,10 @@ Status check_field_value(const FieldInfo& f, const FieldValue& v) {
                             number(f.max) + unit;
       if (f.type == FieldType::Enum) {
         message = where + " = " + number(values[i]) + " is not one of ";
-        for (std::size_t c = 0; c < f.choices.size(); ++c) message += (c ? ", " : "") + std::string(f.choices[c]);
+        for (std::size_t c = 0; c < f.choices.size(); ++c) {
+          if (c > 0) message += ", ";
+          message += f.choices[c];
+        }
       }
       if (!f.help.empty()) message += " (" + std::string(f.help) + ")";
       return make_error(ErrorCode::InvalidArgument, message);
