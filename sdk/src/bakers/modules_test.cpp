@@ -7,6 +7,7 @@
 #include <set>
 #include <string>
 
+#include "penumbra/ao_field/ao_field.h"
 #include "penumbra/bake/baker.h"
 #include "penumbra/bakers.h"
 #include "penumbra/runtime.h"
@@ -166,6 +167,32 @@ TEST(LightingModules, PresetsSetTheirFieldsAndKeepTheRest) {
       }
       EXPECT_GT(set_by_preset, 0u) << c->name;
     }
+}
+
+// attach_bake hands each chunk to the module that owns its type, skips types no module owns, and
+// names the key of a chunk whose entity this World lacks.
+TEST(LightingModules, AttachBakeRoutesChunksAndNamesMissingKeys) {
+  World world = courtyard();
+  JobContext jobs;
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  auto baked = bake_world(world, {"vertex-ao", "ao-field"}, settings, jobs);
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  BakeFile file = baked->file;
+  file.chunks.push_back(BakeChunk{fourcc("ZZZZ"), 1, "from a newer SDK", {}});
+  World fresh = courtyard();
+  Status attached = attach_bake(fresh, file);
+  ASSERT_TRUE(attached.ok()) << attached.error().message;
+  std::size_t casters = 0;
+  fresh.view<AOFieldCaster>().each([&](AOFieldCaster& c) { casters += c.data ? 1 : 0; });
+  EXPECT_EQ(casters, 4u);
+  // The same file on a courtyard whose crates were renamed: the first AO-field chunk names its key.
+  World renamed = courtyard();
+  for (Entity e : renamed.view<AOFieldCaster>().sorted_entities()) renamed.patch<Name>(e).value += " (moved)";
+  Status missing = attach_bake(renamed, file);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.error().code, ErrorCode::NotFound);
+  EXPECT_NE(missing.error().message.find("no entity has the key 'crate'"), std::string::npos) << missing.error().message;
 }
 
 }  // namespace
