@@ -1,6 +1,7 @@
 // Probe grid without ray tracing: validation, interpolation, evaluation, GPU packing, the chunk,
 // the runtime system and the default grid.
 #include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/probe_grid/probe_grid_gpu.h"
 
 #include <gtest/gtest.h>
 

@@ -19,6 +19,7 @@
 #include "penumbra/core/log.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/probe_grid/probe_grid_gpu.h"
 #include "penumbra/scene/components.h"
 #include "shared/layout.h"
 #include "spirv.h"
