@@ -10,6 +10,21 @@ cp "$scratch/good.pbake" "$scratch/before.pbake"
 expect_exit 1 "$PENUMBRA" bake builtin:nosuch -o "$scratch/good.pbake"
 cmp "$scratch/good.pbake" "$scratch/before.pbake" || fail "a failed bake changed the previous file"
 
+# -o never replaces the scene being read, nor a file that is not a .pbake without --force, and
+# writes through a symbolic link (the link stays a link).
+echo "my notes" > "$scratch/notes.txt"
+expect_exit 1 "$PENUMBRA" bake builtin:cornell -o "$scratch/notes.txt" --preset draft; expect_output "not a .pbake"
+[ "$(cat "$scratch/notes.txt")" = "my notes" ] || fail "bake overwrote a text file"
+expect_exit 0 "$PENUMBRA" bake builtin:cornell -o "$scratch/notes.txt" --preset draft --force
+cp "$SOURCE_DIR/tests/data/gltf/valid.gltf" "$scratch/level.gltf"
+cp "$scratch/level.gltf" "$scratch/level.before"
+expect_exit 1 "$PENUMBRA" bake "$scratch/level.gltf" -o "$scratch/level.gltf" --force; expect_output "is the scene being baked"
+cmp "$scratch/level.gltf" "$scratch/level.before" || fail "bake overwrote its own input"
+ln -s good.pbake "$scratch/link.pbake"
+expect_exit 0 "$PENUMBRA" bake builtin:cornell -o "$scratch/link.pbake" --preset draft --seed 7
+[ -L "$scratch/link.pbake" ] || fail "bake replaced a symbolic link by a file"
+expect_exit 0 "$PENUMBRA" info "$scratch/good.pbake"
+
 # info on damaged files: truncated, corrupted, not a bake file at all.
 head -c 100 "$scratch/good.pbake" > "$scratch/short.pbake"
 expect_exit 1 "$PENUMBRA" info "$scratch/short.pbake"; expect_output "short.pbake"

@@ -77,14 +77,33 @@ int cmd_bake(Args args) {
   const std::vector<std::string> names = only ? split_list(*only) : std::vector<std::string>{};
 
   const std::string& scene = args.rest()[0];
+  // What -o may replace: never the scene being read; an existing file only when it is a .pbake
+  // (or with --force); a symbolic link is written through (its target replaced, the link kept).
+  std::filesystem::path out_path = *out;
+  std::error_code ec;
+  if (std::filesystem::is_symlink(out_path, ec)) {
+    const std::filesystem::path target = std::filesystem::weakly_canonical(out_path, ec);
+    if (ec) return fail(kFailure, *out + ": cannot resolve the symbolic link (" + ec.message() + ")");
+    out_path = target;
+  }
+  if (std::filesystem::exists(out_path, ec)) {
+    if (!scene.starts_with("builtin:") && std::filesystem::equivalent(out_path, scene, ec))
+      return fail(kFailure, *out + " is the scene being baked; write the bake to another file, e.g. " +
+                                std::filesystem::path(scene).replace_extension(".pbake").string());
+    if (!std::filesystem::is_regular_file(out_path, ec))
+      return fail(kFailure, *out + " exists and is not a regular file; choose another -o");
+    if (auto info = read_bake_info(out_path); !info && !force)
+      return fail(kFailure, *out + " exists and is not a .pbake file (" + info.error().message +
+                                "); choose another -o, or pass --force to replace it");
+  }
   const auto t0 = std::chrono::steady_clock::now();
   World world;
   if (Status s = load_world(world, scene, settings.preset); !s) return fail(kFailure, s.error().message);
 
   // Skip the bake when the file on disk was made from the same inputs.
   const std::uint64_t input_hash = bake_input_hash(world, names, settings);
-  if (!force && std::filesystem::exists(*out)) {
-    if (auto info = read_bake_info(*out); info && info->input_hash == input_hash) {
+  if (!force && std::filesystem::exists(out_path)) {
+    if (auto info = read_bake_info(out_path); info && info->input_hash == input_hash) {
       std::printf("%s is up to date (input hash %s): nothing to bake; --force bakes anyway\n", out->c_str(),
                   hex64(input_hash).c_str());
       return kSuccess;
@@ -97,7 +116,7 @@ int cmd_bake(Args args) {
   auto result = bake_world(world, names, settings, jobs);
   std::signal(SIGINT, SIG_DFL);
   if (!result) return fail(kFailure, scene + ": " + result.error().message);
-  if (Status s = write_bake_file(*out, result->file, &g_cancel); !s) return fail(kFailure, s.error().message);
+  if (Status s = write_bake_file(out_path, result->file, &g_cancel); !s) return fail(kFailure, s.error().message);
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   const BakeReport& r = result->report;
@@ -110,7 +129,7 @@ int cmd_bake(Args args) {
     for (const auto& line : item.lines) std::printf("      %s\n", line.c_str());
   }
   std::printf("  total         %8.3f s  %10s on disk, input hash %s\n", total,
-              format_bytes(std::filesystem::file_size(*out)).c_str(), hex64(input_hash).c_str());
+              format_bytes(std::filesystem::file_size(out_path)).c_str(), hex64(input_hash).c_str());
   return kSuccess;
 }
 

@@ -15,7 +15,9 @@ Commands:
   bake SCENE -o FILE.pbake [--only LIST] [--preset draft|medium|high] [--threads N] [--seed S] [--force]
       Bake the lighting data of SCENE (a glTF file or builtin:NAME) into FILE.pbake. --only takes a
       comma-separated list of bakers (default: all; 'penumbra bake --list' names them). An unchanged
-      scene with the same settings is not baked again unless --force is given.
+      scene with the same settings is not baked again unless --force is given. FILE is never the
+      scene itself, and an existing FILE that is not a .pbake is replaced only with --force; when
+      FILE is a symbolic link, the file it points to is written and the link kept.
   info FILE.pbake
       Show the file's version, input hash, chunks, their sizes and what they hold.
   render SCENE [--bake FILE] -o OUT.png|OUT.exr [--width W] [--height H] [--camera NAME] [--time T]
