@@ -73,6 +73,13 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
   std::uint64_t groups = 0;
   PENUMBRA_TRY(r.read(groups));
   if (groups == 0 || groups > V) return bad(std::to_string(groups) + " joint sets for " + std::to_string(V) + " vertices");
+  // Each set's record as written above: check the count against the bytes present before allocating.
+  constexpr std::size_t kGroupBytes = sizeof(PoseAOGroup::joints) + sizeof(PoseAOGroup::joint_count) +
+                                      sizeof(PoseAOGroup::first) + sizeof(PoseAOGroup::count) +
+                                      sizeof(PoseAOGroup::coefficient_offset);
+  if (groups > r.remaining() / kGroupBytes)
+    return bad(std::to_string(groups) + " joint sets do not fit in the " + std::to_string(r.remaining()) +
+               " bytes left");
   d.groups.resize(static_cast<std::size_t>(groups));
   std::uint64_t vertices = 0, coefficients = 0;
   for (std::size_t i = 0; i < d.groups.size(); ++i) {

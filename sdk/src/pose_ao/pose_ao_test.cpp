@@ -238,6 +238,21 @@ TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
   const std::uint32_t zero = 0;
   std::memcpy(c.payload.data() + 4 + tiny_data().key.size(), &zero, 4);  // vertex count 0 (after the key)
   expect_bad(c, "vertex count");
+  // A set count the bytes left cannot hold is refused before anything is allocated (a 157 KiB file
+  // once asked for 32 GiB here).
+  {
+    const PoseAOData t = tiny_data();
+    c = good;
+    const std::size_t at = 4 + t.key.size();  // the vertex count, after the key
+    const std::uint32_t many_vertices = 1u << 30;
+    std::memcpy(c.payload.data() + at, &many_vertices, 4);
+    const std::uint64_t many_sets = std::uint64_t{1} << 29;
+    // After 8 four-byte values and the joint parents (a u64 count, then one i32 per joint).
+    std::memcpy(c.payload.data() + at + 32 + 8 + 4 * std::size_t{t.joint_count}, &many_sets, 8);
+    auto r = read_pose_ao_chunk(c);
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().message.find("joint sets do not fit"), std::string::npos) << r.error().message;
+  }
   // Every single-byte change either fails or reads back finite data of the same shape.
   for (std::size_t i = 0; i < good.payload.size(); ++i) {
     c = good;
