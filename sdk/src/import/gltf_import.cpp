@@ -197,6 +197,14 @@ Result<AccessorView> Importer::accessor(int index, const std::string& user, std:
                     " is not allowed here by the glTF specification");
   if (a.sparse.isSparse)
     return fail(ErrorCode::Unsupported, where, "sparse accessors are not supported; export without sparse data");
+  // The largest accessor the importer reads (2^27 elements: 1.5 GiB of positions), checked before
+  // anything is allocated or visited, so that a count without data behind it (no bufferView)
+  // cannot make the import loop or allocate for hours.
+  constexpr std::size_t kMaxAccessorElements = std::size_t{1} << 27;
+  if (a.count > kMaxAccessorElements)
+    return fail(ErrorCode::InvalidInput, where,
+                "count " + std::to_string(a.count) + " exceeds the importer's limit of " +
+                    std::to_string(kMaxAccessorElements) + " elements; split the mesh");
   AccessorView view;
   view.accessor = &a;
   view.components = component_count(a.type);
@@ -241,6 +249,7 @@ Result<AccessorView> Importer::accessor(int index, const std::string& user, std:
 }
 
 Status Importer::check_finite(const AccessorView& view, int index, const std::string& user) {
+  if (view.data == nullptr) return {};  // no bufferView: all zeros
   for (std::size_t i = 0; i < view.count(); ++i)
     for (int c = 0; c < view.components; ++c)
       if (!std::isfinite(view.component(i, c)))
