@@ -142,16 +142,24 @@ int cmd_info(Args args) {
   std::printf("%s\n  format version %u, written by Penumbra %s\n  input hash %s\n  %zu chunks, %s in all\n",
               path.c_str(), file->format_version, file->sdk_version.c_str(), hex64(file->input_hash).c_str(),
               file->chunks.size(), format_bytes(std::filesystem::file_size(path)).c_str());
+  std::size_t invalid = 0;
   for (const BakeChunk& chunk : file->chunks) {
     std::printf("  chunk %s v%u '%s': %s\n", fourcc_to_string(chunk.type).c_str(), chunk.version, chunk.label.c_str(),
                 format_bytes(chunk.payload.size()).c_str());
-    // Each module describes its own chunks.
+    // Each module checks and describes its own chunks.
     const LightingModule* module = lighting_module_for_chunk(chunk.type);
-    if (module == nullptr)
+    if (module == nullptr) {
       std::printf("      (no linked lighting module reads this chunk type)\n");
-    else if (module->describe)
+    } else if (Status s = module->check ? module->check(chunk) : Status{}; !s) {
+      std::printf("      invalid: %s\n", s.error().message.c_str());
+      ++invalid;
+    } else if (module->describe) {
       for (const auto& line : module->describe(chunk)) std::printf("      %s\n", line.c_str());
+    }
   }
+  if (invalid > 0)
+    return fail(kFailure, path + ": " + std::to_string(invalid) + " of " + std::to_string(file->chunks.size()) +
+                              " chunks are invalid (above); re-bake the scene");
   return kSuccess;
 }
 

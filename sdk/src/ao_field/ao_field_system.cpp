@@ -158,6 +158,7 @@ const LightingModule& ao_field_module() {
       .register_runtime = register_ao_field_system,
       .chunk_key = leading_chunk_key,
       .attach = attach_ao_field,
+      .check = check_with<read_ao_field_chunk>,
       .describe = describe_ao_field_chunk,
       .add_defaults = add_defaults,
   };

@@ -169,6 +169,30 @@ TEST(LightingModules, PresetsSetTheirFieldsAndKeepTheRest) {
     }
 }
 
+// Every module's check accepts the chunks its baker wrote and refuses a truncated one, naming it.
+TEST(LightingModules, ChecksAcceptBakedChunksAndRefuseDamagedOnes) {
+  World world = courtyard();
+  JobContext jobs;
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  auto baked = bake_world(world, {}, settings, jobs);
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  std::set<std::string_view> checked;
+  for (const BakeChunk& chunk : baked->file.chunks) {
+    const LightingModule* m = lighting_module_for_chunk(chunk.type);
+    ASSERT_NE(m, nullptr);
+    ASSERT_NE(m->check, nullptr) << m->name;
+    EXPECT_TRUE(m->check(chunk).ok()) << m->name;
+    BakeChunk cut = chunk;
+    cut.payload.resize(cut.payload.size() / 2);
+    const Status bad = m->check(cut);
+    ASSERT_FALSE(bad.ok()) << m->name;
+    EXPECT_NE(bad.error().message.find(fourcc_to_string(chunk.type)), std::string::npos) << bad.error().message;
+    checked.insert(m->name);
+  }
+  EXPECT_EQ(checked.size(), lighting_modules().size()) << "the courtyard's bake has a chunk of every module";
+}
+
 // attach_bake hands each chunk to the module that owns its type, skips types no module owns, and
 // names the key of a chunk whose entity this World lacks.
 TEST(LightingModules, AttachBakeRoutesChunksAndNamesMissingKeys) {

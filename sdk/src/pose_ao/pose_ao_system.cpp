@@ -96,6 +96,7 @@ const LightingModule& pose_ao_module() {
       .register_runtime = register_pose_ao_system,
       .chunk_key = leading_chunk_key,
       .attach = attach_pose_ao,
+      .check = check_with<read_pose_ao_chunk>,
       .describe = describe_pose_ao_chunk,
       .add_defaults = add_defaults,
   };

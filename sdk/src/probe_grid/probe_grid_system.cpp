@@ -177,6 +177,7 @@ const LightingModule& probe_grid_module() {
       .register_runtime = register_probe_grid_system,
       .chunk_key = leading_chunk_key,
       .attach = attach_probe_grid,
+      .check = check_with<read_probe_grid_chunk>,
       .describe = describe_probe_grid_chunk,
       .add_defaults = add_defaults,
   };

@@ -67,6 +67,7 @@ const LightingModule& vertex_ao_module() {
       .register_runtime = nullptr,
       .chunk_key = [](const BakeChunk&) { return std::string(); },  // one chunk for every mesh
       .attach = attach_vertex_ao,
+      .check = check_with<read_vertex_ao_chunk>,
       .describe = describe_vertex_ao,
       .add_defaults = nullptr,  // it bakes every Static mesh
   };

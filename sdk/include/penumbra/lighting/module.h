@@ -43,6 +43,9 @@ struct LightingModule {
   // component held (World::patch, so systems and the renderer notice). InvalidInput for a corrupt
   // chunk, NotFound naming the key when no entity of this World has it or it lacks the component.
   Status (*attach)(World& world, const BakeChunk& chunk, const EntityKeys& keys) = nullptr;
+  // Reads one of its chunks with every check its reader makes, attaching nothing: what
+  // `penumbra info` reports a file's invalid chunks by. InvalidInput / Unsupported as the reader.
+  Status (*check)(const BakeChunk& chunk) = nullptr;
   // Lines about one of its chunks for `penumbra info` and bake reports.
   std::vector<std::string> (*describe)(const BakeChunk& chunk) = nullptr;
   // Gives a scene the module's default components with the preset's settings: `authored` is true
@@ -71,6 +74,14 @@ Result<Entity> keyed_owner(const World& world, const EntityKeys& keys, std::stri
 // chunk_key for chunks whose payload starts with the entity's key (ByteWriter::write_string); empty
 // when the payload is too short to hold one.
 std::string leading_chunk_key(const BakeChunk& chunk);
+
+// LightingModule::check from a chunk reader (Result<Data> Read(const BakeChunk&)).
+template <auto Read>
+Status check_with(const BakeChunk& chunk) {
+  auto data = Read(chunk);
+  if (!data) return data.error();
+  return {};
+}
 
 // "<module name>:<entity key>": a chunk's label, for people and for telling one entity's chunk from
 // another's (the key itself is in the payload). A label longer than kPbakeMaxLabel bytes keeps the
