@@ -25,6 +25,15 @@ expect_exit 0 "$PENUMBRA" bake builtin:cornell -o "$scratch/link.pbake" --preset
 [ -L "$scratch/link.pbake" ] || fail "bake replaced a symbolic link by a file"
 expect_exit 0 "$PENUMBRA" info "$scratch/good.pbake"
 
+# A bake that produces nothing says so and writes nothing: CesiumMan has no static mesh.
+if [ -f "$SOURCE_DIR/../shared/assets/CesiumMan.glb" ]; then
+  expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/../shared/assets/CesiumMan.glb" -o "$scratch/none.pbake" --only vertex-ao
+  expect_output "baked nothing"
+  [ -e "$scratch/none.pbake" ] && fail "a bake of nothing wrote a file"
+else
+  echo "skipped the empty-bake check: ../shared/assets/CesiumMan.glb is absent"
+fi
+
 # info on damaged files: truncated, corrupted, not a bake file at all.
 head -c 100 "$scratch/good.pbake" > "$scratch/short.pbake"
 expect_exit 1 "$PENUMBRA" info "$scratch/short.pbake"; expect_output "short.pbake"

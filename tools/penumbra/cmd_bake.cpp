@@ -116,6 +116,12 @@ int cmd_bake(Args args) {
   auto result = bake_world(world, names, settings, jobs);
   std::signal(SIGINT, SIG_DFL);
   if (!result) return fail(kFailure, scene + ": " + result.error().message);
+  if (result->file.chunks.empty()) {
+    std::string what;
+    for (const std::string& n : names) what += (what.empty() ? "" : ", ") + n;
+    return fail(kFailure, scene + ": baked nothing: no entity has what " + (what.empty() ? "any baker" : what) +
+                              " bakes (Static meshes, or the modules' components); " + *out + " was not written");
+  }
   if (Status s = write_bake_file(out_path, result->file, &g_cancel); !s) return fail(kFailure, s.error().message);
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 

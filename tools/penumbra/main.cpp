@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "cli.h"
+#include "penumbra/core/log.h"
 
 namespace {
 
@@ -56,6 +57,13 @@ int main(int argc, char** argv) {
     std::printf("penumbra %s\n", PENUMBRA_VERSION);
     return penumbra::cli::kSuccess;
   }
+  // The SDK's warnings and errors (dropped triangles, skipped primitives, chunks no module reads) on
+  // stderr; the tool's own results go to stdout.
+  penumbra::set_log_level(penumbra::LogLevel::Warning);
+  penumbra::set_log_sink([](penumbra::LogLevel level, std::string_view message) {
+    std::fprintf(stderr, "penumbra: %s: %.*s\n", penumbra::to_string(level), static_cast<int>(message.size()),
+                 message.data());
+  });
   penumbra::cli::Args args(std::move(words));
   if (command == "bake") return penumbra::cli::cmd_bake(std::move(args));
   if (command == "info") return penumbra::cli::cmd_info(std::move(args));

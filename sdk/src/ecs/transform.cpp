@@ -79,7 +79,11 @@ glm::mat4 Transform::matrix() const {
 
 bool set_parent(World& world, Entity child, Entity parent) {
   if (!world.alive(child) || (parent && !world.alive(parent))) return false;
-  if (parent && is_ancestor_or_self(world, child, parent)) return false;
+  // A cycle needs `child` to be `parent` or above it, which a child without children cannot be:
+  // building a hierarchy top-down then costs O(1) per link, not O(depth).
+  const Children* descendants = world.try_get<Children>(child);
+  const bool may_be_above = descendants != nullptr && !descendants->entities.empty();
+  if (parent && (parent == child || (may_be_above && is_ancestor_or_self(world, child, parent)))) return false;
 
   // Detach from the previous parent's Children.
   if (const Parent* old = world.try_get<Parent>(child)) {

@@ -39,6 +39,7 @@ namespace {
 Result<std::vector<BakeChunk>> bake_vertex_ao(BakeInputs& in) {
   const VertexAoSettings settings = VertexAoSettings::preset(in.settings.preset);
   const std::vector<Entity> entities = static_meshes(in.world);
+  if (entities.empty()) return std::vector<BakeChunk>{};  // nothing to bake: no chunk
   auto keys = bake_keys(in, entities, "vertex-AO mesh");
   if (!keys) return keys.error();
 

@@ -41,7 +41,8 @@ struct Children {
 // Attaches `child` under `parent` (Entity::null() detaches it), updating Parent and both Children
 // lists, and marks the child's Transform changed so its world matrix is recomputed. Returns false
 // and changes nothing when a handle is stale or the link would make a cycle (parent == child or
-// parent below child). Cost: O(depth of parent + siblings).
+// parent below child). Cost: O(siblings) for a child without children (a hierarchy built top-down),
+// else O(depth of parent + siblings).
 bool set_parent(World& world, Entity child, Entity parent);
 
 // Destroys `root` and every entity below it, and removes root from its parent's Children.
