@@ -197,5 +197,25 @@ TEST(Transform, RegisteredSystemRunsInTheTransformPhase) {
   EXPECT_EQ(w.systems()[0].writes, std::vector<ComponentId>{component_id<WorldTransform>()});
 }
 
+// A chain 100,000 nodes deep (an importer's worst case) links in linear time and its world
+// transforms compose without recursion: the last node sits at depth x the step.
+TEST(Transform, AHundredThousandDeepChainLinksAndUpdates) {
+  World w;
+  constexpr int kDepth = 100000;
+  Entity parent = w.create();
+  w.add<Transform>(parent);
+  Entity last = parent;
+  for (int i = 1; i < kDepth; ++i) {
+    const Entity e = w.create();
+    w.add<Transform>(e, Transform{glm::vec3(0.0f, 0.0f, 0.001f)});
+    ASSERT_TRUE(set_parent(w, e, last));
+    last = e;
+  }
+  EXPECT_FALSE(set_parent(w, parent, last)) << "the root below its own descendant: a cycle";
+  update_world_transforms(w);
+  // 100,000 float products: within 0.1 % of the exact sum.
+  EXPECT_NEAR(w.get<WorldTransform>(last).matrix[3].z, 0.001f * (kDepth - 1), 0.1f);
+}
+
 }  // namespace
 }  // namespace penumbra
