@@ -758,6 +758,31 @@ Result<ImportedScene> Importer::run() {
   return std::move(out_);
 }
 
+// The deepest nesting of JSON arrays and objects in `text` (string contents skipped), stopping once
+// it passes `limit`: checked before any JSON parser sees the text, since tinygltf's and nlohmann's
+// recursion overflow the stack on a few thousand levels.
+int json_depth(std::string_view text, int limit) {
+  int depth = 0, deepest = 0;
+  bool in_string = false, escaped = false;
+  for (char c : text) {
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > limit) break;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
+constexpr int kMaxJsonDepth = 128;
+
 }  // namespace
 
 Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& path, const ImportOptions& options) {
@@ -774,14 +799,38 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
     return make_error(ErrorCode::Io, path.string() + ": could not be read");
   const bool binary = stream.gcount() == 4 && std::memcmp(magic, "glTF", 4) == 0;
 
-  if (!binary) {
-    // Pre-check the JSON and external buffers so that errors name the element tinygltf would not.
+  // The JSON text: the whole file, or a binary glTF's first chunk (version 2 only).
+  std::string json_text;
+  if (binary) {
+    std::uint32_t header[2] = {}, chunk[2] = {};  // version, length; chunk length, type
+    stream.read(reinterpret_cast<char*>(header), sizeof header);
+    stream.read(reinterpret_cast<char*>(chunk), sizeof chunk);
+    if (!stream) return make_error(ErrorCode::InvalidInput, path.string() + ": the binary glTF header is truncated");
+    if (header[0] != 2)
+      return make_error(ErrorCode::Unsupported, path.string() + ": binary glTF version " + std::to_string(header[0]) +
+                                                     " is not supported; re-export as glTF 2.0");
+    if (chunk[1] != 0x4E4F534Au || chunk[0] > std::filesystem::file_size(path, ec))
+      return make_error(ErrorCode::InvalidInput, path.string() + ": the first chunk is not a JSON chunk of a length "
+                                                                 "the file holds; the file is damaged");
+    json_text.resize(chunk[0]);
+    stream.read(json_text.data(), static_cast<std::streamsize>(json_text.size()));
+    if (!stream) return make_error(ErrorCode::InvalidInput, path.string() + ": the JSON chunk is truncated");
+  } else {
     stream.seekg(0);
     std::stringstream text;
     text << stream.rdbuf();
+    json_text = text.str();
+  }
+  if (const int depth = json_depth(json_text, kMaxJsonDepth); depth > kMaxJsonDepth)
+    return make_error(ErrorCode::InvalidInput, path.string() + ": JSON nested more than " +
+                                                   std::to_string(kMaxJsonDepth) +
+                                                   " levels deep; the file is malformed (a glTF needs fewer than 20)");
+
+  if (!binary) {
+    // Pre-check the JSON and external buffers so that errors name the element tinygltf would not.
     nlohmann::json json;
     try {
-      json = nlohmann::json::parse(text.str());
+      json = nlohmann::json::parse(json_text);
     } catch (const nlohmann::json::exception& e) {
       return make_error(ErrorCode::InvalidInput, file + ": not valid JSON (" + e.what() + "); fix or re-export the file");
     }

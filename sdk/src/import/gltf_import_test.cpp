@@ -183,6 +183,47 @@ TEST(GltfImport, HugeAccessorWithoutDataIsRefusedBeforeAnyWork) {
       << imported.error().message;
 }
 
+// JSON nested 20,000 levels deep in `extras` (it overflowed the stack inside the JSON parsers) and a
+// binary glTF of version 1 are refused before any parser runs, naming the file and the limit.
+TEST(GltfImport, DeepJsonAndOtherGlbVersionsAreRefusedBeforeParsing) {
+  const auto temp = [](const char* name) {
+    return std::filesystem::temp_directory_path() / ("penumbra_" + std::to_string(::getpid()) + "_" + name);
+  };
+  const std::filesystem::path deep = temp("deep.gltf");
+  {
+    std::ofstream out(deep);
+    out << R"({"asset": {"version": "2.0", "extras": )";
+    for (int i = 0; i < 20000; ++i) out << "[";
+    for (int i = 0; i < 20000; ++i) out << "]";
+    out << "}}";
+  }
+  World world;
+  auto nested = import_gltf(world, deep);
+  std::filesystem::remove(deep);
+  ASSERT_FALSE(nested.ok());
+  EXPECT_EQ(nested.error().code, ErrorCode::InvalidInput);
+  EXPECT_NE(nested.error().message.find("nested more than 128 levels"), std::string::npos) << nested.error().message;
+  // A string holding brackets is not nesting.
+  const std::filesystem::path brackets = temp("brackets.gltf");
+  std::ofstream(brackets) << R"({"asset": {"version": "2.0", "extras": {"note": "[[[[[[[[ \" {{{{"}}, "scenes": []})";
+  auto fine = import_gltf(world, brackets);
+  std::filesystem::remove(brackets);
+  EXPECT_TRUE(fine.ok() || fine.error().message.find("nested") == std::string::npos) << fine.error().message;
+
+  const std::filesystem::path v1 = temp("v1.glb");
+  {
+    std::ofstream out(v1, std::ios::binary);
+    const std::uint32_t header[5] = {0x46546C67u, 1u, 40u, 8u, 0x4E4F534Au};
+    out.write(reinterpret_cast<const char*>(header), sizeof header);
+    out << "{}      ";
+  }
+  auto old = import_gltf(world, v1);
+  std::filesystem::remove(v1);
+  ASSERT_FALSE(old.ok());
+  EXPECT_EQ(old.error().code, ErrorCode::Unsupported);
+  EXPECT_NE(old.error().message.find("binary glTF version 1"), std::string::npos) << old.error().message;
+}
+
 TEST(GltfImport, CesiumManSkinAnimationAndPose) {
   const std::filesystem::path asset = std::filesystem::path(PENUMBRA_SHARED_DIR) / "assets/CesiumMan.glb";
   if (!std::filesystem::exists(asset)) GTEST_SKIP() << "shared asset folder absent: " << asset << " not found";
