@@ -262,6 +262,12 @@ TEST(AOFieldBake, ChunkRoundTripAndCorruption) {
   auto nan = read_ao_field_chunk(write_ao_field_chunk(broken));
   ASSERT_FALSE(nan.ok());
   EXPECT_NE(nan.error().message.find("texel 3"), std::string::npos);
+  // A falloff distance of 1e38 (finite, but the field would darken the whole world) is refused.
+  AOFieldData far = field;
+  far.r_far = 1e38f;
+  auto huge = read_ao_field_chunk(write_ao_field_chunk(far));
+  ASSERT_FALSE(huge.ok());
+  EXPECT_NE(huge.error().message.find("above 1e6"), std::string::npos) << huge.error().message;
   BakeChunk cut = chunk;
   cut.payload.resize(cut.payload.size() - 5);
   EXPECT_FALSE(read_ao_field_chunk(cut).ok());

@@ -67,9 +67,10 @@ Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk) {
     return bad("it holds " + std::to_string(d.texels.size()) + " texels and " + std::to_string(d.nodes.size()) +
                " grid vertices, not " + std::to_string(count) + " and " + std::to_string(node_count));
   const bool finite_centre = std::isfinite(d.centre.x) && std::isfinite(d.centre.y) && std::isfinite(d.centre.z);
-  if (!finite_centre || !(d.bounding_radius >= 0.0f && std::isfinite(d.bounding_radius)) ||
-      !(d.r_far > 0.0f && std::isfinite(d.r_far)))
-    return bad("the centre, bounding radius or falloff distance is not finite and positive");
+  // Distances in the mesh's units, within the field list's falloff range (1e6).
+  if (!finite_centre || !(d.bounding_radius >= 0.0f && d.bounding_radius <= 1e6f) ||
+      !(d.r_far > 0.0f && d.r_far <= 1e6f))
+    return bad("the centre, bounding radius or falloff distance is not finite and positive, or above 1e6");
   if (!(d.fade_start > 0.0f && d.fade_start < 1.0f) || !(d.inside_occlusion >= 0.0f && d.inside_occlusion <= 1.0f) ||
       !(d.inside_exponent > 0.0f && std::isfinite(d.inside_exponent)))
     return bad("the fade or inside settings are out of range");

@@ -393,6 +393,14 @@ Result<std::shared_ptr<const MeshData>> Importer::load_primitive(std::size_t mes
   PENUMBRA_TRY(read_attribute("NORMAL", {TINYGLTF_TYPE_VEC3}, {kFloat}, mesh->normals, true));
   PENUMBRA_TRY(read_attribute("TEXCOORD_0", {TINYGLTF_TYPE_VEC2}, {kFloat, kU8, kU16}, mesh->uvs, true));
   PENUMBRA_TRY(read_attribute("JOINTS_0", {TINYGLTF_TYPE_VEC4}, {kU8, kU16}, mesh->joints, false));
+  // Integer weights must be normalized (glTF 2.0, 3.7.3.1): read raw, they would be 0..255 or 0..65535.
+  if (const int w = attribute("WEIGHTS_0"); w >= 0 && static_cast<std::size_t>(w) < model_.accessors.size()) {
+    const tinygltf::Accessor& a = model_.accessors[static_cast<std::size_t>(w)];
+    if (a.componentType != kFloat && !a.normalized)
+      return fail(ErrorCode::InvalidInput, element("accessors", static_cast<std::size_t>(w)) + " (" + where +
+                                               ".attributes.WEIGHTS_0)",
+                  "integer weights without \"normalized\": true; the specification requires it: re-export");
+  }
   PENUMBRA_TRY(read_attribute("WEIGHTS_0", {TINYGLTF_TYPE_VEC4}, {kFloat, kU8, kU16}, mesh->weights, true));
   if (mesh->joints.empty() != mesh->weights.empty())
     return fail(ErrorCode::InvalidInput, where, "has only one of JOINTS_0 and WEIGHTS_0; skinning needs both");
@@ -542,9 +550,19 @@ Status Importer::attach_node_contents(std::size_t ni, bool animated) {
     else if (src.type == "spot") light.type = Light::Type::Spot;
     else return fail(ErrorCode::InvalidInput, "KHR_lights_punctual.lights[" + std::to_string(li) + "]",
                      "unknown type '" + src.type + "' (directional, point or spot)");
+    const std::string lwhere = "KHR_lights_punctual.lights[" + std::to_string(li) + "]";
     if (src.color.size() == 3) light.color = glm::vec3(src.color[0], src.color[1], src.color[2]);
     light.intensity = static_cast<float>(src.intensity);
     light.range = static_cast<float>(src.range);
+    if (!(std::isfinite(light.intensity) && light.intensity >= 0.0f))
+      return fail(ErrorCode::InvalidInput, lwhere,
+                  "intensity " + std::to_string(src.intensity) + " is negative or not finite; give a value >= 0");
+    if (!(std::isfinite(light.range) && light.range >= 0.0f))
+      return fail(ErrorCode::InvalidInput, lwhere,
+                  "range " + std::to_string(src.range) + " is negative or not finite; give a value > 0, or none");
+    for (int c = 0; c < 3; ++c)
+      if (!(std::isfinite(light.color[c]) && light.color[c] >= 0.0f))
+        return fail(ErrorCode::InvalidInput, lwhere, "color has a negative or non-finite channel; give linear RGB >= 0");
     if (light.type == Light::Type::Spot) {
       light.inner_cone_angle = static_cast<float>(src.spot.innerConeAngle);
       light.outer_cone_angle = static_cast<float>(src.spot.outerConeAngle);

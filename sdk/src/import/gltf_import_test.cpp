@@ -224,6 +224,45 @@ TEST(GltfImport, DeepJsonAndOtherGlbVersionsAreRefusedBeforeParsing) {
   EXPECT_NE(old.error().message.find("binary glTF version 1"), std::string::npos) << old.error().message;
 }
 
+// A light with a negative intensity is refused naming the light and the fix.
+TEST(GltfImport, NegativeLightIntensityIsRefused) {
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("penumbra_dark_light_" + std::to_string(::getpid()) + ".gltf");
+  std::ofstream(path) << R"({"asset": {"version": "2.0"}, "extensionsUsed": ["KHR_lights_punctual"],
+    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": -5}]}},
+    "scene": 0, "scenes": [{"nodes": [0]}],
+    "nodes": [{"name": "lamp", "extensions": {"KHR_lights_punctual": {"light": 0}}}]})";
+  World world;
+  auto imported = import_gltf(world, path);
+  std::filesystem::remove(path);
+  ASSERT_FALSE(imported.ok());
+  EXPECT_NE(imported.error().message.find("KHR_lights_punctual.lights[0]"), std::string::npos)
+      << imported.error().message;
+  EXPECT_NE(imported.error().message.find("is negative or not finite; give a value >= 0"), std::string::npos)
+      << imported.error().message;
+}
+
+// Unsigned-byte weights without "normalized": true (the specification requires it; read raw they
+// would be 255 where 1 is meant) are refused naming the accessor.
+TEST(GltfImport, IntegerWeightsMustBeNormalized) {
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("penumbra_raw_weights_" + std::to_string(::getpid()) + ".gltf");
+  std::ofstream(path) << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "JOINTS_0": 1, "WEIGHTS_0": 2}}]}],
+    "buffers": [{"byteLength": 60, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAAAA/wAAAP8AAAD/AAAA"}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 12},
+                    {"buffer": 0, "byteOffset": 48, "byteLength": 12}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "type": "VEC3", "count": 3, "min": [0, 0, 0], "max": [1, 1, 0]},
+                  {"bufferView": 1, "componentType": 5121, "type": "VEC4", "count": 3},
+                  {"bufferView": 2, "componentType": 5121, "type": "VEC4", "count": 3}]})";
+  World world;
+  auto imported = import_gltf(world, path);
+  std::filesystem::remove(path);
+  ASSERT_FALSE(imported.ok());
+  EXPECT_NE(imported.error().message.find("accessors[2]"), std::string::npos) << imported.error().message;
+  EXPECT_NE(imported.error().message.find("without \"normalized\": true"), std::string::npos) << imported.error().message;
+}
+
 TEST(GltfImport, CesiumManSkinAnimationAndPose) {
   const std::filesystem::path asset = std::filesystem::path(PENUMBRA_SHARED_DIR) / "assets/CesiumMan.glb";
   if (!std::filesystem::exists(asset)) GTEST_SKIP() << "shared asset folder absent: " << asset << " not found";

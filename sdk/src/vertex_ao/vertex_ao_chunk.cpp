@@ -26,6 +26,10 @@ Result<VertexAoData> read_vertex_ao_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(data.max_distance));
   PENUMBRA_TRY(r.read(data.rays));
   PENUMBRA_TRY(r.read(count));
+  if (!(data.max_distance > 0.0f && data.max_distance <= 1e6f) || data.rays == 0)
+    return make_error(ErrorCode::InvalidInput, context + ": max distance " + std::to_string(data.max_distance) +
+                                                   " m or " + std::to_string(data.rays) +
+                                                   " rays per vertex is out of range; re-bake");
   for (std::uint32_t i = 0; i < count; ++i) {
     VertexAoData::Entry e;
     PENUMBRA_TRY(r.read_string(e.key));

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "penumbra/bake/baker.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/ecs/transform.h"
@@ -110,6 +112,14 @@ TEST(VertexAo, ChunkRoundTripsAndRejectsDamage) {
   auto out_of_range = read_vertex_ao_chunk(write_vertex_ao_chunk(bad));
   ASSERT_FALSE(out_of_range.ok());
   EXPECT_NE(out_of_range.error().message.find("vertex 1"), std::string::npos);
+
+  for (float distance : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(), -1.0f}) {
+    VertexAoData odd = data;
+    odd.max_distance = distance;
+    auto refused = read_vertex_ao_chunk(write_vertex_ao_chunk(odd));
+    ASSERT_FALSE(refused.ok()) << distance;
+    EXPECT_NE(refused.error().message.find("max distance"), std::string::npos) << refused.error().message;
+  }
 
   BakeChunk newer = chunk;
   newer.version = kVertexAoChunkVersion + 1;
