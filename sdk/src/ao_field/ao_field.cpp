@@ -453,6 +453,22 @@ AOFieldCaster AOFieldCaster::preset(Preset preset) {
   return c;
 }
 
+bool ao_field_origin(const MeshData& mesh, glm::dvec3& centre, double& radius) {
+  glm::dvec3 centroid(0.0);
+  double area = 0.0;
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const glm::dvec3 p0(mesh.positions[mesh.indices[3 * t]]), p1(mesh.positions[mesh.indices[3 * t + 1]]),
+        p2(mesh.positions[mesh.indices[3 * t + 2]]);
+    const double a = 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
+    centroid += a * (p0 + p1 + p2) / 3.0;
+    area += a;
+  }
+  centre = area > 0.0 ? centroid / area : glm::dvec3(mesh.bounds.center());
+  radius = 0.0;
+  for (const glm::vec3& v : mesh.positions) radius = std::max(radius, glm::length(glm::dvec3(v) - centre));
+  return area > 0.0;
+}
+
 Status validate_ao_field_caster(const AOFieldCaster& c, const glm::mat4& m, std::string_view context) {
   // Each setting's range: the field list (ao_field_fields.cpp).
   PENUMBRA_TRY(check_fields(ao_field_caster_info(), &c, context));

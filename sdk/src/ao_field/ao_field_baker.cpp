@@ -292,20 +292,10 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
   PENUMBRA_TRY(mesh.validate(context));
   // Field origin: the area-weighted centroid of the surface (inside the convex hull).
   glm::dvec3 centroid(0.0);
-  double area = 0.0;
-  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
-    const glm::dvec3 p0(mesh.positions[mesh.indices[3 * t]]), p1(mesh.positions[mesh.indices[3 * t + 1]]),
-        p2(mesh.positions[mesh.indices[3 * t + 2]]);
-    const double a = 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
-    centroid += a * (p0 + p1 + p2) / 3.0;
-    area += a;
-  }
-  if (!(area > 0.0))
+  double radius = 0.0;
+  if (!ao_field_origin(mesh, centroid, radius))
     return make_error(ErrorCode::InvalidInput, std::string(context) + ": mesh '" + mesh.name +
                                                    "' has no triangle of non-zero area; give the caster geometry");
-  centroid /= area;
-  double radius = 0.0;
-  for (const glm::vec3& v : mesh.positions) radius = std::max(radius, glm::length(glm::dvec3(v) - centroid));
   const double r_far = caster.falloff_distance > 0.0f ? double(caster.falloff_distance) : 6.0 * radius;
   if (!(r_far > radius))
     return make_error(ErrorCode::InvalidArgument,

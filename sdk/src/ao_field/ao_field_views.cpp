@@ -30,25 +30,6 @@ glm::vec3 circle_direction(int plane, int k, int segments) {
 
 glm::vec3 transform_point(const glm::mat4& m, glm::vec3 p) { return glm::vec3(m * glm::vec4(p, 1.0f)); }
 
-// The surface centroid and bounding radius the baker derives (ao_field_baker.cpp), for casters
-// not yet baked.
-void mesh_centre_radius(const MeshData& mesh, glm::vec3& centre, float& radius) {
-  glm::dvec3 centroid(0.0);
-  double area = 0.0;
-  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
-    const glm::dvec3 p0(mesh.positions[mesh.indices[3 * t]]), p1(mesh.positions[mesh.indices[3 * t + 1]]),
-        p2(mesh.positions[mesh.indices[3 * t + 2]]);
-    const double a = 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
-    centroid += a * (p0 + p1 + p2) / 3.0;
-    area += a;
-  }
-  centroid = area > 0.0 ? centroid / area : glm::dvec3(mesh.bounds.center());
-  double r = 0.0;
-  for (const glm::vec3& v : mesh.positions) r = std::max(r, glm::length(glm::dvec3(v) - centroid));
-  centre = glm::vec3(centroid);
-  radius = static_cast<float>(r);
-}
-
 std::string caster_context(World& world, Entity e) {
   const Name* n = world.try_get<Name>(e);
   return "ao field on " + (n ? "'" + n->value + "'" : std::string("entity")) + " (#" + std::to_string(e.index) + ")";
@@ -78,7 +59,11 @@ Result<AOFieldBounds> ao_field_bounds(World& world, Entity e, int segments) {
     r_far = data->r_far;
     b.baked = true;
   } else {
-    mesh_centre_radius(*mesh->data, centre, radius);
+    glm::dvec3 origin(0.0);
+    double bounding = 0.0;
+    ao_field_origin(*mesh->data, origin, bounding);  // as the bake will derive them
+    centre = glm::vec3(origin);
+    radius = static_cast<float>(bounding);
     r_far = caster->falloff_distance > 0.0f ? caster->falloff_distance : 6.0f * radius;
   }
   b.centre = transform_point(m, centre);

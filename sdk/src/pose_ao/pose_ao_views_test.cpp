@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "editor_model.h"
+#include "editor_test_support.h"
 #include "fields.h"
 #include "load_world.h"
 #include "penumbra/ecs/transform.h"
@@ -20,15 +21,6 @@
 
 namespace penumbra::editor {
 namespace {
-
-// Opens the courtyard and bakes the selected entity's components through the Bake-selection path.
-void bake_selected(EditorModel& model, Entity e) {
-  model.document()->select(e);
-  ASSERT_TRUE(model.bake_selection().ok());
-  model.bakes().wait();
-  ASSERT_TRUE(model.poll());
-  ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
-}
 
 TEST(PoseAOViews, AOStatsCountsByHand) {
   const float nan = std::numeric_limits<float>::quiet_NaN();

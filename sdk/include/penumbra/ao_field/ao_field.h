@@ -31,11 +31,13 @@
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
+#include <glm/ext/vector_double3.hpp>
 
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
 #include "penumbra/lighting/fields.h"
 #include "penumbra/lighting/settings.h"
+#include "penumbra/scene/components.h"
 
 namespace penumbra {
 
@@ -100,6 +102,12 @@ struct AOFieldReceiver {
   std::uint64_t updated_tick = 0;
   Mode mode = Mode::Entity;
 };
+
+// A field's origin in the mesh frame, the area-weighted centroid of the surface (inside the convex
+// hull), and its bounding radius, the distance from it to the farthest vertex: what the bake
+// derives, and what a view of a caster not yet baked shows. False when no triangle has a non-zero
+// area (the centre is then the bounds' centre). Cost: O(triangles + vertices). Thread-safe.
+bool ao_field_origin(const MeshData& mesh, glm::dvec3& centre, double& radius);
 
 // Checks a caster's settings and its entity's world matrix. Errors (InvalidArgument) name
 // `context` (e.g. "ao field 'crate'"), the field and the fix: resolution, radial samples or rays
