@@ -3,16 +3,16 @@
 //   direct light   directional / point / spot (KHR_lights_punctual, as bake/light_sampling.h) and
 //                  rect lights as Lambertian emitters of intensity L A cos(theta_l) from their centre,
 //                  each with a PCF-filtered shadow map;
-//   indirect light the probe grid's irradiance (Kontkanen & Laine 2006; the thesis section 3.2;
-//                  probe_grid.glsl) times the open fraction under the moving casters' AO fields
-//                  on AO-field receivers (per pixel on surfaces, per entity on dynamic receivers),
-//                  both from the ambient passes before this one (ambient.frag, ao_field.frag),
-//                  upsampled; times the per-vertex AO attribute (vertex AO, pose-AO);
+//   indirect light the ambient image's irradiance times its open fraction (what the render
+//                  features drew into it before this pass: the probe grid's irradiance, the
+//                  AO-field casters' occlusion; render/feature.h), upsampled; times the draw's
+//                  entity-wide open fraction and the per-vertex AO attribute (vertex AO, pose-AO);
 //   emission       the material's emitted radiance;
-// then exposure, the ACES filmic fit of Narkowicz (2015) and, for UNORM targets, the sRGB transfer.
+// then exposure, the ACES filmic fit of Narkowicz (2015) and, for UNORM targets, the sRGB transfer
+// (output.glsl).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
-#include "probe_grid.glsl"
+#include "output.glsl"
 
 layout(std430, set = 0, binding = PENUMBRA_BINDING_LIGHTS) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = PENUMBRA_BINDING_SHADOW_MAP) uniform sampler2DArrayShadow shadow_map;
@@ -30,8 +30,8 @@ layout(location = 0) out vec4 out_color;
 // The debug view is a specialisation constant (one pipeline per view): llvmpipe runs shaders as
 // SIMD with masks, so a run-time switch would pay for every view's code on every pixel.
 layout(constant_id = 0) const uint kView = PENUMBRA_VIEW_LIT;
-// The ambient passes ran (a probe grid or AO-field casters, and a view that shows them): else their
-// code is compiled out.
+// The ambient image was drawn (an active render feature and a view that shows it): else its code
+// is compiled out.
 layout(constant_id = 1) const bool kAmbient = false;
 // Shadow-map taps per light (RenderSettings::shadow_taps; 0: no shadows this frame, compiled out).
 layout(constant_id = 2) const uint kShadowTaps = 4u;
@@ -117,7 +117,7 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
   return e;
 }
 
-// The ambient image at this pixel (normal n): (probe irradiance x open fraction x
+// The ambient image at this pixel (normal n): (irradiance x open fraction x
 // ambient_scale, open fraction), upsampled from the passes' image (at step s sample (i, j) stands
 // for pixel (s i, s j)): the bilinear weights of the four nearest samples, restricted to samples
 // on this pixel's surface (their 1 / clip w, which is linear in screen space on a plane, within
@@ -152,28 +152,17 @@ vec4 ambient_at_pixel(vec3 n) {
   return any_weight > 0.0 ? any_sum / any_weight : texelFetch(ambient_image, q0, 0);
 }
 
-// ACES filmic curve, Narkowicz 2015 ("ACES Filmic Tone Mapping Curve"), per channel, to [0, 1].
-vec3 tone_map(vec3 x) {
-  return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
-}
-
-vec3 srgb_encode(vec3 c) {
-  return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, greaterThan(c, vec3(0.0031308)));
-}
-
 void main() {
   vec3 n = normalize(in_normal);
   if (!gl_FrontFacing) n = -n;  // shade the side the camera sees
   vec3 albedo = push.base_color.rgb * texture(base_color_texture, in_uv).rgb;
-  bool has_probe = (frame.params.z & PENUMBRA_FLAG_PROBE_GRID) != 0u;
-  // AO: the vertex attribute, a dynamic receiver's occlusion, the open fraction per pixel (1 off
-  // surface receivers).
-  float ao = in_ao;
-  if (uint(push.ao_field.x) == PENUMBRA_AO_RECEIVER_ENTITY) ao *= 1.0 - push.ao_field.y;
+  bool has_indirect = (frame.params.z & PENUMBRA_FLAG_INDIRECT) != 0u;
+  // AO: the vertex attribute, the draw's entity-wide open fraction, the ambient image's per pixel.
+  float ao = in_ao * push.feature.y;
   vec3 indirect = vec3(0.0);
   if (kAmbient) {
     vec4 ambient = ambient_at_pixel(n);
-    if (has_probe) indirect = ambient.rgb * (ao / frame.ambient_scale.x);
+    if (has_indirect) indirect = ambient.rgb * (ao / frame.ambient_scale.x);
     ao *= ambient.a;
   }
   const uint view = kView;
@@ -186,30 +175,16 @@ void main() {
   } else if (view == PENUMBRA_VIEW_AO) {
     color = vec3(ao);
     scene_referred = false;
-  } else if (view == PENUMBRA_VIEW_VALIDITY) {
-    // Red (no valid samples) -> green (fully valid); blue where no grid is bound.
-    float v = has_probe ? texture(probe_validity, probe_uvw(in_world, n)).r : 0.0;
-    color = has_probe ? vec3(1.0 - v, v, 0.0) : vec3(0.0, 0.0, 1.0);
-    scene_referred = false;
   } else if (view == PENUMBRA_VIEW_POSITION) {
     color = in_world;
     scene_referred = false;
   } else if (view == PENUMBRA_VIEW_NORMAL) {
     color = n;
     scene_referred = false;
-  } else if (view == PENUMBRA_VIEW_IRRADIANCE) {
-    color = has_probe ? probe_irradiance(in_world, n) : vec3(0.0);
   } else {
     vec3 direct = (view == PENUMBRA_VIEW_INDIRECT) ? vec3(0.0) : direct_irradiance(in_world, n);
     color = albedo / kPi * (direct + indirect);
     if (view == PENUMBRA_VIEW_LIT) color += push.emissive.rgb;
   }
-
-  uint flags = frame.params.z;
-  if ((flags & PENUMBRA_FLAG_LINEAR) == 0u) {
-    if (scene_referred) color = tone_map(color * frame.camera_exposure.w);
-    color = clamp(color, 0.0, 1.0);
-    if ((flags & PENUMBRA_FLAG_ENCODE_SRGB) != 0u) color = srgb_encode(color);
-  }
-  out_color = vec4(color, 1.0);
+  out_color = output_colour(color, scene_referred);
 }

@@ -1,6 +1,6 @@
 #version 450
-// Depth pre-pass with the AO-field pass, fragment stage: the G-buffer the pass reads, the
-// shading normal as the forward pass computes it and the receiver code (layout.h).
+// Depth pre-pass with the ambient image or a feature's view, fragment stage: the G-buffer, the
+// shading normal as the forward pass computes it and the draw's receiver code (layout.h).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
@@ -15,6 +15,5 @@ layout(location = 0) out vec4 out_gbuffer;
 void main() {
   vec3 n = normalize(in_normal);
   if (!gl_FrontFacing) n = -n;  // the side the camera sees, as forward.frag
-  bool surface = uint(push.ao_field.x) == PENUMBRA_AO_RECEIVER_SURFACE;
-  out_gbuffer = vec4(n, surface ? 2.0 + push.ao_field.z : 0.0);
+  out_gbuffer = vec4(n, push.feature.x);
 }

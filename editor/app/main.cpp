@@ -94,9 +94,15 @@ int run(const Options& options) {
       } else if (a.verb == "ui") {
         ui.show_ui = a.args[0] == "on";
       } else if (a.verb == "view") {
-        auto v = parse_debug_view(a.args[0]);
-        if (!v) return v.error();
-        ui.render.view = *v;
+        std::string all;
+        for (const ViewInfo& v : ui.views) {
+          if (v.name == a.args[0]) {
+            ui.render.view = a.args[0];
+            return {};
+          }
+          all += (all.empty() ? "" : ", ") + std::string(v.name);
+        }
+        return make_error(ErrorCode::InvalidArgument, "unknown view '" + a.args[0] + "'; use one of " + all);
       }
       return {};
     });
@@ -130,6 +136,7 @@ int run(const Options& options) {
     } else {
       ui.render_scale = options.render_scale > 0.0f ? options.render_scale
                                                     : ((*viewport)->device().is_software() ? 0.5f : 1.0f);
+      ui.views = (*viewport)->renderer().views();
       (*viewport)->set_render_scale(ui.render_scale);
       EditorModel model;
       if (!runner) {

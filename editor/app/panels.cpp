@@ -323,11 +323,11 @@ void view_panel(EditorModel& model, UiState& ui) {
   ImGui::SetNextWindowPos(ImVec2(260, 560), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSize(ImVec2(460, 170), ImGuiCond_FirstUseEver);
   ImGui::Begin("View");
-  if (ImGui::BeginCombo("debug view", std::string(debug_view_name(ui.render.view)).c_str())) {
-    for (int v = 0; v < kDebugViewCount; ++v)
-      if (ImGui::Selectable(std::string(debug_view_name(static_cast<DebugView>(v))).c_str(),
-                            v == static_cast<int>(ui.render.view)))
-        ui.render.view = static_cast<DebugView>(v);
+  if (ImGui::BeginCombo("debug view", ui.render.view.c_str())) {
+    for (const ViewInfo& v : ui.views) {
+      if (ImGui::Selectable(std::string(v.name).c_str(), v.name == ui.render.view)) ui.render.view = v.name;
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", std::string(v.description).c_str());
+    }
     ImGui::EndCombo();
   }
   ImGui::DragFloat("exposure", &ui.render.exposure, 0.01f, 0.01f, 100.0f);

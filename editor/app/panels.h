@@ -56,6 +56,7 @@ struct UiState {
   float render_scale = 1.0f;  // of the 3D view (Viewport::set_render_scale)
   FrameTimes frames;
   FrameStats renderer_stats;
+  std::vector<ViewInfo> views;  // the renderer's debug views (Renderer::views)
   std::string message;  // the last error or notice, shown in the status bar
   char scene_path[512] = "builtin:courtyard";
   char bake_path[512] = "scene.pbake";

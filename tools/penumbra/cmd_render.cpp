@@ -81,11 +81,7 @@ int cmd_render(Args args) {
     time = *v;
   }
   RenderSettings settings;
-  if (view_text) {
-    auto v = parse_debug_view(*view_text);
-    if (!v) return fail(kUsage, "--view: " + v.error().message);
-    settings.view = *v;
-  }
+  if (view_text) settings.view = *view_text;  // checked against the renderer's views below
   if (shadow_text) {
     auto v = parse_count("--shadow-map", *shadow_text);
     if (!v || *v > 8192) return fail(kUsage, "--shadow-map must be 0 (no shadows) or a size in 16..8192");
@@ -142,6 +138,15 @@ int cmd_render(Args args) {
   if (!device) return fail(kFailure, device.error().message);
   auto renderer = Renderer::create(**device);
   if (!renderer) return fail(kFailure, renderer.error().message);
+  {
+    std::string all;
+    bool known = false;
+    for (const ViewInfo& v : (*renderer)->views()) {
+      known = known || v.name == settings.view;
+      all += (all.empty() ? "" : ", ") + std::string(v.name);
+    }
+    if (!known) return fail(kUsage, "--view: unknown view '" + settings.view + "'; use one of " + all);
+  }
 
   if (frames > 0) {
     // Each frame: sync + record + submit + wait (no read-back), timed on the CPU clock; with
@@ -164,7 +169,7 @@ int cmd_render(Args args) {
   auto image = (*renderer)->render_image(world, view, width, height, settings, exr);
   if (!image) return fail(kFailure, image.error().message);
   if (Status s = write_image(*image, *out); !s) return fail(kFailure, s.error().message);
-  std::printf("rendered %s (%s view) -> %s (%ux%u)\n", scene.c_str(), std::string(debug_view_name(settings.view)).c_str(),
+  std::printf("rendered %s (%s view) -> %s (%ux%u)\n", scene.c_str(), settings.view.c_str(),
               out->c_str(), width, height);
   return kSuccess;
 }

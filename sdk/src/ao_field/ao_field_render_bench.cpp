@@ -162,9 +162,9 @@ Result<Report> run(const Options& options) {
         PENUMBRA_TRY(v.renderer->render_frame(*v.world, v.camera, v.width, v.height, v.settings));
         v.render_ms.push_back(ms_since(t0));
         v.vertex_ao_uploads += v.renderer->stats().vertex_ao_uploads;
-        v.ao_field_bytes += v.renderer->stats().ao_field_bytes_uploaded;
+        v.ao_field_bytes += v.renderer->stats().counter("ao-field.bytes_uploaded");
         v.shadow_layers_drawn += v.renderer->stats().shadow_layers_rendered;
-        v.casters = v.renderer->stats().ao_field_casters;
+        v.casters = static_cast<std::uint32_t>(v.renderer->stats().counter("ao-field.casters"));
         ++v.frames;
       }
     }

@@ -16,22 +16,27 @@ namespace penumbra {
 
 namespace {
 
-// A baked grid as the system uses it this update.
-struct ActiveGrid {
-  const ProbeGridData* data;
-  int priority;
-  std::uint32_t index;
-  float blend;  // metres
-};
-
 // The system's memory between runs: how many grids were active (a removal changes it).
 struct ProbeGridSystemState {
   std::size_t grids = 0;
 };
 
-// Fade of a grid at x: 0 outside its box; inside, the distance to its border over the blend
-// distance, clamped to [1e-4, 1] (so a point on the border still counts as covered).
-float coverage(const ActiveGrid& g, glm::vec3 x) {
+}  // namespace
+
+std::vector<BlendedProbeGrid> blended_probe_grids(World& world) {
+  std::vector<BlendedProbeGrid> grids;
+  world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid& g) {
+    if (!g.data) return;
+    const float spacing = std::min({g.data->layout.spacing.x, g.data->layout.spacing.y, g.data->layout.spacing.z});
+    grids.push_back({g.data, g.priority, e.index, g.blend_distance > 0.0f ? g.blend_distance : spacing});
+  });
+  std::sort(grids.begin(), grids.end(), [](const BlendedProbeGrid& a, const BlendedProbeGrid& b) {
+    return a.priority != b.priority ? a.priority > b.priority : a.index < b.index;
+  });
+  return grids;
+}
+
+float probe_grid_coverage(const BlendedProbeGrid& g, glm::vec3 x) {
   const glm::vec3 u(g.data->layout.world_to_grid * glm::vec4(x, 1.0f));
   if (!(u.x >= 0.0f && u.y >= 0.0f && u.z >= 0.0f && u.x <= 1.0f && u.y <= 1.0f && u.z <= 1.0f)) return 0.0f;
   const glm::vec3 size = g.data->layout.spacing * glm::vec3(g.data->layout.resolution - 1u);
@@ -40,7 +45,21 @@ float coverage(const ActiveGrid& g, glm::vec3 x) {
   return glm::clamp(d / g.blend, 1e-4f, 1.0f);
 }
 
-}  // namespace
+bool probe_grid_weights(std::span<const BlendedProbeGrid> grids, glm::vec3 x, std::vector<float>& weights) {
+  weights.assign(grids.size(), 0.0f);
+  float left = 1.0f;
+  std::size_t last = grids.size();
+  for (std::size_t i = 0; i < grids.size(); ++i) {
+    const float f = probe_grid_coverage(grids[i], x);
+    if (f <= 0.0f) continue;
+    weights[i] = left * f;
+    left -= weights[i];
+    last = i;
+  }
+  if (last == grids.size()) return false;
+  weights[last] += left;  // the last covering grid takes all that is left
+  return true;
+}
 
 glm::vec3 probe_lit_position(const World& world, Entity e) {
   const glm::mat4& m = world.get<WorldTransform>(e).matrix;
@@ -51,19 +70,12 @@ glm::vec3 probe_lit_position(const World& world, Entity e) {
 }
 
 std::size_t update_probe_lighting(World& world, std::uint64_t since) {
-  // The grids with data, by descending priority then entity index (a deterministic order).
-  std::vector<ActiveGrid> grids;
   bool grids_changed = false;
-  world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid& g) {
+  world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid&) {
     if (world.changed_tick<IrradianceProbeGrid>(e) > since || world.changed_tick<WorldTransform>(e) > since)
       grids_changed = true;
-    if (!g.data) return;
-    const float spacing = std::min({g.data->layout.spacing.x, g.data->layout.spacing.y, g.data->layout.spacing.z});
-    grids.push_back({g.data.get(), g.priority, e.index, g.blend_distance > 0.0f ? g.blend_distance : spacing});
   });
-  std::sort(grids.begin(), grids.end(), [](const ActiveGrid& a, const ActiveGrid& b) {
-    return a.priority != b.priority ? a.priority > b.priority : a.index < b.index;
-  });
+  const std::vector<BlendedProbeGrid> grids = blended_probe_grids(world);
   auto& state = world.resource<ProbeGridSystemState>();
   if (state.grids != grids.size()) grids_changed = true;
   state.grids = grids.size();
@@ -76,25 +88,19 @@ std::size_t update_probe_lighting(World& world, std::uint64_t since) {
       receivers.push_back(e);
   });
 
-  std::vector<std::pair<const ActiveGrid*, float>> covering;
+  std::vector<float> weights;
   for (Entity e : receivers) {
     const glm::vec3 x = probe_lit_position(world, e);
-    // Blend: each covering grid takes its fade of the weight the higher-priority grids left; the
-    // last (lowest-priority) covering grid takes all that is left.
-    covering.clear();
-    for (const ActiveGrid& g : grids)
-      if (const float f = coverage(g, x); f > 0.0f) covering.push_back({&g, f});
+    const bool covered = probe_grid_weights(grids, x, weights);
     SH9rgb sum;
-    float left = 1.0f;
     bool l2 = false;
-    for (std::size_t i = 0; i < covering.size() && left > 0.0f; ++i) {
-      const float w = i + 1 == covering.size() ? left : left * covering[i].second;
-      sum += interpolate(*covering[i].first->data, x) * w;
-      left -= w;
-      l2 = l2 || covering[i].first->data->sh_order == ProbeShOrder::L2;
+    for (std::size_t i = 0; i < grids.size(); ++i) {
+      if (weights[i] <= 0.0f) continue;
+      sum += interpolate(*grids[i].data, x) * weights[i];
+      l2 = l2 || grids[i].data->sh_order == ProbeShOrder::L2;
     }
     ProbeLit& lit = world.patch<ProbeLit>(e);
-    lit.covered = !covering.empty();
+    lit.covered = covered;
     lit.position = x;
     lit.irradiance = sum;
     lit.order = l2 ? ProbeShOrder::L2 : ProbeShOrder::L1;

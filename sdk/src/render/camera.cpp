@@ -1,5 +1,4 @@
-// Debug view names and camera views (Vulkan clip conventions: y down, depth 0..1).
-#include <array>
+// Camera views (Vulkan clip conventions: y down, depth 0..1).
 #include <cmath>
 #include <string>
 
@@ -14,27 +13,6 @@
 namespace penumbra {
 namespace {
 
-// The views' names, in the order of DebugView (checked below).
-struct ViewName {
-  DebugView view;
-  std::string_view name;
-};
-constexpr std::array<ViewName, kDebugViewCount> kViews = {{{DebugView::Lit, "lit"},
-                                                           {DebugView::DirectOnly, "direct"},
-                                                           {DebugView::IndirectOnly, "indirect"},
-                                                           {DebugView::AoOnly, "ao"},
-                                                           {DebugView::Albedo, "albedo"},
-                                                           {DebugView::ProbeValidity, "validity"},
-                                                           {DebugView::Position, "position"},
-                                                           {DebugView::Normal, "normal"},
-                                                           {DebugView::Irradiance, "irradiance"}}};
-constexpr bool in_enum_order() {
-  for (std::size_t i = 0; i < kViews.size(); ++i)
-    if (static_cast<std::size_t>(kViews[i].view) != i) return false;
-  return true;
-}
-static_assert(in_enum_order(), "kViews follows DebugView");
-
 // Right-handed perspective to Vulkan clip space (depth 0..1, y pointing down the image).
 glm::mat4 vulkan_perspective(float yfov, float aspect, float znear, float zfar) {
   glm::mat4 p = glm::perspectiveRH_ZO(yfov, aspect, znear, zfar);
@@ -43,20 +21,6 @@ glm::mat4 vulkan_perspective(float yfov, float aspect, float znear, float zfar) 
 }
 
 }  // namespace
-
-Result<DebugView> parse_debug_view(std::string_view name) {
-  std::string all;
-  for (const ViewName& v : kViews) {
-    if (v.name == name) return v.view;
-    all += (all.empty() ? "" : ", ") + std::string(v.name);
-  }
-  return make_error(ErrorCode::InvalidArgument, "unknown view '" + std::string(name) + "'; use one of " + all);
-}
-
-std::string_view debug_view_name(DebugView view) {
-  const auto i = static_cast<std::size_t>(view);
-  return i < kViews.size() ? kViews[i].name : std::string_view("unknown");
-}
 
 CameraView camera_view(const World& world, Entity camera, float aspect) {
   CameraView v;

@@ -7,7 +7,7 @@
 #include <mutex>
 
 #include "penumbra/core/log.h"
-#include "vk_util.h"
+#include "penumbra/render/vk_util.h"
 
 namespace penumbra {
 
@@ -108,11 +108,11 @@ Result<std::unique_ptr<Device>> Device::create(const DeviceOptions& options) {
     layers.push_back(kValidationLayer);
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   }
-  auto app = render_detail::vk_struct<VkApplicationInfo>(VK_STRUCTURE_TYPE_APPLICATION_INFO);
+  auto app = vk::vk_struct<VkApplicationInfo>(VK_STRUCTURE_TYPE_APPLICATION_INFO);
   app.pApplicationName = "penumbra";
   app.pEngineName = "penumbra";
   app.apiVersion = VK_API_VERSION_1_3;
-  auto messenger_info = render_detail::vk_struct<VkDebugUtilsMessengerCreateInfoEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT);
+  auto messenger_info = vk::vk_struct<VkDebugUtilsMessengerCreateInfoEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT);
   messenger_info.messageSeverity =
       VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
   messenger_info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
@@ -120,7 +120,7 @@ Result<std::unique_ptr<Device>> Device::create(const DeviceOptions& options) {
                                VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
   messenger_info.pfnUserCallback = on_validation_message;
   messenger_info.pUserData = &impl->validation;
-  auto instance_info = render_detail::vk_struct<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
+  auto instance_info = vk::vk_struct<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
   instance_info.pApplicationInfo = &app;
   instance_info.enabledLayerCount = static_cast<std::uint32_t>(layers.size());
   instance_info.ppEnabledLayerNames = layers.data();
@@ -176,8 +176,8 @@ Result<std::unique_ptr<Device>> Device::create(const DeviceOptions& options) {
   }
 
   // Logical device with the features the renderer records with.
-  auto features13 = render_detail::vk_struct<VkPhysicalDeviceVulkan13Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES);
-  auto supported = render_detail::vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
+  auto features13 = vk::vk_struct<VkPhysicalDeviceVulkan13Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES);
+  auto supported = vk::vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
   supported.pNext = &features13;
   vkGetPhysicalDeviceFeatures2(impl->physical, &supported);
   if (!features13.dynamicRendering || !features13.synchronization2 || !supported.features.depthClamp ||
@@ -186,21 +186,21 @@ Result<std::unique_ptr<Device>> Device::create(const DeviceOptions& options) {
                                                   " lacks dynamic rendering, synchronization2, depth clamp or "
                                                   "independent blend; update the driver");
   }
-  auto enable13 = render_detail::vk_struct<VkPhysicalDeviceVulkan13Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES);
+  auto enable13 = vk::vk_struct<VkPhysicalDeviceVulkan13Features>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES);
   enable13.dynamicRendering = VK_TRUE;
   enable13.synchronization2 = VK_TRUE;
-  auto enable = render_detail::vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
+  auto enable = vk::vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
   enable.pNext = &enable13;
   enable.features.depthClamp = VK_TRUE;        // the AO-field pass's boxes reach past the far plane
   enable.features.independentBlend = VK_TRUE;  // it blends the ambient image, not the ambient key
   std::vector<const char*> device_extensions;
   if (options.swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
   const float priority = 1.0f;
-  auto queue_info = render_detail::vk_struct<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
+  auto queue_info = vk::vk_struct<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
   queue_info.queueFamilyIndex = impl->family;
   queue_info.queueCount = 1;
   queue_info.pQueuePriorities = &priority;
-  auto device_info = render_detail::vk_struct<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
+  auto device_info = vk::vk_struct<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
   device_info.pNext = &enable;
   device_info.queueCreateInfoCount = 1;
   device_info.pQueueCreateInfos = &queue_info;
@@ -213,10 +213,10 @@ Result<std::unique_ptr<Device>> Device::create(const DeviceOptions& options) {
   }
   vkGetDeviceQueue(impl->device, impl->family, 0, &impl->queue);
 
-  auto pool_info = render_detail::vk_struct<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
+  auto pool_info = vk::vk_struct<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
   pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
   pool_info.queueFamilyIndex = impl->family;
-  auto fence_info = render_detail::vk_struct<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
+  auto fence_info = vk::vk_struct<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
   if (vkCreateCommandPool(impl->device, &pool_info, nullptr, &impl->pool) != VK_SUCCESS ||
       vkCreateFence(impl->device, &fence_info, nullptr, &impl->fence) != VK_SUCCESS) {
     return make_error(ErrorCode::Internal, "Vulkan: cannot create the upload command pool");
@@ -242,7 +242,7 @@ std::string Device::last_validation_message() const {
 
 Status Device::submit_and_wait(const std::function<void(VkCommandBuffer)>& record) {
   std::lock_guard lock(impl_->submit_mutex);
-  auto alloc = render_detail::vk_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+  auto alloc = vk::vk_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
   alloc.commandPool = impl_->pool;
   alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
   alloc.commandBufferCount = 1;
@@ -250,12 +250,12 @@ Status Device::submit_and_wait(const std::function<void(VkCommandBuffer)>& recor
   if (vkAllocateCommandBuffers(impl_->device, &alloc, &cmd) != VK_SUCCESS) {
     return make_error(ErrorCode::Internal, "Vulkan: cannot allocate a command buffer");
   }
-  auto begin = render_detail::vk_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+  auto begin = vk::vk_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   vkBeginCommandBuffer(cmd, &begin);
   record(cmd);
   vkEndCommandBuffer(cmd);
-  auto submit = render_detail::vk_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+  auto submit = vk::vk_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
   submit.commandBufferCount = 1;
   submit.pCommandBuffers = &cmd;
   VkResult r = vkQueueSubmit(impl_->queue, 1, &submit, impl_->fence);

@@ -1,5 +1,6 @@
 // The forward renderer: World -> GPU resources (sync); per frame (record) the shadow passes, the
-// depth pre-pass, with a probe grid or AO-field casters the ambient passes, and the forward pass.
+// depth pre-pass, with an active render feature the ambient image, and the forward pass (or a
+// feature's debug view).
 #include "penumbra/render/renderer.h"
 
 #include <algorithm>
@@ -14,37 +15,22 @@
 #include <glm/ext/matrix_transform.hpp>
 #include <glm/ext/vector_uint4_sized.hpp>
 
-#include "penumbra/ao_field/ao_field_gpu.h"
+#include "feature_pipeline.h"
 #include "penumbra/bake/integrators.h"
 #include "penumbra/core/log.h"
 #include "penumbra/ecs/transform.h"
-#include "penumbra/probe_grid/probe_grid.h"
-#include "penumbra/probe_grid/probe_grid_gpu.h"
 #include "penumbra/scene/components.h"
 #include "shared/layout.h"
 #include "spirv.h"
-#include "vk_util.h"
-
-// The debug views' numbers are the shader's (layout.h): the specialisation constant kView.
-static_assert(int(penumbra::DebugView::Lit) == PENUMBRA_VIEW_LIT && int(penumbra::DebugView::DirectOnly) == PENUMBRA_VIEW_DIRECT &&
-              int(penumbra::DebugView::IndirectOnly) == PENUMBRA_VIEW_INDIRECT &&
-              int(penumbra::DebugView::AoOnly) == PENUMBRA_VIEW_AO && int(penumbra::DebugView::Albedo) == PENUMBRA_VIEW_ALBEDO &&
-              int(penumbra::DebugView::ProbeValidity) == PENUMBRA_VIEW_VALIDITY &&
-              int(penumbra::DebugView::Position) == PENUMBRA_VIEW_POSITION &&
-              int(penumbra::DebugView::Normal) == PENUMBRA_VIEW_NORMAL &&
-              int(penumbra::DebugView::Irradiance) == PENUMBRA_VIEW_IRRADIANCE &&
-              penumbra::kDebugViewCount == PENUMBRA_VIEW_COUNT);
-// The shader's leak-guard constants are the CPU lookup's (probe_grid.h).
-static_assert(float(PENUMBRA_PROBE_NORMAL_BIAS) == penumbra::kProbeNormalBias);
-static_assert(float(PENUMBRA_PROBE_REACH_SLACK) == penumbra::kProbeReachSlack);
+#include "penumbra/render/vk_util.h"
 
 namespace penumbra {
 
-using render_detail::Allocator;
-using render_detail::Buffer;
-using render_detail::image_barrier;
-using render_detail::ImageResource;
-using render_detail::vk_struct;
+using vk::Allocator;
+using vk::Buffer;
+using vk::image_barrier;
+using vk::ImageResource;
+using vk::vk_struct;
 
 namespace {
 
@@ -53,6 +39,25 @@ constexpr VkFormat kGBufferFormat = VK_FORMAT_R16G16B16A16_SFLOAT;  // normal, r
 constexpr VkFormat kAmbientFormat = VK_FORMAT_R16G16B16A16_SFLOAT;  // blendable on every device
 constexpr std::uint32_t kMaxMaterialSets = 1024;
 constexpr std::uint32_t kMaxImageSize = 16384;
+
+// The renderer's own views, in the order of forward.frag's kView (layout.h PENUMBRA_VIEW_*).
+constexpr ViewInfo kOwnViews[] = {
+    {"lit", "direct + indirect light, AO applied, tone mapped"},
+    {"direct", "direct light with shadows"},
+    {"indirect", "the ambient sources' irradiance x albedo x AO"},
+    {"ao", "the product of every AO term, as grey"},
+    {"albedo", "base colour x texture"},
+    {"position", "world position (linear data, not tone mapped)"},
+    {"normal", "world normal, facing the camera (linear data)"},
+};
+static_assert(std::size(kOwnViews) == PENUMBRA_VIEW_COUNT);
+
+// The renderer's views, then each feature's.
+std::vector<ViewInfo> all_views(const RenderFeatures& features) {
+  std::vector<ViewInfo> all(std::begin(kOwnViews), std::end(kOwnViews));
+  for (const auto& f : features) all.insert(all.end(), f->views().begin(), f->views().end());
+  return all;
+}
 
 // One interleaved vertex (binding 0); the AO attribute is binding 1.
 struct GpuVertex {
@@ -129,8 +134,7 @@ void append_bytes(std::vector<std::byte>& key, const T& value) {
   key.insert(key.end(), bytes, bytes + sizeof(T));
 }
 
-VkShaderModule make_module(VkDevice device, std::string_view name) {
-  const auto words = render_detail::spirv(name);
+VkShaderModule make_module(VkDevice device, std::span<const std::uint32_t> words) {
   auto info = vk_struct<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
   info.codeSize = words.size() * 4;
   info.pCode = words.data();
@@ -148,25 +152,29 @@ bool is_unorm_format(VkFormat f) {
 
 }  // namespace
 
-struct Renderer::Impl {
-  Device* device = nullptr;
+struct Renderer::Impl final : RenderContext {
+  Device* gpu_device = nullptr;
   VkDevice vk = VK_NULL_HANDLE;
   std::unique_ptr<Allocator> alloc;
   FrameStats stats;
 
   VkDescriptorSetLayout frame_layout = VK_NULL_HANDLE, material_layout = VK_NULL_HANDLE;
-  VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
+  VkPipelineLayout renderer_layout = VK_NULL_HANDLE;
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE,
-                 gbuffer_frag = VK_NULL_HANDLE, ambient_vert = VK_NULL_HANDLE, ambient_frag = VK_NULL_HANDLE,
-                 ao_field_vert = VK_NULL_HANDLE, ao_field_frag = VK_NULL_HANDLE;
+                 gbuffer_frag = VK_NULL_HANDLE, screen_vert = VK_NULL_HANDLE, ambient_key_frag = VK_NULL_HANDLE;
   // The graphics pipelines by pass, colour format, view, flag, shadow taps and light count (see
   // pipeline()).
-  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, Ambient, AoFieldMark, AoFields, AoFieldsInside, Forward };
+  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AmbientKey, Forward };
   std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
-  VkSampler texture_sampler = VK_NULL_HANDLE, probe_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE,
+  VkSampler texture_sampler = VK_NULL_HANDLE, linear_clamp_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE,
             point_sampler = VK_NULL_HANDLE;
+  // The render features, and what the renderer made for them through RenderContext.
+  RenderFeatures features;
+  std::vector<VkPipelineLayout> feature_layouts;
+  std::vector<VkShaderModule> feature_shaders;
+  std::vector<VkPipeline> feature_pipelines;
 
   // Assets and per-frame data.
   std::unordered_map<const MeshData*, GpuMesh> meshes;
@@ -181,22 +189,8 @@ struct Renderer::Impl {
   Aabb bounds;
   Buffer frame_buffer, light_buffer, shadow_matrix_buffer, joint_buffer;
 
-  // Probe grid.
-  std::shared_ptr<const ProbeGridData> probe;
-  float ambient_scale = 1.0f;  // FrameUniforms::ambient_scale.x for this grid
-  ImageResource probe_textures[PENUMBRA_PROBE_TEXTURES];
-  ImageResource probe_validity;
-  ImageResource dummy_3d;
-
-  // AO fields (ao_field_gpu.h layout): the packed casters, or the placeholder bound without any.
-  Buffer ao_field_buffer, ao_field_placeholder;
-  std::vector<Entity> ao_casters;                 // the packed records' entities, in record order
-  std::vector<bool> ao_caster_grid;               // their representation: grid (else radial fit)
-  std::vector<glm::vec4> ao_caster_reach;         // their world centre and reach
-  std::vector<const AOFieldData*> ao_field_data;  // their fields when packed
-  std::uint64_t ao_field_tick = 0;                // the newest caster change tick packed
-
-  // Targets. The G-buffer and the ambient image exist only while the ambient passes run.
+  // Targets. The G-buffer and the ambient image exist only while the ambient image or a
+  // feature's view is drawn.
   // ambient_key: per sample its surface (layout.h); ambient_depth: per sample depth, stencil.
   ImageResource depth, gbuffer, ambient, ambient_key, ambient_depth;
   VkFormat ambient_depth_format = VK_FORMAT_UNDEFINED;    // D32_SFLOAT_S8_UINT or D24_UNORM_S8_UINT
@@ -214,43 +208,53 @@ struct Renderer::Impl {
   Buffer readback;
   bool descriptors_dirty = true;
 
-  ~Impl() {
+  ~Impl() override {
     if (!vk) return;
     vkDeviceWaitIdle(vk);
+    for (auto& f : features) f->release(*this);
+    for (VkPipeline p : feature_pipelines) vkDestroyPipeline(vk, p, nullptr);
+    for (VkPipelineLayout l : feature_layouts) vkDestroyPipelineLayout(vk, l, nullptr);
+    for (VkShaderModule m : feature_shaders) vkDestroyShaderModule(vk, m, nullptr);
     for (auto& [k, m] : meshes) { alloc->destroy(m.vertices); alloc->destroy(m.indices); }
     for (auto& [k, t] : textures) alloc->destroy(t.image);
     alloc->destroy(white.image);
     for (auto& [k, b] : vertex_ao) alloc->destroy(b.buffer);
-    for (Buffer* b : {&ones, &ao_field_buffer, &ao_field_placeholder, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
-    for (auto& t : probe_textures) alloc->destroy(t);
-    for (ImageResource* i : {&probe_validity, &dummy_3d, &depth, &gbuffer, &ambient, &ambient_key, &ambient_depth,
-                             &shadow_map, &offscreen})
+    for (Buffer* b : {&ones, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
+    for (ImageResource* i : {&depth, &gbuffer, &ambient, &ambient_key, &ambient_depth, &shadow_map, &offscreen})
       alloc->destroy(*i);
     for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
     for (auto& [key, p] : pipelines) vkDestroyPipeline(vk, p, nullptr);
-    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert, gbuffer_frag, ambient_vert, ambient_frag,
-                             ao_field_vert, ao_field_frag})
+    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert, gbuffer_frag, screen_vert, ambient_key_frag})
       if (m) vkDestroyShaderModule(vk, m, nullptr);
-    for (VkSampler s : {texture_sampler, probe_sampler, shadow_sampler, point_sampler})
+    for (VkSampler s : {texture_sampler, linear_clamp_sampler, shadow_sampler, point_sampler})
       if (s) vkDestroySampler(vk, s, nullptr);
     if (pool) vkDestroyDescriptorPool(vk, pool, nullptr);
-    if (pipeline_layout) vkDestroyPipelineLayout(vk, pipeline_layout, nullptr);
+    if (renderer_layout) vkDestroyPipelineLayout(vk, renderer_layout, nullptr);
     if (frame_layout) vkDestroyDescriptorSetLayout(vk, frame_layout, nullptr);
     if (material_layout) vkDestroyDescriptorSetLayout(vk, material_layout, nullptr);
   }
 
   Status init();
+
+  // RenderContext.
+  VkDevice device() const override { return vk; }
+  vk::Allocator& allocator() override { return *alloc; }
+  void wait_idle() override { vkDeviceWaitIdle(vk); }
+  Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
+                      VkDeviceSize size) override;
+  Status ensure_host_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage) override;
+  Result<VkShaderModule> shader(std::span<const std::uint32_t> words) override;
+  Result<VkPipelineLayout> pipeline_layout(VkDescriptorSetLayout feature_set) override;
+  VkSampler linear_sampler() const override { return linear_clamp_sampler; }
+  VkSampler nearest_sampler() const override { return point_sampler; }
+  VkShaderModule screen_vertex() const override { return screen_vert; }
+  Result<VkPipeline> pipeline(const FeaturePipeline& p) override;
+
   Result<VkPipeline> pipeline(Pass pass, VkFormat format, std::uint32_t view = 0, bool flag = false,
                               std::uint32_t shadow_taps = 0, std::uint32_t light_count = 0);
   Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
-  Status upload_image(ImageResource& dst, const VkImageCreateInfo& info, VkImageViewType type, const void* data,
-                      VkDeviceSize size);
   Result<GpuTexture*> texture(const std::shared_ptr<const Texture>& tex);
   Result<const GpuMesh*> mesh(const std::shared_ptr<const MeshData>& data);
-  Status ensure_host_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage);
-  Status sync_probe_grid(World& world);
-  Status sync_ao_fields(World& world);
-  int ao_caster_record(Entity e) const;
   void plan_shadows(const std::vector<WorldLight>& world_lights);
   Status ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size,
                         std::uint32_t ambient_step);
@@ -258,22 +262,18 @@ struct Renderer::Impl {
   Status record(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
                 const RenderSettings& settings);
   // The parts of record(): one draw of a pass, every draw; the shadow layers whose content changed; the
-  // ambient passes after the G-buffer pre-pass, with their pipelines.
-  struct AmbientPipelines {
-    VkPipeline full = VK_NULL_HANDLE, mark = VK_NULL_HANDLE, shade[2] = {}, shade_inside[2] = {};
-  };
+  // ambient image's passes after the G-buffer pre-pass (the key pass, then the features').
   void draw(VkCommandBuffer cmd, Pass pass, const Draw& d, std::uint32_t layer) const;
   void draw_all(VkCommandBuffer cmd, Pass pass) const;
   void record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkPipeline shadow);
-  void record_ambient_passes(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
-                             const AmbientPipelines& passes);
+  Status record_ambient_passes(VkCommandBuffer cmd, VkPipeline key, const FeatureFrame& frame, bool sources);
   Status offscreen_frame(const CameraView& camera, std::uint32_t width, std::uint32_t height,
                          const RenderSettings& settings, bool linear_float, bool read, Image* out);
 };
 
 Status Renderer::Impl::init() {
-  vk = device->device();
-  alloc = std::make_unique<Allocator>(device->physical_device(), vk);
+  vk = gpu_device->device();
+  alloc = std::make_unique<Allocator>(gpu_device->physical_device(), vk);
 
   // Descriptor set layouts: set 0 per frame, set 1 per material.
   const VkShaderStageFlags both = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
@@ -283,10 +283,6 @@ Status Renderer::Impl::init() {
       {PENUMBRA_BINDING_SHADOW_MATRICES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, both, nullptr},
       {PENUMBRA_BINDING_JOINTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT, nullptr},
       {PENUMBRA_BINDING_SHADOW_MAP, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
-      {PENUMBRA_BINDING_PROBE_SH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES,
-       VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
-      {PENUMBRA_BINDING_PROBE_VALIDITY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
-      {PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, both, nullptr},
       {PENUMBRA_BINDING_SCENE_DEPTH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_GBUFFER, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_AMBIENT, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
@@ -312,15 +308,15 @@ Status Renderer::Impl::init() {
   pl_info.pSetLayouts = set_layouts;
   pl_info.pushConstantRangeCount = 1;
   pl_info.pPushConstantRanges = &push;
-  if (vkCreatePipelineLayout(vk, &pl_info, nullptr, &pipeline_layout) != VK_SUCCESS) {
+  if (vkCreatePipelineLayout(vk, &pl_info, nullptr, &renderer_layout) != VK_SUCCESS) {
     return make_error(ErrorCode::Internal, "Renderer: cannot create the pipeline layout");
   }
 
   // Descriptor pool: the frame set and one set per texture.
   const VkDescriptorPoolSize sizes[] = {
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4},
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES + 6 + kMaxMaterialSets},
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3},
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 5 + kMaxMaterialSets},
   };
   auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
   pool_info.maxSets = 1 + kMaxMaterialSets;
@@ -337,8 +333,8 @@ Status Renderer::Impl::init() {
     return make_error(ErrorCode::Internal, "Renderer: cannot allocate the frame descriptor set");
   }
 
-  // Samplers: textures (linear, repeat), probe grid (trilinear, clamp), shadow map (comparison),
-  // the screen images the passes read with texelFetch (nearest, clamp).
+  // Samplers: textures (linear, repeat), the features' (trilinear, clamp), shadow map
+  // (comparison), the screen images the passes read with texelFetch (nearest, clamp).
   auto sampler = vk_struct<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
   sampler.magFilter = VK_FILTER_LINEAR;
   sampler.minFilter = VK_FILTER_LINEAR;
@@ -347,7 +343,7 @@ Status Renderer::Impl::init() {
   sampler.maxLod = 0.0f;
   VkResult r = vkCreateSampler(vk, &sampler, nullptr, &texture_sampler);
   sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-  if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &probe_sampler);
+  if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &linear_clamp_sampler);
   sampler.magFilter = sampler.minFilter = VK_FILTER_NEAREST;
   if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &point_sampler);
   sampler.magFilter = sampler.minFilter = VK_FILTER_LINEAR;
@@ -361,7 +357,7 @@ Status Renderer::Impl::init() {
   // The ambient image's depth-stencil format (the spec requires one of the two).
   for (VkFormat f : {VK_FORMAT_D32_SFLOAT_S8_UINT, VK_FORMAT_D24_UNORM_S8_UINT}) {
     VkFormatProperties props;
-    vkGetPhysicalDeviceFormatProperties(device->physical_device(), f, &props);
+    vkGetPhysicalDeviceFormatProperties(gpu_device->physical_device(), f, &props);
     if (props.optimalTilingFeatures & VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT) {
       ambient_depth_format = f;
       break;
@@ -370,20 +366,17 @@ Status Renderer::Impl::init() {
   if (ambient_depth_format == VK_FORMAT_UNDEFINED)
     return make_error(ErrorCode::Unsupported, "Renderer: the device has no depth-stencil format with stencil");
 
-  forward_vert = make_module(vk, "forward.vert");
-  forward_frag = make_module(vk, "forward.frag");
-  shadow_vert = make_module(vk, "shadow.vert");
-  gbuffer_frag = make_module(vk, "gbuffer.frag");
-  ambient_vert = make_module(vk, "ambient.vert");
-  ambient_frag = make_module(vk, "ambient.frag");
-  ao_field_vert = make_module(vk, "ao_field.vert");
-  ao_field_frag = make_module(vk, "ao_field.frag");
-  if (!forward_vert || !forward_frag || !shadow_vert || !gbuffer_frag || !ambient_vert || !ambient_frag ||
-      !ao_field_vert || !ao_field_frag) {
+  forward_vert = make_module(vk, shaders::renderer("forward.vert"));
+  forward_frag = make_module(vk, shaders::renderer("forward.frag"));
+  shadow_vert = make_module(vk, shaders::renderer("shadow.vert"));
+  gbuffer_frag = make_module(vk, shaders::renderer("gbuffer.frag"));
+  screen_vert = make_module(vk, shaders::renderer("screen.vert"));
+  ambient_key_frag = make_module(vk, shaders::renderer("ambient_key.frag"));
+  if (!forward_vert || !forward_frag || !shadow_vert || !gbuffer_frag || !screen_vert || !ambient_key_frag) {
     return make_error(ErrorCode::Internal, "Renderer: the embedded SPIR-V is missing or invalid; rebuild the SDK");
   }
 
-  // Defaults: a white texture, a 1x1x1 3D texture for an absent probe grid, the per-frame buffers.
+  // Defaults: a white texture, the per-frame buffers.
   const std::uint8_t white_texel[4] = {255, 255, 255, 255};
   auto image = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
   image.imageType = VK_IMAGE_TYPE_2D;
@@ -407,14 +400,55 @@ Status Renderer::Impl::init() {
   write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   write.pImageInfo = &white_info;
   vkUpdateDescriptorSets(vk, 1, &write, 0, nullptr);
-  const float zero[4] = {0.0f, 0.0f, 0.0f, 0.0f};
-  image.imageType = VK_IMAGE_TYPE_3D;
-  image.format = VK_FORMAT_R32G32B32A32_SFLOAT;
-  PENUMBRA_TRY(upload_image(dummy_3d, image, VK_IMAGE_VIEW_TYPE_3D, zero, sizeof zero));
   PENUMBRA_TRY(ensure_host_buffer(frame_buffer, sizeof(gpu::FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT));
-  PENUMBRA_TRY(ensure_host_buffer(ao_field_placeholder, sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
-  std::memset(ao_field_placeholder.mapped, 0, ao_field_placeholder.size);
+
+  // The features, whose names and views must be unique.
+  std::vector<std::string_view> names;
+  for (const ViewInfo& v : kOwnViews) names.push_back(v.name);
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    if (!features[i]) return make_error(ErrorCode::InvalidArgument, "Renderer: render feature " + std::to_string(i) + " is null");
+    for (std::size_t j = 0; j < i; ++j)
+      if (features[j]->name() == features[i]->name())
+        return make_error(ErrorCode::InvalidArgument, "Renderer: two render features are named '" +
+                                                          std::string(features[i]->name()) + "'; pass each once");
+    for (const ViewInfo& v : features[i]->views()) {
+      if (std::find(names.begin(), names.end(), v.name) != names.end())
+        return make_error(ErrorCode::InvalidArgument, "Renderer: render feature '" + std::string(features[i]->name()) +
+                                                          "' names its view '" + std::string(v.name) +
+                                                          "', which another view has; rename it");
+      names.push_back(v.name);
+    }
+    PENUMBRA_TRY(features[i]->init(*this));
+  }
   return {};
+}
+
+Result<VkShaderModule> Renderer::Impl::shader(std::span<const std::uint32_t> words) {
+  const VkShaderModule m = make_module(vk, words);
+  if (!m) return make_error(ErrorCode::Internal, "Renderer: a render feature's SPIR-V is missing or invalid; rebuild the SDK");
+  feature_shaders.push_back(m);
+  return m;
+}
+
+Result<VkPipelineLayout> Renderer::Impl::pipeline_layout(VkDescriptorSetLayout feature_set) {
+  const VkDescriptorSetLayout sets[] = {frame_layout, material_layout, feature_set};
+  const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(gpu::DrawPush)};
+  auto info = vk_struct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+  info.setLayoutCount = 3;
+  info.pSetLayouts = sets;
+  info.pushConstantRangeCount = 1;
+  info.pPushConstantRanges = &push;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  if (vkCreatePipelineLayout(vk, &info, nullptr, &layout) != VK_SUCCESS)
+    return make_error(ErrorCode::Internal, "Renderer: cannot create a render feature's pipeline layout");
+  feature_layouts.push_back(layout);
+  return layout;
+}
+
+Result<VkPipeline> Renderer::Impl::pipeline(const FeaturePipeline& p) {
+  auto made = make_feature_pipeline(vk, p, kAmbientFormat, ambient_depth_format);
+  if (made) feature_pipelines.push_back(*made);
+  return made;
 }
 
 Status Renderer::Impl::ensure_host_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage) {
@@ -440,7 +474,7 @@ Status Renderer::Impl::upload_buffer(Buffer& dst, const void* data, VkDeviceSize
   }
   dst = *created;
   const VkBuffer src = staging->buffer, to = dst.buffer;
-  Status s = device->submit_and_wait([&](VkCommandBuffer cmd) {
+  Status s = gpu_device->submit_and_wait([&](VkCommandBuffer cmd) {
     const VkBufferCopy region{0, 0, size};
     vkCmdCopyBuffer(cmd, src, to, 1, &region);
   });
@@ -458,7 +492,7 @@ Status Renderer::Impl::upload_image(ImageResource& dst, const VkImageCreateInfo&
   std::memcpy(staging->mapped, data, size);
   const VkBuffer src = staging->buffer;
   const VkImage image = dst.image;
-  Status s = device->submit_and_wait([&](VkCommandBuffer cmd) {
+  Status s = gpu_device->submit_and_wait([&](VkCommandBuffer cmd) {
     image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
                   VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
@@ -537,125 +571,6 @@ Result<GpuTexture*> Renderer::Impl::texture(const std::shared_ptr<const Texture>
   write.pImageInfo = &image_info;
   vkUpdateDescriptorSets(vk, 1, &write, 0, nullptr);
   return &(textures[tex.get()] = std::move(g));
-}
-
-Status Renderer::Impl::sync_probe_grid(World& world) {
-  // The highest-priority baked grid; ties go to the lowest entity index.
-  std::shared_ptr<const ProbeGridData> best;
-  int best_priority = 0;
-  for (Entity e : world.view<const IrradianceProbeGrid>().sorted_entities()) {
-    const auto& grid = world.get<IrradianceProbeGrid>(e);
-    if (!grid.data || (best && grid.priority <= best_priority)) continue;
-    best = grid.data;
-    best_priority = grid.priority;
-  }
-  if (best == probe) return {};
-  vkDeviceWaitIdle(vk);
-  for (auto& t : probe_textures) alloc->destroy(t);
-  alloc->destroy(probe_validity);
-  probe = best;
-  descriptors_dirty = true;
-  if (!probe) return {};
-  // The shader adds the grid to its own shadow-mapped direct light: an All grid counts that twice.
-  if (probe->lighting == LightingContent::All)
-    log(LogLevel::Warning, "renderer: the probe grid stores direct + indirect light (lighting = all) and the renderer "
-                           "adds its own direct light, so direct light counts twice; bake it with lighting = indirect");
-
-  // The probe_grid.h GPU layout (float32: the sampler's trilinear filter is the CPU's interpolation).
-  const ProbeGridTextures packed = pack_probe_grid_textures(*probe);
-  // The ambient image's scale: 1 / a bound on the irradiance anywhere (per node and channel the sum
-  // of |coefficient| x 1.1 >= max |Y_k| of the L2 basis), so that half floats hold any grid.
-  const std::size_t per_node = sh_coefficients(probe->sh_order);
-  float bound = 0.0f;
-  for (std::size_t node = 0; node + 1 <= probe->coefficients.size() / per_node; ++node) {
-    glm::vec3 sum(0.0f);
-    for (std::size_t c = 0; c < per_node; ++c) sum += glm::abs(probe->coefficients[node * per_node + c]);
-    bound = std::max({bound, 1.1f * sum.x, 1.1f * sum.y, 1.1f * sum.z});
-  }
-  ambient_scale = std::isfinite(bound) && bound > 0.0f ? 1.0f / bound : 1.0f;
-  auto info = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
-  info.imageType = VK_IMAGE_TYPE_3D;
-  info.format = VK_FORMAT_R32G32B32A32_SFLOAT;
-  info.extent = {packed.extent.x, packed.extent.y, packed.extent.z};
-  info.mipLevels = 1;
-  info.arrayLayers = 1;
-  info.samples = VK_SAMPLE_COUNT_1_BIT;
-  info.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  const std::size_t texture_bytes = probe->node_count() * packed.texel_bytes();
-  for (std::uint32_t t = 0; t < packed.textures && t < PENUMBRA_PROBE_TEXTURES; ++t) {
-    PENUMBRA_TRY(upload_image(probe_textures[t], info, VK_IMAGE_VIEW_TYPE_3D, packed.data.data() + t * texture_bytes,
-                              texture_bytes));
-  }
-  // Validity and the leak guard's reach, one texel per node (pack_probe_node_texels).
-  const std::vector<glm::vec4> nodes = pack_probe_node_texels(*probe);
-  return upload_image(probe_validity, info, VK_IMAGE_VIEW_TYPE_3D, nodes.data(), nodes.size() * sizeof(glm::vec4));
-}
-
-// AO fields: re-packs the casters when one of them (its AOFieldCaster or WorldTransform) changed;
-// uploads everything when the set of casters or fields changed, else only the caster records
-// (their transforms), which the layout puts first. Without casters the buffer is released and the
-// pass is compiled out (the ambient passes then run only with a probe grid).
-Status Renderer::Impl::sync_ao_fields(World& world) {
-  std::vector<Entity> casters;
-  std::vector<AOFieldGpuCaster> packed_casters;
-  std::vector<const AOFieldData*> fields;
-  std::uint64_t tick = 0;
-  for (Entity e : world.view<const AOFieldCaster, const WorldTransform>().sorted_entities()) {
-    const AOFieldCaster& c = world.get<AOFieldCaster>(e);
-    if (!c.data || !c.data->valid()) continue;
-    casters.push_back(e);
-    packed_casters.push_back({c.data.get(), world.get<WorldTransform>(e).matrix});
-    fields.push_back(c.data.get());
-    tick = std::max({tick, world.changed_tick<AOFieldCaster>(e), world.changed_tick<WorldTransform>(e)});
-  }
-  const bool same_fields = casters == ao_casters && fields == ao_field_data;
-  stats.ao_field_casters = static_cast<std::uint32_t>(casters.size());
-  if (same_fields && tick <= ao_field_tick) return {};
-  if (casters.empty()) {
-    vkDeviceWaitIdle(vk);
-    alloc->destroy(ao_field_buffer);
-    ao_casters.clear();
-    ao_caster_grid.clear();
-    ao_caster_reach.clear();
-    ao_field_data.clear();
-    ao_field_tick = 0;
-    descriptors_dirty = true;
-    return {};
-  }
-  if (casters.size() > PENUMBRA_AO_MAX_CASTERS) {
-    return make_error(ErrorCode::OutOfBudget, "Renderer: " + std::to_string(casters.size()) +
-                                                  " entities have a baked AOFieldCaster; the AO-field pass takes at "
-                                                  "most " + std::to_string(PENUMBRA_AO_MAX_CASTERS) +
-                                                  ": remove the component from the least visible ones");
-  }
-  auto packed = pack_ao_fields_gpu(packed_casters);
-  if (!packed) return packed.error();
-  const VkDeviceSize bytes = packed->bytes();
-  VkDeviceSize upload = bytes;
-  if (same_fields && ao_field_buffer.buffer && ao_field_buffer.size >= bytes) {
-    upload = (1 + 7 * VkDeviceSize{packed->casters}) * sizeof(glm::vec4);  // the records only
-  } else {
-    PENUMBRA_TRY(ensure_host_buffer(ao_field_buffer, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
-  }
-  std::memcpy(ao_field_buffer.mapped, packed->data.data(), upload);
-  stats.ao_field_bytes_uploaded += upload;
-  ao_casters = std::move(casters);
-  ao_field_data = std::move(fields);
-  ao_field_tick = tick;
-  ao_caster_grid.resize(packed->casters);
-  ao_caster_reach.resize(packed->casters);
-  for (std::uint32_t i = 0; i < packed->casters; ++i) {
-    ao_caster_grid[i] = packed->data[1 + 7 * i + 4].w == 1.0f;
-    ao_caster_reach[i] = packed->data[1 + 7 * i + 6];
-  }
-  return {};
-}
-
-// The record index of caster `e` in the AO-field buffer, or -1.
-int Renderer::Impl::ao_caster_record(Entity e) const {
-  const auto it = std::lower_bound(ao_casters.begin(), ao_casters.end(), e,
-                                   [](Entity a, Entity b) { return a.index < b.index; });
-  return it != ao_casters.end() && *it == e ? static_cast<int>(it - ao_casters.begin()) : -1;
 }
 
 // Shadow views: directional 1 orthographic layer fitted to the scene bounds, spot 1 perspective
@@ -796,17 +711,8 @@ void Renderer::Impl::write_descriptors() {
   const VkDescriptorBufferInfo matrix_info{shadow_matrix_buffer.buffer, 0, VK_WHOLE_SIZE};
   const VkDescriptorBufferInfo joint_info{joint_buffer.buffer, 0, VK_WHOLE_SIZE};
   const VkDescriptorImageInfo shadow_info{shadow_sampler, shadow_map.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkDescriptorImageInfo probe_info[PENUMBRA_PROBE_TEXTURES];
-  for (int t = 0; t < PENUMBRA_PROBE_TEXTURES; ++t) {
-    const VkImageView v = probe_textures[t].view ? probe_textures[t].view : dummy_3d.view;
-    probe_info[t] = {probe_sampler, v, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  }
-  const VkDescriptorImageInfo validity_info{probe_sampler, probe_validity.view ? probe_validity.view : dummy_3d.view,
-                                            VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  const VkBuffer ao_buffer = ao_field_buffer.buffer ? ao_field_buffer.buffer : ao_field_placeholder.buffer;
-  const VkDescriptorBufferInfo ao_field_info{ao_buffer, 0, VK_WHOLE_SIZE};
-  // The ambient passes' images, or the white texture where the passes do not run (only pipelines
-  // that do not run then read them).
+  // The screen images, or the white texture where they do not exist (only pipelines that do not
+  // run then read them).
   const bool ambient_pass = gbuffer.view != VK_NULL_HANDLE;
   const VkDescriptorImageInfo screen_info[4] = {
       {point_sampler, ambient_pass ? depth.view : white.image.view,
@@ -814,7 +720,7 @@ void Renderer::Impl::write_descriptors() {
       {point_sampler, ambient_pass ? gbuffer.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
       {point_sampler, ambient_pass ? ambient.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
       {point_sampler, ambient_pass ? ambient_key.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}};
-  VkWriteDescriptorSet writes[12];
+  VkWriteDescriptorSet writes[9];
   auto buffer_write = [&](int i, std::uint32_t binding, VkDescriptorType type, const VkDescriptorBufferInfo* info) {
     writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
     writes[i].dstSet = frame_set;
@@ -836,13 +742,10 @@ void Renderer::Impl::write_descriptors() {
   buffer_write(2, PENUMBRA_BINDING_SHADOW_MATRICES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &matrix_info);
   buffer_write(3, PENUMBRA_BINDING_JOINTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &joint_info);
   image_write(4, PENUMBRA_BINDING_SHADOW_MAP, 1, &shadow_info);
-  image_write(5, PENUMBRA_BINDING_PROBE_SH, PENUMBRA_PROBE_TEXTURES, probe_info);
-  image_write(6, PENUMBRA_BINDING_PROBE_VALIDITY, 1, &validity_info);
-  buffer_write(7, PENUMBRA_BINDING_AO_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, &ao_field_info);
-  image_write(8, PENUMBRA_BINDING_SCENE_DEPTH, 1, &screen_info[0]);
-  image_write(9, PENUMBRA_BINDING_GBUFFER, 1, &screen_info[1]);
-  image_write(10, PENUMBRA_BINDING_AMBIENT, 1, &screen_info[2]);
-  image_write(11, PENUMBRA_BINDING_AMBIENT_KEY, 1, &screen_info[3]);
+  image_write(5, PENUMBRA_BINDING_SCENE_DEPTH, 1, &screen_info[0]);
+  image_write(6, PENUMBRA_BINDING_GBUFFER, 1, &screen_info[1]);
+  image_write(7, PENUMBRA_BINDING_AMBIENT, 1, &screen_info[2]);
+  image_write(8, PENUMBRA_BINDING_AMBIENT_KEY, 1, &screen_info[3]);
   vkUpdateDescriptorSets(vk, std::size(writes), writes, 0, nullptr);
 }
 
@@ -851,33 +754,22 @@ void Renderer::Impl::write_descriptors() {
 //   DepthPrepass    the forward vertex stage without a fragment stage, colour writes off: the
 //                   camera's depth, in the forward pass's rendering;
 //   GBufferPrepass  the same depth plus the G-buffer (`format` kGBufferFormat), when the ambient
-//                   passes run;
-//   Ambient         one triangle over the ambient image: the probe irradiance per sample (`flag`:
-//                   with a grid, constant_id 0 of ambient.frag) and the sample's depth;
-//   AoFieldMark     a caster's reach box, front faces, depth clamp: stencil 1 where the face lies
-//                   in front of the sample's depth (no fragment stage);
-//   AoFields        its back faces where they lie behind the sample's depth and the stencil is 1
-//                   (reset to 0): 1 - A_i multiplied into the ambient image by the blend state;
-//                   `flag`: the grid representation (constant_id 0 of ao_field.frag);
-//   AoFieldsInside  the same without the stencil test, for a camera inside the box;
+//                   image or a feature's view is drawn;
+//   AmbientKey      one triangle over the ambient image: each sample's key, its depth, and the
+//                   image's start (no irradiance, open fraction 1), before the features' passes;
 //   Forward         per colour format, shading only the fragments the pre-pass left in front
 //                   (depth EQUAL, no depth writes): each pixel runs the costly fragment stage once
 //                   whatever the overdraw; specialised on the debug view (constant_id 0), in
-//                   `flag` on whether the ambient passes ran (constant_id 1), on the shadow
+//                   `flag` on whether the ambient image was drawn (constant_id 1), on the shadow
 //                   taps (constant_id 2; 0 without shadows) and on the light count (constant_id
 //                   3; 0: not fixed).
 Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag,
                                             std::uint32_t shadow_taps, std::uint32_t light_count) {
-  if (pass != Pass::Forward) view = shadow_taps = light_count = 0;
-  if (pass != Pass::Forward && pass != Pass::AoFields && pass != Pass::AoFieldsInside && pass != Pass::Ambient)
-    flag = false;
+  if (pass != Pass::Forward) view = shadow_taps = light_count = 0, flag = false;
   if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
   const auto key = std::tuple{pass, format, view, flag, shadow_taps, light_count};
   if (auto it = pipelines.find(key); it != pipelines.end()) return it->second;
-  const bool shadow = pass == Pass::Shadow, forward = pass == Pass::Forward, ambient_full = pass == Pass::Ambient;
-  const bool ao = pass == Pass::AoFields || pass == Pass::AoFieldsInside;  // shades a caster's box
-  const bool ao_box = ao || pass == Pass::AoFieldMark;
-  const bool screen = ao_box || ambient_full;  // no vertex buffers; the ambient image and its depth-stencil
+  const bool shadow = pass == Pass::Shadow, forward = pass == Pass::Forward, screen = pass == Pass::AmbientKey;
   const bool depth_writes = pass == Pass::Shadow || pass == Pass::DepthPrepass || pass == Pass::GBufferPrepass;
   const bool forward_vertex = !shadow && !screen;  // the pre-passes run the forward vertex stage: equal depths
   const struct {
@@ -886,24 +778,21 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
     std::uint32_t shadow_taps;
     std::uint32_t light_count;
   } forward_constants{view, flag ? VK_TRUE : VK_FALSE, shadow_taps, light_count};
-  const VkBool32 ao_constants = flag ? VK_TRUE : VK_FALSE;
   const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(std::uint32_t)},
                                               {1, sizeof(std::uint32_t), sizeof(VkBool32)},
                                               {2, sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)},
                                               {3, 2 * sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)}};
-  const VkSpecializationInfo specialization =
-      ao || ambient_full ? VkSpecializationInfo{1, entries, sizeof ao_constants, &ao_constants}  // kGrid, kProbe
-                         : VkSpecializationInfo{4, entries, sizeof forward_constants, &forward_constants};
+  const VkSpecializationInfo specialization{4, entries, sizeof forward_constants, &forward_constants};
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = ao_box ? ao_field_vert : ambient_full ? ambient_vert : forward_vertex ? forward_vert : shadow_vert;
+  stages[0].module = screen ? screen_vert : forward_vertex ? forward_vert : shadow_vert;
   stages[0].pName = "main";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = ao ? ao_field_frag : ambient_full ? ambient_frag : forward ? forward_frag : gbuffer_frag;
+  stages[1].module = screen ? ambient_key_frag : forward ? forward_frag : gbuffer_frag;
   stages[1].pName = "main";
-  stages[1].pSpecializationInfo = &specialization;
-  const bool has_fragment = forward || ao || ambient_full || pass == Pass::GBufferPrepass;
+  stages[1].pSpecializationInfo = forward ? &specialization : nullptr;
+  const bool has_fragment = forward || screen || pass == Pass::GBufferPrepass;
 
   const VkVertexInputBindingDescription bindings[] = {
       {0, sizeof(GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX},
@@ -935,11 +824,8 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   viewport.scissorCount = 1;
   auto raster = vk_struct<VkPipelineRasterizationStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
   raster.polygonMode = VK_POLYGON_MODE_FILL;
-  // Two-sided (open scenes: Cornell's front, thin walls); the AO-field boxes mark by their front
-  // faces and shade by their back faces.
-  raster.cullMode = ao ? VK_CULL_MODE_FRONT_BIT : pass == Pass::AoFieldMark ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
+  raster.cullMode = VK_CULL_MODE_NONE;  // two-sided (open scenes: Cornell's front, thin walls)
   raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  raster.depthClampEnable = ao_box ? VK_TRUE : VK_FALSE;
   raster.lineWidth = 1.0f;
   raster.depthBiasEnable = shadow ? VK_TRUE : VK_FALSE;  // slope-scaled bias against shadow acne
   raster.depthBiasConstantFactor = 1.5f;
@@ -948,42 +834,15 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
   auto depth_state = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
   depth_state.depthTestEnable = VK_TRUE;
-  depth_state.depthWriteEnable = depth_writes || ambient_full ? VK_TRUE : VK_FALSE;
+  depth_state.depthWriteEnable = depth_writes || screen ? VK_TRUE : VK_FALSE;
   depth_state.depthCompareOp = depth_writes ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_EQUAL;
-  // The boxes against the samples' depths: the mark (stencil 1) where a front face lies in front
-  // of the sample's surface, the shading where a back face lies behind it (and, outside the box,
-  // the sample is marked; the stencil is reset there for the next caster).
-  if (ambient_full) depth_state.depthCompareOp = VK_COMPARE_OP_ALWAYS;
-  if (pass == Pass::AoFieldMark) {
-    depth_state.depthCompareOp = VK_COMPARE_OP_LESS;
-    depth_state.stencilTestEnable = VK_TRUE;
-    depth_state.front = {VK_STENCIL_OP_KEEP, VK_STENCIL_OP_REPLACE, VK_STENCIL_OP_KEEP, VK_COMPARE_OP_ALWAYS,
-                         0xff, 0xff, 1};
-    depth_state.back = depth_state.front;
-  }
-  if (ao) depth_state.depthCompareOp = VK_COMPARE_OP_GREATER_OR_EQUAL;
-  if (pass == Pass::AoFields) {
-    depth_state.stencilTestEnable = VK_TRUE;
-    depth_state.front = {VK_STENCIL_OP_ZERO, VK_STENCIL_OP_ZERO, VK_STENCIL_OP_ZERO, VK_COMPARE_OP_EQUAL,
-                         0xff, 0xff, 1};
-    depth_state.back = depth_state.front;
-  }
+  if (screen) depth_state.depthCompareOp = VK_COMPARE_OP_ALWAYS;
   VkPipelineColorBlendAttachmentState blend_attachment{};
-  const bool colour_writes = pass != Pass::DepthPrepass && pass != Pass::AoFieldMark;
-  blend_attachment.colorWriteMask = colour_writes ? VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
-                                                        VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT
-                                                  : 0;
-  if (ao) {  // ambient *= 1 - A_i
-    blend_attachment.blendEnable = VK_TRUE;
-    blend_attachment.srcColorBlendFactor = VK_BLEND_FACTOR_DST_COLOR;
-    blend_attachment.srcAlphaBlendFactor = VK_BLEND_FACTOR_DST_ALPHA;
-    blend_attachment.dstColorBlendFactor = blend_attachment.dstAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
-    blend_attachment.colorBlendOp = blend_attachment.alphaBlendOp = VK_BLEND_OP_ADD;
-  }
-  // The ambient passes draw into the ambient image and its key (written by the full-screen pass
-  // only).
-  VkPipelineColorBlendAttachmentState blend_attachments[2] = {blend_attachment, {}};
-  if (ambient_full) blend_attachments[1].colorWriteMask = blend_attachment.colorWriteMask;
+  blend_attachment.colorWriteMask = pass != Pass::DepthPrepass ? VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                                                     VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT
+                                                               : 0;
+  // The key pass writes the ambient image and its key.
+  const VkPipelineColorBlendAttachmentState blend_attachments[2] = {blend_attachment, blend_attachment};
   const std::uint32_t colour_attachments = shadow ? 0 : screen ? 2 : 1;
   const VkFormat colour_formats[2] = {format, format};
   auto blend = vk_struct<VkPipelineColorBlendStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
@@ -1011,7 +870,7 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   info.pDepthStencilState = &depth_state;
   info.pColorBlendState = &blend;
   info.pDynamicState = &dynamic;
-  info.layout = pipeline_layout;
+  info.layout = renderer_layout;
   VkPipeline made = VK_NULL_HANDLE;
   if (VkResult r = vkCreateGraphicsPipelines(vk, VK_NULL_HANDLE, 1, &info, nullptr, &made); r != VK_SUCCESS) {
     return make_error(ErrorCode::Unsupported, std::string("Renderer: cannot create a pipeline for colour format ") +
@@ -1024,14 +883,23 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
 Renderer::Renderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Renderer::~Renderer() = default;
 
-Result<std::unique_ptr<Renderer>> Renderer::create(Device& device) {
+Result<std::unique_ptr<Renderer>> Renderer::create(Device& device, RenderFeatures features) {
   auto impl = std::make_unique<Impl>();
-  impl->device = &device;
+  impl->gpu_device = &device;
+  impl->features = std::move(features);
   PENUMBRA_TRY(impl->init());
   return std::unique_ptr<Renderer>(new Renderer(std::move(impl)));
 }
 
 const FrameStats& Renderer::stats() const { return impl_->stats; }
+
+std::uint64_t FrameStats::counter(std::string_view name) const {
+  for (const auto& [n, value] : counters)
+    if (n == name) return value;
+  return 0;
+}
+
+std::vector<ViewInfo> Renderer::views() const { return all_views(impl_->features); }
 
 Status Renderer::sync(World& world) {
   Impl& r = *impl_;
@@ -1040,11 +908,14 @@ Status Renderer::sync(World& world) {
   r.joints.clear();
   r.bounds = Aabb{};
   r.stats.vertex_ao_uploads = 0;
-  r.stats.ao_field_bytes_uploaded = 0;
+  r.stats.counters.clear();
   std::uint32_t max_vertices = 0;
-  PENUMBRA_TRY(r.sync_ao_fields(world));
+  for (auto& f : r.features) {
+    PENUMBRA_TRY(f->sync(world, r));
+    f->add_counters(r.stats);
+  }
 
-  // Draws in entity order: mesh, material texture, skin pose, per-vertex AO, AO-field receiver.
+  // Draws in entity order: mesh, material texture, skin pose, per-vertex AO, the features' values.
   const std::vector<Entity> entities = world.view<const Mesh, const WorldTransform>().sorted_entities();
   for (Entity e : entities) {
     const Mesh& m = world.get<Mesh>(e);
@@ -1088,12 +959,9 @@ Status Renderer::sync(World& world) {
       }
       d.ao = b.buffer.buffer;
     }
-    if (const auto* receiver = world.try_get<AOFieldReceiver>(e)) {
-      const bool surface = receiver->mode == AOFieldReceiver::Mode::Surface;
-      d.push.ao_field.x = float(surface ? PENUMBRA_AO_RECEIVER_SURFACE : PENUMBRA_AO_RECEIVER_ENTITY);
-      d.push.ao_field.y = surface ? 0.0f : std::clamp(receiver->occlusion, 0.0f, 1.0f);
-    }
-    d.push.ao_field.z = float(r.ao_caster_record(e));
+    DrawFeatureValues values;
+    for (const auto& f : r.features) f->draw_values(world, e, values);
+    d.push.feature = glm::vec4(values.receiver, values.open, 0.0f, 0.0f);
     max_vertices = std::max(max_vertices, d.mesh->vertex_count);
     extend_by_box(r.bounds, m.data->bounds, d.push.model);  // the scene's bounds, unposed
     r.draws.push_back(d);
@@ -1109,7 +977,6 @@ Status Renderer::sync(World& world) {
   }
 
   r.plan_shadows(gather_lights(world));
-  PENUMBRA_TRY(r.sync_probe_grid(world));
   r.stats.draws = static_cast<std::uint32_t>(r.draws.size());
   r.stats.cpu_record_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return {};
@@ -1138,45 +1005,55 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     return make_error(ErrorCode::InvalidArgument, "Renderer: ambient_step " + std::to_string(settings.ambient_step) +
                                                       " is neither 1 (every pixel) nor 2 (half resolution)");
   }
-  // The ambient passes run for the views that show indirect light or AO, when there is a probe
-  // grid or an AO-field caster; the probe pass only when the view shows indirect light.
-  const bool ambient_view = settings.view == DebugView::Lit || settings.view == DebugView::IndirectOnly ||
-                            settings.view == DebugView::AoOnly;
-  const bool ambient_pass = ambient_view && (probe || !ao_casters.empty());
-  const bool probe_pass = ambient_pass && probe && settings.view != DebugView::AoOnly;
-  const bool shadows = settings.shadows && !shadow_matrices.empty();
+  // The view: the renderer's own (forward.frag's kView) or a feature's.
+  int own_view = -1;
+  RenderFeature* view_feature = nullptr;
+  std::size_t feature_view = 0;
+  for (std::size_t v = 0; v < std::size(kOwnViews); ++v)
+    if (kOwnViews[v].name == settings.view) own_view = static_cast<int>(v);
+  for (const auto& f : features)
+    for (std::size_t v = 0; own_view < 0 && !view_feature && v < f->views().size(); ++v)
+      if (f->views()[v].name == settings.view) view_feature = f.get(), feature_view = v;
+  if (own_view < 0 && !view_feature) {
+    std::string all;
+    for (const ViewInfo& v : all_views(features)) all += (all.empty() ? "" : ", ") + std::string(v.name);
+    return make_error(ErrorCode::InvalidArgument, "Renderer: unknown view '" + settings.view + "'; use one of " + all);
+  }
+  // The ambient image is drawn in the views that show indirect light or AO, when a feature is
+  // active; its sources only when the view shows indirect light.
+  const bool ambient_view = own_view == PENUMBRA_VIEW_LIT || own_view == PENUMBRA_VIEW_INDIRECT ||
+                            own_view == PENUMBRA_VIEW_AO;
+  bool any_active = false, sources = false;
+  float irradiance_bound = 0.0f;
+  for (const auto& f : features) {
+    if (!f->active()) continue;
+    any_active = true;
+    if (f->role() == AmbientRole::Source && own_view != PENUMBRA_VIEW_AO) {
+      sources = true;
+      irradiance_bound += f->irradiance_bound();
+    }
+  }
+  const bool ambient_pass = ambient_view && any_active;
+  const bool gbuffer_pass = ambient_pass || view_feature != nullptr;
+  const bool shadows = settings.shadows && !shadow_matrices.empty() && !view_feature;
   const auto light_count = static_cast<std::uint32_t>(lights.size());
-  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(settings.view), ambient_pass,
+  auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(std::max(own_view, 0)), ambient_pass,
                           shadows ? settings.shadow_taps : 0,
                           light_count <= PENUMBRA_UNROLLED_LIGHTS ? light_count : 0);
   if (!forward) return forward.error();
   auto prepass =
-      ambient_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);
+      gbuffer_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);
   if (!prepass) return prepass.error();
   auto shadow = pipeline(Pass::Shadow, VK_FORMAT_UNDEFINED);
   if (!shadow) return shadow.error();
-  // The ambient passes' pipelines: the full-screen pass (with or without the probe grid), the
-  // boxes' stencil mark, their shading per representation (radial fit, grid) after a mark and,
-  // with the camera inside the box, without one.
-  AmbientPipelines ambient_pipelines;
+  VkPipeline key = VK_NULL_HANDLE;
   if (ambient_pass) {
-    auto full = pipeline(Pass::Ambient, kAmbientFormat, 0, probe_pass);
-    auto mark = pipeline(Pass::AoFieldMark, kAmbientFormat);
-    if (!full) return full.error();
-    if (!mark) return mark.error();
-    ambient_pipelines.full = *full;
-    ambient_pipelines.mark = *mark;
-    for (bool grid : {false, true}) {
-      auto shade = pipeline(Pass::AoFields, kAmbientFormat, 0, grid);
-      auto inside = pipeline(Pass::AoFieldsInside, kAmbientFormat, 0, grid);
-      if (!shade) return shade.error();
-      if (!inside) return inside.error();
-      ambient_pipelines.shade[grid] = *shade;
-      ambient_pipelines.shade_inside[grid] = *inside;
-    }
+    auto made = pipeline(Pass::AmbientKey, kAmbientFormat);
+    if (!made) return made.error();
+    key = *made;
   }
   PENUMBRA_TRY(ensure_targets(target.width, target.height, settings.shadow_map_size,
-                              ambient_pass ? settings.ambient_step : 0));
+                              gbuffer_pass ? settings.ambient_step : 0));
 
   // Per-frame data.
   PENUMBRA_TRY(ensure_host_buffer(light_buffer, std::max<std::size_t>(1, lights.size()) * sizeof(gpu::GpuLight),
@@ -1192,16 +1069,10 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   frame.view_proj = camera.projection * camera.view;
   frame.camera_exposure = glm::vec4(camera.position, settings.exposure);
   std::uint32_t flags = 0;
-  if (probe) flags |= PENUMBRA_FLAG_PROBE_GRID;
-  if (probe && !probe->reach.empty()) flags |= PENUMBRA_FLAG_PROBE_REACH;
+  if (ambient_pass && sources) flags |= PENUMBRA_FLAG_INDIRECT;
   if (is_float_format(target.format)) flags |= PENUMBRA_FLAG_LINEAR;
   if (is_unorm_format(target.format)) flags |= PENUMBRA_FLAG_ENCODE_SRGB;
-  frame.params = glm::uvec4(static_cast<std::uint32_t>(settings.view), static_cast<std::uint32_t>(lights.size()), flags,
-                            probe && probe->sh_order == ProbeShOrder::L1 ? 2u : 3u);
-  if (probe) {
-    frame.probe_world_to_grid = probe->layout.world_to_grid;
-    frame.probe_resolution = glm::vec4(glm::vec3(probe->layout.resolution), 0.0f);
-  }
+  frame.params = glm::uvec4(static_cast<std::uint32_t>(std::max(own_view, 0)), light_count, flags, 0u);
   // Normal offset: about one shadow texel of the widest (directional) map.
   const float radius = bounds.empty() ? 1.0f : 0.5f * glm::length(bounds.extent());
   frame.shadow_params = glm::vec4(1.0f / float(settings.shadow_map_size), 0.0f,
@@ -1210,18 +1081,20 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   frame.target_size = glm::vec4(float(target.width), float(target.height), 1.0f / float(target.width),
                                 1.0f / float(target.height));
   frame.ambient_params = glm::uvec4(settings.ambient_step, 0u, 0u, 0u);
-  frame.ambient_scale = glm::vec4(probe ? ambient_scale : 1.0f, 0.0f, 0.0f, 0.0f);
+  // The ambient image's scale: 1 / a bound on the sources' irradiance, so that half floats hold it.
+  const float scale = std::isfinite(irradiance_bound) && irradiance_bound > 0.0f ? 1.0f / irradiance_bound : 1.0f;
+  frame.ambient_scale = glm::vec4(scale, 0.0f, 0.0f, 0.0f);
   std::memcpy(frame_buffer.mapped, &frame, sizeof frame);
   write_descriptors();
 
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 0, 1, &frame_set, 0, nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, renderer_layout, 0, 1, &frame_set, 0, nullptr);
   record_shadow_layers(cmd, shadows, *shadow);
 
-  // Depth pre-pass; with the ambient passes it also writes the G-buffer and is followed by them,
-  // and the forward pass then reads its depth (read-only). Without them the pre-pass and the
-  // forward pass share one rendering.
+  // Depth pre-pass; with the ambient image or a feature's view it also writes the G-buffer and
+  // is followed by them, and the forward pass then reads its depth (read-only). Without them the
+  // pre-pass and the forward pass share one rendering.
   const VkImageLayout forward_depth_layout =
-      ambient_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      gbuffer_pass ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   image_barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                 VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                 VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
@@ -1231,7 +1104,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   depth_attachment.imageView = depth.view;
   depth_attachment.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth_attachment.storeOp = ambient_pass ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depth_attachment.storeOp = gbuffer_pass ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE;
   depth_attachment.clearValue.depthStencil = {1.0f, 0};
   auto color_attachment = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
   color_attachment.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
@@ -1242,7 +1115,15 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   info.layerCount = 1;
   info.colorAttachmentCount = 1;
   info.pColorAttachments = &color_attachment;
-  if (ambient_pass) {
+  FeatureFrame feature_frame;
+  feature_frame.camera = &camera;
+  feature_frame.settings = &settings;
+  feature_frame.width = target.width;
+  feature_frame.height = target.height;
+  feature_frame.ambient_width = (target.width + settings.ambient_step - 1) / settings.ambient_step;
+  feature_frame.ambient_height = (target.height + settings.ambient_step - 1) / settings.ambient_step;
+  feature_frame.target_format = target.format;
+  if (gbuffer_pass) {
     // Pre-pass: depth and G-buffer.
     image_barrier(cmd, gbuffer.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
@@ -1268,7 +1149,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
 
-    record_ambient_passes(cmd, target, camera, ambient_pipelines);
+    if (ambient_pass) PENUMBRA_TRY(record_ambient_passes(cmd, key, feature_frame, sources));
     depth_attachment.imageLayout = forward_depth_layout;
     depth_attachment.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
     depth_attachment.storeOp = VK_ATTACHMENT_STORE_OP_NONE;
@@ -1280,16 +1161,22 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
   color_attachment.imageView = target.view;
   color_attachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}};
-  info.pDepthAttachment = &depth_attachment;
+  info.pDepthAttachment = view_feature ? nullptr : &depth_attachment;
   vkCmdBeginRendering(cmd, &info);
   set_viewport(cmd, target.width, target.height);
-  if (!ambient_pass) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
-    draw_all(cmd, Pass::DepthPrepass);
+  Status drawn;
+  if (view_feature) {  // the feature's view instead of the forward pass
+    drawn = view_feature->record_view(cmd, *this, feature_frame, feature_view);
+  } else {
+    if (!gbuffer_pass) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *prepass);
+      draw_all(cmd, Pass::DepthPrepass);
+    }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *forward);
+    draw_all(cmd, Pass::Forward);
   }
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *forward);
-  draw_all(cmd, Pass::Forward);
   vkCmdEndRendering(cmd);
+  PENUMBRA_TRY(drawn);
   if (target.final_layout != VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL) {
     image_barrier(cmd, target.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
                   target.final_layout, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
@@ -1311,8 +1198,8 @@ void Renderer::Impl::draw(VkCommandBuffer cmd, Pass pass, const Draw& d, std::ui
   vkCmdBindVertexBuffers(cmd, 0, pass == Pass::Shadow ? 1 : 2, buffers, offsets);
   vkCmdBindIndexBuffer(cmd, d.mesh->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
   if (pass == Pass::Forward)
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 1, 1, &d.material, 0, nullptr);
-  vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, renderer_layout, 1, 1, &d.material, 0, nullptr);
+  vkCmdPushConstants(cmd, renderer_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                      sizeof push, &push);
   vkCmdDrawIndexed(cmd, d.mesh->index_count, 1, 0, 0, 0);
 }
@@ -1385,13 +1272,11 @@ void Renderer::Impl::record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkP
   }
 }
 
-void Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, const RenderTarget& target, const CameraView& camera,
-                                           const AmbientPipelines& passes) {
-  // Ambient passes at 1 / ambient_step resolution into the ambient image: the full-screen pass
-  // (probe irradiance and open fraction 1 per sample, the sample's depth), then per AO-field
-  // caster its reach box, 1 - A_i multiplied into the samples whose surface lies in the box
-  // (depth and stencil tests, which llvmpipe runs before the fragment stage): a sample pays only
-  // for the casters whose box holds it.
+Status Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, VkPipeline key, const FeatureFrame& frame,
+                                             bool sources) {
+  // The ambient image at 1 / ambient_step resolution: the key pass (each sample's key and depth,
+  // no irradiance, open fraction 1), then the features' passes, sources before occluders
+  // (render/feature.h).
   for (VkImage image : {ambient.image, ambient_key.image}) {
     image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
@@ -1403,14 +1288,12 @@ void Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, const RenderTarg
                 VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, 0,
                 VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
-  const std::uint32_t ambient_width = (target.width + ambient_step - 1) / ambient_step;
-  const std::uint32_t ambient_height = (target.height + ambient_step - 1) / ambient_step;
   VkRenderingAttachmentInfo ambient_attachments[2];
   for (int k = 0; k < 2; ++k) {
     ambient_attachments[k] = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
     ambient_attachments[k].imageView = k == 0 ? ambient.view : ambient_key.view;
     ambient_attachments[k].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    ambient_attachments[k].loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the full-screen pass writes every sample
+    ambient_attachments[k].loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the key pass writes every sample
     ambient_attachments[k].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   }
   auto sample_depth = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
@@ -1422,39 +1305,21 @@ void Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, const RenderTarg
   sample_stencil.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
   sample_stencil.clearValue.depthStencil = {1.0f, 0};
   auto info = vk_struct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
-  info.renderArea = {{0, 0}, {ambient_width, ambient_height}};
+  info.renderArea = {{0, 0}, {frame.ambient_width, frame.ambient_height}};
   info.layerCount = 1;
   info.colorAttachmentCount = 2;
   info.pColorAttachments = ambient_attachments;
   info.pDepthAttachment = &sample_depth;
   info.pStencilAttachment = &sample_stencil;
   vkCmdBeginRendering(cmd, &info);
-  set_viewport(cmd, ambient_width, ambient_height);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, passes.full);
+  set_viewport(cmd, frame.ambient_width, frame.ambient_height);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, key);
   vkCmdDraw(cmd, 3, 1, 0, 0);
-  // The camera is inside a box (its front faces can be behind it) when it is within the box
-  // grown by the distance to the near plane's corners (znear = P[3][2] / P[2][2] for the
-  // right-handed [0, 1]-depth projection of camera.cpp).
-  const glm::mat4& p = camera.projection;
-  const float znear = p[2][2] != 0.0f ? std::abs(p[3][2] / p[2][2]) : 0.0f;
-  const float tan_x = p[0][0] != 0.0f ? 1.0f / std::abs(p[0][0]) : 0.0f;
-  const float tan_y = p[1][1] != 0.0f ? 1.0f / std::abs(p[1][1]) : 0.0f;
-  const float margin = znear * std::sqrt(1.0f + tan_x * tan_x + tan_y * tan_y);
-  for (std::uint32_t i = 0; i < ao_caster_grid.size(); ++i) {
-    gpu::DrawPush push{};
-    push.draw.x = i;
-    vkCmdPushConstants(cmd, pipeline_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                       sizeof push, &push);
-    const glm::vec4& reach = ao_caster_reach[i];
-    const glm::vec3 offset = glm::abs(camera.position - glm::vec3(reach));
-    const bool inside = std::max({offset.x, offset.y, offset.z}) <= reach.w + margin;
-    if (!inside) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, passes.mark);
-      vkCmdDraw(cmd, 36, 1, 0, 0);
-    }
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
-                      (inside ? passes.shade_inside : passes.shade)[ao_caster_grid[i]]);
-    vkCmdDraw(cmd, 36, 1, 0, 0);
+  Status recorded;
+  for (AmbientRole role : {AmbientRole::Source, AmbientRole::Occluder}) {
+    if (role == AmbientRole::Source && !sources) continue;
+    for (const auto& f : features)
+      if (recorded.ok() && f->role() == role && f->active()) recorded = f->record_ambient(cmd, *this, frame);
   }
   vkCmdEndRendering(cmd);
   for (VkImage image : {ambient.image, ambient_key.image}) {
@@ -1463,6 +1328,7 @@ void Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, const RenderTarg
                   VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
   }
+  return recorded;
 }
 
 Status Renderer::Impl::offscreen_frame(const CameraView& camera, std::uint32_t width,
@@ -1503,7 +1369,7 @@ Status Renderer::Impl::offscreen_frame(const CameraView& camera, std::uint32_t w
   target.layout = VK_IMAGE_LAYOUT_UNDEFINED;
   target.final_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
   Status recorded;
-  PENUMBRA_TRY(device->submit_and_wait([&](VkCommandBuffer cmd) {
+  PENUMBRA_TRY(gpu_device->submit_and_wait([&](VkCommandBuffer cmd) {
     recorded = record(cmd, target, camera, settings);
     if (!recorded.ok() || !read) return;
     VkBufferImageCopy region{};

@@ -14,6 +14,7 @@
 #include <map>
 
 #include <glm/gtc/quaternion.hpp>
+#include <glm/ext/matrix_transform.hpp>
 
 #include "penumbra/ao_field/ao_field_baker.h"
 #include "penumbra/ao_field/ao_field_gpu.h"
@@ -27,6 +28,8 @@
 #include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/probe_grid/probe_grid_baker.h"
 #include "penumbra/probe_grid/probe_grid_system.h"
+#include "penumbra/probe_grid/probe_grid_render.h"
+#include "penumbra/ao_field/ao_field_render.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 #include "shared/layout.h"
@@ -186,7 +189,7 @@ class RendererTest : public ::testing::Test {
   }
   // A debug view of `world` as linear floats (RGBA per pixel) at w x h and the given ambient step.
   static std::vector<float> linear_view(World& world, const CameraView& cam, std::uint32_t w, std::uint32_t h,
-                                        DebugView view, std::uint32_t ambient_step) {
+                                        const std::string& view, std::uint32_t ambient_step) {
     RenderSettings settings;
     settings.view = view;
     settings.ambient_step = ambient_step;
@@ -203,19 +206,69 @@ Device* RendererTest::device_ = nullptr;
 Renderer* RendererTest::renderer_ = nullptr;
 std::map<std::string, std::unique_ptr<BakedScene>>* RendererTest::scenes_ = nullptr;
 
-TEST_F(RendererTest, DebugViewNamesRoundTrip) {
-  for (int v = 0; v < kDebugViewCount; ++v) {
-    const auto view = static_cast<DebugView>(v);
-    auto parsed = parse_debug_view(debug_view_name(view));
-    ASSERT_TRUE(parsed.ok());
-    EXPECT_EQ(*parsed, view);
-  }
-  auto bad = parse_debug_view("shiny");
-  ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message.find("albedo"), std::string::npos);
+// The views are the renderer's own, then each render feature's; an unknown one is refused naming
+// them all.
+TEST_F(RendererTest, ViewsAreTheRenderersThenEachFeatures) {
+  std::vector<std::string> names;
+  for (const ViewInfo& v : renderer_->views()) names.emplace_back(v.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"lit", "direct", "indirect", "ao", "albedo", "position", "normal",
+                                             "validity", "irradiance"}));
+  BakedScene& s = scene("cornell");
+  RenderSettings settings;
+  settings.view = "shiny";
+  auto image = renderer_->render_image(s.world, camera(s), 16, 16, settings);
+  ASSERT_FALSE(image.ok());
+  EXPECT_NE(image.error().message.find("irradiance"), std::string::npos) << image.error().message;
 }
 
-class GoldenTest : public RendererTest, public ::testing::WithParamInterface<std::tuple<std::string, DebugView>> {};
+// Two features of one name (or sharing a view's name) are refused by Renderer::create.
+TEST_F(RendererTest, FeaturesAreUniqueByName) {
+  RenderFeatures features;
+  features.push_back(make_probe_grid_render_feature());
+  features.push_back(make_probe_grid_render_feature());
+  auto r = Renderer::create(*device_, std::move(features));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("probe-grid"), std::string::npos) << r.error().message;
+}
+
+// The renderer draws only what its features add: without the probe grid's feature the indirect
+// view is black, without the AO-field feature the casters occlude nothing, and the direct view is
+// the same with or without them.
+TEST_F(RendererTest, TheAmbientImageHoldsOnlyWhatItsFeaturesAdd) {
+  auto baked = bake_scene("courtyard", {.ao_fields = true});
+  ASSERT_NE(baked, nullptr);
+  BakedScene& s = *baked;
+  RenderFeatures only_ao;
+  only_ao.push_back(make_ao_field_render_feature());
+  auto bare = Renderer::create(*device_, RenderFeatures{});
+  auto ao_only = Renderer::create(*device_, std::move(only_ao));
+  ASSERT_TRUE(bare.ok()) << bare.error().message;
+  ASSERT_TRUE(ao_only.ok()) << ao_only.error().message;
+  auto frame = [&](Renderer& r, const std::string& view) {
+    RenderSettings settings;
+    settings.view = view;
+    auto image = r.render_image(s.world, camera(s), kWidth, kHeight, settings, true);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
+  };
+  auto sum = [](const std::vector<float>& px) {
+    double total = 0.0;
+    for (std::size_t i = 0; i < px.size(); i += 4) total += px[i] + px[i + 1] + px[i + 2];
+    return total;
+  };
+  EXPECT_EQ(sum(frame(**bare, "indirect")), 0.0);
+  EXPECT_GT(sum(frame(*renderer_, "indirect")), 0.0);
+  EXPECT_EQ((**bare).views().size(), std::size_t{PENUMBRA_VIEW_COUNT}) << "no feature, no feature views";
+  // AO: 1 everywhere without the AO-field feature; the casters darken some pixels with it.
+  const auto bare_ao = frame(**bare, "ao"), with_ao = frame(**ao_only, "ao");
+  ASSERT_EQ(bare_ao.size(), with_ao.size());
+  EXPECT_LT(sum(with_ao), sum(bare_ao));
+  EXPECT_EQ((**ao_only).stats().counter("ao-field.casters"), 4u);
+  EXPECT_EQ((**bare).stats().counter("ao-field.casters"), 0u);
+  EXPECT_EQ(frame(**bare, "direct"), frame(*renderer_, "direct"));
+}
+
+class GoldenTest : public RendererTest, public ::testing::WithParamInterface<std::tuple<std::string, std::string>> {};
 
 TEST_P(GoldenTest, MatchesGolden) {
   const auto& [name, view] = GetParam();
@@ -225,16 +278,16 @@ TEST_P(GoldenTest, MatchesGolden) {
   settings.shadow_map_size = 512;
   auto image = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings);
   ASSERT_TRUE(image.ok()) << image.error().message;
-  expect_golden(*image, name + "_" + std::string(debug_view_name(view)));
+  expect_golden(*image, name + "_" + view);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     Scenes, GoldenTest,
     ::testing::Combine(::testing::Values("cornell", "courtyard"),
-                       ::testing::Values(DebugView::Lit, DebugView::DirectOnly, DebugView::IndirectOnly,
-                                         DebugView::AoOnly, DebugView::Albedo, DebugView::ProbeValidity)),
+                       ::testing::Values("lit", "direct", "indirect",
+                                         "ao", "albedo", "validity")),
     [](const auto& test_param) {
-      return std::get<0>(test_param.param) + "_" + std::string(debug_view_name(std::get<1>(test_param.param)));
+      return std::get<0>(test_param.param) + "_" + std::get<1>(test_param.param);
     });
 
 // The comparison is strict enough: each golden matches itself and fails when shifted by one pixel.
@@ -265,7 +318,7 @@ TEST_F(RendererTest, SkinningMovesTheWalkerOnTheGpu) {
   auto s = bake_scene("courtyard");
   ASSERT_TRUE(s);
   RenderSettings settings;
-  settings.view = DebugView::Albedo;
+  settings.view = "albedo";
   const CameraView cam = camera(*s);
   auto first = renderer_->render_image(s->world, cam, kWidth, kHeight, settings);
   ASSERT_TRUE(first.ok()) << first.error().message;
@@ -285,7 +338,7 @@ TEST_F(RendererTest, TheUnrolledAndTheLoopedLightPathsAgree) {
   auto s = bake_scene("cornell");
   ASSERT_TRUE(s);
   RenderSettings settings;
-  settings.view = DebugView::DirectOnly;
+  settings.view = "direct";
   settings.shadow_map_size = 256;
   auto one = renderer_->render_image(s->world, camera(*s), kWidth, kHeight, settings);
   ASSERT_TRUE(one.ok()) << one.error().message;
@@ -314,7 +367,7 @@ TEST_F(RendererTest, TheUnrolledAndTheLoopedLightPathsAgree) {
 TEST_F(RendererTest, ShadowTapsChangeOnlyShadowEdges) {
   BakedScene& s = scene("courtyard");
   RenderSettings settings;
-  settings.view = DebugView::DirectOnly;
+  settings.view = "direct";
   auto draw = [&]() {
     auto image = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings);
     EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
@@ -341,7 +394,7 @@ TEST_F(RendererTest, AmbientImageHoldsAMillionTimesBrighterGrid) {
   const Entity grid = baked_probe_grid(s.world);
   ASSERT_TRUE(grid);
   const auto original = s.world.get<IrradianceProbeGrid>(grid).data;
-  auto draw = [&]() { return linear_view(s.world, camera(s), kWidth, kHeight, DebugView::IndirectOnly, 2); };
+  auto draw = [&]() { return linear_view(s.world, camera(s), kWidth, kHeight, "indirect", 2); };
   const auto base = draw();
   auto bright = std::make_shared<ProbeGridData>(*original);
   for (glm::vec3& c : bright->coefficients) c *= 1e6f;
@@ -451,16 +504,16 @@ TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
       if (g.data) data = g.data.get();
     });
     ASSERT_NE(data, nullptr);
-    auto render = [&](DebugView view) {
+    auto render = [&](const std::string& view) {
       RenderSettings settings;
       settings.view = view;
       auto image = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings, true);
       EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
       return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
     };
-    const auto irradiance = render(DebugView::Irradiance);
-    const auto position = render(DebugView::Position);
-    const auto normal = render(DebugView::Normal);
+    const auto irradiance = render("irradiance");
+    const auto position = render("position");
+    const auto normal = render("normal");
     ASSERT_EQ(irradiance.size(), std::size_t{kWidth} * kHeight * 4);
     // The same grid without the leak guard's reach: pixels where the two differ exercise the
     // shader's guarded lookup.
@@ -496,6 +549,75 @@ TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
     RecordProperty(std::string(name) + "_guarded_pixels", std::to_string(guarded));
     RecordProperty(std::string(name) + "_worst_relative_error", std::to_string(worst));
   }
+}
+
+// Overlapping grids blend per pixel as the CPU blends them (probe_grid_weights): a second,
+// brighter grid of higher priority over the courtyard grid's -x half, fading over a sixth of its
+// width. The irradiance view equals the CPU blend of evaluate() within 1% where a grid covers the
+// pixel, and pixels see the base grid alone, the fade, and mostly the second grid.
+TEST_F(RendererTest, OverlappingProbeGridsBlendAsOnTheCpu) {
+  BakedScene& s = scene("courtyard");
+  std::shared_ptr<const ProbeGridData> base;
+  s.world.view<const IrradianceProbeGrid>().each([&](const IrradianceProbeGrid& g) {
+    if (g.data) base = g.data;
+  });
+  ASSERT_NE(base, nullptr);
+  auto half = std::make_shared<ProbeGridData>(*base);
+  half->layout.grid_to_world = base->layout.grid_to_world * glm::scale(glm::mat4(1.0f), glm::vec3(0.5f, 1.0f, 1.0f));
+  half->layout.world_to_grid = glm::inverse(half->layout.grid_to_world);
+  half->layout.spacing.x *= 0.5f;
+  for (glm::vec3& c : half->coefficients) c *= 2.0f;
+  const Entity second = s.world.create();
+  IrradianceProbeGrid g;
+  g.priority = 1;
+  g.blend_distance = half->layout.spacing.x * float(half->layout.resolution.x - 1) / 6.0f;
+  g.data = half;
+  s.world.add<IrradianceProbeGrid>(second, g);
+  s.world.add<Transform>(second, Transform{});
+  s.world.update(0.0);
+  auto render = [&](const std::string& view) {
+    RenderSettings settings;
+    settings.view = view;
+    auto image = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings, true);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
+  };
+  const auto irradiance = render("irradiance");
+  const auto position = render("position");
+  const auto normal = render("normal");
+  EXPECT_EQ(renderer_->stats().counter("probe-grid.grids"), 2u);
+  const std::vector<BlendedProbeGrid> grids = blended_probe_grids(s.world);
+  ASSERT_EQ(grids.size(), 2u);
+  ASSERT_EQ(grids[0].data, half);
+  std::vector<float> weights;
+  int checked = 0, mostly_half = 0, only_base = 0, fading = 0;
+  for (std::uint32_t y = 2; y < kHeight; y += 5) {
+    for (std::uint32_t x = 3; x < kWidth; x += 5) {
+      const std::size_t p = (std::size_t{y} * kWidth + x) * 4;
+      const glm::vec3 n(normal[p], normal[p + 1], normal[p + 2]);
+      if (glm::length(n) < 0.5f) continue;  // background
+      const glm::vec3 pos(position[p], position[p + 1], position[p + 2]);
+      if (!probe_grid_weights(grids, pos, weights)) continue;
+      glm::vec3 cpu(0.0f);
+      for (std::size_t i = 0; i < grids.size(); ++i) cpu += weights[i] * evaluate(*grids[i].data, pos, glm::normalize(n));
+      const glm::vec3 gpu(irradiance[p], irradiance[p + 1], irradiance[p + 2]);
+      const float scale = std::max({cpu.x, cpu.y, cpu.z, 1e-3f});
+      for (int k = 0; k < 3; ++k)
+        EXPECT_LE(std::abs(gpu[k] - cpu[k]) / scale, 0.01)
+            << "pixel (" << x << ", " << y << ") channel " << k << ": gpu " << gpu[k] << " cpu " << cpu[k]
+            << " weights " << weights[0] << ", " << weights[1];
+      mostly_half += weights[0] >= 0.5f;
+      only_base += weights[1] == 1.0f;
+      fading += weights[0] > 0.0f && weights[0] < 1.0f;
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 100);
+  EXPECT_GE(mostly_half, 10);
+  EXPECT_GE(only_base, 10);
+  EXPECT_GE(fading, 10);
+  s.world.destroy(second);
+  s.world.update(0.0);
 }
 
 TEST_F(RendererTest, RejectsBadSizesAndReportsMemory) {
@@ -553,11 +675,11 @@ TEST_F(RendererTest, AoFieldPassMatchesTheCpuReference) {
   constexpr std::uint32_t kW = 640, kH = 480;
   const CameraView view = camera_view(s->world, s->camera, float(kW) / float(kH));
   for (std::uint32_t step : {1u, 2u}) {
-    auto render = [&](DebugView debug_view) { return linear_view(s->world, view, kW, kH, debug_view, step); };
-    const auto ao = render(DebugView::AoOnly);
-    EXPECT_EQ(renderer_->stats().ao_field_casters, 4u);
-    const auto position = render(DebugView::Position);
-    const auto normal = render(DebugView::Normal);
+    auto render = [&](const std::string& debug_view) { return linear_view(s->world, view, kW, kH, debug_view, step); };
+    const auto ao = render("ao");
+    EXPECT_EQ(renderer_->stats().counter("ao-field.casters"), 4u);
+    const auto position = render("position");
+    const auto normal = render("normal");
     ASSERT_EQ(ao.size(), std::size_t{kW} * kH * 4);
     int ground = 0, occluded = 0, sampled = 0, within = 0;
     double worst = 0.0, worst_sampled = 0.0;
@@ -601,11 +723,11 @@ TEST_F(RendererTest, AmbientPassesMatchThePerPixelTerms) {
   constexpr std::uint32_t kW = 640, kH = 480;
   const CameraView view = camera_view(s->world, s->camera, float(kW) / float(kH));
   for (std::uint32_t step : {1u, 2u}) {
-    auto render = [&](DebugView debug_view) { return linear_view(s->world, view, kW, kH, debug_view, step); };
-    const auto indirect = render(DebugView::IndirectOnly);
-    const auto albedo = render(DebugView::Albedo);
-    const auto irradiance = render(DebugView::Irradiance);
-    const auto ao = render(DebugView::AoOnly);
+    auto render = [&](const std::string& debug_view) { return linear_view(s->world, view, kW, kH, debug_view, step); };
+    const auto indirect = render("indirect");
+    const auto albedo = render("albedo");
+    const auto irradiance = render("irradiance");
+    const auto ao = render("ao");
     ASSERT_EQ(indirect.size(), std::size_t{kW} * kH * 4);
     std::size_t lit = 0, lit_ok = 0, sampled = 0, sampled_ok = 0;
     for (std::size_t p = 0; p < indirect.size(); p += 4) {
@@ -660,18 +782,18 @@ TEST_F(RendererTest, AoFieldShadowFollowsAMovingCrate) {
   const CameraView close_up = look_at(w, glm::vec3(-2.2f, 2.6f, -1.8f), glm::vec3(-2.2f, 0.2f, -5.6f));
   auto render = [&](Frame& f) {
     RenderSettings settings;
-    settings.view = DebugView::AoOnly;
+    settings.view = "ao";
     auto ao = renderer_->render_image(w, cam, kWidth, kHeight, settings);
     ASSERT_TRUE(ao.ok());
     auto ao_close = renderer_->render_image(w, close_up, kWidth, kHeight, settings);
     ASSERT_TRUE(ao_close.ok());
     expect_golden(*ao_close, f.golden + "_ao");
-    settings.view = DebugView::Lit;
+    settings.view = "lit";
     settings.shadow_map_size = 512;
     auto lit = renderer_->render_image(w, close_up, kWidth, kHeight, settings);
     ASSERT_TRUE(lit.ok());
     expect_golden(*lit, f.golden + "_lit");
-    settings.view = DebugView::Position;
+    settings.view = "position";
     auto position = renderer_->render_image(w, cam, kWidth, kHeight, settings, true);
     ASSERT_TRUE(ao.ok() && lit.ok() && position.ok());
     f.ao = std::move(*ao);
@@ -687,14 +809,14 @@ TEST_F(RendererTest, AoFieldShadowFollowsAMovingCrate) {
   a.golden = "courtyard_crate_a";
   b.golden = "courtyard_crate_b";
   render(a);
-  EXPECT_EQ(renderer_->stats().ao_field_bytes_uploaded, 0u) << "nothing changed since the previous frame";
+  EXPECT_EQ(renderer_->stats().counter("ao-field.bytes_uploaded"), 0u) << "nothing changed since the previous frame";
   // Moving the crate uploads the caster records (its transform), not the fields.
   w.patch<Transform>(crate).translation = glm::vec3(-1.5f, 0.4f, -5.0f);
   w.update(0.0);
   RenderSettings first_frame;
-  first_frame.view = DebugView::AoOnly;
+  first_frame.view = "ao";
   ASSERT_TRUE(renderer_->render_image(w, cam, kWidth, kHeight, first_frame).ok());
-  EXPECT_EQ(renderer_->stats().ao_field_bytes_uploaded, (1 + 7 * casters) * sizeof(glm::vec4));
+  EXPECT_EQ(renderer_->stats().counter("ao-field.bytes_uploaded"), (1 + 7 * casters) * sizeof(glm::vec4));
   render(b);
   ASSERT_GT(glm::distance(a.centre, b.centre), 1.0f);
 
@@ -731,7 +853,7 @@ TEST_F(RendererTest, AoFieldEntityReceiversAndNoSelfShadow) {
   EXPECT_GT(system, 0.001f) << "the crates 2 m away should occlude the walker a little";
   const CameraView cam = look_at(w, glm::vec3(3.2f, 1.2f, 6.4f), glm::vec3(2.0f, 0.8f, 4.0f));
   RenderSettings settings;
-  settings.view = DebugView::AoOnly;
+  settings.view = "ao";
   auto render = [&](const CameraView& view) {
     auto image = renderer_->render_image(w, view, kWidth, kHeight, settings, true);
     EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
@@ -768,9 +890,9 @@ TEST_F(RendererTest, AoFieldEntityReceiversAndNoSelfShadow) {
   const CameraView close_up = look_at(w, glm::vec3(-1.6f, 1.6f, -4.2f), glm::vec3(-3.0f, 0.3f, -6.0f));
   for (std::uint32_t step : {1u, 2u}) {
     settings.ambient_step = step;
-    settings.view = DebugView::AoOnly;
+    settings.view = "ao";
     const auto ao = render(close_up);
-    settings.view = DebugView::Position;
+    settings.view = "position";
     const auto position = render(close_up);
     auto on_crate = [&](std::size_t p) {
       const glm::vec3 pos(position[p], position[p + 1], position[p + 2]);
@@ -802,22 +924,22 @@ TEST_F(RendererTest, AoFieldPassIsCompiledOutWithoutCasters) {
   ASSERT_TRUE(s);
   BakedScene& plain = scene("courtyard");
   RenderSettings ao_view, lit_view;
-  ao_view.view = DebugView::AoOnly;
+  ao_view.view = "ao";
   lit_view.shadow_map_size = 512;
   auto with = renderer_->render_image(s->world, camera(*s), kWidth, kHeight, ao_view);
   ASSERT_TRUE(with.ok()) << with.error().message;
-  EXPECT_EQ(renderer_->stats().ao_field_casters, 4u);
+  EXPECT_EQ(renderer_->stats().counter("ao-field.casters"), 4u);
   for (Entity e : s->world.view<const AOFieldCaster>().sorted_entities()) s->world.remove<AOFieldCaster>(e);
   s->world.update(0.0);
   for (const RenderSettings& settings : {ao_view, lit_view}) {
     auto without = renderer_->render_image(s->world, camera(*s), kWidth, kHeight, settings);
     ASSERT_TRUE(without.ok()) << without.error().message;
-    EXPECT_EQ(renderer_->stats().ao_field_casters, 0u);
+    EXPECT_EQ(renderer_->stats().counter("ao-field.casters"), 0u);
     auto never = renderer_->render_image(plain.world, camera(plain), kWidth, kHeight, settings);
     ASSERT_TRUE(never.ok()) << never.error().message;
-    EXPECT_EQ(renderer_->stats().ao_field_bytes_uploaded, 0u);
-    EXPECT_EQ(without->rgba8, never->rgba8) << debug_view_name(settings.view);
-    if (settings.view == DebugView::AoOnly) {
+    EXPECT_EQ(renderer_->stats().counter("ao-field.bytes_uploaded"), 0u);
+    EXPECT_EQ(without->rgba8, never->rgba8) << settings.view;
+    if (settings.view == "ao") {
       EXPECT_GE(compare(with->rgba8, without->rgba8).differing, 50u);
     }
   }
@@ -835,7 +957,7 @@ TEST_F(RendererTest, PoseAoChangesWithTheWalkCycle) {
   const Entity walker = walkers[0];
   const CameraView cam = look_at(w, glm::vec3(3.2f, 1.2f, 6.4f), glm::vec3(2.0f, 0.8f, 4.0f));
   RenderSettings settings;
-  settings.view = DebugView::AoOnly;
+  settings.view = "ao";
   auto darkened = [](const Image& image) {
     std::size_t n = 0;
     for (std::size_t p = 0; p < image.rgba8.size(); p += 4) n += image.rgba8[p] < 230;

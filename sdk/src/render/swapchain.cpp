@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "vk_util.h"
+#include "penumbra/render/vk_util.h"
 
 namespace penumbra {
 
@@ -74,7 +74,7 @@ struct Swapchain::Impl {
     std::uint32_t image_count = caps.minImageCount + 1;
     if (caps.maxImageCount > 0) image_count = std::min(image_count, caps.maxImageCount);
 
-    auto info = render_detail::vk_struct<VkSwapchainCreateInfoKHR>(VK_STRUCTURE_TYPE_SWAPCHAIN_CREATE_INFO_KHR);
+    auto info = vk::vk_struct<VkSwapchainCreateInfoKHR>(VK_STRUCTURE_TYPE_SWAPCHAIN_CREATE_INFO_KHR);
     info.surface = surface;
     info.minImageCount = image_count;
     info.imageFormat = chosen.format;
@@ -102,13 +102,13 @@ struct Swapchain::Impl {
     images.resize(count);
     vkGetSwapchainImagesKHR(d, swapchain, &count, images.data());
     for (VkImage image : images) {
-      auto view = render_detail::vk_struct<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
+      auto view = vk::vk_struct<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
       view.image = image;
       view.viewType = VK_IMAGE_VIEW_TYPE_2D;
       view.format = format;
       view.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
       VkImageView v = VK_NULL_HANDLE;
-      auto sem = render_detail::vk_struct<VkSemaphoreCreateInfo>(VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO);
+      auto sem = vk::vk_struct<VkSemaphoreCreateInfo>(VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO);
       VkSemaphore s = VK_NULL_HANDLE;
       if (vkCreateImageView(d, &view, nullptr, &v) != VK_SUCCESS ||
           vkCreateSemaphore(d, &sem, nullptr, &s) != VK_SUCCESS) {
@@ -128,8 +128,8 @@ Result<std::unique_ptr<Swapchain>> Swapchain::create(Device& device, VkSurfaceKH
   impl->device = &device;
   impl->surface = surface;
   impl->options = options;
-  auto sem = render_detail::vk_struct<VkSemaphoreCreateInfo>(VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO);
-  auto fence = render_detail::vk_struct<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
+  auto sem = vk::vk_struct<VkSemaphoreCreateInfo>(VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO);
+  auto fence = vk::vk_struct<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
   fence.flags = VK_FENCE_CREATE_SIGNALED_BIT;
   if (vkCreateSemaphore(device.device(), &sem, nullptr, &impl->acquired) != VK_SUCCESS ||
       vkCreateFence(device.device(), &fence, nullptr, &impl->frame_fence) != VK_SUCCESS) {
@@ -171,7 +171,7 @@ Status Swapchain::present(VkCommandBuffer cmd) {
   VkDevice d = impl_->device->device();
   vkResetFences(d, 1, &impl_->frame_fence);
   const VkPipelineStageFlags wait_stage = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-  auto submit = render_detail::vk_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+  auto submit = vk::vk_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
   submit.waitSemaphoreCount = 1;
   submit.pWaitSemaphores = &impl_->acquired;
   submit.pWaitDstStageMask = &wait_stage;
@@ -182,7 +182,7 @@ Status Swapchain::present(VkCommandBuffer cmd) {
   if (VkResult r = vkQueueSubmit(impl_->device->queue(), 1, &submit, impl_->frame_fence); r != VK_SUCCESS) {
     return make_error(ErrorCode::Internal, std::string("Swapchain: vkQueueSubmit failed (") + vk_result_name(r) + ")");
   }
-  auto present = render_detail::vk_struct<VkPresentInfoKHR>(VK_STRUCTURE_TYPE_PRESENT_INFO_KHR);
+  auto present = vk::vk_struct<VkPresentInfoKHR>(VK_STRUCTURE_TYPE_PRESENT_INFO_KHR);
   present.waitSemaphoreCount = 1;
   present.pWaitSemaphores = &impl_->rendered[impl_->current];
   present.swapchainCount = 1;

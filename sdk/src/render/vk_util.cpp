@@ -1,6 +1,6 @@
-#include "vk_util.h"
+#include "penumbra/render/vk_util.h"
 
-namespace penumbra::render_detail {
+namespace penumbra::vk {
 
 const char* vk_result_name(VkResult r) {
   switch (r) {
@@ -30,7 +30,7 @@ Allocator::Allocator(VkPhysicalDevice physical, VkDevice device) : device_(devic
 Result<VkDeviceMemory> Allocator::allocate(const VkMemoryRequirements& req, VkMemoryPropertyFlags flags) {
   for (std::uint32_t i = 0; i < memory_.memoryTypeCount; ++i) {
     if (!(req.memoryTypeBits & (1u << i)) || (memory_.memoryTypes[i].propertyFlags & flags) != flags) continue;
-    auto info = render_detail::vk_struct<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
+    auto info = vk::vk_struct<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
     info.allocationSize = req.size;
     info.memoryTypeIndex = i;
     VkDeviceMemory memory = VK_NULL_HANDLE;
@@ -48,7 +48,7 @@ Result<VkDeviceMemory> Allocator::allocate(const VkMemoryRequirements& req, VkMe
 Result<Buffer> Allocator::create_buffer(VkDeviceSize size, VkBufferUsageFlags usage, bool host) {
   Buffer b;
   b.size = size;
-  auto info = render_detail::vk_struct<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
+  auto info = vk::vk_struct<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
   info.size = size > 0 ? size : 16;
   info.usage = usage;
   info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
@@ -86,7 +86,7 @@ Result<ImageResource> Allocator::create_image(const VkImageCreateInfo& info, VkI
   img.memory = *memory;
   img.bytes = req.size;
   vkBindImageMemory(device_, img.image, img.memory, 0);
-  auto view = render_detail::vk_struct<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
+  auto view = vk::vk_struct<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
   view.image = img.image;
   view.viewType = view_type;
   view.format = info.format;
@@ -116,7 +116,7 @@ void Allocator::destroy(ImageResource& img) {
 void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout from,
                    VkImageLayout to, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                    VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
-  auto b = render_detail::vk_struct<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
+  auto b = vk::vk_struct<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
   b.srcStageMask = src_stage;
   b.srcAccessMask = src_access;
   b.dstStageMask = dst_stage;
@@ -127,10 +127,10 @@ void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect
   b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   b.image = image;
   b.subresourceRange = {aspect, 0, VK_REMAINING_MIP_LEVELS, 0, VK_REMAINING_ARRAY_LAYERS};
-  auto dep = render_detail::vk_struct<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  auto dep = vk::vk_struct<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
   dep.imageMemoryBarrierCount = 1;
   dep.pImageMemoryBarriers = &b;
   vkCmdPipelineBarrier2(cmd, &dep);
 }
 
-}  // namespace penumbra::render_detail
+}  // namespace penumbra::vk

@@ -4,6 +4,9 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
 
 #include "penumbra/ecs/world.h"
 #include "penumbra/lighting/module.h"
@@ -18,14 +21,32 @@ namespace penumbra {
 // Thread-safe for concurrent reads of the World.
 glm::vec3 probe_lit_position(const World& world, Entity e);
 
+// A baked grid as the runtime blends it: its data, priority, entity index and blend distance
+// (IrradianceProbeGrid::blend_distance, or the smallest node spacing when that is 0).
+struct BlendedProbeGrid {
+  std::shared_ptr<const ProbeGridData> data;
+  int priority = 0;
+  std::uint32_t index = 0;
+  float blend = 1.0f;  // metres
+};
+// The World's grids with data, by descending priority, then entity index: the order of the blend.
+// Cost: O(grids log grids).
+std::vector<BlendedProbeGrid> blended_probe_grids(World& world);
+// Grid g's fade at world point x: 0 outside its box; inside, clamp(distance to its border / blend
+// distance, 1e-4, 1), so a point on the border still counts as covered. Cost: O(1).
+float probe_grid_coverage(const BlendedProbeGrid& g, glm::vec3 x);
+// The blend's weight of each of `grids` (in blended_probe_grids order) at x, in `weights`: each
+// covering grid takes its fade of what the grids before it left, and the last covering grid all
+// that is left (the weights sum to 1). Returns false, all weights 0, where no grid covers x (the
+// renderer then takes the first grid's clamped lookup). Cost: O(grids).
+bool probe_grid_weights(std::span<const BlendedProbeGrid> grids, glm::vec3 x, std::vector<float>& weights);
+
 // Gives every ProbeLit entity with a WorldTransform its irradiance at probe_lit_position, but only
 // the entities whose WorldTransform, ProbeLit or Mesh changed after tick `since`, or all when any
 // grid (IrradianceProbeGrid or its WorldTransform) changed or was removed after `since`. Where
-// grids overlap, the covering grids are taken by descending priority (then entity index); each
-// takes fade x (what is left) of the weight, fade = clamp(distance to its border / blend
-// distance, 1e-4, 1), and the last covering grid takes all that is left (weights sum to 1).
-// Grids without data are skipped. Writes ProbeLit with World::patch (outside a system, advance
-// the World's tick afterwards). Returns the number of receivers updated.
+// grids overlap they are blended by probe_grid_weights (the renderer's per-pixel blend). Writes
+// ProbeLit with World::patch (outside a system, advance the World's tick afterwards). Returns the
+// number of receivers updated.
 // Cost: O(grids + updated receivers x covering grids x 8 nodes).
 std::size_t update_probe_lighting(World& world, std::uint64_t since);
 

@@ -1,19 +1,20 @@
-// The forward renderer: draws a World with every lighting technique's data it finds.
+// The forward renderer: draws a World, with what each lighting technique adds drawn by its render
+// feature (render/feature.h).
 //
 // Mirrors the World into GPU resources (sync), then records a frame into a command buffer
 // (record) that draws into a RenderTarget. Passes: shadow maps for the shadowed lights (a layer
 // is drawn again only when its view or the casters within it changed); a depth pre-pass (so the
-// costly fragment stage runs once per pixel); with a probe grid or AO-field casters, in the views
-// that show them, a G-buffer (normal, AO-field receiver) in that pre-pass and the ambient passes
-// at every RenderSettings::ambient_step-th pixel: a full-screen pass evaluating the probe grid
-// with the leak guard's lookup, then per AO-field caster its reach box multiplying the caster's
-// occlusion into the samples whose surface lies in the box (depth and stencil tests); then one
-// forward pass (GPU skinning, base colour textures, direct light with filtered shadow maps, the
-// ambient image upsampled along surfaces, per-vertex AO (VertexAO: vertex-AO bakes, pose-AO) as
-// a vertex attribute, emission, tone mapping in the same pass). A pass whose data the scene lacks
-// is skipped and costs nothing. The layouts shared with the GLSL in shaders/ are defined once, in
-// shaders/shared/layout.h. On llvmpipe, which runs both sides of every branch, what is fixed for
-// a frame (debug view, shadow taps, light count, which passes ran) specialises the pipelines.
+// costly fragment stage runs once per pixel); when a feature is active, in the views that show
+// ambient light, a G-buffer (normal, receiver code) in that pre-pass and the ambient image at
+// every RenderSettings::ambient_step-th pixel (the samples' keys and depths, then the features'
+// passes: the probe grid's irradiance, the AO-field casters' occlusion); then one forward pass
+// (GPU skinning, base colour textures, direct light with filtered shadow maps, the ambient image
+// upsampled along surfaces, per-vertex AO (VertexAO: vertex-AO bakes, pose-AO) as a vertex
+// attribute, emission, tone mapping in the same pass). A feature's debug view replaces the
+// forward pass by the feature's own full-screen pass. What the scene lacks is skipped and costs
+// nothing. The layouts shared with the GLSL in shaders/ are defined once, in shaders/shared/
+// layout.h. On llvmpipe, which runs both sides of every branch, what is fixed for a frame (debug
+// view, shadow taps, light count, whether the ambient image exists) specialises the pipelines.
 //
 // Light models (as bake/light_sampling.h): directional illuminance, point/spot intensity with the
 // KHR_lights_punctual range window and smooth cone; a Rect light of radiance L and area A is drawn
@@ -23,14 +24,9 @@
 // outer cone, point and rect six 90-degree faces; PCF over the 2x2 comparison filter (a 3x3 tent
 // of four taps, or one tap: RenderSettings::shadow_taps). Emissive meshes cast no shadows (an
 // emitter would occlude its own light).
-// AO = VertexAO x the AO-field open fraction: on AOFieldReceiver surfaces (Mode::Surface) the
-// AO-field pass evaluates each caster's field as evaluate_packed() (ao_field_gpu.h) does, at the
-// samples within its world reach, skipping the drawn entity's own field; on Mode::Entity receivers
-// the forward pass uses AOFieldReceiver::occlusion for the whole entity. Scenes without baked
-// casters bind no field buffer and run no AO-field pass.
-// Indirect: L = albedo / pi x E_probe(x, n) x AO, E_probe the trilinear SH of the highest-priority
-// baked IrradianceProbeGrid (ties: lowest entity index), as evaluate() in probe_grid.h. A grid
-// baked with lighting = all holds direct light too, which Lit then counts twice (logged once).
+// Indirect: L = albedo / pi x E x AO, E the ambient image's irradiance (its sources: the probe
+// grid's feature), AO = VertexAO x the ambient image's open fraction (its occluders: the AO-field
+// casters) x the draw's entity-wide open fraction (DrawFeatureValues::open).
 // Tone mapping: exposure, then the ACES filmic fit of Narkowicz (2015), then sRGB.
 //
 // sync() and render_image() take a mutable World (views need one; nothing is written). One frame
@@ -41,6 +37,8 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include <glm/mat4x4.hpp>
@@ -50,25 +48,9 @@
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
 #include "penumbra/render/device.h"
+#include "penumbra/render/feature.h"
 
 namespace penumbra {
-
-enum class DebugView : std::uint8_t {
-  Lit,            // direct + indirect, AO applied, tone mapped
-  DirectOnly,     // direct light with shadows
-  IndirectOnly,   // probe-grid irradiance x albedo (x AO)
-  AoOnly,         // the product of every AO term as grey
-  Albedo,         // base colour x texture
-  ProbeValidity,  // the probe grid's interpolated validity: red (0) to green (1); blue without a grid
-  Position,       // world position (linear data, not tone mapped)
-  Normal,         // world normal, facing the camera (linear data)
-  Irradiance,     // E_probe(x, n) in W/m^2, exposed and tone mapped (linear in a float target)
-};
-inline constexpr int kDebugViewCount = 9;
-// "lit", "direct", "indirect", "ao", "albedo", "validity", "position", "normal", "irradiance";
-// InvalidArgument listing the names for anything else.
-Result<DebugView> parse_debug_view(std::string_view name);
-std::string_view debug_view_name(DebugView view);
 
 struct CameraView {
   glm::mat4 view{1.0f};        // world -> camera
@@ -81,7 +63,13 @@ CameraView camera_view(const World& world, Entity camera, float aspect);
 CameraView framing_camera_view(World& world, float aspect);
 
 struct RenderSettings {
-  DebugView view = DebugView::Lit;
+  // The debug view by name (Renderer::views()): the renderer's own "lit" (direct + indirect, AO
+  // applied, tone mapped), "direct" (direct light with shadows), "indirect" (the ambient
+  // sources' irradiance x albedo x AO), "ao" (the product of every AO term as grey), "albedo"
+  // (base colour x texture), "position" and "normal" (world space, linear data), or a render
+  // feature's (the probe grid's "validity" and "irradiance"). InvalidArgument listing the views
+  // for any other name.
+  std::string view = "lit";
   float exposure = 1.0f;               // scene-referred radiance multiplier before tone mapping
   bool shadows = true;
   std::uint32_t shadow_map_size = 1024;
@@ -125,15 +113,23 @@ struct FrameStats {
   std::uint32_t draws = 0;
   std::uint64_t gpu_bytes = 0;  // buffers and images the renderer holds
   std::uint32_t vertex_ao_uploads = 0;        // VertexAO attributes uploaded by the last sync (changed ones)
-  std::uint32_t ao_field_casters = 0;         // casters in the AO-field pass; 0: the pass is compiled out
-  std::uint64_t ao_field_bytes_uploaded = 0;  // AO-field buffer bytes the last sync wrote (0 when unchanged)
   // Shadow layers the last frame rendered, of shadow_layers: a layer whose light view and the
   // casters within it (meshes, transforms, poses) are those it holds is kept, not drawn again.
   std::uint32_t shadow_layers_rendered = 0, shadow_layers = 0;
+  // The render features' counters of the last sync, "<feature>.<counter>" (e.g. "ao-field.casters",
+  // "ao-field.bytes_uploaded", "probe-grid.grids").
+  std::vector<std::pair<std::string, std::uint64_t>> counters;
+  // The counter named `name`, 0 when no feature reported it.
+  std::uint64_t counter(std::string_view name) const;
 };
 
 class Renderer {
  public:
+  // A renderer with the given render features (render/feature.h), initialised in order.
+  // InvalidArgument when two features or views share a name; any feature's init() error.
+  static Result<std::unique_ptr<Renderer>> create(Device& device, RenderFeatures features);
+  // A renderer with every SDK lighting module's feature (standard_render_features()); defined in
+  // penumbra::render, the full renderer target (penumbra::render_core has only the overload above).
   static Result<std::unique_ptr<Renderer>> create(Device& device);
   ~Renderer();
   Renderer(const Renderer&) = delete;
@@ -163,6 +159,8 @@ class Renderer {
                       const RenderSettings& settings);
 
   const FrameStats& stats() const;
+  // Every view RenderSettings::view accepts: the renderer's, then each feature's.
+  std::vector<ViewInfo> views() const;
 
  private:
   struct Impl;

@@ -25,7 +25,7 @@ void main() {
   uint caster = push.draw.x;
   vec3 x = world_at_pixel(pixel, depth);
   vec4 reach = ao_fields[1u + 7u * caster + 6u];
-  // Receiver code: 0 not a receiver, else 2 + the pixel's own caster record (layout.h). (No
+  // Receiver code: 0 not a receiver, else 2 + the pixel's own caster record (ao_field_layout.h). (No
   // discard: it would turn llvmpipe's early depth and stencil tests, which cull the box's
   // samples, into late ones.)
   if (g.w < 1.0 || depth >= 1.0 || int(g.w) - 2 == int(caster) || !(distance(x, reach.xyz) < reach.w)) {

@@ -1,5 +1,6 @@
-// Internal Vulkan helpers of the render module: result names, memory allocation (one allocation
-// per resource, enough at this scale; every byte is counted), buffers, images and barriers.
+// Vulkan helpers of the renderer and its render features (render/feature.h): result names,
+// memory allocation (one allocation per resource, enough at this scale; every byte is counted),
+// buffers, images and barriers.
 #pragma once
 
 #include <cstdint>
@@ -10,7 +11,7 @@
 
 #include "penumbra/core/result.h"
 
-namespace penumbra::render_detail {
+namespace penumbra::vk {
 
 const char* vk_result_name(VkResult r);
 
@@ -54,13 +55,13 @@ void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect
                    VkImageLayout to, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                    VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
 
-}  // namespace penumbra::render_detail
+}  // namespace penumbra::vk
 
 namespace penumbra {
-using render_detail::vk_result_name;
+using vk::vk_result_name;
 }
 
-namespace penumbra::render_detail {
+namespace penumbra::vk {
 // A zero-initialised Vulkan info struct with its sType set.
 template <class T>
 T vk_struct(VkStructureType type) {
@@ -68,4 +69,4 @@ T vk_struct(VkStructureType type) {
   value.sType = type;
   return value;
 }
-}  // namespace penumbra::render_detail
+}  // namespace penumbra::vk

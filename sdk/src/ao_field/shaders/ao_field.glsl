@@ -3,8 +3,9 @@
 // section 3.3; the grid of Malmer et al. 2007). Included by ao_field.vert and ao_field.frag after
 // common.glsl: the AO-field pass draws each caster's reach over the pixels it can darken (a
 // deferred pass, as for light volumes) and multiplies 1 - A_i into the ambient image.
+#include "ao_field_layout.h"
 
-layout(std430, set = 0, binding = PENUMBRA_BINDING_AO_FIELDS) readonly buffer AoFields { vec4 ao_fields[]; };
+layout(std430, set = 2, binding = PENUMBRA_AO_BINDING_FIELDS) readonly buffer AoFields { vec4 ao_fields[]; };
 
 const float kAoFieldFourPi = 12.566370614359172;
 

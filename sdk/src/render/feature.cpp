@@ -1,0 +1,100 @@
+// The fixed-function state of a render feature's pass (RenderContext::pipeline).
+#include "feature_pipeline.h"
+
+#include <iterator>
+#include <string>
+
+#include "penumbra/render/vk_util.h"
+
+namespace penumbra {
+
+using vk::vk_struct;
+
+Result<VkPipeline> make_feature_pipeline(VkDevice device, const FeaturePipeline& p, VkFormat ambient_format,
+                                         VkFormat ambient_depth_format) {
+  VkPipelineShaderStageCreateInfo stages[2];
+  for (auto& s : stages) {
+    s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+    s.pName = "main";
+    s.pSpecializationInfo = p.specialization;
+  }
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = p.vertex;
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = p.fragment;
+  auto vertex_input = vk_struct<VkPipelineVertexInputStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
+  auto assembly = vk_struct<VkPipelineInputAssemblyStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
+  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  auto viewport = vk_struct<VkPipelineViewportStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO);
+  viewport.viewportCount = 1;
+  viewport.scissorCount = 1;
+  auto raster = vk_struct<VkPipelineRasterizationStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  raster.cullMode = p.cull;
+  raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  raster.depthClampEnable = p.depth_clamp ? VK_TRUE : VK_FALSE;
+  raster.lineWidth = 1.0f;
+  auto multisample = vk_struct<VkPipelineMultisampleStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
+  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo depth_stencil = p.depth_stencil;
+  depth_stencil.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
+  depth_stencil.pNext = nullptr;
+  if (!p.ambient) depth_stencil = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
+
+  // The blend: a source adds to rgb (alpha kept), an occluder multiplies every channel, a view
+  // writes. The ambient image's key (attachment 1) is never written by a feature.
+  VkPipelineColorBlendAttachmentState attachments[2] = {};
+  VkPipelineColorBlendAttachmentState& colour = attachments[0];
+  const VkColorComponentFlags rgba =
+      VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  colour.colorWriteMask = p.colour_writes ? rgba : 0;
+  if (p.ambient && p.colour_writes) {
+    colour.blendEnable = VK_TRUE;
+    colour.colorBlendOp = colour.alphaBlendOp = VK_BLEND_OP_ADD;
+    if (p.role == AmbientRole::Source) {
+      colour.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT;
+      colour.srcColorBlendFactor = colour.dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
+      colour.srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
+      colour.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
+    } else {
+      colour.srcColorBlendFactor = VK_BLEND_FACTOR_DST_COLOR;
+      colour.srcAlphaBlendFactor = VK_BLEND_FACTOR_DST_ALPHA;
+      colour.dstColorBlendFactor = colour.dstAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
+    }
+  }
+  auto blend = vk_struct<VkPipelineColorBlendStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
+  blend.attachmentCount = p.ambient ? 2 : 1;
+  blend.pAttachments = attachments;
+  const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  auto dynamic = vk_struct<VkPipelineDynamicStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO);
+  dynamic.dynamicStateCount = static_cast<std::uint32_t>(std::size(dynamic_states));
+  dynamic.pDynamicStates = dynamic_states;
+  const VkFormat formats[2] = {p.ambient ? ambient_format : p.target_format, ambient_format};
+  auto rendering = vk_struct<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
+  rendering.colorAttachmentCount = p.ambient ? 2 : 1;
+  rendering.pColorAttachmentFormats = formats;
+  rendering.depthAttachmentFormat = p.ambient ? ambient_depth_format : VK_FORMAT_UNDEFINED;
+  rendering.stencilAttachmentFormat = p.ambient ? ambient_depth_format : VK_FORMAT_UNDEFINED;
+
+  auto info = vk_struct<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
+  info.pNext = &rendering;
+  info.stageCount = p.fragment ? 2 : 1;
+  info.pStages = stages;
+  info.pVertexInputState = &vertex_input;
+  info.pInputAssemblyState = &assembly;
+  info.pViewportState = &viewport;
+  info.pRasterizationState = &raster;
+  info.pMultisampleState = &multisample;
+  info.pDepthStencilState = &depth_stencil;
+  info.pColorBlendState = &blend;
+  info.pDynamicState = &dynamic;
+  info.layout = p.layout;
+  VkPipeline made = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &made); r != VK_SUCCESS) {
+    return make_error(ErrorCode::Unsupported,
+                      std::string("render feature: cannot create a pipeline (") + vk_result_name(r) + ")");
+  }
+  return made;
+}
+
+}  // namespace penumbra

@@ -1,7 +1,0 @@
-#version 450
-// Ambient pass, vertex stage: one triangle over the whole ambient image (RenderSettings::
-// ambient_step), without a vertex buffer.
-void main() {
-  vec2 uv = vec2(float((gl_VertexIndex << 1) & 2), float(gl_VertexIndex & 2));
-  gl_Position = vec4(uv * 2.0 - 1.0, 0.0, 1.0);
-}
