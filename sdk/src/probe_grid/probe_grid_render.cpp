@@ -140,8 +140,8 @@ class ProbeGridRenderFeature final : public RenderFeature {
   bool active() const override { return !grids_.empty(); }
   float irradiance_bound() const override { return bound_; }
 
-  Status record_ambient(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame&) override {
-    auto p = pipeline(gpu, true, 0, VK_FORMAT_UNDEFINED);
+  Status record_ambient(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame) override {
+    auto p = pipeline(gpu, true, frame.first_source ? 0 : 1, VK_FORMAT_UNDEFINED);
     if (!p) return p.error();
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 2, 1, &set_, 0, nullptr);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *p);
@@ -261,8 +261,9 @@ class ProbeGridRenderFeature final : public RenderFeature {
     vkUpdateDescriptorSets(gpu.device(), 3, writes, 0, nullptr);
   }
 
-  // The ambient pass's pipeline (a source) or view `view`'s for `format`, specialised on the
-  // number of grids (the shaders' kGrids; 0 in the views without a grid), made on first use.
+  // The ambient pass's pipeline (a source; `view` 0: the first source, 1: one after others) or
+  // view `view`'s for `format`, specialised on the number of grids (the shaders' kGrids; 0 in the
+  // views without a grid), made on first use.
   Result<VkPipeline> pipeline(RenderContext& gpu, bool ambient, std::uint32_t view, VkFormat format) {
     const auto grids = static_cast<std::uint32_t>(grids_.size());
     const auto key = std::tuple{ambient, view, format, grids};
@@ -278,6 +279,7 @@ class ProbeGridRenderFeature final : public RenderFeature {
     p.ambient = ambient;
     p.target_format = format;
     p.role = AmbientRole::Source;
+    p.accumulate = ambient && view == 1;
     auto made = gpu.pipeline(p);
     if (made) pipelines_[key] = *made;
     return made;

@@ -39,10 +39,18 @@ Result<VkPipeline> make_feature_pipeline(VkDevice device, const FeaturePipeline&
   VkPipelineDepthStencilStateCreateInfo depth_stencil = p.depth_stencil;
   depth_stencil.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
   depth_stencil.pNext = nullptr;
+  const bool source = p.ambient && p.role == AmbientRole::Source;
   if (!p.ambient) depth_stencil = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
+  if (source) {  // ambient_sample() writes each sample's depth
+    depth_stencil = vk_struct<VkPipelineDepthStencilStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
+    depth_stencil.depthTestEnable = VK_TRUE;
+    depth_stencil.depthWriteEnable = VK_TRUE;
+    depth_stencil.depthCompareOp = VK_COMPARE_OP_ALWAYS;
+  }
 
-  // The blend: a source adds to rgb (alpha kept), an occluder multiplies every channel, a view
-  // writes. The ambient image's key (attachment 1) is never written by a feature.
+  // The blend: the first source writes, a later one adds to rgb (alpha kept), both write the key
+  // (attachment 1, the same values from every source); an occluder multiplies every channel and
+  // leaves the key; a view writes.
   VkPipelineColorBlendAttachmentState attachments[2] = {};
   VkPipelineColorBlendAttachmentState& colour = attachments[0];
   const VkColorComponentFlags rgba =
@@ -51,7 +59,9 @@ Result<VkPipeline> make_feature_pipeline(VkDevice device, const FeaturePipeline&
   if (p.ambient && p.colour_writes) {
     colour.blendEnable = VK_TRUE;
     colour.colorBlendOp = colour.alphaBlendOp = VK_BLEND_OP_ADD;
-    if (p.role == AmbientRole::Source) {
+    if (p.role == AmbientRole::Source && !p.accumulate) {
+      colour.blendEnable = VK_FALSE;  // the first source writes the sample (rgb, a = 1) as it is
+    } else if (p.role == AmbientRole::Source) {
       colour.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT;
       colour.srcColorBlendFactor = colour.dstColorBlendFactor = VK_BLEND_FACTOR_ONE;
       colour.srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
@@ -62,6 +72,7 @@ Result<VkPipeline> make_feature_pipeline(VkDevice device, const FeaturePipeline&
       colour.dstColorBlendFactor = colour.dstAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
     }
   }
+  if (source) attachments[1].colorWriteMask = rgba;
   auto blend = vk_struct<VkPipelineColorBlendStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
   blend.attachmentCount = p.ambient ? 2 : 1;
   blend.pAttachments = attachments;

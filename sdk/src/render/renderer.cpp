@@ -755,8 +755,8 @@ void Renderer::Impl::write_descriptors() {
 //                   camera's depth, in the forward pass's rendering;
 //   GBufferPrepass  the same depth plus the G-buffer (`format` kGBufferFormat), when the ambient
 //                   image or a feature's view is drawn;
-//   AmbientKey      one triangle over the ambient image: each sample's key, its depth, and the
-//                   image's start (no irradiance, open fraction 1), before the features' passes;
+//   AmbientKey      one triangle over the ambient image: each sample's key and depth, when no
+//                   source pass writes them;
 //   Forward         per colour format, shading only the fragments the pre-pass left in front
 //                   (depth EQUAL, no depth writes): each pixel runs the costly fragment stage once
 //                   whatever the overdraw; specialised on the debug view (constant_id 0), in
@@ -1047,7 +1047,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   auto shadow = pipeline(Pass::Shadow, VK_FORMAT_UNDEFINED);
   if (!shadow) return shadow.error();
   VkPipeline key = VK_NULL_HANDLE;
-  if (ambient_pass) {
+  if (ambient_pass && !sources) {
     auto made = pipeline(Pass::AmbientKey, kAmbientFormat);
     if (!made) return made.error();
     key = *made;
@@ -1274,9 +1274,9 @@ void Renderer::Impl::record_shadow_layers(VkCommandBuffer cmd, bool shadows, VkP
 
 Status Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, VkPipeline key, const FeatureFrame& frame,
                                              bool sources) {
-  // The ambient image at 1 / ambient_step resolution: the key pass (each sample's key and depth,
-  // no irradiance, open fraction 1), then the features' passes, sources before occluders
-  // (render/feature.h).
+  // The ambient image at 1 / ambient_step resolution: the sources' passes, the first of which
+  // writes every sample, with its key and depth (ambient_sample.glsl), or without them the key
+  // pass (no irradiance, open fraction 1); then the occluders' passes (render/feature.h).
   for (VkImage image : {ambient.image, ambient_key.image}) {
     image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, 0,
@@ -1293,7 +1293,7 @@ Status Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, VkPipeline key
     ambient_attachments[k] = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
     ambient_attachments[k].imageView = k == 0 ? ambient.view : ambient_key.view;
     ambient_attachments[k].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    ambient_attachments[k].loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the key pass writes every sample
+    ambient_attachments[k].loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;  // the first pass writes every sample
     ambient_attachments[k].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   }
   auto sample_depth = vk_struct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
@@ -1313,13 +1313,20 @@ Status Renderer::Impl::record_ambient_passes(VkCommandBuffer cmd, VkPipeline key
   info.pStencilAttachment = &sample_stencil;
   vkCmdBeginRendering(cmd, &info);
   set_viewport(cmd, frame.ambient_width, frame.ambient_height);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, key);
-  vkCmdDraw(cmd, 3, 1, 0, 0);
+  if (!sources) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, key);
+    vkCmdDraw(cmd, 3, 1, 0, 0);
+  }
   Status recorded;
+  FeatureFrame feature_frame = frame;
+  feature_frame.first_source = true;
   for (AmbientRole role : {AmbientRole::Source, AmbientRole::Occluder}) {
     if (role == AmbientRole::Source && !sources) continue;
-    for (const auto& f : features)
-      if (recorded.ok() && f->role() == role && f->active()) recorded = f->record_ambient(cmd, *this, frame);
+    for (const auto& f : features) {
+      if (!recorded.ok() || f->role() != role || !f->active()) continue;
+      recorded = f->record_ambient(cmd, *this, feature_frame);
+      if (role == AmbientRole::Source) feature_frame.first_source = false;
+    }
   }
   vkCmdEndRendering(cmd);
   for (VkImage image : {ambient.image, ambient_key.image}) {

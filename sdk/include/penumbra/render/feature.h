@@ -10,11 +10,14 @@
 //   1. sync():   the feature mirrors what changed in the World into its GPU resources;
 //   2. per draw: draw_values() tags the draw (a receiver code in the G-buffer, an open fraction
 //                over the whole entity);
-//   3. record(): in the views that show ambient light, when some feature is active(), writes each
-//                sample's key and depth, then records every active Source (its irradiance added,
-//                blend ONE + ONE on rgb), then every active Occluder (its open fraction multiplied
-//                into rgb and a, blend DST_COLOR x src), in the order of the feature list; the
-//                Source pass is skipped in the AO view;
+//   3. record(): in the views that show ambient light, when some feature is active(), records
+//                every active Source (the first writes (irradiance, 1) at every sample, the others
+//                add their irradiance, blend ONE + ONE on rgb; its fragment stage calls
+//                ambient_sample() of shaders/ambient_sample.glsl, which writes each sample's depth
+//                and key), then every
+//                active Occluder (its open fraction multiplied into rgb and a, blend DST_COLOR x
+//                src), in the order of the feature list. Without a Source pass (the AO view, or
+//                only occluders active) the renderer's key pass writes the depths and keys;
 //   4. a feature's own debug view replaces the forward pass: the feature draws the whole target
 //      (record_view) from the pre-pass depth and G-buffer.
 // A feature without data this frame is not active and costs nothing but its sync().
@@ -68,6 +71,9 @@ struct FeatureFrame {
   std::uint32_t width = 0, height = 0;                // the target's pixels
   std::uint32_t ambient_width = 0, ambient_height = 0;  // the ambient image's samples
   VkFormat target_format = VK_FORMAT_UNDEFINED;
+  // In record_ambient() of a source: whether it is the first source pass this frame (then no
+  // blend is needed: llvmpipe pays for reading the destination).
+  bool first_source = false;
 };
 
 // What the renderer lends its features. Not thread-safe; valid for the renderer's lifetime.
@@ -103,8 +109,9 @@ class RenderContext {
 
 // The state of a pass a feature draws (RenderContext::pipeline; triangle lists, dynamic viewport
 // and scissor): into the ambient image (two colour attachments, the image then its key, which
-// features do not write, and the samples' depth-stencil, the stencil cleared to 0 before the
-// features) or into the target (one colour attachment of `target_format`, no depth).
+// only sources write, and the samples' depth-stencil, the stencil cleared to 0 before the
+// features; a source's depth state is fixed: always pass, write ambient_sample()'s depth) or
+// into the target (one colour attachment of `target_format`, no depth).
 struct FeaturePipeline {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkShaderModule vertex = VK_NULL_HANDLE;    // no vertex input: gl_VertexIndex only
@@ -113,10 +120,13 @@ struct FeaturePipeline {
   bool ambient = true;
   VkFormat target_format = VK_FORMAT_UNDEFINED;  // when !ambient
   AmbientRole role = AmbientRole::Source;        // the blend, when ambient
+  // Sources: add to the sources before this one (blend ONE + ONE on rgb, a kept), or, false, write
+  // the sample as it is (the first source, FeatureFrame::first_source; its shader writes a = 1).
+  bool accumulate = true;
   bool colour_writes = true;
   VkCullModeFlags cull = VK_CULL_MODE_NONE;
   bool depth_clamp = false;
-  VkPipelineDepthStencilStateCreateInfo depth_stencil{};  // when ambient; zero: no tests
+  VkPipelineDepthStencilStateCreateInfo depth_stencil{};  // occluders; zero: no tests
 };
 class RenderFeature {
  public:

@@ -1,21 +1,19 @@
 #version 450
-// The probe grid's ambient pass, fragment stage: the blended grids' irradiance at the receiver of
-// one sample of the ambient image (RenderSettings::ambient_step; the world point from the pre-pass
-// depth, the shading normal from the G-buffer), times frame.ambient_scale.x so that half floats
-// hold it, added to the image's rgb by the blend state (a source: render/feature.h).
+// The probe grid's ambient pass, fragment stage (a source, render/feature.h): the blended grids'
+// irradiance at the receiver of one sample of the ambient image (ambient_sample.glsl: the world
+// point from the pre-pass depth, the shading normal from the G-buffer; it also writes the
+// sample's depth and key), times frame.ambient_scale.x so that half floats hold it, with an open
+// fraction of 1: written as it is by the first source, added to the image's rgb (a kept) by the
+// blend state of a later one.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#include "ambient_sample.glsl"
 #include "probe_grid.glsl"
-
-layout(set = 0, binding = PENUMBRA_BINDING_SCENE_DEPTH) uniform sampler2D scene_depth;
-layout(set = 0, binding = PENUMBRA_BINDING_GBUFFER) uniform sampler2D gbuffer;
 
 layout(location = 0) out vec4 out_ambient;
 
 void main() {
-  ivec2 pixel = ambient_sample_pixel(ivec2(gl_FragCoord.xy));
-  float depth = texelFetch(scene_depth, pixel, 0).r;
-  vec3 n = texelFetch(gbuffer, pixel, 0).xyz;
-  vec3 e = depth < 1.0 ? probe_irradiance(world_at_pixel(pixel, depth), normalize(n)) : vec3(0.0);
-  out_ambient = vec4(e * frame.ambient_scale.x, 0.0);
+  vec3 x, n;
+  vec3 e = ambient_sample(x, n) ? probe_irradiance(x, n) : vec3(0.0);
+  out_ambient = vec4(e * frame.ambient_scale.x, 1.0);
 }
