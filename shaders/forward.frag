@@ -4,9 +4,9 @@
 //                  rect lights as Lambertian emitters of intensity L A cos(theta_l) from their centre,
 //                  each with a PCF-filtered shadow map;
 //   indirect light the ambient image's irradiance times its open fraction (what the render
-//                  features drew into it before this pass: the probe grid's irradiance, the
-//                  AO-field casters' occlusion; render/feature.h), upsampled; times the draw's
-//                  entity-wide open fraction and the per-vertex AO attribute (vertex AO, pose-AO);
+//                  features' sources and occluders drew into it before this pass;
+//                  render/feature.h), upsampled; times the draw's entity-wide open fraction and
+//                  the per-vertex AO attribute (VertexAO);
 //   emission       the material's emitted radiance;
 // then exposure, the ACES filmic fit of Narkowicz (2015) and, for UNORM targets, the sRGB transfer
 // (output.glsl).

@@ -9,7 +9,7 @@ layout(location = 1) in vec3 in_normal;
 layout(location = 2) in vec2 in_uv;
 layout(location = 3) in uvec4 in_joints;
 layout(location = 4) in vec4 in_weights;
-layout(location = 5) in float in_ao;  // vertex AO / pose-AO; 1 when the entity has none
+layout(location = 5) in float in_ao;  // VertexAO (baked or evaluated per frame); 1 when the entity has none
 
 layout(location = 0) out vec3 out_world;
 layout(location = 1) out vec3 out_normal;

@@ -36,7 +36,7 @@ struct ViewContext {
 
 struct EditorExtension {
   std::string module;  // LightingModule::name
-  std::string tag;     // shown in the hierarchy after entities it applies to, e.g. "probes"
+  std::string tag;     // shown in the hierarchy after entities it applies to, in brackets
   bool (*applies)(World& world, Entity e);  // the entity has the module's authoring component (required)
   // Inspector lines under the entity's fields: its baked data, its runtime outputs (called for every
   // selected entity; it shows nothing when the entity has none of the module's components).

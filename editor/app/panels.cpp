@@ -365,7 +365,7 @@ void plot_panel(Document& doc, UiState& ui) {
   ImGui::SetNextWindowSize(ImVec2(240, 150), ImGuiCond_FirstUseEver);
   ImGui::Begin("Error vs cost");
   // The plot follows the selected component: its bench's CSV in the tool's default folder, the
-  // rows of its current mode marked (the probe-grid bench's without a lighting selection).
+  // rows of its current mode marked (cost_plot_source's default bench without a lighting selection).
   const CostPlotSource source = cost_plot_source(doc.world(), doc.selection());
   const std::string key = source.bench + "|" + source.mark_value;
   bool reload = false;

@@ -62,7 +62,7 @@ std::string check_action(const ScriptAction& a) {
     for (std::size_t i = 2; i < n; ++i) value += (i > 2 ? " " : "") + a.args[i];
     if (auto parsed = parse_field_value(*f, value); !parsed) return "'set': " + parsed.error().message;
   } else if (v == "preset") {
-    if (n != 3) return "'preset' takes an entity, a technique and a preset, e.g. preset \"probe grid\" probe-grid draft";
+    if (n != 3) return "'preset' takes an entity, a lighting module's name and a preset (draft, medium, high)";
     if (find_preset(a.args[1]) == nullptr) {
       std::string known;
       for (const auto& p : component_presets()) known += (known.empty() ? "" : ", ") + p.technique;
@@ -71,7 +71,7 @@ std::string check_action(const ScriptAction& a) {
     if (!preset_ok(a.args[2])) return "'preset': unknown preset '" + a.args[2] + "'; use draft, medium or high";
   } else if (v == "bake") {
     if (n < 1 || n > 2 || a.args[0].empty() || (n == 2 && !preset_ok(a.args[1])))
-      return "'bake' takes all, selection or baker names (comma-separated, e.g. probe-grid), then an optional preset "
+      return "'bake' takes all, selection or lighting module names (comma-separated), then an optional preset "
              "(draft, medium, high)";
   } else if (v == "undo" || v == "redo" || v == "cancel" || v == "wait" || v == "reset-stats") {
     if (n != 0) return "'" + v + "' takes no arguments";

@@ -6,7 +6,7 @@
 //   save-edits PATH                     the document's edits as a script
 //   select REF                          REF: an entity Name or #INDEX
 //   set REF COMPONENT.FIELD VALUE...    e.g. set lamp Light.intensity 40; undoable
-//   preset REF TECHNIQUE PRESET         e.g. preset "probe grid" probe-grid draft
+//   preset REF MODULE PRESET            a lighting module's preset on REF's component, e.g. preset grid <module> draft
 //   undo | redo
 //   bake all|selection|BAKER[,BAKER...] [draft|medium|high]   starts a background bake
 //   cancel                              cancels the running bake

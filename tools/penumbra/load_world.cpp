@@ -17,7 +17,8 @@ Status load_world(World& world, std::string_view scene, Preset preset) {
   if (!loaded) return loaded.error();
   world.update(0.0);
   // The built-in scenes (made by the scene layer, below the lighting modules) get every module's
-  // default components; glTF scenes only pose-AO settings for skinned meshes.
+  // default components; glTF scenes only those a module adds to content it was not authored for
+  // (LightingModule::add_defaults with authored = true).
   return add_default_lighting(world, preset, !scene.starts_with("builtin:"));
 }
 

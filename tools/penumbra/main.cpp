@@ -27,10 +27,12 @@ Commands:
       Render SCENE with the Vulkan renderer (lavapipe without a GPU) at W x H (default 1280x720),
       with the lighting data of FILE.pbake, at animation time T seconds. --frames N first renders N
       frames and prints the median, 5th and 95th percentile frame time; --animate advances the scene
-      by 1/60 s before each of them (the image is then of the last). V: lit (default), direct,
-      indirect, ao, albedo, validity, position, normal, irradiance. S: shadow map size (0: none).
+      by 1/60 s before each of them (the image is then of the last). V: a debug view, lit by
+      default (the renderer's and every render feature's; an unknown name is refused with the list).
+      S: shadow map size (0: none).
       --shadow-taps 1 filters shadows bilinearly instead of over 3x3 texels; --ambient-step 1
-      evaluates probe light and AO fields at every pixel instead of every second one per axis.
+      evaluates the ambient image (the render features' indirect light and AO) at every pixel instead
+      of every second one per axis.
   bench NAME [--quick] [--out DIR] [--threads N]
       Run a benchmark: print its table, write DIR/NAME.csv and the plot DIR/NAME.png (DIR defaults to
       bench-results). 'penumbra bench --list' names them.

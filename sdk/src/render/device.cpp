@@ -191,8 +191,8 @@ Result<std::unique_ptr<Device>> Device::create(const DeviceOptions& options) {
   enable13.synchronization2 = VK_TRUE;
   auto enable = vk::vk_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
   enable.pNext = &enable13;
-  enable.features.depthClamp = VK_TRUE;        // the AO-field pass's boxes reach past the far plane
-  enable.features.independentBlend = VK_TRUE;  // it blends the ambient image, not the ambient key
+  enable.features.depthClamp = VK_TRUE;        // render features' volumes reach past the far plane
+  enable.features.independentBlend = VK_TRUE;  // features blend the ambient image, not its key
   std::vector<const char*> device_extensions;
   if (options.swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
   const float priority = 1.0f;

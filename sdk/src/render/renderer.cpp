@@ -947,7 +947,7 @@ Status Renderer::sync(World& world) {
     }
     const auto* ao = world.try_get<VertexAO>(e);
     if (ao && ao->ao.size() == m.data->positions.size()) {
-      // Uploaded again only when the component's change tick moved (pose-AO: frames whose pose changed).
+      // Uploaded again only when the component's change tick moved (an animated one: the frames that changed it).
       VertexAoBuffer& b = r.vertex_ao[e.index];
       const std::uint64_t tick = world.changed_tick<VertexAO>(e);
       if (!b.buffer.buffer || b.entity != e || b.tick != tick || b.buffer.size < ao->ao.size() * sizeof(float)) {
