@@ -17,7 +17,6 @@
 
 #include "feature_pipeline.h"
 #include "penumbra/bake/integrators.h"
-#include "penumbra/core/log.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
 #include "shared/layout.h"
