@@ -65,7 +65,7 @@ TEST(Script, BadLinesNameTheLineAndTheFix) {
       {"set x ProbeLit.covered true", "written by the runtime"},
       {"preset grid lightmaps draft", "unknown technique 'lightmaps'"},
       {"preset grid probe-grid ultra", "unknown preset 'ultra'"},
-      {"bake", "'bake' takes all, selection or baker names"},
+      {"bake", "'bake' takes all, selection or lighting module names"},
       {"bake all ultra", "optional preset"},
       {"wait 3", "'wait' takes no arguments"},
       {"frames 0", "'frames' takes a count"},

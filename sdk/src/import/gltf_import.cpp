@@ -11,6 +11,7 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <glm/gtc/quaternion.hpp>
@@ -801,10 +802,128 @@ int json_depth(std::string_view text, int limit) {
 
 constexpr int kMaxJsonDepth = 128;
 
+// The glTF's integer property `key` of `object` (`fallback` when absent, or when present but not
+// a non-negative integer, an error naming `where`, the value and the fix).
+Result<std::uint64_t> json_count(const nlohmann::json& object, const char* key, std::uint64_t fallback,
+                                 const std::string& where, const char* fix) {
+  if (!object.contains(key)) return fallback;
+  const nlohmann::json& v = object[key];
+  if (v.is_number_unsigned()) return v.get<std::uint64_t>();
+  return make_error(ErrorCode::InvalidInput, where + "." + key + " is " + v.dump() + ", not an integer >= 0; " + fix);
+}
+
+// The decoded size of a base64 data URI's payload (its padding and non-alphabet tail excluded).
+std::uint64_t data_uri_bytes(std::string_view uri) {
+  const std::size_t comma = uri.find(',');
+  if (comma == std::string_view::npos) return 0;
+  std::string_view payload = uri.substr(comma + 1);
+  while (!payload.empty() && payload.back() == '=') payload.remove_suffix(1);
+  return payload.size() * 3 / 4;
+}
+
+// The structural pre-check (before tinygltf decodes anything, images included): every buffer's
+// byteLength against the bytes it has (external file, data URI, the binary chunk of a .glb); every
+// bufferView's buffer, byteOffset, byteLength and byteStride (4..252, a multiple of 4, as the
+// specification requires) against its buffer's byteLength; every accessor's and image's
+// bufferView index and the accessor's byteOffset and count. Errors name `file`, the element, the
+// value and the fix.
+Status check_structure(const nlohmann::json& json, const std::string& file, const std::filesystem::path& path,
+                       std::optional<std::uint64_t> glb_binary_bytes) {
+  auto array = [&](const char* key) -> const nlohmann::json* {
+    return json.contains(key) && json[key].is_array() ? &json[key] : nullptr;
+  };
+  auto fail = [&](const std::string& message) { return make_error(ErrorCode::InvalidInput, file + ": " + message); };
+  std::vector<std::uint64_t> buffer_bytes;
+  if (const nlohmann::json* buffers = array("buffers")) {
+    for (std::size_t b = 0; b < buffers->size(); ++b) {
+      const nlohmann::json& buffer = (*buffers)[b];
+      const std::string where = element("buffers", b);
+      if (!buffer.is_object()) return fail(where + " is not an object; fix or re-export the file");
+      auto length = json_count(buffer, "byteLength", 0, where, "give the buffer's size in bytes");
+      if (!length) return fail(length.error().message);
+      std::optional<std::uint64_t> has;
+      std::string source;
+      if (buffer.contains("uri") && buffer["uri"].is_string()) {
+        const std::string uri = buffer["uri"].get<std::string>();
+        if (uri.rfind("data:", 0) == 0) {
+          has = data_uri_bytes(uri);
+          source = "its data URI decodes to";
+        } else {
+          std::error_code ec;
+          const std::filesystem::path external = path.parent_path() / uri;
+          if (!std::filesystem::is_regular_file(external, ec))
+            return make_error(ErrorCode::NotFound, file + ": " + where + ": external buffer '" + uri +
+                                                       "' not found (looked for " + external.string() +
+                                                       "); put it next to the .gltf or fix the uri");
+          has = std::filesystem::file_size(external, ec);
+          source = "'" + uri + "' holds";
+        }
+      } else if (b == 0 && glb_binary_bytes) {
+        has = *glb_binary_bytes;
+        source = "the binary chunk holds";
+      }
+      if (has && *has < *length)
+        return fail(where + ": byteLength is " + std::to_string(*length) + " but " + source + " " +
+                    std::to_string(*has) + " bytes; the file is truncated or damaged, re-export it");
+      buffer_bytes.push_back(*length);
+    }
+  }
+  std::size_t views = 0;
+  if (const nlohmann::json* list = array("bufferViews")) {
+    views = list->size();
+    for (std::size_t v = 0; v < views; ++v) {
+      const nlohmann::json& view = (*list)[v];
+      const std::string where = element("bufferViews", v);
+      if (!view.is_object()) return fail(where + " is not an object; fix or re-export the file");
+      auto buffer = json_count(view, "buffer", buffer_bytes.size(), where, "name one of the file's buffers");
+      auto offset = json_count(view, "byteOffset", 0, where, "give an offset in bytes >= 0");
+      auto length = json_count(view, "byteLength", 0, where, "give the view's size in bytes");
+      auto stride = json_count(view, "byteStride", 0, where, "give a stride of 4..252 bytes");
+      for (const auto* r : {&buffer, &offset, &length, &stride})
+        if (!*r) return fail(r->error().message);
+      if (*buffer >= buffer_bytes.size())
+        return fail(where + ".buffer is " + std::to_string(*buffer) + " but the file has " +
+                    std::to_string(buffer_bytes.size()) + " buffers; fix the index");
+      const std::uint64_t size = buffer_bytes[*buffer];
+      if (*offset > size || *length > size - *offset)
+        return fail(where + ": bytes " + std::to_string(*offset) + ".." + std::to_string(*offset + *length) +
+                    " run past the end of " + element("buffers", *buffer) + " (" + std::to_string(size) +
+                    " bytes); the file is damaged, re-export it");
+      if (view.contains("byteStride") && (*stride < 4 || *stride > 252 || *stride % 4 != 0))
+        return fail(where + ".byteStride is " + std::to_string(*stride) +
+                    "; the specification allows multiples of 4 from 4 to 252");
+    }
+  }
+  for (const char* kind : {"accessors", "images"}) {
+    const nlohmann::json* list = array(kind);
+    if (!list) continue;
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const nlohmann::json& item = (*list)[i];
+      const std::string where = element(kind, i);
+      if (!item.is_object()) return fail(where + " is not an object; fix or re-export the file");
+      if (item.contains("bufferView")) {
+        auto view = json_count(item, "bufferView", 0, where, "name one of the file's bufferViews");
+        if (!view) return fail(view.error().message);
+        if (*view >= views)
+          return fail(where + ".bufferView is " + std::to_string(*view) + " but the file has " +
+                      std::to_string(views) + " bufferViews; fix the index");
+      }
+      if (std::string_view(kind) == "accessors") {
+        auto offset = json_count(item, "byteOffset", 0, where, "give an offset in bytes >= 0");
+        if (!offset) return fail(offset.error().message);
+        auto count = json_count(item, "count", 0, where, "give the number of elements (>= 1)");
+        if (!count) return fail(count.error().message);
+        if (*count == 0) return fail(where + ".count is 0; the specification requires at least 1 element");
+      }
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& path, const ImportOptions& options) {
-  const std::string file = path.filename().string();
+  const std::string file = path.string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
     return make_error(ErrorCode::NotFound, file + ": file not found (looked for " + path.string() + "); check the path");
@@ -819,6 +938,7 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
 
   // The JSON text: the whole file, or a binary glTF's first chunk (version 2 only).
   std::string json_text;
+  std::optional<std::uint64_t> glb_binary_bytes;  // the bytes a .glb's binary chunk holds
   if (binary) {
     std::uint32_t header[2] = {}, chunk[2] = {};  // version, length; chunk length, type
     stream.read(reinterpret_cast<char*>(header), sizeof header);
@@ -833,6 +953,16 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
     json_text.resize(chunk[0]);
     stream.read(json_text.data(), static_cast<std::streamsize>(json_text.size()));
     if (!stream) return make_error(ErrorCode::InvalidInput, path.string() + ": the JSON chunk is truncated");
+    // The binary chunk, when there is one: 8 header bytes after the JSON chunk (padded to 4).
+    stream.seekg(static_cast<std::streamoff>(20 + ((std::uint64_t{chunk[0]} + 3) & ~std::uint64_t{3})));
+    std::uint32_t bin[2] = {};
+    stream.read(reinterpret_cast<char*>(bin), sizeof bin);
+    if (stream && bin[1] == 0x004E4942u) {
+      const std::uint64_t start = 28 + ((std::uint64_t{chunk[0]} + 3) & ~std::uint64_t{3});
+      const std::uint64_t size = std::filesystem::file_size(path, ec);
+      glb_binary_bytes = std::min<std::uint64_t>(bin[0], size > start ? size - start : 0);
+    }
+    stream.clear();
   } else {
     stream.seekg(0);
     std::stringstream text;
@@ -844,26 +974,15 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
                                                    std::to_string(kMaxJsonDepth) +
                                                    " levels deep; the file is malformed (a glTF needs fewer than 20)");
 
-  if (!binary) {
-    // Pre-check the JSON and external buffers so that errors name the element tinygltf would not.
+  // The structural pre-check, before tinygltf decodes anything (see check_structure).
+  {
     nlohmann::json json;
     try {
       json = nlohmann::json::parse(json_text);
     } catch (const nlohmann::json::exception& e) {
       return make_error(ErrorCode::InvalidInput, file + ": not valid JSON (" + e.what() + "); fix or re-export the file");
     }
-    if (json.contains("buffers") && json["buffers"].is_array())
-      for (std::size_t b = 0; b < json["buffers"].size(); ++b) {
-        const nlohmann::json& buffer = json["buffers"][b];
-        if (!buffer.is_object() || !buffer.contains("uri") || !buffer["uri"].is_string()) continue;
-        const std::string uri = buffer["uri"].get<std::string>();
-        if (uri.rfind("data:", 0) == 0) continue;
-        const std::filesystem::path external = path.parent_path() / uri;
-        if (!std::filesystem::is_regular_file(external, ec))
-          return make_error(ErrorCode::NotFound, file + ": " + element("buffers", b) + ": external buffer '" + uri +
-                                                     "' not found (looked for " + external.string() +
-                                                     "); put it next to the .gltf or fix the uri");
-      }
+    PENUMBRA_TRY(check_structure(json, file, path, glb_binary_bytes));
   }
   stream.close();
 
