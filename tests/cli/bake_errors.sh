@@ -45,4 +45,19 @@ printf "\\$(printf '%03o' $((255 - byte)))" | dd of="$scratch/flip.pbake" bs=1 s
 expect_exit 1 "$PENUMBRA" info "$scratch/flip.pbake"; expect_output "flip.pbake"
 echo "hello" > "$scratch/text.pbake"
 expect_exit 1 "$PENUMBRA" info "$scratch/text.pbake"; expect_output "text.pbake"
+
+# validate checks without baking: a good bake and glTF pass, damaged ones fail naming the file and
+# the element, anything else is a usage error.
+expect_exit 0 "$PENUMBRA" validate "$scratch/good.pbake"; expect_output "valid .pbake"
+expect_exit 1 "$PENUMBRA" validate "$scratch/flip.pbake"; expect_output "flip.pbake"
+expect_exit 0 "$PENUMBRA" validate "$SOURCE_DIR/tests/data/gltf/valid.glb"; expect_output "valid glTF"
+expect_exit 1 "$PENUMBRA" validate "$SOURCE_DIR/tests/data/gltf/short_buffer.gltf"; expect_output "bufferViews\[2\]"
+expect_exit 2 "$PENUMBRA" validate "$scratch/notes.txt"; expect_output "validate reads"
+# --quiet hides the SDK's warnings (the degenerate triangles dropped), --verbose keeps them.
+expect_exit 0 "$PENUMBRA" validate "$SOURCE_DIR/tests/data/gltf/degenerate.gltf"
+expect_output "penumbra: warning: .*degenerate"
+expect_exit 0 "$PENUMBRA" validate "$SOURCE_DIR/tests/data/gltf/degenerate.gltf" --quiet
+grep -q "penumbra: warning" <<<"$out" && fail "--quiet still printed a warning: $out"
+expect_exit 0 "$PENUMBRA" --verbose validate "$SOURCE_DIR/tests/data/gltf/degenerate.gltf"
+expect_output "penumbra: warning: .*degenerate"
 finish

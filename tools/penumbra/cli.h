@@ -45,5 +45,6 @@ int cmd_info(Args args);
 int cmd_bake(Args args);
 int cmd_bench(Args args);
 int cmd_render(Args args);
+int cmd_validate(Args args);
 
 }  // namespace penumbra::cli

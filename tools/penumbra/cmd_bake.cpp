@@ -10,6 +10,7 @@
 #include "penumbra/bake/baker.h"
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/memory.h"
+#include "penumbra/import/gltf.h"
 
 namespace penumbra::cli {
 
@@ -167,6 +168,49 @@ int cmd_info(Args args) {
     return fail(kFailure, path + ": " + std::to_string(invalid) + " of " + std::to_string(file->chunks.size()) +
                               " chunks are invalid (above); re-bake the scene");
   return kSuccess;
+}
+
+// Checks FILE without baking: a .pbake as `info` does (every chunk through its module's check), a
+// glTF by importing it into a scratch World with every check the importer makes.
+int cmd_validate(Args args) {
+  if (args.rest().size() != 1 || args.rest()[0].starts_with("-"))
+    return fail(kUsage, "validate takes one FILE (.gltf, .glb or .pbake)");
+  const std::filesystem::path path = args.rest()[0];
+  const std::string ext = path.extension().string();
+  if (ext == ".pbake") {
+    auto file = read_bake_file(path);
+    if (!file) return fail(kFailure, file.error().message);
+    std::size_t invalid = 0, unread = 0;
+    for (const BakeChunk& chunk : file->chunks) {
+      const LightingModule* module = lighting_module_for_chunk(chunk.type);
+      if (module == nullptr) {
+        ++unread;
+        continue;
+      }
+      if (Status s = module->check ? module->check(chunk) : Status{}; !s) {
+        std::fprintf(stderr, "penumbra: %s\n", s.error().message.c_str());
+        ++invalid;
+      }
+    }
+    if (invalid > 0)
+      return fail(kFailure, path.string() + ": " + std::to_string(invalid) + " of " +
+                                std::to_string(file->chunks.size()) + " chunks are invalid (above); re-bake the scene");
+    std::printf("%s: valid .pbake, %zu chunks%s\n", path.c_str(), file->chunks.size(),
+                unread > 0 ? (", " + std::to_string(unread) + " of a type no linked module reads").c_str() : "");
+    return kSuccess;
+  }
+  if (ext == ".gltf" || ext == ".glb") {
+    World world;
+    auto imported = import_gltf(world, path);
+    if (!imported) return fail(kFailure, imported.error().message);
+    std::printf("%s: valid glTF, %zu nodes, %zu meshes, %zu triangles, %zu materials, %zu skins, %zu animations, "
+                "%zu lights, %zu cameras, %zu warnings%s\n",
+                path.c_str(), imported->nodes.size(), imported->mesh_entities, imported->triangles, imported->materials,
+                imported->skins, imported->animations, imported->lights, imported->cameras, imported->warnings.size(),
+                imported->warnings.empty() ? "" : " (on stderr)");
+    return kSuccess;
+  }
+  return fail(kUsage, path.string() + ": validate reads .gltf, .glb and .pbake files; give one of those");
 }
 
 }  // namespace penumbra::cli

@@ -33,11 +33,16 @@ Commands:
       --shadow-taps 1 filters shadows bilinearly instead of over 3x3 texels; --ambient-step 1
       evaluates the ambient image (the render features' indirect light and AO) at every pixel instead
       of every second one per axis.
+  validate FILE
+      Check FILE (.gltf, .glb or .pbake) without baking: every check the importer or the chunk
+      readers make; exit 1 naming the first problem.
   bench NAME [--quick] [--out DIR] [--threads N]
       Run a benchmark: print its table, write DIR/NAME.csv and the plot DIR/NAME.png (DIR defaults to
       bench-results). 'penumbra bench --list' names them.
 
 Scenes: builtin:cornell, builtin:courtyard, builtin:furnace, or a .gltf/.glb path.
+Options of every command: --quiet (only errors on stderr), --verbose (the SDK's notes too); by
+default its warnings are shown.
 Exit codes: 0 success, 1 failure (with a message), 2 bad usage.
 )";
 
@@ -45,6 +50,17 @@ Exit codes: 0 success, 1 failure (with a message), 2 bad usage.
 
 int main(int argc, char** argv) {
   std::vector<std::string> words(argv + 1, argv + argc);
+  if (words.empty()) {
+    std::fputs(kUsage, stderr);
+    return penumbra::cli::kUsage;
+  }
+  // --quiet and --verbose anywhere: the SDK's log level on stderr.
+  penumbra::LogLevel level = penumbra::LogLevel::Warning;
+  std::erase_if(words, [&](const std::string& w) {
+    if (w == "--quiet") level = penumbra::LogLevel::Error;
+    if (w == "--verbose") level = penumbra::LogLevel::Info;
+    return w == "--quiet" || w == "--verbose";
+  });
   if (words.empty()) {
     std::fputs(kUsage, stderr);
     return penumbra::cli::kUsage;
@@ -61,7 +77,7 @@ int main(int argc, char** argv) {
   }
   // The SDK's warnings and errors (dropped triangles, skipped primitives, chunks no module reads) on
   // stderr; the tool's own results go to stdout.
-  penumbra::set_log_level(penumbra::LogLevel::Warning);
+  penumbra::set_log_level(level);
   penumbra::set_log_sink([](penumbra::LogLevel level, std::string_view message) {
     std::fprintf(stderr, "penumbra: %s: %.*s\n", penumbra::to_string(level), static_cast<int>(message.size()),
                  message.data());
@@ -71,6 +87,7 @@ int main(int argc, char** argv) {
   if (command == "info") return penumbra::cli::cmd_info(std::move(args));
   if (command == "bench") return penumbra::cli::cmd_bench(std::move(args));
   if (command == "render") return penumbra::cli::cmd_render(std::move(args));
+  if (command == "validate") return penumbra::cli::cmd_validate(std::move(args));
   std::fprintf(stderr, "penumbra: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return penumbra::cli::kUsage;
 }

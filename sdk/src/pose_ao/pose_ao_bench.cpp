@@ -123,7 +123,9 @@ Result<Report> run(const Options& options) {
   const auto verdict = [](bool pass) { return std::string(pass ? "PASS" : "FAIL"); };
   double goal_ratio = -1.0, worst_ns = 0.0;
 
-  for (const auto& [name, spec] : specs) {
+  for (const auto& entry : specs) {
+    const auto& name = entry.first;  // not a structured binding: the lambdas below capture it
+    const auto& spec = entry.second;
     auto c = load_character(name, spec);
     if (!c) return c.error();
     World& world = *c->world;

@@ -278,7 +278,10 @@ class Pool final : public PoolBase {
       for (std::size_t i = 0; i < count; ++i) pages_.push_back(block + i * kPageSize);
     }
     T* slot = &at(pos);
-    ::new (static_cast<void*>(slot)) T(std::forward<Args>(args)...);
+    if constexpr (std::is_constructible_v<T, Args&&...>)
+      ::new (static_cast<void*>(slot)) T(std::forward<Args>(args)...);
+    else  // an aggregate from its members (compilers without C++20's parenthesised aggregate init)
+      ::new (static_cast<void*>(slot)) T{std::forward<Args>(args)...};
     push(entity_index, tick);
     return *slot;
   }
@@ -716,7 +719,10 @@ T& World::add(Entity e, Args&&... args) {
   const std::uint32_t pos = p.find(e.index);
   if (pos != detail::kNone) {
     T& c = p.at(pos);
-    c = T(std::forward<Args>(args)...);
+    if constexpr (std::is_constructible_v<T, Args&&...>)
+      c = T(std::forward<Args>(args)...);
+    else
+      c = T{std::forward<Args>(args)...};
     p.tick(pos) = tick_;
     return c;
   }

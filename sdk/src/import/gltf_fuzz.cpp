@@ -1,0 +1,28 @@
+// Fuzz target "gltf": the glTF importer (import_gltf) on any bytes, as .gltf or .glb (the first
+// byte of the input chooses, the rest is the file). Invariants: an import succeeds with valid
+// meshes, or fails with an error that starts with the file's path and leaves no entity behind.
+#include "fuzz/fuzz.h"
+#include "penumbra/import/gltf.h"
+#include "penumbra/scene/components.h"
+
+extern "C" std::uint32_t penumbra_fuzz_chunk_type() { return 0; }
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace penumbra;
+  // Seeds are whole files: a .glb starts with "glTF", anything else is read as JSON.
+  const bool binary = size >= 4 && data[0] == 'g' && data[1] == 'l' && data[2] == 'T' && data[3] == 'F';
+  const std::filesystem::path path = fuzz::scratch_file(data, size, binary ? ".glb" : ".gltf");
+  World world;
+  ImportOptions options;
+  options.load_textures = true;
+  auto imported = import_gltf(world, path, options);
+  if (imported) {
+    world.each<Mesh>([&](Entity, Mesh& m) { fuzz::require(m.data && m.data->validate("fuzz").ok(), "invalid mesh"); });
+  } else {
+    fuzz::require(imported.error().message.rfind(path.string(), 0) == 0, "an error that does not name the file");
+    std::size_t left = 0;
+    world.each<Name>([&](Entity, Name&) { ++left; });
+    fuzz::require(left == 0, "a failed import left entities behind");
+  }
+  return 0;
+}
