@@ -126,6 +126,13 @@ void set_viewport(VkCommandBuffer cmd, std::uint32_t w, std::uint32_t h) {
   vkCmdSetScissor(cmd, 0, 1, &scissor);
 }
 
+// Copies `values` to the start of the mapped buffer `b` (nothing for none: an empty vector's data()
+// may be null, which memcpy must not get).
+template <typename T>
+void copy_into(const Buffer& b, const std::vector<T>& values) {
+  if (!values.empty()) std::memcpy(b.mapped, values.data(), values.size() * sizeof(T));
+}
+
 // Appends the bytes of `value` to `key`.
 template <typename T>
 void append_bytes(std::vector<std::byte>& key, const T& value) {
@@ -1061,9 +1068,9 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
   PENUMBRA_TRY(ensure_host_buffer(joint_buffer, std::max<std::size_t>(1, joints.size()) * sizeof(glm::mat4),
                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
-  std::memcpy(light_buffer.mapped, lights.data(), lights.size() * sizeof(gpu::GpuLight));
-  std::memcpy(shadow_matrix_buffer.mapped, shadow_matrices.data(), shadow_matrices.size() * sizeof(glm::mat4));
-  std::memcpy(joint_buffer.mapped, joints.data(), joints.size() * sizeof(glm::mat4));
+  copy_into(light_buffer, lights);
+  copy_into(shadow_matrix_buffer, shadow_matrices);
+  copy_into(joint_buffer, joints);
   gpu::FrameUniforms frame{};
   frame.view_proj = camera.projection * camera.view;
   frame.camera_exposure = glm::vec4(camera.position, settings.exposure);
