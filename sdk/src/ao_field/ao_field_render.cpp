@@ -34,26 +34,10 @@ class AOFieldRenderFeature final : public RenderFeature {
   Status init(RenderContext& gpu) override {
     const VkDescriptorSetLayoutBinding binding{PENUMBRA_AO_BINDING_FIELDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
                                                VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
-    auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
-    layout_info.bindingCount = 1;
-    layout_info.pBindings = &binding;
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1};
-    auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    pool_info.maxSets = 1;
-    pool_info.poolSizeCount = 1;
-    pool_info.pPoolSizes = &size;
-    if (vkCreateDescriptorSetLayout(gpu.device(), &layout_info, nullptr, &set_layout_) != VK_SUCCESS ||
-        vkCreateDescriptorPool(gpu.device(), &pool_info, nullptr, &pool_) != VK_SUCCESS)
-      return make_error(ErrorCode::Internal, "ao-field render feature: cannot create its descriptor set");
-    auto set_info = vk_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-    set_info.descriptorPool = pool_;
-    set_info.descriptorSetCount = 1;
-    set_info.pSetLayouts = &set_layout_;
-    if (vkAllocateDescriptorSets(gpu.device(), &set_info, &set_) != VK_SUCCESS)
-      return make_error(ErrorCode::Internal, "ao-field render feature: cannot allocate its descriptor set");
-    auto layout = gpu.pipeline_layout(set_layout_);
-    if (!layout) return layout.error();
-    layout_ = *layout;
+    auto set = gpu.feature_set({&binding, 1});
+    if (!set) return set.error();
+    set_ = set->set;
+    layout_ = set->layout;
     auto vert = gpu.shader(shaders::ao_field("ao_field.vert"));
     auto frag = gpu.shader(shaders::ao_field("ao_field.frag"));
     if (!vert) return vert.error();
@@ -111,8 +95,6 @@ class AOFieldRenderFeature final : public RenderFeature {
   void release(RenderContext& gpu) override {
     gpu.allocator().destroy(buffer_);
     gpu.allocator().destroy(placeholder_);
-    if (pool_) vkDestroyDescriptorPool(gpu.device(), pool_, nullptr);
-    if (set_layout_) vkDestroyDescriptorSetLayout(gpu.device(), set_layout_, nullptr);
   }
 
   // Re-packs the casters when one of them (its AOFieldCaster or WorldTransform) changed; uploads
@@ -243,8 +225,6 @@ class AOFieldRenderFeature final : public RenderFeature {
     vkUpdateDescriptorSets(gpu.device(), 1, &write, 0, nullptr);
   }
 
-  VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
-  VkDescriptorPool pool_ = VK_NULL_HANDLE;
   VkDescriptorSet set_ = VK_NULL_HANDLE;
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkPipeline mark_ = VK_NULL_HANDLE, shade_[2] = {}, shade_inside_[2] = {};

@@ -65,27 +65,10 @@ class ProbeGridRenderFeature final : public RenderFeature {
         {PENUMBRA_PROBE_BINDING_NODES, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
          nullptr},
     };
-    auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
-    layout_info.bindingCount = static_cast<std::uint32_t>(std::size(bindings));
-    layout_info.pBindings = bindings;
-    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                          {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, PENUMBRA_PROBE_TEXTURES + 1}};
-    auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    pool_info.maxSets = 1;
-    pool_info.poolSizeCount = static_cast<std::uint32_t>(std::size(sizes));
-    pool_info.pPoolSizes = sizes;
-    if (vkCreateDescriptorSetLayout(gpu.device(), &layout_info, nullptr, &set_layout_) != VK_SUCCESS ||
-        vkCreateDescriptorPool(gpu.device(), &pool_info, nullptr, &pool_) != VK_SUCCESS)
-      return make_error(ErrorCode::Internal, "probe-grid render feature: cannot create its descriptor set");
-    auto set_info = vk_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-    set_info.descriptorPool = pool_;
-    set_info.descriptorSetCount = 1;
-    set_info.pSetLayouts = &set_layout_;
-    if (vkAllocateDescriptorSets(gpu.device(), &set_info, &set_) != VK_SUCCESS)
-      return make_error(ErrorCode::Internal, "probe-grid render feature: cannot allocate its descriptor set");
-    auto layout = gpu.pipeline_layout(set_layout_);
-    if (!layout) return layout.error();
-    layout_ = *layout;
+    auto set = gpu.feature_set(bindings);
+    if (!set) return set.error();
+    set_ = set->set;
+    layout_ = set->layout;
     auto ambient = gpu.shader(shaders::probe_grid("probe_grid_ambient.frag"));
     auto view = gpu.shader(shaders::probe_grid("probe_grid_view.frag"));
     if (!ambient) return ambient.error();
@@ -106,8 +89,6 @@ class ProbeGridRenderFeature final : public RenderFeature {
     gpu.allocator().destroy(nodes_);
     gpu.allocator().destroy(placeholder_);
     gpu.allocator().destroy(uniforms_);
-    if (pool_) vkDestroyDescriptorPool(gpu.device(), pool_, nullptr);
-    if (set_layout_) vkDestroyDescriptorSetLayout(gpu.device(), set_layout_, nullptr);
   }
 
   // Re-packs the atlas when the blended grids (their data, priorities, blend distances) changed.
@@ -285,8 +266,6 @@ class ProbeGridRenderFeature final : public RenderFeature {
     return made;
   }
 
-  VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
-  VkDescriptorPool pool_ = VK_NULL_HANDLE;
   VkDescriptorSet set_ = VK_NULL_HANDLE;
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkShaderModule ambient_frag_ = VK_NULL_HANDLE, view_frag_ = VK_NULL_HANDLE;

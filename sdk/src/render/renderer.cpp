@@ -179,6 +179,8 @@ struct Renderer::Impl final : RenderContext {
   // The render features, and what the renderer made for them through RenderContext.
   RenderFeatures features;
   std::vector<VkPipelineLayout> feature_layouts;
+  std::vector<VkDescriptorSetLayout> feature_set_layouts;
+  std::vector<VkDescriptorPool> feature_pools;
   std::vector<VkShaderModule> feature_shaders;
   std::vector<VkPipeline> feature_pipelines;
 
@@ -220,6 +222,8 @@ struct Renderer::Impl final : RenderContext {
     for (auto& f : features) f->release(*this);
     for (VkPipeline p : feature_pipelines) vkDestroyPipeline(vk, p, nullptr);
     for (VkPipelineLayout l : feature_layouts) vkDestroyPipelineLayout(vk, l, nullptr);
+    for (VkDescriptorPool p : feature_pools) vkDestroyDescriptorPool(vk, p, nullptr);
+    for (VkDescriptorSetLayout l : feature_set_layouts) vkDestroyDescriptorSetLayout(vk, l, nullptr);
     for (VkShaderModule m : feature_shaders) vkDestroyShaderModule(vk, m, nullptr);
     for (auto& [k, m] : meshes) { alloc->destroy(m.vertices); alloc->destroy(m.indices); }
     for (auto& [k, t] : textures) alloc->destroy(t.image);
@@ -250,7 +254,7 @@ struct Renderer::Impl final : RenderContext {
                       VkDeviceSize size) override;
   Status ensure_host_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage) override;
   Result<VkShaderModule> shader(std::span<const std::uint32_t> words) override;
-  Result<VkPipelineLayout> pipeline_layout(VkDescriptorSetLayout feature_set) override;
+  Result<FeatureSet> feature_set(std::span<const VkDescriptorSetLayoutBinding> bindings) override;
   VkSampler linear_sampler() const override { return linear_clamp_sampler; }
   VkSampler nearest_sampler() const override { return point_sampler; }
   VkShaderModule screen_vertex() const override { return screen_vert; }
@@ -436,19 +440,42 @@ Result<VkShaderModule> Renderer::Impl::shader(std::span<const std::uint32_t> wor
   return m;
 }
 
-Result<VkPipelineLayout> Renderer::Impl::pipeline_layout(VkDescriptorSetLayout feature_set) {
-  const VkDescriptorSetLayout sets[] = {frame_layout, material_layout, feature_set};
+Result<RenderContext::FeatureSet> Renderer::Impl::feature_set(std::span<const VkDescriptorSetLayoutBinding> bindings) {
+  auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+  layout_info.bindingCount = static_cast<std::uint32_t>(bindings.size());
+  layout_info.pBindings = bindings.data();
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  if (vkCreateDescriptorSetLayout(vk, &layout_info, nullptr, &set_layout) != VK_SUCCESS)
+    return make_error(ErrorCode::Internal, "Renderer: cannot create a render feature's descriptor set layout");
+  feature_set_layouts.push_back(set_layout);
+  std::vector<VkDescriptorPoolSize> sizes;
+  for (const VkDescriptorSetLayoutBinding& b : bindings) sizes.push_back({b.descriptorType, b.descriptorCount});
+  auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+  pool_info.maxSets = 1;
+  pool_info.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
+  pool_info.pPoolSizes = sizes.data();
+  VkDescriptorPool feature_pool = VK_NULL_HANDLE;
+  if (vkCreateDescriptorPool(vk, &pool_info, nullptr, &feature_pool) != VK_SUCCESS)
+    return make_error(ErrorCode::Internal, "Renderer: cannot create a render feature's descriptor pool");
+  feature_pools.push_back(feature_pool);
+  FeatureSet out;
+  auto set_info = vk_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+  set_info.descriptorPool = feature_pool;
+  set_info.descriptorSetCount = 1;
+  set_info.pSetLayouts = &set_layout;
+  if (vkAllocateDescriptorSets(vk, &set_info, &out.set) != VK_SUCCESS)
+    return make_error(ErrorCode::Internal, "Renderer: cannot allocate a render feature's descriptor set");
+  const VkDescriptorSetLayout sets[] = {frame_layout, material_layout, set_layout};
   const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(gpu::DrawPush)};
   auto info = vk_struct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
   info.setLayoutCount = 3;
   info.pSetLayouts = sets;
   info.pushConstantRangeCount = 1;
   info.pPushConstantRanges = &push;
-  VkPipelineLayout layout = VK_NULL_HANDLE;
-  if (vkCreatePipelineLayout(vk, &info, nullptr, &layout) != VK_SUCCESS)
+  if (vkCreatePipelineLayout(vk, &info, nullptr, &out.layout) != VK_SUCCESS)
     return make_error(ErrorCode::Internal, "Renderer: cannot create a render feature's pipeline layout");
-  feature_layouts.push_back(layout);
-  return layout;
+  feature_layouts.push_back(out.layout);
+  return out;
 }
 
 Result<VkPipeline> Renderer::Impl::pipeline(const FeaturePipeline& p) {

@@ -94,9 +94,14 @@ class RenderContext {
   // A shader module from SPIR-V words; the renderer destroys it with itself. Internal error when
   // the words are empty or invalid.
   virtual Result<VkShaderModule> shader(std::span<const std::uint32_t> words) = 0;
-  // The pipeline layout of sets 0 (frame), 1 (material) and `feature_set` as set 2, with the
-  // renderer's push constants (gpu::DrawPush). The renderer destroys it with itself.
-  virtual Result<VkPipelineLayout> pipeline_layout(VkDescriptorSetLayout feature_set) = 0;
+  // A feature's descriptor set with `bindings` (its own pool) and the pipeline layout of sets 0
+  // (frame), 1 (material) and that set as set 2, with the renderer's push constants
+  // (gpu::DrawPush). The renderer destroys them with itself.
+  struct FeatureSet {
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+  };
+  virtual Result<FeatureSet> feature_set(std::span<const VkDescriptorSetLayoutBinding> bindings) = 0;
   // Samplers: trilinear and nearest, both clamped to the edge.
   virtual VkSampler linear_sampler() const = 0;
   virtual VkSampler nearest_sampler() const = 0;

@@ -5,13 +5,8 @@
 #define PENUMBRA_PROBE_GRID_LAYOUT_H
 
 #ifdef __cplusplus
-#include <glm/mat4x4.hpp>
-#include <glm/vec4.hpp>
-#include <glm/ext/vector_uint4.hpp>
+#include "shared/layout.h"  // penumbra::gpu's vec4, uvec4, mat4
 namespace penumbra::gpu {
-using vec4 = glm::vec4;
-using uvec4 = glm::uvec4;
-using mat4 = glm::mat4;
 #endif
 
 // Set 2 bindings.
