@@ -61,6 +61,32 @@ int component_bytes(int component_type) {
   }
 }
 
+// An accessor's element in words, e.g. "VEC4 of unsigned bytes" (the codes for unknown values).
+std::string accessor_words(int type, int component_type) {
+  std::string t;
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: t = "SCALAR"; break;
+    case TINYGLTF_TYPE_VEC2: t = "VEC2"; break;
+    case TINYGLTF_TYPE_VEC3: t = "VEC3"; break;
+    case TINYGLTF_TYPE_VEC4: t = "VEC4"; break;
+    case TINYGLTF_TYPE_MAT2: t = "MAT2"; break;
+    case TINYGLTF_TYPE_MAT3: t = "MAT3"; break;
+    case TINYGLTF_TYPE_MAT4: t = "MAT4"; break;
+    default: t = "type " + std::to_string(type);
+  }
+  std::string c;
+  switch (component_type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: c = "signed bytes"; break;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: c = "unsigned bytes"; break;
+    case TINYGLTF_COMPONENT_TYPE_SHORT: c = "signed shorts"; break;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: c = "unsigned shorts"; break;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: c = "unsigned ints"; break;
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: c = "floats"; break;
+    default: c = "componentType " + std::to_string(component_type);
+  }
+  return t + " of " + c;
+}
+
 // sRGB EOTF (IEC 61966-2-1) for an 8-bit code value.
 float srgb_to_linear(std::uint8_t code) {
   const float c = static_cast<float>(code) / 255.0f;
@@ -192,10 +218,14 @@ Result<AccessorView> Importer::accessor(int index, const std::string& user, std:
   const tinygltf::Accessor& a = model_.accessors[ai];
   const std::string where = element("accessors", ai) + " (" + user + ")";
   if (std::find(types.begin(), types.end(), a.type) == types.end() ||
-      std::find(component_types.begin(), component_types.end(), a.componentType) == component_types.end())
+      std::find(component_types.begin(), component_types.end(), a.componentType) == component_types.end()) {
+    std::string allowed;
+    for (int t : types)
+      for (int c : component_types) allowed += (allowed.empty() ? "" : ", ") + accessor_words(t, c);
     return fail(ErrorCode::InvalidInput, where,
-                "type " + std::to_string(a.type) + " / componentType " + std::to_string(a.componentType) +
-                    " is not allowed here by the glTF specification");
+                "is " + accessor_words(a.type, a.componentType) + ", which the glTF specification does not allow "
+                "here; it takes " + allowed + " (re-export the attribute in one of those)");
+  }
   if (a.sparse.isSparse)
     return fail(ErrorCode::Unsupported, where, "sparse accessors are not supported; export without sparse data");
   // The largest accessor the importer reads (2^27 elements: 1.5 GiB of positions), checked before

@@ -229,7 +229,7 @@ TEST(GltfImport, DeepJsonAndOtherGlbVersionsAreRefusedBeforeParsing) {
 // crash on: negative offsets and strides (they were read as 0), a stride the specification does
 // not allow, an image's bufferView far past its buffer (a heap over-read in the image decoder),
 // and a .glb whose binary chunk is shorter than its buffer's byteLength; each error names the
-// file's path, the element and the value.
+// file's path, the element and the value (an accessor's type in words).
 TEST(GltfImport, StructureIsCheckedBeforeDecoding) {
   nlohmann::json base;
   std::ifstream(kCases / "valid.gltf") >> base;
@@ -259,6 +259,8 @@ TEST(GltfImport, StructureIsCheckedBeforeDecoding) {
       {"zero count", [](nlohmann::json& j) { j["accessors"][0]["count"] = 0; }, {"accessors[0].count is 0"}},
       {"long buffer", [](nlohmann::json& j) { j["buffers"][0]["byteLength"] = 100000; },
        {"buffers[0]: byteLength is 100000", "data URI decodes to"}},
+      {"positions as bytes", [](nlohmann::json& j) { j["accessors"][0]["componentType"] = 5121; },
+       {"accessors[0]", "is VEC3 of unsigned bytes", "it takes VEC3 of floats"}},
   };
   const std::filesystem::path path =
       std::filesystem::temp_directory_path() / ("penumbra_structure_" + std::to_string(::getpid()) + ".gltf");
