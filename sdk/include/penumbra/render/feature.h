@@ -11,13 +11,13 @@
 //   2. per draw: draw_values() tags the draw (a receiver code in the G-buffer, an open fraction
 //                over the whole entity);
 //   3. record(): in the views that show ambient light, when some feature is active(), records
-//                every active Source (the first writes (irradiance, 1) at every sample, the others
-//                add their irradiance, blend ONE + ONE on rgb; its fragment stage calls
-//                ambient_sample() of shaders/ambient_sample.glsl, which writes each sample's depth
-//                and key), then every
-//                active Occluder (its open fraction multiplied into rgb and a, blend DST_COLOR x
-//                src), in the order of the feature list. Without a Source pass (the AO view, or
-//                only occluders active) the renderer's key pass writes the depths and keys;
+//                every active Source (the first writes (irradiance, 1) at every sample, the
+//                others add their irradiance, blend ONE + ONE on rgb; its fragment stage calls
+//                ambient_sample() of shaders/ambient_sample.glsl, which writes each sample's
+//                depth and key), then every active Occluder (its open fraction multiplied into
+//                rgb and a, blend DST_COLOR x src), in the order of the feature list. Without a
+//                Source pass (the AO view, or only occluders active) the renderer's key pass
+//                writes the depths and keys;
 //   4. a feature's own debug view replaces the forward pass: the feature draws the whole target
 //      (record_view) from the pre-pass depth and G-buffer.
 // A feature without data this frame is not active and costs nothing but its sync().

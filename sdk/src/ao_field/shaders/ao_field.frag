@@ -2,7 +2,7 @@
 // AO-field pass, fragment stage: caster push.draw.x's occlusion A_i at the receiver of one
 // sample of the ambient image (RenderSettings::ambient_step; the world point from the pre-pass
 // depth, the normal from the G-buffer), written as 1 - A_i in every channel, which the blend
-// state multiplies in: the image's probe irradiance (rgb) and open fraction (a) take the factor
+// state multiplies in: the image's irradiance (rgb) and open fraction (a) take the factor
 // 1 - A = prod (1 - A_i) over the casters (Kontkanen & Laine 2005; ao_field_gpu.h). Samples off
 // receivers, on the caster itself (no self-shadow) and beyond its reach keep their value. The
 // forward pass upsamples the image (forward.frag, ambient_at_pixel).
@@ -25,8 +25,8 @@ void main() {
   uint caster = push.draw.x;
   vec3 x = world_at_pixel(pixel, depth);
   vec4 reach = ao_fields[1u + 7u * caster + 6u];
-  // Receiver code: 0 not a receiver, else 2 + the pixel's own caster record (ao_field_layout.h). (No
-  // discard: it would turn llvmpipe's early depth and stencil tests, which cull the box's
+  // Receiver code: 0 not a receiver, else 2 + the pixel's own caster record (ao_field_layout.h).
+  // (No discard: it would turn llvmpipe's early depth and stencil tests, which cull the box's
   // samples, into late ones.)
   if (g.w < 1.0 || depth >= 1.0 || int(g.w) - 2 == int(caster) || !(distance(x, reach.xyz) < reach.w)) {
     out_factor = vec4(1.0);
