@@ -202,7 +202,7 @@ struct Renderer::Impl final : RenderContext {
   // ambient_key: per sample its surface (layout.h); ambient_depth: per sample depth, stencil.
   ImageResource depth, gbuffer, ambient, ambient_key, ambient_depth;
   VkFormat ambient_depth_format = VK_FORMAT_UNDEFINED;    // D32_SFLOAT_S8_UINT or D24_UNORM_S8_UINT
-  std::uint32_t depth_width = 0, depth_height = 0, ambient_step = 0;  // 0: no ambient passes
+  std::uint32_t depth_width = 0, depth_height = 0, ambient_step = 0;  // 0: no G-buffer nor ambient image
   ImageResource shadow_map;
   std::vector<VkImageView> shadow_layer_views;
   std::uint32_t shadow_size = 0, shadow_layers = 0;
@@ -658,7 +658,7 @@ void Renderer::Impl::plan_shadows(const std::vector<WorldLight>& world_lights) {
   }
 }
 
-// The depth buffer at the target's size; with the ambient passes (step > 0) the G-buffer and the
+// The depth buffer at the target's size; with a G-buffer pass (step > 0) the G-buffer and the
 // ambient image at 1 / step of it; the shadow map array.
 Status Renderer::Impl::ensure_targets(std::uint32_t width, std::uint32_t height, std::uint32_t shadow_map_size,
                                       std::uint32_t step) {

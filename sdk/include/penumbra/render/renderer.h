@@ -77,8 +77,8 @@ struct RenderSettings {
   // texels, 1 a bilinear 2x2 footprint with harder edges, about 10 ms less per 1280x720 frame on
   // 2-core lavapipe (README's renderer row). InvalidArgument otherwise.
   std::uint32_t shadow_taps = 4;
-  // The ambient passes (the probe grid's irradiance and the AO-field casters' occlusion, in the
-  // lit, indirect and AO views) evaluate every ambient_step-th pixel per axis: 1 every pixel, 2
+  // The ambient image (the render features' irradiance and occlusion, in the lit, indirect and AO
+  // views) holds every ambient_step-th pixel per axis: 1 every pixel, 2
   // (default) a quarter of them, which the forward pass upsamples along surfaces. The trade on the
   // courtyard at 1280x720 (penumbra bench render-ao; renderer_test): see README's renderer row.
   // InvalidArgument for anything but 1 or 2.
