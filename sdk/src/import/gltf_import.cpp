@@ -905,7 +905,8 @@ Status check_structure(const nlohmann::json& json, const std::string& file, cons
       const nlohmann::json& view = (*list)[v];
       const std::string where = element("bufferViews", v);
       if (!view.is_object()) return fail(where + " is not an object; fix or re-export the file");
-      auto buffer = json_count(view, "buffer", buffer_bytes.size(), where, "name one of the file's buffers");
+      if (!view.contains("buffer")) return fail(where + " names no buffer; give it the index of one of the file's buffers");
+      auto buffer = json_count(view, "buffer", 0, where, "name one of the file's buffers");
       auto offset = json_count(view, "byteOffset", 0, where, "give an offset in bytes >= 0");
       auto length = json_count(view, "byteLength", 0, where, "give the view's size in bytes");
       auto stride = json_count(view, "byteStride", 0, where, "give a stride of 4..252 bytes");

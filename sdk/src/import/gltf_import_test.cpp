@@ -256,6 +256,8 @@ TEST(GltfImport, StructureIsCheckedBeforeDecoding) {
       {"image of no view", [](nlohmann::json& j) { j["images"] = {{{"bufferView", 99}, {"mimeType", "image/png"}}}; },
        {"images[0].bufferView is 99"}},
       {"view of no buffer", [](nlohmann::json& j) { j["bufferViews"][0]["buffer"] = 3; }, {"bufferViews[0].buffer is 3"}},
+      {"view without buffer", [](nlohmann::json& j) { j["bufferViews"][0].erase("buffer"); },
+       {"bufferViews[0] names no buffer"}},
       {"zero count", [](nlohmann::json& j) { j["accessors"][0]["count"] = 0; }, {"accessors[0].count is 0"}},
       {"long buffer", [](nlohmann::json& j) { j["buffers"][0]["byteLength"] = 100000; },
        {"buffers[0]: byteLength is 100000", "data URI decodes to"}},
