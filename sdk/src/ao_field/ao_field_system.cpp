@@ -34,11 +34,14 @@ struct AOFieldSystemState {
 }  // namespace
 
 std::size_t update_ao_field_receivers(World& world, std::uint64_t since) {
+  // The pools looked up per entity, found once.
+  const ComponentPool<WorldTransform> transforms = world.pool<WorldTransform>();
+  const ComponentPool<AOFieldCaster> caster_pool = world.pool<AOFieldCaster>();
+  const ComponentPool<AOFieldReceiver> receiver_pool = world.pool<AOFieldReceiver>();
   std::vector<ActiveCaster> casters;
   bool casters_changed = false;
   world.view<AOFieldCaster, WorldTransform>().each([&](Entity e, AOFieldCaster& c, WorldTransform& wt) {
-    if (world.changed_tick<AOFieldCaster>(e) > since || world.changed_tick<WorldTransform>(e) > since)
-      casters_changed = true;
+    if (caster_pool.changed_tick(e) > since || transforms.changed_tick(e) > since) casters_changed = true;
     if (!c.data) return;
     const glm::mat4& m = wt.matrix;
     const float scale = glm::length(glm::vec3(m[0]));
@@ -55,17 +58,16 @@ std::size_t update_ao_field_receivers(World& world, std::uint64_t since) {
   std::vector<Entity> receivers;
   world.view<AOFieldReceiver, WorldTransform>().each([&](Entity e, AOFieldReceiver& r, WorldTransform&) {
     if (r.mode != AOFieldReceiver::Mode::Entity) return;  // surfaces: the renderer's per-pixel pass
-    if (casters_changed || world.changed_tick<WorldTransform>(e) > since ||
-        world.changed_tick<AOFieldReceiver>(e) > since)
+    if (casters_changed || transforms.changed_tick(e) > since || receiver_pool.changed_tick(e) > since)
       receivers.push_back(e);
   });
 
   // Receiver points and unit normals (a zero normal for a degenerate one: it stays open).
   std::vector<glm::vec3> xs(receivers.size()), ns(receivers.size());
   for (std::size_t i = 0; i < receivers.size(); ++i) {
-    const glm::mat4& m = world.get<WorldTransform>(receivers[i]).matrix;
+    const glm::mat4& m = transforms.get(receivers[i]).matrix;
     xs[i] = glm::vec3(m[3]);
-    const glm::vec3 nw = glm::mat3(m) * world.get<AOFieldReceiver>(receivers[i]).normal;
+    const glm::vec3 nw = glm::mat3(m) * receiver_pool.get(receivers[i]).normal;
     const float len = glm::length(nw);
     ns[i] = len > 0.0f && std::isfinite(len) ? nw / len : glm::vec3(0.0f);
   }

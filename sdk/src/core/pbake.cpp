@@ -78,10 +78,13 @@ Result<std::uint64_t> file_size_of(const std::filesystem::path& path) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
   if (ec || !std::filesystem::exists(status)) {
-    return make_error(ErrorCode::NotFound, path.string() + ": no such file; bake the scene first");
+    return make_error(ErrorCode::NotFound, path.string() + ": no such file (looked for " +
+                                               std::filesystem::absolute(path, ec).string() + "); bake the scene first");
   }
   if (!std::filesystem::is_regular_file(status)) {
-    return make_error(ErrorCode::InvalidInput, path.string() + ": not a regular file");
+    return make_error(ErrorCode::InvalidInput, path.string() + ": not a regular file (" +
+                                                   (std::filesystem::is_directory(status) ? "a folder" : "a device or pipe") +
+                                                   "); give the .pbake file itself");
   }
   const std::uint64_t size = std::filesystem::file_size(path, ec);
   if (ec) return make_error(ErrorCode::Io, path.string() + ": cannot read its size (" + ec.message() + ")");
@@ -100,7 +103,8 @@ Status check_header(const std::string& name, const unsigned char* h, std::uint64
       return make_error(ErrorCode::InvalidInput,
                         name + ": the high bit of each byte was stripped by a 7-bit transfer; copy the file in binary mode");
     }
-    return make_error(ErrorCode::InvalidInput, name + ": not a .pbake file (wrong magic bytes)");
+    return make_error(ErrorCode::InvalidInput, name + ": not a .pbake file (it does not start with the .pbake "
+                                                      "signature); give a file written by 'penumbra bake'");
   }
   if (have < kHeaderSize) {
     return corrupted(name, "truncated: " + std::to_string(actual_size) + " bytes, shorter than the 64-byte header");

@@ -3,10 +3,12 @@
 #include "penumbra/ecs/world.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cstdlib>
 #include <deque>
 #include <mutex>
+#include <stdexcept>
 
 #ifdef __linux__
 #include <sys/mman.h>
@@ -125,6 +127,20 @@ void PoolBase::compact() {
   compact_pending_ = false;
 }
 
+void PoolBase::swap_slots(std::uint32_t a, std::uint32_t b) {
+  ++layout_version_;
+  swap_components(a, b);
+  std::swap(index(a), index(b));
+  std::swap(tick(a), tick(b));
+  set_sparse(index(a), a);
+  set_sparse(index(b), b);
+}
+
+void PoolBase::reserve(std::uint32_t count) {
+  while (index_pages_.size() * kPageSize < count) grow();
+  reserve_components(count);
+}
+
 void PoolBase::fire(World& world, std::vector<std::shared_ptr<Listener>>& listeners, Entity e) {
   struct Firing {
     PoolBase& p;
@@ -149,6 +165,41 @@ void PoolBase::prune_listeners() {
   const auto disconnected = [](const std::shared_ptr<Listener>& l) { return !l->connected; };
   std::erase_if(on_add_, disconnected);
   std::erase_if(on_remove_, disconnected);
+}
+
+// --- GroupBase ---------------------------------------------------------------------------------
+
+bool GroupBase::qualifies(std::uint32_t index) const {
+  const auto has = [index](const PoolBase* p) { return p->find(index) != kNone; };
+  return std::all_of(owned.begin(), owned.end(), has) && std::all_of(observed.begin(), observed.end(), has);
+}
+
+void GroupBase::enter(std::uint32_t index) {
+  for (PoolBase* p : owned) {
+    const std::uint32_t pos = p->find(index);
+    if (pos != size) p->swap_slots(pos, size);
+  }
+  ++size;
+}
+
+void GroupBase::leave(std::uint32_t index) {
+  --size;
+  for (PoolBase* p : owned) {
+    const std::uint32_t pos = p->find(index);
+    if (pos != size) p->swap_slots(pos, size);
+  }
+}
+
+void GroupBase::repack() {
+  // Slots [0, size) of the first owned pool hold the members found so far and [size, i) the
+  // non-members passed over, so swapping slot i into slot size keeps both runs intact.
+  size = 0;
+  dirty = false;
+  const PoolBase& first = *owned[0];
+  for (std::uint32_t i = 0; i < first.size(); ++i) {
+    const std::uint32_t index = first.index(i);
+    if (qualifies(index)) enter(index);
+  }
 }
 
 }  // namespace detail
@@ -188,17 +239,30 @@ Entity World::create() {
   const auto index = static_cast<std::uint32_t>(slots_.size());
   assert(index != detail::kNone && "World::create: 2^32 - 1 entity slots in use");
   slots_.push_back(0);
+  masks_.resize(masks_.size() + mask_words_, 0);
   return Entity{index, 0};
+}
+
+void World::create(std::span<Entity> out) {
+  const std::size_t fresh = out.size() > free_.size() ? out.size() - free_.size() : 0;
+  slots_.reserve(slots_.size() + fresh);
+  masks_.reserve(masks_.size() + fresh * mask_words_);
+  for (Entity& e : out) e = create();
 }
 
 void World::destroy(Entity e) {
   if (!alive(e)) return;
-  // Remove every component; repeat in case an on_remove listener added one back.
+  // Remove every component the mask names; repeat in case an on_remove listener added one back.
+  // A component whose removal is already under way up the stack reports false and ends the loop.
   for (bool removed = true; removed && alive(e);) {
     removed = false;
-    for (std::size_t id = 0; id < pools_.size() && alive(e); ++id) {
-      detail::PoolBase* p = pools_[id].get();
-      if (p && p->find(e.index) != detail::kNone) removed |= remove_from(*p, e);
+    for (std::uint32_t word = 0; word < mask_words_ && alive(e); ++word) {
+      std::uint64_t bits = masks_[std::size_t{e.index} * mask_words_ + word];
+      while (bits != 0 && alive(e)) {
+        const auto bit = word * 64u + static_cast<std::uint32_t>(std::countr_zero(bits));
+        bits &= bits - 1;
+        removed |= remove_from(*by_bit_[bit], e);
+      }
     }
   }
   if (!alive(e)) return;  // a listener destroyed it already
@@ -213,6 +277,95 @@ void World::destroy(Entity e) {
   }
 }
 
+void World::destroy(std::span<const Entity> entities) {
+  for (const Entity e : entities) destroy(e);
+}
+
+detail::PoolBase& World::add_pool(ComponentId id, std::unique_ptr<detail::PoolBase> pool) {
+  if (id >= pools_.size()) pools_.resize(id + 1);
+  pool->id_ = id;
+  pool->bit_ = static_cast<std::uint32_t>(by_bit_.size());
+  by_bit_.push_back(pool.get());
+  if (by_bit_.size() > std::size_t{mask_words_} * 64) {
+    // One more mask word per entity: spread the masks out.
+    const std::uint32_t words = mask_words_ + 1;
+    std::vector<std::uint64_t> masks(slots_.size() * words, 0);
+    for (std::size_t i = 0; i < slots_.size(); ++i)
+      std::copy_n(masks_.begin() + static_cast<std::ptrdiff_t>(i * mask_words_), mask_words_,
+                  masks.begin() + static_cast<std::ptrdiff_t>(i * words));
+    masks_ = std::move(masks);
+    mask_words_ = words;
+  }
+  pools_[id] = std::move(pool);
+  return *pools_[id];
+}
+
+void World::joined(detail::PoolBase& p, std::uint32_t index) {
+  masks_[std::size_t{index} * mask_words_ + p.bit_ / 64] |= std::uint64_t{1} << (p.bit_ % 64);
+  for (detail::GroupBase* g : p.groups_) {
+    if (g->dirty || !g->qualifies(index)) continue;
+    if (iterating_ > 0) {
+      g->dirty = true;  // no slot may move under a running iteration
+      dirty_groups_.push_back(g);
+    } else {
+      g->enter(index);
+    }
+  }
+}
+
+void World::leaving(detail::PoolBase& p, std::uint32_t index) {
+  for (detail::GroupBase* g : p.groups_) {
+    if (g->dirty || !g->member(index)) continue;
+    if (iterating_ > 0) {
+      g->dirty = true;
+      dirty_groups_.push_back(g);
+    } else {
+      g->leave(index);
+    }
+  }
+  masks_[std::size_t{index} * mask_words_ + p.bit_ / 64] &= ~(std::uint64_t{1} << (p.bit_ % 64));
+}
+
+detail::GroupBase& World::make_group(std::vector<detail::PoolBase*> owned, std::vector<detail::PoolBase*> observed) {
+  const auto ids = [](const std::vector<detail::PoolBase*>& pools) {
+    std::vector<ComponentId> out;
+    for (const detail::PoolBase* p : pools) out.push_back(p->id_);
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  const std::vector<ComponentId> owned_ids = ids(owned), observed_ids = ids(observed);
+  for (const auto& g : groups_)
+    if (ids(g->owned) == owned_ids && ids(g->observed) == observed_ids) return *g;
+  for (const detail::PoolBase* p : owned) {
+    if (!p->owner_) continue;
+    std::string names;
+    for (const ComponentId id : p->owner_->types) names += (names.empty() ? "" : ", ") + std::string(component_name(id));
+    throw std::logic_error("World::group: " + std::string(component_name(p->id_)) +
+                           " is already owned by the group of " + names +
+                           "; a type is owned by one group at most (observe it instead)");
+  }
+  std::vector<ComponentId> types = owned_ids;
+  types.insert(types.end(), observed_ids.begin(), observed_ids.end());
+  std::sort(types.begin(), types.end());
+  if (const auto twice = std::adjacent_find(types.begin(), types.end()); twice != types.end())
+    throw std::logic_error("World::group: " + std::string(component_name(*twice)) + " is named twice");
+  auto g = std::make_unique<detail::GroupBase>();
+  g->owned = std::move(owned);
+  g->observed = std::move(observed);
+  g->types = std::move(types);
+  for (detail::PoolBase* p : g->owned) p->owner_ = g.get();
+  for (detail::PoolBase* p : g->owned) p->groups_.push_back(g.get());
+  for (detail::PoolBase* p : g->observed) p->groups_.push_back(g.get());
+  if (iterating_ > 0) {
+    g->dirty = true;
+    dirty_groups_.push_back(g.get());
+  } else {
+    g->repack();
+  }
+  groups_.push_back(std::move(g));
+  return *groups_.back();
+}
+
 bool World::remove_from(detail::PoolBase& p, Entity e) {
   std::uint32_t pos = p.find(e.index);
   if (pos == detail::kNone) return false;
@@ -225,6 +378,8 @@ bool World::remove_from(detail::PoolBase& p, Entity e) {
     pos = p.find(e.index);  // a listener may have removed it, or moved it by another removal
     if (pos == detail::kNone) return true;
   }
+  leaving(p, e.index);
+  if (!p.groups_.empty()) pos = p.find(e.index);  // leaving a group moves it
   if (p.erase(pos, iterating_ > 0) && !p.compact_pending_) {
     p.compact_pending_ = true;
     pending_compaction_.push_back(&p);
@@ -232,9 +387,12 @@ bool World::remove_from(detail::PoolBase& p, Entity e) {
   return true;
 }
 
-void World::compact_pending() {
+void World::finish_iteration() {
   for (detail::PoolBase* p : pending_compaction_) p->compact();
   pending_compaction_.clear();
+  // Listeners do not run here, so nothing can start another iteration before this ends.
+  for (detail::GroupBase* g : dirty_groups_) g->repack();
+  dirty_groups_.clear();
 }
 
 Connection World::connect(detail::PoolBase& p, std::vector<std::shared_ptr<detail::Listener>>& list,

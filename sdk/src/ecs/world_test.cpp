@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <map>
 #include <set>
+#include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -583,6 +585,271 @@ TEST(World, SortedEntitiesFollowIndicesNotPoolHistory) {
   const std::vector<Entity> both = w.view<Velocity, Position>().sorted_entities();
   ASSERT_EQ(both.size(), 5u);
   for (std::size_t i = 0; i < both.size(); ++i) EXPECT_EQ(both[i], es[2 * i]);
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+struct Mass {
+  float value = 1.0f;
+};
+
+// The group's invariant, through the public API: a walk of one owned pool meets the members
+// first, in the order the group's view visits them, and the view visits exactly `expected`.
+template <class Owned, class... Group>
+void expect_packed(World& w, const std::set<std::uint32_t>& expected) {
+  std::vector<std::uint32_t> visited;
+  w.each<Group...>([&](Entity e, Group&...) { visited.push_back(e.index); });
+  ASSERT_EQ(w.view<Group...>().count(), expected.size());
+  ASSERT_EQ(std::set<std::uint32_t>(visited.begin(), visited.end()), expected);
+  ASSERT_EQ(visited.size(), expected.size()) << "a member was visited twice";
+  std::vector<std::uint32_t> front;
+  w.each<Owned>([&](Entity e, Owned&) {
+    if (front.size() < expected.size()) front.push_back(e.index);
+  });
+  EXPECT_EQ(front, visited) << "the members are not packed at the front of an owned pool";
+}
+
+TEST(WorldGroup, MembersStayPackedUnderRandomOperations) {
+  World w;
+  w.group<Position, Velocity>();
+  w.group<Health>(observe<Position>);  // Position is owned above and observed here
+  std::map<std::uint32_t, Entity> entities;
+  std::map<std::uint32_t, float> pos, vel;
+  std::map<std::uint32_t, int> health;
+  Rng rng = Rng::stream(7, 0);
+  const auto pick = [&]() {
+    auto it = entities.begin();
+    std::advance(it, rng.next_u32() % entities.size());
+    return it->second;
+  };
+  const auto check = [&]() {
+    std::set<std::uint32_t> both, health_pos;
+    for (const auto& [index, x] : pos) {
+      if (vel.count(index)) both.insert(index);
+      if (health.count(index)) health_pos.insert(index);
+    }
+    expect_packed<Position, Position, Velocity>(w, both);
+    expect_packed<Velocity, Position, Velocity>(w, both);
+    expect_packed<Health, Health, Position>(w, health_pos);
+    w.each<Position, Velocity>([&](Entity e, Position& p, Velocity& v) {
+      EXPECT_EQ(p.x, pos[e.index]);
+      EXPECT_EQ(v.x, vel[e.index]);
+    });
+    w.each<Health, Position>([&](Entity e, Health& h, Position&) { EXPECT_EQ(h.value, health[e.index]); });
+  };
+  for (int step = 0; step < 6000; ++step) {
+    const std::uint32_t op = rng.next_u32() % 9;
+    if (op == 0 || entities.size() < 4) {
+      const Entity e = w.create();
+      entities[e.index] = e;
+    } else if (op == 1) {
+      const Entity e = pick();
+      w.destroy(e);
+      entities.erase(e.index);
+      pos.erase(e.index);
+      vel.erase(e.index);
+      health.erase(e.index);
+    } else if (op == 2) {
+      const Entity e = pick();
+      w.add<Position>(e, float(step), 0.0f);
+      pos[e.index] = float(step);
+    } else if (op == 3) {
+      const Entity e = pick();
+      w.add<Velocity>(e, float(-step), 0.0f);
+      vel[e.index] = float(-step);
+    } else if (op == 4) {
+      const Entity e = pick();
+      w.add<Health>(e, step);
+      health[e.index] = step;
+    } else if (op == 5) {
+      const Entity e = pick();
+      EXPECT_EQ(w.remove<Position>(e), pos.erase(e.index) == 1);
+    } else if (op == 6) {
+      const Entity e = pick();
+      EXPECT_EQ(w.remove<Velocity>(e), vel.erase(e.index) == 1);
+    } else if (op == 7) {
+      const Entity e = pick();
+      EXPECT_EQ(w.remove<Health>(e), health.erase(e.index) == 1);
+    } else {
+      // add() returns the component where the group put it.
+      const Entity e = pick();
+      Velocity& v = w.add<Velocity>(e, 5.0f, 0.0f);
+      vel[e.index] = 5.0f;
+      EXPECT_EQ(&v, &w.get<Velocity>(e));
+    }
+    if (step % 500 == 0) check();
+  }
+  check();
+}
+
+TEST(WorldGroup, DeclaringOnAFilledWorldPacksIt) {
+  World w;
+  std::vector<Entity> es(1000);
+  w.create(es);
+  std::set<std::uint32_t> both;
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    w.add<Position>(es[i], float(i), 0.0f);
+    if (i % 7 == 3) {
+      w.add<Velocity>(es[i]);
+      both.insert(es[i].index);
+    }
+  }
+  const auto view = w.group<Position, Velocity>();
+  expect_packed<Position, Position, Velocity>(w, both);
+  // Every entity kept its own component through the reordering.
+  for (std::size_t i = 0; i < es.size(); ++i) EXPECT_EQ(w.get<Position>(es[i]).x, float(i));
+  // Asking again returns the same group without repacking or throwing.
+  EXPECT_NO_THROW((w.group<Velocity, Position>()));
+  EXPECT_EQ((w.view<Position, Velocity>().count()), both.size());
+  (void)view;
+}
+
+TEST(WorldGroup, ChangesDuringIterationFollowTheViewRulesThenRepack) {
+  World w;
+  w.group<Position, Velocity>();
+  std::vector<Entity> es(3000);
+  w.create(es);
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    w.add<Position>(es[i], float(i), 0.0f);
+    w.add<Velocity>(es[i]);
+  }
+  // Each visited entity of the first half removes the Velocity of one 1500 later (not yet
+  // reached: skipped) and gives a fresh entity both components (joins: not visited).
+  std::map<std::uint32_t, int> visits;
+  std::set<std::uint32_t> joined;
+  w.each<Position, Velocity>([&](Entity e, Position& p, Velocity&) {
+    ++visits[e.index];
+    const auto i = static_cast<std::size_t>(p.x);
+    if (i < 1500) {
+      w.remove<Velocity>(es[i + 1500]);
+      const Entity f = w.create();
+      w.add<Position>(f, -1.0f, 0.0f);
+      w.add<Velocity>(f);
+      joined.insert(f.index);
+    }
+    EXPECT_EQ(&w.get<Position>(e), &p);  // no slot moves under the iteration
+  });
+  EXPECT_EQ(visits.size(), 1500u);
+  for (const auto& [index, count] : visits) EXPECT_EQ(count, 1);
+  for (const std::uint32_t f : joined) EXPECT_FALSE(visits.count(f));
+  // After the iteration the group is packed again: the first half and the joiners.
+  std::set<std::uint32_t> both = joined;
+  for (std::size_t i = 0; i < 1500; ++i) both.insert(es[i].index);
+  expect_packed<Position, Position, Velocity>(w, both);
+  expect_packed<Velocity, Position, Velocity>(w, both);
+}
+
+TEST(WorldGroup, OwnershipConflictsAreNamed) {
+  World w;
+  w.group<Position, Velocity>();
+  try {
+    w.group<Velocity, Health>();
+    FAIL() << "a second owner was accepted";
+  } catch (const std::logic_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("Velocity"), std::string::npos) << what;
+    EXPECT_NE(what.find("observe"), std::string::npos) << what;
+  }
+  EXPECT_NO_THROW(w.group<Health>(observe<Velocity>));
+  EXPECT_THROW(w.group<Mass>(observe<Mass>), std::logic_error);
+}
+
+TEST(WorldPool, HoistedGetsAgreeWithTheWorld) {
+  World w;
+  std::vector<Entity> es(100);
+  w.create(es);
+  for (std::size_t i = 0; i < es.size(); i += 2) w.add<Health>(es[i], int(i));
+  const ComponentPool<Health> health = w.pool<Health>();
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    EXPECT_EQ(health.contains(es[i]), i % 2 == 0);
+    EXPECT_EQ(health.try_get(es[i]), w.try_get<Health>(es[i]));
+    if (i % 2 == 0) {
+      EXPECT_EQ(&health.get(es[i]), &w.get<Health>(es[i]));
+    }
+  }
+  EXPECT_EQ(health.size(), 50u);
+  w.destroy(es[0]);
+  EXPECT_FALSE(health.contains(es[0]));
+  EXPECT_EQ(health.try_get(es[0]), nullptr);  // stale: the generation is checked
+  const Entity reused = w.create();
+  ASSERT_EQ(reused.index, es[0].index);
+  w.add<Health>(reused, 77);
+  EXPECT_EQ(health.try_get(es[0]), nullptr);
+  EXPECT_EQ(health.get(reused).value, 77);
+  EXPECT_EQ(w.pool<Mass>().try_get(reused), nullptr);  // a pool the World had not used yet
+}
+
+TEST(WorldBulk, BulkOperationsEqualTheirLoops) {
+  World bulk, loop;
+  std::vector<Entity> a(300), b(300);
+  bulk.create(a);
+  for (Entity& e : b) e = loop.create();
+  EXPECT_EQ(a, b);
+  std::vector<Health> values;
+  for (int i = 0; i < 300; ++i) values.push_back(Health{i * 3});
+  int added = 0;
+  Connection c = bulk.on_add<Health>([&](World& w, Entity e) {
+    ++added;
+    EXPECT_TRUE(w.has<Health>(e));
+  });
+  bulk.insert<Health>(a, values);
+  bulk.insert<Position>(std::span<const Entity>(a).first(100), Position{2.0f, 3.0f});
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    loop.add<Health>(b[i], values[i]);
+    if (i < 100) loop.add<Position>(b[i], 2.0f, 3.0f);
+  }
+  EXPECT_EQ(added, 300);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(bulk.get<Health>(a[i]).value, loop.get<Health>(b[i]).value);
+    EXPECT_EQ(bulk.has<Position>(a[i]), loop.has<Position>(b[i]));
+  }
+  bulk.destroy(std::span<const Entity>(a).subspan(50, 200));
+  EXPECT_EQ(bulk.entity_count(), 100u);
+  EXPECT_EQ(bulk.count<Health>(), 100u);
+  EXPECT_EQ(bulk.count<Position>(), 50u);
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(bulk.alive(a[i]), i < 50 || i >= 250);
+  // The freed slots come back in the order the loop would give them.
+  std::vector<Entity> again(200);
+  bulk.create(again);
+  for (const Entity e : std::span<const Entity>(b).subspan(50, 200)) loop.destroy(e);
+  for (const Entity e : again) EXPECT_EQ(e, loop.create());
+}
+
+// 70 component types: more than one 64-bit mask word per entity.
+template <int N>
+struct Tag {
+  int value = N;
+};
+template <int... N>
+void add_tags(World& w, Entity e, std::integer_sequence<int, N...>) {
+  (w.add<Tag<N>>(e), ...);
+}
+template <int... N>
+std::size_t tag_components(const World& w, std::integer_sequence<int, N...>) {
+  return (w.count<Tag<N>>() + ...);
+}
+
+TEST(World, DestroyFindsComponentsOfMoreTypesThanAMaskWord) {
+  World w;
+  const Entity early = w.create();
+  w.add<Tag<0>>(early);
+  w.add<Tag<1>>(early);
+  std::vector<Entity> es(20);
+  w.create(es);
+  for (const Entity e : es) add_tags(w, e, std::make_integer_sequence<int, 70>{});  // the masks widen on the way
+  add_tags(w, early, std::make_integer_sequence<int, 70>{});
+  EXPECT_EQ(tag_components(w, std::make_integer_sequence<int, 70>{}), 21u * 70u);
+  int removed = 0;
+  Connection c = w.on_remove<Tag<69>>([&](World&, Entity) { ++removed; });
+  w.destroy(early);
+  w.destroy(es);
+  EXPECT_EQ(removed, 21);
+  EXPECT_EQ(tag_components(w, std::make_integer_sequence<int, 70>{}), 0u);
+  EXPECT_EQ(w.entity_count(), 0u);
 }
 
 }  // namespace

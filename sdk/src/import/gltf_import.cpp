@@ -891,6 +891,12 @@ Status check_structure(const nlohmann::json& json, const std::string& file, cons
       } else if (b == 0 && glb_binary_bytes) {
         has = *glb_binary_bytes;
         source = "the binary chunk holds";
+      } else {
+        // Only a .glb's first buffer may leave out its uri (glTF 2.0, section 4.4.3).
+        return fail(where + " has no 'uri' and " +
+                    (b > 0 ? std::string("only buffers[0] of a .glb can be its binary chunk")
+                           : std::string("the file has no binary chunk")) +
+                    "; give it a uri (a file next to the .gltf or a data: URI), or re-export as .glb");
       }
       if (has && *has < *length)
         return fail(where + ": byteLength is " + std::to_string(*length) + " but " + source + " " +
@@ -956,8 +962,12 @@ Status check_structure(const nlohmann::json& json, const std::string& file, cons
 Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& path, const ImportOptions& options) {
   const std::string file = path.string();
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    return make_error(ErrorCode::NotFound, file + ": file not found (looked for " + path.string() + "); check the path");
+  const auto status = std::filesystem::status(path, ec);
+  if (std::filesystem::is_directory(status))
+    return make_error(ErrorCode::InvalidInput, file + ": is a folder, not a glTF file; give the .gltf or .glb inside it");
+  if (!std::filesystem::is_regular_file(status))
+    return make_error(ErrorCode::NotFound, file + ": file not found (looked for " +
+                                               std::filesystem::absolute(path, ec).string() + "); check the path");
 
   // Sniff the container: binary glTF starts with the magic "glTF".
   std::ifstream stream(path, std::ios::binary);

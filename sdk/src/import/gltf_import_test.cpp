@@ -263,6 +263,8 @@ TEST(GltfImport, StructureIsCheckedBeforeDecoding) {
        {"buffers[0]: byteLength is 100000", "data URI decodes to"}},
       {"positions as bytes", [](nlohmann::json& j) { j["accessors"][0]["componentType"] = 5121; },
        {"accessors[0]", "is VEC3 of unsigned bytes", "it takes VEC3 of floats"}},
+      {"buffer without uri in a .gltf", [](nlohmann::json& j) { j["buffers"][0].erase("uri"); },
+       {"buffers[0] has no 'uri'", "no binary chunk", "data: URI"}},
   };
   const std::filesystem::path path =
       std::filesystem::temp_directory_path() / ("penumbra_structure_" + std::to_string(::getpid()) + ".gltf");
@@ -293,6 +295,15 @@ TEST(GltfImport, StructureIsCheckedBeforeDecoding) {
   std::filesystem::remove(cut);
   ASSERT_FALSE(imported.ok());
   EXPECT_NE(imported.error().message.find("the binary chunk holds"), std::string::npos) << imported.error().message;
+
+  // A folder is named as one, not as a missing file; a missing file's message has the full path.
+  auto folder = import_gltf(world, std::filesystem::temp_directory_path());
+  ASSERT_FALSE(folder.ok());
+  EXPECT_NE(folder.error().message.find("is a folder"), std::string::npos) << folder.error().message;
+  auto missing = import_gltf(world, "no_such_scene.glb");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find(std::filesystem::absolute("no_such_scene.glb").string()), std::string::npos)
+      << missing.error().message;
 }
 
 // A light with a negative intensity is refused naming the light and the fix.

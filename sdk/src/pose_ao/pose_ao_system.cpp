@@ -30,18 +30,20 @@ std::vector<Entity> pose_ao_meshes(World& world) {
 }
 
 std::size_t update_pose_ao(World& world, std::uint64_t since) {
+  // The pools looked up per entity, found once.
+  const ComponentPool<SkinPose> poses = world.pool<SkinPose>();
+  const ComponentPool<SkinnedPoseAO> settings = world.pool<SkinnedPoseAO>();
+  const ComponentPool<VertexAO> outputs = world.pool<VertexAO>();
   std::vector<Entity> due;
   world.view<SkinnedPoseAO, SkinPose>().each([&](Entity e, SkinnedPoseAO& s, SkinPose& pose) {
     if (!s.data || pose.joint_matrices.size() != s.data->joint_count) return;
-    if (world.changed_tick<SkinPose>(e) > since || world.changed_tick<SkinnedPoseAO>(e) > since ||
-        !world.has<VertexAO>(e))
-      due.push_back(e);
+    if (poses.changed_tick(e) > since || settings.changed_tick(e) > since || !outputs.contains(e)) due.push_back(e);
   });
   std::vector<float> features;
   for (Entity e : due) {
-    const std::shared_ptr<const PoseAOData> data = world.get<SkinnedPoseAO>(e).data;
+    const std::shared_ptr<const PoseAOData> data = settings.get(e).data;
     // Theta once per character, then the vectorised per-vertex loop.
-    pose_features(data->joint_parents, world.get<SkinPose>(e).joint_matrices, features);
+    pose_features(data->joint_parents, poses.get(e).joint_matrices, features);
     VertexAO& out = world.has<VertexAO>(e) ? world.patch<VertexAO>(e) : world.add<VertexAO>(e);
     out.ao.resize(data->vertex_count);
     evaluate_pose_ao(*data, features, out.ao);

@@ -70,9 +70,13 @@ glm::vec3 probe_lit_position(const World& world, Entity e) {
 }
 
 std::size_t update_probe_lighting(World& world, std::uint64_t since) {
+  // The pools looked up per entity, found once.
+  const ComponentPool<WorldTransform> transforms = world.pool<WorldTransform>();
+  const ComponentPool<ProbeLit> lits = world.pool<ProbeLit>();
+  const ComponentPool<Mesh> meshes = world.pool<Mesh>();
   bool grids_changed = false;
   world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid&) {
-    if (world.changed_tick<IrradianceProbeGrid>(e) > since || world.changed_tick<WorldTransform>(e) > since)
+    if (world.changed_tick<IrradianceProbeGrid>(e) > since || transforms.changed_tick(e) > since)
       grids_changed = true;
   });
   const std::vector<BlendedProbeGrid> grids = blended_probe_grids(world);
@@ -83,8 +87,8 @@ std::size_t update_probe_lighting(World& world, std::uint64_t since) {
   // The receivers to update: all when a grid changed, else those that moved or are new.
   std::vector<Entity> receivers;
   world.view<ProbeLit, WorldTransform>().each([&](Entity e, ProbeLit&, WorldTransform&) {
-    if (grids_changed || world.changed_tick<WorldTransform>(e) > since || world.changed_tick<ProbeLit>(e) > since ||
-        (world.has<Mesh>(e) && world.changed_tick<Mesh>(e) > since))
+    if (grids_changed || transforms.changed_tick(e) > since || lits.changed_tick(e) > since ||
+        meshes.changed_tick(e) > since)
       receivers.push_back(e);
   });
 

@@ -1,5 +1,5 @@
 // The entity-component-system World: entities with generation-checked handles, components in
-// sparse sets, views, systems run in phases, change ticks, add/remove events and resources.
+// sparse sets, views, groups, systems run in phases, change ticks, add/remove events and resources.
 //
 // Storage. Each component type T has one pool, a sparse set: a paged sparse array (entity index ->
 // dense position) and, per dense position, the entity index, the component and its change tick,
@@ -7,6 +7,15 @@
 // moves existing ones, and consecutive pages are mostly adjacent, so iteration streams). Views
 // walk the smallest pool and find the others' components at the same position when the pools
 // line up (entities given the same components in the same order), else through the sparse array.
+// Component ids are process-wide, but a World holds pools only for the types it uses and keeps a
+// bit mask per entity of the pools that hold its components, so destroy() visits only those.
+//
+// Groups. world.group<A, B>() (or group<A>(observe<B>)) keeps the entities that have every one of
+// the group's types packed at the front of each owned pool (A and B; not the observed B), in the
+// same order, updated on every add and remove. A view of exactly the group's types then walks
+// those front slots: owned components as plain arrays, observed ones by look-up. A pool is owned
+// by at most one group. Members are visited in the owned pools' slot order, which changes as
+// entities join (appended) and leave (the last member takes the leaver's slot).
 //
 // Change ticks. The world has a tick counter (tick()); add() and patch() stamp the component with
 // the current tick. The tick advances before each system runs and after each update(), so every
@@ -16,12 +25,15 @@
 // Structural changes during iteration (defined behaviour). While a view is iterating, each entity
 // that has all the components when iteration starts is visited exactly once unless it loses one
 // of them before it is reached; entities that gain them during iteration are not visited.
-// Removals during iteration leave a tombstone that is compacted when the outermost iteration ends.
+// Removals during iteration leave a tombstone that is compacted when the outermost iteration ends;
+// groups whose membership changed during iteration are repacked then too (until that, views of
+// them take the ordinary path).
 //
 // References. A reference to a component stays valid while other components are added (to any
 // pool) and while anything is removed during iteration. A removal outside iteration (including
 // the compaction at the end of an iteration with removals) may move other components of that
-// pool: fetch again after removing.
+// pool: fetch again after removing. The exception is a group's owned pools: outside iteration,
+// adding or removing any of the group's types may move their components.
 //
 // Thread safety: a World is not thread-safe; use it from one thread at a time (systems may fan
 // work out to the job system over component references they fetched beforehand).
@@ -35,6 +47,7 @@
 #include <functional>
 #include <memory>
 #include <new>
+#include <span>
 #include <string>
 #include <string_view>
 #include <tuple>
@@ -164,6 +177,8 @@ struct BlockDeleter {
 };
 using Block = std::unique_ptr<void, BlockDeleter>;
 
+class GroupBase;
+
 // The type-independent half of a component pool (see the header comment for the layout). Dense
 // entities and ticks live in pages of kPageSize like the components, so nothing is ever copied
 // when a pool grows.
@@ -198,6 +213,8 @@ class PoolBase {
     if (hint < size_ && this->index(hint) == index) return hint;
     return find(index);
   }
+  // As find(), without the range checks. Precondition: the entity with this index has a component here.
+  std::uint32_t position(std::uint32_t index) const { return sparse_[index >> kSparseShift][index & (kSparsePage - 1)]; }
 
   // Appends entity `index` (its component must already be constructed at position size()).
   void push(std::uint32_t entity_index, std::uint64_t tick_value) {
@@ -213,6 +230,10 @@ class PoolBase {
   bool erase(std::uint32_t pos, bool iterating);
   // Removes tombstones, keeping the order of the survivors.
   void compact();
+  // Exchanges two dense slots: components, entities and ticks. Precondition: no tombstones.
+  void swap_slots(std::uint32_t a, std::uint32_t b);
+  // Allocates room for `count` slots, so that filling up to it allocates nothing.
+  void reserve(std::uint32_t count);
   // Calls the connected listeners (those connected during the call included).
   void fire(World& world, std::vector<std::shared_ptr<Listener>>& listeners, Entity e);
   // Drops disconnected listeners unless an event of this pool is firing.
@@ -230,10 +251,16 @@ class PoolBase {
   std::uint32_t aligned_count_ = 0;
   std::vector<std::shared_ptr<Listener>> on_add_, on_remove_;
   int firing_ = 0;
+  ComponentId id_ = 0;                   // the type this pool holds
+  std::uint32_t bit_ = 0;                // this pool's bit in the World's per-entity masks
+  GroupBase* owner_ = nullptr;           // the group that orders this pool, if any
+  std::vector<GroupBase*> groups_;       // every group that has this pool's type, owned or observed
 
  protected:
   virtual void destroy_at(std::uint32_t pos) = 0;
   virtual void relocate(std::uint32_t from, std::uint32_t to) = 0;  // move-construct `to`, destroy `from`
+  virtual void swap_components(std::uint32_t a, std::uint32_t b) = 0;
+  virtual void reserve_components(std::uint32_t count) = 0;
 
  private:
   void set_sparse(std::uint32_t entity_index, std::uint32_t pos) {
@@ -269,14 +296,7 @@ class Pool final : public PoolBase {
   template <class... Args>
   T& emplace(std::uint32_t entity_index, std::uint64_t tick, Args&&... args) {
     const std::uint32_t pos = size();
-    if ((pos >> kPageShift) >= pages_.size()) {
-      // A new block as large as all before it (one page at first): pages stay put, and
-      // consecutive pages are mostly adjacent in memory, which keeps iteration streaming.
-      const std::size_t count = pages_.empty() ? 1 : pages_.size();
-      T* block = static_cast<T*>(allocate_block(sizeof(T) * kPageSize * count, alignof(T)));
-      blocks_.emplace_back(block);
-      for (std::size_t i = 0; i < count; ++i) pages_.push_back(block + i * kPageSize);
-    }
+    if ((pos >> kPageShift) >= pages_.size()) add_block();
     T* slot = &at(pos);
     if constexpr (std::is_constructible_v<T, Args&&...>)
       ::new (static_cast<void*>(slot)) T(std::forward<Args>(args)...);
@@ -292,6 +312,22 @@ class Pool final : public PoolBase {
     ::new (static_cast<void*>(&at(to))) T(std::move(at(from)));
     at(from).~T();
   }
+  void swap_components(std::uint32_t a, std::uint32_t b) override {
+    T held(std::move(at(a)));
+    at(a) = std::move(at(b));
+    at(b) = std::move(held);
+  }
+  void reserve_components(std::uint32_t count) override {
+    while ((std::size_t{count} + kPageSize - 1) / kPageSize > pages_.size()) add_block();
+  }
+  // A new block as large as all before it (one page at first): pages stay put, and consecutive
+  // pages are mostly adjacent in memory, which keeps iteration streaming.
+  void add_block() {
+    const std::size_t count = pages_.empty() ? 1 : pages_.size();
+    T* block = static_cast<T*>(allocate_block(sizeof(T) * kPageSize * count, alignof(T)));
+    blocks_.emplace_back(block);
+    for (std::size_t i = 0; i < count; ++i) pages_.push_back(block + i * kPageSize);
+  }
 
   std::vector<T*> pages_;   // kPageSize components each, inside blocks_
   std::vector<Block> blocks_;  // the allocations
@@ -300,7 +336,40 @@ class Pool final : public PoolBase {
 template <class Fn, class... T>
 inline constexpr bool kTakesEntity = std::is_invocable_v<Fn&, Entity, T&...>;
 
+// A group's membership and the pools it orders (see "Groups" at the top).
+class GroupBase {
+ public:
+  std::vector<PoolBase*> owned, observed;
+  std::vector<ComponentId> types;  // of owned and observed, sorted
+  std::uint32_t size = 0;          // members: slots [0, size) of every owned pool
+  bool dirty = false;              // membership changed during iteration; repacked when it ends
+
+  bool has_type(ComponentId id) const { return std::binary_search(types.begin(), types.end(), id); }
+  // Whether the entity is a member. Precondition: !dirty.
+  bool member(std::uint32_t index) const {
+    const std::uint32_t pos = owned[0]->find(index);
+    return pos != kNone && pos < size;
+  }
+  // Whether the entity has every one of the group's types.
+  bool qualifies(std::uint32_t index) const;
+  // Moves a qualifying non-member to slot `size` of each owned pool. Preconditions: !dirty, no tombstones.
+  void enter(std::uint32_t index);
+  // Moves a member to slot size - 1 of each owned pool and drops it. Preconditions as enter().
+  void leave(std::uint32_t index);
+  // Packs every qualifying entity from scratch, in the first owned pool's order. O(its size).
+  void repack();
+};
+
 }  // namespace detail
+
+// Names the observed types of a group: world.group<Owned...>(observe<Observed...>).
+template <class... T>
+struct Observe {};
+template <class... T>
+inline constexpr Observe<T...> observe{};
+
+template <class T>
+class ComponentPool;
 
 template <class... T>
 class View;
@@ -317,10 +386,14 @@ class World {
   // --- Entities ---------------------------------------------------------------------------
   // A new entity without components. O(1) amortised.
   Entity create();
+  // out.size() new entities into `out`, the same handles as that many create() calls. O(out.size()).
+  void create(std::span<Entity> out);
   // Removes every component (each on_remove fires while the entity is still alive), then bumps
   // the index's generation so every handle to it turns stale. A stale or null handle is ignored.
-  // Cost: O(number of component types this World has seen).
+  // Cost: O(number of components the entity has).
   void destroy(Entity e);
+  // destroy() of each, in order.
+  void destroy(std::span<const Entity> entities);
   // False for null and stale handles.
   bool alive(Entity e) const {
     return e.index < slots_.size() && slots_[e.index] == e.generation;
@@ -340,6 +413,13 @@ class World {
   // on_add fires only when the component was absent. Precondition: alive(e) (asserted).
   template <class T, class... Args>
   T& add(Entity e, Args&&... args);
+  // add<T>(e, value) for each entity in order (events, ticks and groups as add()), allocating the
+  // pool's room once. Preconditions as add().
+  template <class T>
+  void insert(std::span<const Entity> entities, const T& value = T{});
+  // As above with values[i] for entities[i]. Precondition: the sizes match (asserted).
+  template <class T>
+  void insert(std::span<const Entity> entities, std::span<const T> values);
   // False when absent or the handle is stale.
   template <class T>
   bool has(Entity e) const {
@@ -394,6 +474,9 @@ class World {
     const auto* p = pool_if<T>();
     return p ? p->live() : 0;
   }
+  // A handle on T's pool for repeated look-ups, the pool found once (see ComponentPool).
+  template <class T>
+  ComponentPool<T> pool();
 
   // --- Views --------------------------------------------------------------------------------
   // Entities having all of T...; callbacks take (Entity, T&...) or (T&...). See View below.
@@ -402,6 +485,13 @@ class World {
   // Shorthand for view<T...>().each(fn).
   template <class... T, class Fn>
   void each(Fn&& fn);
+  // Declares the group of Owned... and Observed... (see "Groups" at the top) and returns the view
+  // that walks it; calling it again with the same types just returns the view. The first call
+  // packs the pools (O(size of the first owned pool)); then each add or remove of one of these
+  // types costs a swap per owned pool. Throws std::logic_error when an owned type is already
+  // owned by another group.
+  template <class... Owned, class... Observed>
+  View<Owned..., Observed...> group(Observe<Observed...> = {});
 
   // --- Change ticks -------------------------------------------------------------------------
   std::uint64_t tick() const { return tick_; }
@@ -426,12 +516,12 @@ class World {
   // destroyed), while get<T>() still works. Listeners may change the World.
   template <class T>
   Connection on_add(std::function<void(World&, Entity)> fn) {
-    auto& p = pool<T>();
+    auto& p = storage<T>();
     return connect(p, p.on_add_, std::move(fn));
   }
   template <class T>
   Connection on_remove(std::function<void(World&, Entity)> fn) {
-    auto& p = pool<T>();
+    auto& p = storage<T>();
     return connect(p, p.on_remove_, std::move(fn));
   }
 
@@ -448,15 +538,17 @@ class World {
  private:
   template <class... T>
   friend class View;
+  template <class T>
+  friend class ComponentPool;
 
   // The pool of T (cv-qualifiers ignored, so views may name const components).
   template <class T, class U = std::remove_cv_t<T>>
-  detail::Pool<U>& pool() {
+  detail::Pool<U>& storage() {
     const ComponentId id = component_id<U>();
-    if (id >= pools_.size()) pools_.resize(id + 1);
-    if (!pools_[id]) pools_[id] = std::make_unique<detail::Pool<U>>();
-    return static_cast<detail::Pool<U>&>(*pools_[id]);
+    if (id < pools_.size() && pools_[id]) return static_cast<detail::Pool<U>&>(*pools_[id]);
+    return static_cast<detail::Pool<U>&>(add_pool(id, std::make_unique<detail::Pool<U>>()));
   }
+  detail::PoolBase& add_pool(ComponentId id, std::unique_ptr<detail::PoolBase> pool);
   template <class T, class U = std::remove_cv_t<T>>
   detail::Pool<U>* pool_if() {
     const ComponentId id = component_id<U>();
@@ -468,8 +560,16 @@ class World {
     return id < pools_.size() ? static_cast<const detail::Pool<U>*>(pools_[id].get()) : nullptr;
   }
 
+  // add() into T's pool `p`.
+  template <class T, class... Args>
+  T& add_to(detail::Pool<T>& p, Entity e, Args&&... args);
+  // After e gained p's component: its mask bit, and the groups it now completes.
+  void joined(detail::PoolBase& p, std::uint32_t index);
+  // Before e loses p's component: the groups it leaves, and its mask bit.
+  void leaving(detail::PoolBase& p, std::uint32_t index);
   // Removes e's component from `p` (firing on_remove); false when absent.
   bool remove_from(detail::PoolBase& p, Entity e);
+  detail::GroupBase& make_group(std::vector<detail::PoolBase*> owned, std::vector<detail::PoolBase*> observed);
   Connection connect(detail::PoolBase& p, std::vector<std::shared_ptr<detail::Listener>>& list,
                      std::function<void(World&, Entity)> fn);
   // Debug check that a running system declared a write to `id`.
@@ -478,9 +578,9 @@ class World {
   // Iteration scope: structural removals leave tombstones until the outermost scope ends.
   void begin_iteration() { ++iterating_; }
   void end_iteration() {
-    if (--iterating_ == 0 && !pending_compaction_.empty()) compact_pending();
+    if (--iterating_ == 0 && (!pending_compaction_.empty() || !dirty_groups_.empty())) finish_iteration();
   }
-  void compact_pending();
+  void finish_iteration();  // compacts the pools with tombstones, then repacks dirty groups
   struct IterationScope {
     World& w;
     explicit IterationScope(World& world) : w(world) { w.begin_iteration(); }
@@ -496,7 +596,14 @@ class World {
   std::vector<std::uint32_t> slots_;
   std::vector<std::uint32_t> free_;
   std::size_t alive_count_ = 0;
+  // Pools by ComponentId (null for types this World never used), and the same pools by bit_.
   std::vector<std::unique_ptr<detail::PoolBase>> pools_;
+  std::vector<detail::PoolBase*> by_bit_;
+  // Per entity index, mask_words_ 64-bit words: bit b set while by_bit_[b] holds its component.
+  std::vector<std::uint64_t> masks_;
+  std::uint32_t mask_words_ = 1;
+  std::vector<std::unique_ptr<detail::GroupBase>> groups_;
+  std::vector<detail::GroupBase*> dirty_groups_;
   std::vector<std::shared_ptr<void>> resources_;
   std::uint64_t tick_ = 1;
   int iterating_ = 0;
@@ -512,7 +619,9 @@ class World {
 
 // Iterates the entities that have all of T... . Obtain with World::view<T...>(); cheap to create.
 // Cost: one pass over the smallest pool (each) or over the first pool (each_changed), plus one
-// look-up per other component. Structural changes inside the callback follow the rules at the top.
+// look-up per other component; a view of exactly a group's types (each, count) walks only the
+// group's members, its owned components without look-ups. Structural changes inside the callback
+// follow the rules at the top.
 template <class... T>
 class View {
   static_assert(sizeof...(T) >= 1, "a view needs at least one component type");
@@ -526,8 +635,13 @@ class View {
     if constexpr (sizeof...(T) == 1) {
       each_single(fn);
     } else {
-      const Pools pools{&world_->pool<T>()...};
-      dispatch(pools, smallest(pools, Indices{}), fn, All{}, Indices{});
+      const Pools pools{&world_->storage<T>()...};
+      if (const detail::GroupBase* g = group_of(pools, Indices{})) {
+        const bool all_owned = owns_all(pools, *g, Indices{});
+        dispatch(pools, first_owned(pools, *g, Indices{}), fn, All{}, g->size, all_owned, Indices{});
+      } else {
+        dispatch(pools, smallest(pools, Indices{}), fn, All{}, kWholePool, false, Indices{});
+      }
     }
   }
 
@@ -535,12 +649,16 @@ class View {
   // tick `since` (pass SystemContext::last_run).
   template <class Fn>
   void each_changed(std::uint64_t since, Fn&& fn) {
-    const Pools pools{&world_->pool<T>()...};
-    each_lead<0>(pools, fn, ChangedAfter{std::get<0>(pools), since});
+    const Pools pools{&world_->storage<T>()...};
+    each_lead<0>(pools, fn, ChangedAfter{std::get<0>(pools), since}, kWholePool, false, Indices{});
   }
 
   // Number of entities with all of T... (one pass for several components).
   std::size_t count() {
+    if constexpr (sizeof...(T) > 1) {
+      const Pools pools{&world_->storage<T>()...};
+      if (const detail::GroupBase* g = group_of(pools, Indices{}); g && !has_tombstones(pools, Indices{})) return g->size;
+    }
     std::size_t n = 0;
     each([&n](Entity, T&...) { ++n; });
     return n;
@@ -559,6 +677,7 @@ class View {
   using First = std::tuple_element_t<0, std::tuple<T...>>;
   using Pools = std::tuple<detail::Pool<std::remove_cv_t<T>>*...>;
   using Indices = std::index_sequence_for<T...>;
+  static constexpr std::uint32_t kWholePool = detail::kNone;  // each_lead's limit: every slot of the lead
 
   // Which of the lead pool's slots to visit.
   struct All {
@@ -576,7 +695,7 @@ class View {
   // when the pool has some.
   template <class Fn>
   void each_single(Fn& fn) {
-    auto& p = world_->pool<First>();
+    auto& p = world_->storage<First>();
     World::IterationScope scope(*world_);
     const std::uint32_t n = p.size();
     for (std::uint32_t base = 0; base < n; base += detail::kPageSize) {
@@ -602,10 +721,34 @@ class View {
     return best;
   }
 
+  // The group of exactly these types, when it is packed.
+  template <std::size_t... I>
+  static const detail::GroupBase* group_of(const Pools& pools, std::index_sequence<I...>) {
+    const detail::GroupBase* g = nullptr;
+    ((g = g ? g : std::get<I>(pools)->owner_), ...);
+    if (!g || g->dirty || g->types.size() != sizeof...(T)) return nullptr;
+    return (g->has_type(component_id<T>()) && ...) ? g : nullptr;
+  }
+  template <std::size_t... I>
+  static bool owns_all(const Pools& pools, const detail::GroupBase& g, std::index_sequence<I...>) {
+    return ((std::get<I>(pools)->owner_ == &g) && ...);
+  }
+  template <std::size_t... I>
+  static std::size_t first_owned(const Pools& pools, const detail::GroupBase& g, std::index_sequence<I...>) {
+    std::size_t first = sizeof...(I);
+    ((first = first == sizeof...(I) && std::get<I>(pools)->owner_ == &g ? I : first), ...);
+    return first;
+  }
+  template <std::size_t... I>
+  static bool has_tombstones(const Pools& pools, std::index_sequence<I...>) {
+    return ((std::get<I>(pools)->tombstones_ != 0) || ...);
+  }
+
   // Runs each_lead<L> for the runtime lead index, so the lead's position needs no look-up.
   template <class Fn, class Filter, std::size_t... I>
-  void dispatch(const Pools& pools, std::size_t lead, Fn& fn, const Filter& filter, std::index_sequence<I...>) {
-    ((lead == I ? each_lead<I>(pools, fn, filter) : void()), ...);
+  void dispatch(const Pools& pools, std::size_t lead, Fn& fn, const Filter& filter, std::uint32_t limit,
+                bool lined_up, std::index_sequence<I...>) {
+    ((lead == I ? each_lead<I>(pools, fn, filter, limit, lined_up, Indices{}) : void()), ...);
   }
 
   // Where a pool's page `page` starts: its components, its entities and how many slots it holds
@@ -624,18 +767,15 @@ class View {
     return {p->page(page), p->index_page(page), left < detail::kPageSize ? left : detail::kPageSize};
   }
 
-  template <std::size_t L, class Fn, class Filter>
-  void each_lead(const Pools& pools, Fn& fn, const Filter& filter) {
-    each_lead<L>(pools, fn, filter, Indices{});
-  }
-
-  // Walks the lead pool page by page; the other pools are first tried at the same slot (pools
-  // filled in the same order line up), then looked up through their sparse arrays.
+  // Walks the lead pool's first `limit` slots page by page (a group's members, or kWholePool);
+  // the other pools are first tried at the same slot (pools filled in the same order line up,
+  // and `lined_up` says a group guarantees it), then looked up through their sparse arrays.
   template <std::size_t L, class Fn, class Filter, std::size_t... I>
-  void each_lead(const Pools& pools, Fn& fn, const Filter& filter, std::index_sequence<I...>) {
+  void each_lead(const Pools& pools, Fn& fn, const Filter& filter, std::uint32_t limit, bool lined_up,
+                 std::index_sequence<I...>) {
     const auto* lead = std::get<L>(pools);
     World::IterationScope scope(*world_);
-    const std::uint32_t n = lead->size();
+    const std::uint32_t n = std::min(limit, lead->size());
     for (std::uint32_t base = 0; base < n; base += detail::kPageSize) {
       const std::uint32_t page = base >> detail::kPageShift;
       const std::tuple<Cursor<T>...> cursors{cursor<T>(std::get<I>(pools), page)...};
@@ -644,7 +784,7 @@ class View {
       std::uint32_t i = 0;
       // Fast path: every pool holds this page's entities in the same slots and has no
       // tombstones, so the loop needs no look-up; it stops where a callback leaves a tombstone.
-      if (Filter::kAll && aligned(pools, cursors, base, end, std::index_sequence<I...>{})) {
+      if (Filter::kAll && (lined_up || aligned(pools, cursors, base, end, std::index_sequence<I...>{}))) {
         for (; i < end && !(std::get<I>(pools)->tombstones_ || ...); ++i) {
           if constexpr (detail::kTakesEntity<Fn, T...>)
             fn(world_->handle(indices[i]), std::get<I>(cursors).data[i]...);
@@ -709,13 +849,69 @@ class View {
   World* world_;
 };
 
+// A handle on one component pool of a World, for systems that look components up many times:
+// the pool is found once (World::pool<T>()), so each get is two array look-ups. Valid while the
+// World lives and is not moved; the references it returns follow the rules at the top.
+template <class T>
+class ComponentPool {
+  using U = std::remove_cv_t<T>;
+
+ public:
+  ComponentPool(World& world, detail::Pool<U>& pool) : world_(&world), pool_(&pool) {}
+
+  // Whether e is alive and has T. O(1).
+  bool contains(Entity e) const { return world_->alive(e) && pool_->find(e.index) != detail::kNone; }
+  // Checked: nullptr when absent or the handle is stale. O(1): the generation, then two look-ups.
+  T* try_get(Entity e) const {
+    if (!world_->alive(e)) return nullptr;
+    const std::uint32_t pos = pool_->find(e.index);
+    return pos == detail::kNone ? nullptr : &pool_->at(pos);
+  }
+  // Unchecked: precondition contains(e), asserted in debug builds only. O(1): two look-ups.
+  T& get(Entity e) const {
+    assert(contains(e) && "ComponentPool::get: the entity lacks this component or the handle is stale");
+    return pool_->at(pool_->position(e.index));
+  }
+  // The tick at which e's T was last added or patched; 0 when absent or the handle is stale.
+  std::uint64_t changed_tick(Entity e) const {
+    if (!world_->alive(e)) return 0;
+    const std::uint32_t pos = pool_->find(e.index);
+    return pos == detail::kNone ? 0 : pool_->tick(pos);
+  }
+  // Number of entities with T.
+  std::size_t size() const { return pool_->live(); }
+
+ private:
+  const World* world_;
+  detail::Pool<U>* pool_;
+};
+
 // --- World templates ---------------------------------------------------------------------------
 
 template <class T, class... Args>
 T& World::add(Entity e, Args&&... args) {
+  return add_to(storage<T>(), e, std::forward<Args>(args)...);
+}
+
+template <class T>
+void World::insert(std::span<const Entity> entities, const T& value) {
+  auto& p = storage<T>();
+  p.reserve(p.size() + static_cast<std::uint32_t>(entities.size()));
+  for (const Entity e : entities) add_to(p, e, value);
+}
+
+template <class T>
+void World::insert(std::span<const Entity> entities, std::span<const T> values) {
+  assert(entities.size() == values.size() && "World::insert: one value per entity");
+  auto& p = storage<T>();
+  p.reserve(p.size() + static_cast<std::uint32_t>(entities.size()));
+  for (std::size_t i = 0; i < entities.size(); ++i) add_to(p, entities[i], values[i]);
+}
+
+template <class T, class... Args>
+T& World::add_to(detail::Pool<T>& p, Entity e, Args&&... args) {
   assert(alive(e) && "World::add: stale or null entity handle");
   assert(write_declared(component_id<T>()) && "a system adds a component it did not declare in SystemDesc::writes");
-  auto& p = pool<T>();
   const std::uint32_t pos = p.find(e.index);
   if (pos != detail::kNone) {
     T& c = p.at(pos);
@@ -726,8 +922,10 @@ T& World::add(Entity e, Args&&... args) {
     p.tick(pos) = tick_;
     return c;
   }
-  T& c = p.emplace(e.index, tick_, std::forward<Args>(args)...);
-  if (p.on_add_.empty()) return c;
+  T* c = &p.emplace(e.index, tick_, std::forward<Args>(args)...);
+  joined(p, e.index);
+  if (!p.groups_.empty()) c = &p.at(p.find(e.index));  // joining a group moves it
+  if (p.on_add_.empty()) return *c;
   p.fire(*this, p.on_add_, e);
   // A listener may have removed or replaced it (or moved it by a removal): look it up again.
   T* now = try_get<T>(e);
@@ -762,6 +960,19 @@ View<T...> World::view() {
 template <class... T, class Fn>
 void World::each(Fn&& fn) {
   view<T...>().each(std::forward<Fn>(fn));
+}
+
+template <class... Owned, class... Observed>
+View<Owned..., Observed...> World::group(Observe<Observed...>) {
+  static_assert(sizeof...(Owned) >= 1 && sizeof...(Owned) + sizeof...(Observed) >= 2,
+                "a group owns at least one type and has at least two");
+  make_group({&storage<Owned>()...}, {&storage<Observed>()...});
+  return View<Owned..., Observed...>(*this);
+}
+
+template <class T>
+ComponentPool<T> World::pool() {
+  return ComponentPool<T>(*this, storage<T>());
 }
 
 }  // namespace penumbra
