@@ -90,9 +90,9 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
   const std::uint32_t removed = index(pos);
   ++layout_version_;
   sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
-  destroy_at(pos);
   if (iterating) {
     // Leave a tombstone: positions the running iteration has not reached must not move.
+    destroy_at(pos);
     index(pos) = kNone;
     ++tombstones_;
     return true;
@@ -100,10 +100,13 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
   // Swap-and-pop: the last component moves into the hole.
   const std::uint32_t last = size_ - 1;
   if (pos != last) {
-    relocate(last, pos);
-    index(pos) = index(last);
+    move_last_into(pos, last);
+    const std::uint32_t moved = index(last);
+    index(pos) = moved;
     tick(pos) = tick(last);
-    set_sparse(index(pos), pos);
+    sparse_[moved >> kSparseShift][moved & (kSparsePage - 1)] = pos;
+  } else {
+    destroy_at(pos);
   }
   --size_;
   return false;
@@ -239,7 +242,7 @@ Entity World::create() {
   const auto index = static_cast<std::uint32_t>(slots_.size());
   assert(index != detail::kNone && "World::create: 2^32 - 1 entity slots in use");
   slots_.push_back(0);
-  masks_.resize(masks_.size() + mask_words_, 0);
+  for (std::uint32_t w = 0; w < mask_words_; ++w) masks_.push_back(0);
   return Entity{index, 0};
 }
 
@@ -256,6 +259,7 @@ void World::destroy(Entity e) {
   // A component whose removal is already under way up the stack reports false and ends the loop.
   for (bool removed = true; removed && alive(e);) {
     removed = false;
+    bool left = false;
     for (std::uint32_t word = 0; word < mask_words_ && alive(e); ++word) {
       std::uint64_t bits = masks_[std::size_t{e.index} * mask_words_ + word];
       while (bits != 0 && alive(e)) {
@@ -263,7 +267,9 @@ void World::destroy(Entity e) {
         bits &= bits - 1;
         removed |= remove_from(*by_bit_[bit], e);
       }
+      left = left || (alive(e) && masks_[std::size_t{e.index} * mask_words_ + word] != 0);
     }
+    removed = removed && left;
   }
   if (!alive(e)) return;  // a listener destroyed it already
   --alive_count_;
@@ -300,8 +306,7 @@ detail::PoolBase& World::add_pool(ComponentId id, std::unique_ptr<detail::PoolBa
   return *pools_[id];
 }
 
-void World::joined(detail::PoolBase& p, std::uint32_t index) {
-  masks_[std::size_t{index} * mask_words_ + p.bit_ / 64] |= std::uint64_t{1} << (p.bit_ % 64);
+void World::join_groups(detail::PoolBase& p, std::uint32_t index) {
   for (detail::GroupBase* g : p.groups_) {
     if (g->dirty || !g->qualifies(index)) continue;
     if (iterating_ > 0) {
@@ -313,7 +318,7 @@ void World::joined(detail::PoolBase& p, std::uint32_t index) {
   }
 }
 
-void World::leaving(detail::PoolBase& p, std::uint32_t index) {
+void World::leave_groups(detail::PoolBase& p, std::uint32_t index) {
   for (detail::GroupBase* g : p.groups_) {
     if (g->dirty || !g->member(index)) continue;
     if (iterating_ > 0) {
@@ -323,7 +328,6 @@ void World::leaving(detail::PoolBase& p, std::uint32_t index) {
       g->leave(index);
     }
   }
-  masks_[std::size_t{index} * mask_words_ + p.bit_ / 64] &= ~(std::uint64_t{1} << (p.bit_ % 64));
 }
 
 detail::GroupBase& World::make_group(std::vector<detail::PoolBase*> owned, std::vector<detail::PoolBase*> observed) {
@@ -378,8 +382,11 @@ bool World::remove_from(detail::PoolBase& p, Entity e) {
     pos = p.find(e.index);  // a listener may have removed it, or moved it by another removal
     if (pos == detail::kNone) return true;
   }
-  leaving(p, e.index);
-  if (!p.groups_.empty()) pos = p.find(e.index);  // leaving a group moves it
+  if (!p.groups_.empty()) {
+    leave_groups(p, e.index);
+    pos = p.find(e.index);  // leaving a group moves it
+  }
+  mask_word(e.index, p.bit_) &= ~mask_bit(p.bit_);
   if (p.erase(pos, iterating_ > 0) && !p.compact_pending_) {
     p.compact_pending_ = true;
     pending_compaction_.push_back(&p);

@@ -259,6 +259,7 @@ class PoolBase {
  protected:
   virtual void destroy_at(std::uint32_t pos) = 0;
   virtual void relocate(std::uint32_t from, std::uint32_t to) = 0;  // move-construct `to`, destroy `from`
+  virtual void move_last_into(std::uint32_t pos, std::uint32_t last) = 0;  // move-assign `pos`, destroy `last`
   virtual void swap_components(std::uint32_t a, std::uint32_t b) = 0;
   virtual void reserve_components(std::uint32_t count) = 0;
 
@@ -311,6 +312,10 @@ class Pool final : public PoolBase {
   void relocate(std::uint32_t from, std::uint32_t to) override {
     ::new (static_cast<void*>(&at(to))) T(std::move(at(from)));
     at(from).~T();
+  }
+  void move_last_into(std::uint32_t pos, std::uint32_t last) override {
+    at(pos) = std::move(at(last));
+    at(last).~T();
   }
   void swap_components(std::uint32_t a, std::uint32_t b) override {
     T held(std::move(at(a)));
@@ -563,10 +568,15 @@ class World {
   // add() into T's pool `p`.
   template <class T, class... Args>
   T& add_to(detail::Pool<T>& p, Entity e, Args&&... args);
-  // After e gained p's component: its mask bit, and the groups it now completes.
-  void joined(detail::PoolBase& p, std::uint32_t index);
-  // Before e loses p's component: the groups it leaves, and its mask bit.
-  void leaving(detail::PoolBase& p, std::uint32_t index);
+  // The word of entity `index`'s mask that holds `bit`, and the bit within it.
+  std::uint64_t& mask_word(std::uint32_t index, std::uint32_t bit) {
+    return masks_[std::size_t{index} * mask_words_ + bit / 64];
+  }
+  static std::uint64_t mask_bit(std::uint32_t bit) { return std::uint64_t{1} << (bit % 64); }
+  // After e gained p's component: the groups it now completes.
+  void join_groups(detail::PoolBase& p, std::uint32_t index);
+  // Before e loses p's component: the groups it leaves.
+  void leave_groups(detail::PoolBase& p, std::uint32_t index);
   // Removes e's component from `p` (firing on_remove); false when absent.
   bool remove_from(detail::PoolBase& p, Entity e);
   detail::GroupBase& make_group(std::vector<detail::PoolBase*> owned, std::vector<detail::PoolBase*> observed);
@@ -923,8 +933,11 @@ T& World::add_to(detail::Pool<T>& p, Entity e, Args&&... args) {
     return c;
   }
   T* c = &p.emplace(e.index, tick_, std::forward<Args>(args)...);
-  joined(p, e.index);
-  if (!p.groups_.empty()) c = &p.at(p.find(e.index));  // joining a group moves it
+  mask_word(e.index, p.bit_) |= mask_bit(p.bit_);
+  if (!p.groups_.empty()) {
+    join_groups(p, e.index);
+    c = &p.at(p.find(e.index));  // joining a group moves it
+  }
   if (p.on_add_.empty()) return *c;
   p.fire(*this, p.on_add_, e);
   // A listener may have removed or replaced it (or moved it by a removal): look it up again.
