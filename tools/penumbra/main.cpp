@@ -78,8 +78,8 @@ int main(int argc, char** argv) {
   // The SDK's warnings and errors (dropped triangles, skipped primitives, chunks no module reads) on
   // stderr; the tool's own results go to stdout.
   penumbra::set_log_level(level);
-  penumbra::set_log_sink([](penumbra::LogLevel level, std::string_view message) {
-    std::fprintf(stderr, "penumbra: %s: %.*s\n", penumbra::to_string(level), static_cast<int>(message.size()),
+  penumbra::set_log_sink([](penumbra::LogLevel severity, std::string_view message) {
+    std::fprintf(stderr, "penumbra: %s: %.*s\n", penumbra::to_string(severity), static_cast<int>(message.size()),
                  message.data());
   });
   penumbra::cli::Args args(std::move(words));

@@ -265,7 +265,13 @@ void World::destroy(Entity e) {
       while (bits != 0 && alive(e)) {
         const auto bit = word * 64u + static_cast<std::uint32_t>(std::countr_zero(bits));
         bits &= bits - 1;
-        removed |= remove_from(*by_bit_[bit], e);
+        detail::PoolBase& p = *by_bit_[bit];
+        if (p.on_remove_.empty() && p.groups_.empty()) {
+          erase_at(p, e.index, p.position(e.index));  // nothing to tell: no look-up past the mask
+          removed = true;
+        } else {
+          removed |= remove_from(p, e);
+        }
       }
       left = left || (alive(e) && masks_[std::size_t{e.index} * mask_words_ + word] != 0);
     }
@@ -386,12 +392,16 @@ bool World::remove_from(detail::PoolBase& p, Entity e) {
     leave_groups(p, e.index);
     pos = p.find(e.index);  // leaving a group moves it
   }
-  mask_word(e.index, p.bit_) &= ~mask_bit(p.bit_);
+  erase_at(p, e.index, pos);
+  return true;
+}
+
+void World::erase_at(detail::PoolBase& p, std::uint32_t index, std::uint32_t pos) {
+  mask_word(index, p.bit_) &= ~mask_bit(p.bit_);
   if (p.erase(pos, iterating_ > 0) && !p.compact_pending_) {
     p.compact_pending_ = true;
     pending_compaction_.push_back(&p);
   }
-  return true;
 }
 
 void World::finish_iteration() {

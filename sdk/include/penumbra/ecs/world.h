@@ -579,6 +579,8 @@ class World {
   void leave_groups(detail::PoolBase& p, std::uint32_t index);
   // Removes e's component from `p` (firing on_remove); false when absent.
   bool remove_from(detail::PoolBase& p, Entity e);
+  // The removal itself: clears the mask bit, erases slot `pos` (a tombstone while iterating).
+  void erase_at(detail::PoolBase& p, std::uint32_t index, std::uint32_t pos);
   detail::GroupBase& make_group(std::vector<detail::PoolBase*> owned, std::vector<detail::PoolBase*> observed);
   Connection connect(detail::PoolBase& p, std::vector<std::shared_ptr<detail::Listener>>& list,
                      std::function<void(World&, Entity)> fn);
