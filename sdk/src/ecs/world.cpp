@@ -87,28 +87,22 @@ void PoolBase::grow() {
 }
 
 bool PoolBase::erase(std::uint32_t pos, bool iterating) {
-  const std::uint32_t removed = index(pos);
-  ++layout_version_;
-  sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
   if (iterating) {
     // Leave a tombstone: positions the running iteration has not reached must not move.
+    const std::uint32_t removed = index(pos);
+    ++layout_version_;
+    sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
     destroy_at(pos);
     index(pos) = kNone;
     ++tombstones_;
     return true;
   }
   // Swap-and-pop: the last component moves into the hole.
-  const std::uint32_t last = size_ - 1;
-  if (pos != last) {
+  const std::uint32_t last = pop_slot(pos);
+  if (pos != last)
     move_last_into(pos, last);
-    const std::uint32_t moved = index(last);
-    index(pos) = moved;
-    tick(pos) = tick(last);
-    sparse_[moved >> kSparseShift][moved & (kSparsePage - 1)] = pos;
-  } else {
+  else
     destroy_at(pos);
-  }
-  --size_;
   return false;
 }
 
@@ -242,19 +236,18 @@ Entity World::create() {
   const auto index = static_cast<std::uint32_t>(slots_.size());
   assert(index != detail::kNone && "World::create: 2^32 - 1 entity slots in use");
   slots_.push_back(0);
-  for (std::uint32_t w = 0; w < mask_words_; ++w) masks_.push_back(0);
   return Entity{index, 0};
 }
 
 void World::create(std::span<Entity> out) {
   const std::size_t fresh = out.size() > free_.size() ? out.size() - free_.size() : 0;
   slots_.reserve(slots_.size() + fresh);
-  masks_.reserve(masks_.size() + fresh * mask_words_);
   for (Entity& e : out) e = create();
 }
 
 void World::destroy(Entity e) {
   if (!alive(e)) return;
+  if (!has_mask_row(e.index)) return forget(e);  // it never had a component
   // Remove every component the mask names; repeat in case an on_remove listener added one back.
   // A component whose removal is already under way up the stack reports false and ends the loop.
   for (bool removed = true; removed && alive(e);) {
@@ -278,6 +271,10 @@ void World::destroy(Entity e) {
     removed = removed && left;
   }
   if (!alive(e)) return;  // a listener destroyed it already
+  forget(e);
+}
+
+void World::forget(Entity e) {
   --alive_count_;
   // Bump the generation so old handles turn stale; an exhausted index is retired, never reused.
   const std::uint32_t next = e.generation + 1;
@@ -301,8 +298,9 @@ detail::PoolBase& World::add_pool(ComponentId id, std::unique_ptr<detail::PoolBa
   if (by_bit_.size() > std::size_t{mask_words_} * 64) {
     // One more mask word per entity: spread the masks out.
     const std::uint32_t words = mask_words_ + 1;
-    std::vector<std::uint64_t> masks(slots_.size() * words, 0);
-    for (std::size_t i = 0; i < slots_.size(); ++i)
+    const std::size_t rows = masks_.size() / mask_words_;
+    std::vector<std::uint64_t> masks(rows * words, 0);
+    for (std::size_t i = 0; i < rows; ++i)
       std::copy_n(masks_.begin() + static_cast<std::ptrdiff_t>(i * mask_words_), mask_words_,
                   masks.begin() + static_cast<std::ptrdiff_t>(i * words));
     masks_ = std::move(masks);
@@ -310,6 +308,12 @@ detail::PoolBase& World::add_pool(ComponentId id, std::unique_ptr<detail::PoolBa
   }
   pools_[id] = std::move(pool);
   return *pools_[id];
+}
+
+void World::add_mask_rows(std::uint32_t index) {
+  // Rows for every index created so far and the room slots_ has for more: amortised O(1).
+  const std::size_t rows = std::max<std::size_t>(slots_.capacity(), std::size_t{index} + 1);
+  masks_.resize(rows * mask_words_, 0);
 }
 
 void World::join_groups(detail::PoolBase& p, std::uint32_t index) {

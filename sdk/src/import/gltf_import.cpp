@@ -892,7 +892,7 @@ Status check_structure(const nlohmann::json& json, const std::string& file, cons
         has = *glb_binary_bytes;
         source = "the binary chunk holds";
       } else {
-        // Only a .glb's first buffer may leave out its uri (glTF 2.0, section 4.4.3).
+        // Only a .glb's first buffer may leave out its uri: it is the binary chunk (glTF 2.0, GLB-stored buffer).
         return fail(where + " has no 'uri' and " +
                     (b > 0 ? std::string("only buffers[0] of a .glb can be its binary chunk")
                            : std::string("the file has no binary chunk")) +

@@ -11,8 +11,8 @@
 // bit mask per entity of the pools that hold its components, so destroy() visits only those.
 //
 // Groups. world.group<A, B>() (or group<A>(observe<B>)) keeps the entities that have every one of
-// the group's types packed at the front of each owned pool (A and B; not the observed B), in the
-// same order, updated on every add and remove. A view of exactly the group's types then walks
+// the group's types packed at the front of each owned pool (A and B in the first form; only A in
+// the second, where B is observed), in the same order, updated on every add and remove. A view of exactly the group's types then walks
 // those front slots: owned components as plain arrays, observed ones by look-up. A pool is owned
 // by at most one group. Members are visited in the owned pools' slot order, which changes as
 // entities join (appended) and leave (the last member takes the leaver's slot).
@@ -228,6 +228,22 @@ class PoolBase {
   // Removes the component at `pos`: swap-and-pop, or a tombstone while `iterating`.
   // Returns true when a tombstone was left (the pool then needs compact()).
   bool erase(std::uint32_t pos, bool iterating);
+  // Swap-and-pop of slot `pos` for the entities, ticks and sparse array: the last slot's entity
+  // takes `pos`. Returns that last slot, whose component the caller moves to `pos` (unless they
+  // are the same) and destroys.
+  std::uint32_t pop_slot(std::uint32_t pos) {
+    const std::uint32_t removed = index(pos), last = size_ - 1;
+    ++layout_version_;
+    sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
+    if (pos != last) {
+      const std::uint32_t moved = index(last);
+      index(pos) = moved;
+      tick(pos) = tick(last);
+      sparse_[moved >> kSparseShift][moved & (kSparsePage - 1)] = pos;
+    }
+    --size_;
+    return last;
+  }
   // Removes tombstones, keeping the order of the survivors.
   void compact();
   // Exchanges two dense slots: components, entities and ticks. Precondition: no tombstones.
@@ -292,6 +308,12 @@ class Pool final : public PoolBase {
   T& at(std::uint32_t pos) { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
   const T& at(std::uint32_t pos) const { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
   T* page(std::uint32_t p) { return pages_[p]; }
+  // erase(pos, false) without the virtual calls.
+  void pop(std::uint32_t pos) {
+    const std::uint32_t last = pop_slot(pos);
+    if (pos != last) at(pos) = std::move(at(last));
+    at(last).~T();
+  }
 
   // Constructs a new component at the end of the pool.
   template <class... Args>
@@ -568,10 +590,15 @@ class World {
   // add() into T's pool `p`.
   template <class T, class... Args>
   T& add_to(detail::Pool<T>& p, Entity e, Args&&... args);
-  // The word of entity `index`'s mask that holds `bit`, and the bit within it.
+  // The word of entity `index`'s mask that holds `bit`, and the bit within it. Precondition:
+  // has_mask_row(index) (rows are added when an entity gains its first component).
   std::uint64_t& mask_word(std::uint32_t index, std::uint32_t bit) {
     return masks_[std::size_t{index} * mask_words_ + bit / 64];
   }
+  bool has_mask_row(std::uint32_t index) const { return std::size_t{index} * mask_words_ < masks_.size(); }
+  void add_mask_rows(std::uint32_t index);
+  // The end of destroy(): the generation bump that turns handles stale, and the free list.
+  void forget(Entity e);
   static std::uint64_t mask_bit(std::uint32_t bit) { return std::uint64_t{1} << (bit % 64); }
   // After e gained p's component: the groups it now completes.
   void join_groups(detail::PoolBase& p, std::uint32_t index);
@@ -612,6 +639,7 @@ class World {
   std::vector<std::unique_ptr<detail::PoolBase>> pools_;
   std::vector<detail::PoolBase*> by_bit_;
   // Per entity index, mask_words_ 64-bit words: bit b set while by_bit_[b] holds its component.
+  // Indices past the end have no components (rows are added on an entity's first add()).
   std::vector<std::uint64_t> masks_;
   std::uint32_t mask_words_ = 1;
   std::vector<std::unique_ptr<detail::GroupBase>> groups_;
@@ -935,6 +963,7 @@ T& World::add_to(detail::Pool<T>& p, Entity e, Args&&... args) {
     return c;
   }
   T* c = &p.emplace(e.index, tick_, std::forward<Args>(args)...);
+  if (!has_mask_row(e.index)) add_mask_rows(e.index);
   mask_word(e.index, p.bit_) |= mask_bit(p.bit_);
   if (!p.groups_.empty()) {
     join_groups(p, e.index);
@@ -953,7 +982,13 @@ bool World::remove(Entity e) {
   assert(write_declared(component_id<T>()) && "a system removes a component it did not declare in SystemDesc::writes");
   auto* p = pool_if<T>();
   if (!p || !alive(e)) return false;
-  return remove_from(*p, e);
+  if (!p->on_remove_.empty() || !p->groups_.empty() || iterating_ > 0) return remove_from(*p, e);
+  // Nothing to tell and no slot to keep: the typed swap-and-pop.
+  const std::uint32_t pos = p->find(e.index);
+  if (pos == detail::kNone) return false;
+  mask_word(e.index, p->bit_) &= ~mask_bit(p->bit_);
+  p->pop(pos);
+  return true;
 }
 
 template <class T>
