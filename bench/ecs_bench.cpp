@@ -50,6 +50,12 @@ std::vector<Entity> fill_two(World& w, std::size_t n) {
   return es;
 }
 
+// One step of the two-component update, Position += Velocity * dt.
+void step_two(World& w) {
+  w.each<Position, Velocity>([](Position& p, const Velocity& v) { p.value += v.value * kDt; });
+  benchmark::ClobberMemory();
+}
+
 // n entities with Position, every tenth with Velocity too; their handles.
 std::vector<Entity> fill_sparse(World& w, std::size_t n) {
   std::vector<Entity> es(n);
@@ -110,10 +116,7 @@ std::vector<Case> cases_for(std::size_t n) {
   cases.push_back({"ecs_iterate_2" + suffix, [n, items](benchmark::State& state) {
                      World w;
                      fill_two(w, n);
-                     for (auto _ : state) {
-                       w.each<Position, Velocity>([](Position& p, const Velocity& v) { p.value += v.value * kDt; });
-                       benchmark::ClobberMemory();
-                     }
+                     for (auto _ : state) step_two(w);
                      items(state);
                    }});
 
@@ -135,25 +138,16 @@ std::vector<Case> cases_for(std::size_t n) {
                      }
                      items(state);
                    }});
-  cases.push_back({"ecs_iterate_sparse_group" + suffix, [n, items](benchmark::State& state) {
-                     World w;
-                     w.group<Position, Velocity>();
-                     fill_sparse(w, n);
-                     for (auto _ : state) {
-                       w.each<Position, Velocity>([](Position& p, const Velocity& v) { p.value += v.value * kDt; });
-                       benchmark::ClobberMemory();
-                     }
-                     items(state);
-                   }});
-  cases.push_back({"ecs_iterate_sparse_view" + suffix, [n, items](benchmark::State& state) {
-                     World w;
-                     fill_sparse(w, n);
-                     for (auto _ : state) {
-                       w.each<Position, Velocity>([](Position& p, const Velocity& v) { p.value += v.value * kDt; });
-                       benchmark::ClobberMemory();
-                     }
-                     items(state);
-                   }});
+  for (const bool grouped : {true, false}) {
+    cases.push_back({std::string(grouped ? "ecs_iterate_sparse_group" : "ecs_iterate_sparse_view") + suffix,
+                     [n, items, grouped](benchmark::State& state) {
+                       World w;
+                       if (grouped) w.group<Position, Velocity>();
+                       fill_sparse(w, n);
+                       for (auto _ : state) step_two(w);
+                       items(state);
+                     }});
+  }
 
   // Create entities with two components into a fresh World (first-touch page faults included;
   // the container's teardown is not timed).
