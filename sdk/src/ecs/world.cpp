@@ -236,18 +236,19 @@ Entity World::create() {
   const auto index = static_cast<std::uint32_t>(slots_.size());
   assert(index != detail::kNone && "World::create: 2^32 - 1 entity slots in use");
   slots_.push_back(0);
+  for (std::uint32_t w = 0; w < mask_words_; ++w) masks_.push_back(0);
   return Entity{index, 0};
 }
 
 void World::create(std::span<Entity> out) {
   const std::size_t fresh = out.size() > free_.size() ? out.size() - free_.size() : 0;
   slots_.reserve(slots_.size() + fresh);
+  masks_.reserve(masks_.size() + fresh * mask_words_);
   for (Entity& e : out) e = create();
 }
 
 void World::destroy(Entity e) {
   if (!alive(e)) return;
-  if (!has_mask_row(e.index)) return forget(e);  // it never had a component
   // Remove every component the mask names; repeat in case an on_remove listener added one back.
   // A component whose removal is already under way up the stack reports false and ends the loop.
   for (bool removed = true; removed && alive(e);) {
@@ -271,10 +272,6 @@ void World::destroy(Entity e) {
     removed = removed && left;
   }
   if (!alive(e)) return;  // a listener destroyed it already
-  forget(e);
-}
-
-void World::forget(Entity e) {
   --alive_count_;
   // Bump the generation so old handles turn stale; an exhausted index is retired, never reused.
   const std::uint32_t next = e.generation + 1;
@@ -308,12 +305,6 @@ detail::PoolBase& World::add_pool(ComponentId id, std::unique_ptr<detail::PoolBa
   }
   pools_[id] = std::move(pool);
   return *pools_[id];
-}
-
-void World::add_mask_rows(std::uint32_t index) {
-  // Rows for every index created so far and the room slots_ has for more: amortised O(1).
-  const std::size_t rows = std::max<std::size_t>(slots_.capacity(), std::size_t{index} + 1);
-  masks_.resize(rows * mask_words_, 0);
 }
 
 void World::join_groups(detail::PoolBase& p, std::uint32_t index) {

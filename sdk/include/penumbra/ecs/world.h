@@ -590,15 +590,10 @@ class World {
   // add() into T's pool `p`.
   template <class T, class... Args>
   T& add_to(detail::Pool<T>& p, Entity e, Args&&... args);
-  // The word of entity `index`'s mask that holds `bit`, and the bit within it. Precondition:
-  // has_mask_row(index) (rows are added when an entity gains its first component).
+  // The word of entity `index`'s mask that holds `bit`, and the bit within it.
   std::uint64_t& mask_word(std::uint32_t index, std::uint32_t bit) {
     return masks_[std::size_t{index} * mask_words_ + bit / 64];
   }
-  bool has_mask_row(std::uint32_t index) const { return std::size_t{index} * mask_words_ < masks_.size(); }
-  void add_mask_rows(std::uint32_t index);
-  // The end of destroy(): the generation bump that turns handles stale, and the free list.
-  void forget(Entity e);
   static std::uint64_t mask_bit(std::uint32_t bit) { return std::uint64_t{1} << (bit % 64); }
   // After e gained p's component: the groups it now completes.
   void join_groups(detail::PoolBase& p, std::uint32_t index);
@@ -639,7 +634,6 @@ class World {
   std::vector<std::unique_ptr<detail::PoolBase>> pools_;
   std::vector<detail::PoolBase*> by_bit_;
   // Per entity index, mask_words_ 64-bit words: bit b set while by_bit_[b] holds its component.
-  // Indices past the end have no components (rows are added on an entity's first add()).
   std::vector<std::uint64_t> masks_;
   std::uint32_t mask_words_ = 1;
   std::vector<std::unique_ptr<detail::GroupBase>> groups_;
@@ -963,7 +957,6 @@ T& World::add_to(detail::Pool<T>& p, Entity e, Args&&... args) {
     return c;
   }
   T* c = &p.emplace(e.index, tick_, std::forward<Args>(args)...);
-  if (!has_mask_row(e.index)) add_mask_rows(e.index);
   mask_word(e.index, p.bit_) |= mask_bit(p.bit_);
   if (!p.groups_.empty()) {
     join_groups(p, e.index);
