@@ -12,12 +12,15 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <utility>
 
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_vulkan.h>
 #include <imgui.h>
+
+#include "penumbra/scene/animation.h"
 
 #include "camera_control.h"
 #include "overlays.h"
@@ -76,6 +79,9 @@ int run(const Options& options) {
   ui.render.shadows = options.shadow_map_size > 0;
   ui.render.shadow_map_size = std::max(options.shadow_map_size, 64u);
   std::string pending_screenshot;
+  // A scripted click: the pointer position and the frames left (3: move, 2: press, 1: release).
+  glm::vec2 click_at(0.0f);
+  int click_frames = 0;
   if (!options.script.empty()) {
     auto script = load_script(options.script);
     if (!script) {
@@ -91,6 +97,9 @@ int run(const Options& options) {
       } else if (a.verb == "reset-stats") {
         ui.frames = FrameTimes{};
         ui.frames.frames = FrameTimes::kWarmUp;  // already warm
+      } else if (a.verb == "click") {
+        click_at = glm::vec2(std::stof(a.args[0]), std::stof(a.args[1]));
+        click_frames = 3;
       } else if (a.verb == "ui") {
         ui.show_ui = a.args[0] == "on";
       } else if (a.verb == "view") {
@@ -156,7 +165,7 @@ int run(const Options& options) {
         const bool baking = model.bakes().running();
         if (model.poll() && model.bakes().status().state != BakeStatus::State::Done)
           ui.message = "bake " + std::string(to_string(model.bakes().status().state)) + ": " + model.bakes().status().error;
-        if (runner) {
+        if (runner && click_frames == 0) {  // a click in progress holds the script
           if (Status s = runner->step(model); !s) {
             std::fprintf(stderr, "penumbra-editor: %s\n", s.error().message.c_str());
             exit_code = 1;
@@ -167,19 +176,33 @@ int run(const Options& options) {
             exit_code = runner->exit_code();
           }
         }
+        if (!ui.open_request.empty()) {
+          // Between frames: nothing holds a reference into the document being replaced.
+          const std::string source = std::exchange(ui.open_request, {});
+          const Status s = model.open(source);
+          ui.message = s ? "opened " + source : s.error().message;
+        }
         if (!model.document()) {
+          click_frames = 0;  // no panels to click
           if (runner) continue;  // the script has not opened a scene yet
           break;
         }
         Document& doc = *model.document();
-        if (doc.source() != opened_source) {
-          ui.camera.frame(world_bounds(doc.world()));
-          opened_source = doc.source();
-        }
         doc.world().update(dt);
+        if (doc.source() != opened_source) {  // after the update, which poses skinned meshes
+          ui.camera.frame(posed_bounds(doc.world()));
+          opened_source = doc.source();
+          if (!doc.notice().empty()) ui.message = doc.notice();
+        }
 
         ImGui_ImplVulkan_NewFrame();
         ImGui_ImplGlfw_NewFrame();
+        if (click_frames > 0) {  // after the backend, which reads the real pointer
+          ImGuiIO& io = ImGui::GetIO();
+          io.MousePos = ImVec2(click_at.x, click_at.y);
+          io.MouseDown[0] = click_frames == 2;
+          --click_frames;
+        }
         ImGui::NewFrame();
         camera_input(window, ui.camera, dt);
         draw_panels(model, ui);

@@ -20,18 +20,6 @@ std::optional<glm::vec2> project(const CameraView& camera, glm::vec3 p, glm::vec
   return glm::vec2((ndc.x * 0.5f + 0.5f) * size.x, (ndc.y * 0.5f + 0.5f) * size.y);
 }
 
-Aabb world_bounds(World& world) {
-  Aabb bounds;
-  world.each<Mesh, WorldTransform>([&](Mesh& m, WorldTransform& wt) {
-    if (!m.data || m.data->bounds.empty()) return;
-    const Aabb& b = m.data->bounds;
-    for (int c = 0; c < 8; ++c)
-      bounds.extend(glm::vec3(wt.matrix * glm::vec4((c & 1) ? b.max.x : b.min.x, (c & 2) ? b.max.y : b.min.y,
-                                                    (c & 4) ? b.max.z : b.min.z, 1.0f)));
-  });
-  return bounds;
-}
-
 glm::vec3 irradiance_colour(glm::vec3 e, float exposure) {
   const glm::vec3 x = glm::max(e * exposure, glm::vec3(0.0f));
   return x / (glm::vec3(1.0f) + x);

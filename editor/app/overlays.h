@@ -22,9 +22,6 @@ namespace penumbra::editor {
 // nullopt behind the camera.
 std::optional<glm::vec2> project(const CameraView& camera, glm::vec3 p, glm::vec2 size);
 
-// World-space bounds of every mesh (empty when there is none).
-Aabb world_bounds(World& world);
-
 // Display colour of an irradiance (W/m^2 per channel): exposure, then x / (1 + x) per channel.
 glm::vec3 irradiance_colour(glm::vec3 e, float exposure);
 

@@ -416,22 +416,10 @@ void menu_bar(EditorModel& model, UiState& ui) {
   if (!ImGui::BeginMainMenuBar()) return;
   if (ImGui::BeginMenu("File")) {
     for (const std::string& name : builtin_scene_names())
-      if (ImGui::MenuItem(("Open builtin:" + name).c_str())) {
-        report(ui, model.open("builtin:" + name), "opened builtin:" + name);
-        if (model.document()) ui.camera.frame(world_bounds(model.document()->world()));
-        ImGui::EndMenu();
-        ImGui::EndMainMenuBar();
-        return;
-      }
+      if (ImGui::MenuItem(("Open builtin:" + name).c_str())) ui.open_request = "builtin:" + name;
     ImGui::Separator();
     ImGui::InputText("scene", ui.scene_path, sizeof ui.scene_path);
-    if (ImGui::MenuItem("Open scene (glTF or builtin:NAME)")) {
-      report(ui, model.open(ui.scene_path), std::string("opened ") + ui.scene_path);
-      ui.camera.frame(world_bounds(model.document()->world()));
-      ImGui::EndMenu();
-      ImGui::EndMainMenuBar();
-      return;
-    }
+    if (ImGui::MenuItem("Open scene (glTF or builtin:NAME)")) ui.open_request = ui.scene_path;
     if (ImGui::MenuItem("Save edits as script")) report(ui, doc.save_edits(ui.edits_path), "saved edits");
     ImGui::InputText("edits", ui.edits_path, sizeof ui.edits_path);
     ImGui::Separator();

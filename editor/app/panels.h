@@ -65,6 +65,9 @@ struct UiState {
   std::string plot_source;  // the bench and mode the plot shows (the selection's; see plot_panel)
   CostPlot plot;
   CameraView camera_now;  // this frame's camera (what the View panel's controls see)
+  // A scene the menus asked to open. Opening replaces the Document, so the main loop does it
+  // between frames (take_open_request), never while panels hold references into the old one.
+  std::string open_request;
 };
 
 // Every panel, the menu bar and the status bar.

@@ -17,6 +17,7 @@ Result<std::unique_ptr<Document>> Document::open(std::string_view source, Preset
   doc->source_ = std::string(source);
   if (Status s = cli::load_world(doc->world_, source, preset); !s)
     return Error{s.error().code, "open " + std::string(source) + ": " + s.error().message};
+  doc->notice_ = cli::add_viewing_light(doc->world_, source);
   return doc;
 }
 

@@ -19,8 +19,12 @@ class Document {
  public:
   // Loads `source` ("builtin:NAME" or a .gltf/.glb path) into a new World with every module's
   // systems and bakers (the tool's load_world; built-in scenes get every module's default
-  // components with `preset`). Errors name the source and say how to fix it.
+  // components with `preset`). A scene without lights gets the tool's "default light" (an entity
+  // of the document like any other: shown, edited and baked) and notice() says so. Errors name
+  // the source and say how to fix it.
   static Result<std::unique_ptr<Document>> open(std::string_view source, Preset preset = Preset::Medium);
+  // What open() did that the user should know of ("" when nothing).
+  const std::string& notice() const { return notice_; }
 
   World& world() { return world_; }
   const std::string& source() const { return source_; }
@@ -55,6 +59,7 @@ class Document {
 
   World world_;
   std::string source_;
+  std::string notice_;
   Entity selection_;
   UndoStack undo_;
   BakeFile baked_;

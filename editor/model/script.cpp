@@ -9,6 +9,12 @@ namespace penumbra::editor {
 
 namespace {
 
+// The actions the window carries out (at the next frame).
+bool is_viewport_action(const std::string& verb) {
+  return verb == "screenshot" || verb == "orbit" || verb == "view" || verb == "ui" || verb == "click" ||
+         verb == "reset-stats";
+}
+
 // Splits a line into words; "double quotes" group words. False on an unterminated quote.
 bool split_words(std::string_view line, std::vector<std::string>& words) {
   std::size_t i = 0;
@@ -87,6 +93,10 @@ std::string check_action(const ScriptAction& a) {
     if (n != 1) return "'view' takes a debug view: lit, direct, indirect, ao, albedo or validity";
   } else if (v == "ui") {
     if (n != 1 || (a.args[0] != "on" && a.args[0] != "off")) return "'ui' takes on or off (the panels over the viewport)";
+  } else if (v == "click") {
+    long long x = 0, y = 0;
+    if (n != 2 || !parse_int(a.args[0], x) || !parse_int(a.args[1], y) || x < 0 || y < 0 || x > 16384 || y > 16384)
+      return "'click' takes X and Y in window pixels from the top left, e.g. click 20 10";
   } else if (v == "quit") {
     long long k = 0;
     if (n > 1 || (n == 1 && (!parse_int(a.args[0], k) || k < 0 || k > 255)))
@@ -94,7 +104,7 @@ std::string check_action(const ScriptAction& a) {
   } else {
     return "unknown action '" + v +
            "'; actions: open, open-bake, save-bake, save-edits, select, set, preset, undo, redo, bake, cancel, wait, "
-           "frames, screenshot, orbit, view, ui, reset-stats, quit";
+           "frames, screenshot, orbit, view, ui, click, reset-stats, quit";
   }
   return {};
 }
@@ -149,8 +159,7 @@ Status ScriptRunner::step(EditorModel& model) {
   while (!finished()) {
     const ScriptAction& a = script_.actions[next_];
     bool wait_here = false;
-    const bool yields = a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view" || a.verb == "ui" ||
-                        a.verb == "reset-stats";
+    const bool yields = is_viewport_action(a.verb);
     if (Status s = run(model, a, wait_here); !s) {
       next_ = script_.actions.size();
       exit_code_ = 1;
@@ -178,7 +187,7 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
     if (!wait_here) frames_left_ = -1;
     return {};
   }
-  if (a.verb == "screenshot" || a.verb == "orbit" || a.verb == "view" || a.verb == "ui" || a.verb == "reset-stats") {
+  if (is_viewport_action(a.verb)) {
     if (!viewport_) return make_error(ErrorCode::Unsupported, "needs the window (run without --headless)");
     return viewport_(a);
   }

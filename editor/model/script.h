@@ -13,6 +13,9 @@
 //   wait                                until the running bake ends; fails the script if it failed
 //   frames N                            lets N frames run
 //   screenshot PATH | orbit YAW PITCH [DISTANCE] | view DEBUGVIEW | ui on|off
+//   click X Y                           a left click at window pixel (X, Y): the pointer moves there,
+//                                       the button goes down and up over three frames; the script
+//                                       goes on after the release (drives menus as a user would)
 //   reset-stats                         starts the frame-time statistics afresh
 //                                       viewport actions (window only; ui hides/shows the panels and overlays)
 //   quit [CODE]

@@ -34,16 +34,17 @@ TEST(Script, ParsesEveryActionAndSkipsComments) {
       "redo\n"
       "cancel\n"
       "ui off\n"
+      "click 20 10\n"
       "reset-stats\n"
       "quit 0\n";
   auto script = parse_script(text, "demo.txt");
   ASSERT_TRUE(script.ok()) << script.error().message;
-  ASSERT_EQ(script->actions.size(), 19u);
+  ASSERT_EQ(script->actions.size(), 20u);
   EXPECT_EQ(script->actions[0].verb, "open");
   EXPECT_EQ(script->actions[0].line, 2);
   EXPECT_EQ(script->actions[1].args[0], "probe grid");
   EXPECT_EQ(script->actions[3].args.size(), 5u);
-  EXPECT_EQ(script->actions.back().line, 21);
+  EXPECT_EQ(script->actions.back().line, 22);
 }
 
 TEST(Script, BadLinesNameTheLineAndTheFix) {
@@ -70,6 +71,8 @@ TEST(Script, BadLinesNameTheLineAndTheFix) {
       {"wait 3", "'wait' takes no arguments"},
       {"frames 0", "'frames' takes a count"},
       {"orbit left up", "'orbit' takes YAW and PITCH"},
+      {"click 20", "'click' takes X and Y"},
+      {"click -1 5", "'click' takes X and Y"},
       {"quit 300", "exit code"},
   };
   for (const Case& c : cases) {
@@ -194,7 +197,7 @@ TEST(ScriptRunner, RunTimeErrorsNameTheLineAndStopTheScript) {
 
 TEST(ScriptRunner, ViewportActionsGoToTheHostOneFrameEach) {
   std::vector<std::string> seen;
-  ScriptRunner runner(*parse_script("open builtin:cornell\norbit 10 20\nview albedo\nquit\n", "v.txt"),
+  ScriptRunner runner(*parse_script("open builtin:cornell\norbit 10 20\nview albedo\nclick 5 6\nquit\n", "v.txt"),
                       [&](const ScriptAction& a) {
                         seen.push_back(a.verb);
                         return Status{};
@@ -204,6 +207,8 @@ TEST(ScriptRunner, ViewportActionsGoToTheHostOneFrameEach) {
   EXPECT_EQ(seen, std::vector<std::string>{"orbit"});
   ASSERT_TRUE(runner.step(model).ok());
   EXPECT_EQ(seen, (std::vector<std::string>{"orbit", "view"}));
+  ASSERT_TRUE(runner.step(model).ok());
+  EXPECT_EQ(seen, (std::vector<std::string>{"orbit", "view", "click"}));
   ASSERT_TRUE(runner.step(model).ok());
   EXPECT_TRUE(runner.quit_requested());
 }

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -140,6 +141,58 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
   for (int y = 0; y < 720; ++y)
     for (int x = 0; x < 1280; ++x) ui_diff += std::abs(editor.luminance(x, y) - after.luminance(x, y));
   EXPECT_GT(ui_diff / (1280.0 * 720.0), 5.0);
+  fs::remove_all(dir);
+}
+
+// File > Open of another scene while one is open, clicked as a user would (the script's click
+// moves the pointer and presses the button): the document is replaced between frames, so nothing
+// drawn that frame uses the old one. Then a glTF character without lights (an armature scaled by
+// 0.01): framed by its skinned vertices, lit by the default light.
+TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
+  ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
+  const fs::path dir = fs::temp_directory_path() / ("penumbra_editor_open_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string d = dir.string();
+  {
+    std::ofstream script(dir / "open.txt");
+    // The File menu at the top left; its first item is "Open builtin:cornell" (builtin_scene_names order).
+    script << "open builtin:courtyard draft\n"
+              "frames 3\n"
+              "click 20 10\n"
+              "screenshot " << d << "/menu.png\n"
+              "click 60 33\n"
+              "frames 3\n"
+              "save-edits " << d << "/after_menu.txt\n"
+              "open " PENUMBRA_TEST_DATA "/gltf/scaled_armature.gltf\n"
+              "frames 3\n"
+              "ui off\n"
+              "screenshot " << d << "/character.png\n"
+              "quit\n";
+  }
+  const char* driver = std::getenv("VK_DRIVER_FILES");
+  const std::string env = driver ? "" : "VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json ";
+  int status = 0;
+  const std::string output = run_command(env + "xvfb-run -a -s '-screen 0 1280x720x24' " PENUMBRA_EDITOR_PATH
+                                               " --validation --size 1280x720 --script " + d + "/open.txt 2>&1",
+                                         status);
+  std::printf("%s", output.c_str());
+  ASSERT_EQ(status, 0) << output;
+  EXPECT_NE(output.find("validation messages: 0"), std::string::npos);
+  // The menu opened (its items cover part of the top-left panel), and the click on its first item
+  // opened the Cornell box: the document's edits now start from it.
+  std::ifstream edits(dir / "after_menu.txt");
+  std::string text((std::istreambuf_iterator<char>(edits)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("open builtin:cornell"), std::string::npos) << text;
+  // The character fills a good part of the bare viewport.
+  const Png character = load_png(dir / "character.png");
+  ASSERT_EQ(character.width, 1280);
+  std::size_t covered = 0;
+  for (int y = 0; y < character.height; ++y)
+    for (int x = 0; x < character.width; ++x) covered += character.luminance(x, y) > 8.0f;
+  const double share = double(covered) / (1280.0 * 720.0);
+  std::printf("the character covers %.1f%% of the viewport\n", 100.0 * share);
+  EXPECT_GT(share, 0.05);
   fs::remove_all(dir);
 }
 

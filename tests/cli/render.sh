@@ -6,7 +6,7 @@ expect_exit 0 "$PENUMBRA" render builtin:cornell --bake "$scratch/c.pbake" -o "$
 # PNG header: width and height are the big-endian words at bytes 16..23.
 size=$(od -An -tu1 -j16 -N8 "$scratch/c.png" | tr -s ' ')
 [ "$size" = " 0 0 0 96 0 0 0 64" ] || fail "PNG size is '$size', expected 96x64"
-expect_exit 0 "$PENUMBRA" render builtin:cornell -o "$scratch/c.exr" --width 32 --height 24 --view irradiance --frames 3
+expect_exit 0 "$PENUMBRA" render builtin:cornell --bake "$scratch/c.pbake" -o "$scratch/c.exr" --width 32 --height 24 --view irradiance --frames 3
 expect_output "median"; expect_output "p95"
 expect_exit 0 "$PENUMBRA" render builtin:courtyard -o "$scratch/a.png" --width 32 --height 24 --frames 2 --animate \
   --shadow-taps 1 --ambient-step 1
@@ -32,4 +32,16 @@ done
 expect_exit 0 "$PENUMBRA" render builtin:courtyard -o "$scratch/plain.png" --view ao --width 64 --height 48
 cmp -s "$scratch/y0.png" "$scratch/plain.png" && fail "the AO-field and pose-AO bake did not change the ao view"
 cmp -s "$scratch/y0.png" "$scratch/y0.4.png" && fail "--time 0.4 rendered the same ao view as --time 0"
+# A character exported alone (an armature scaled by 0.01, no lights, no camera) is framed by its
+# skinned vertices and lit by the default light, which the tool announces; a black image fails.
+armature="$SOURCE_DIR/tests/data/gltf/scaled_armature.gltf"
+expect_exit 0 "$PENUMBRA" render "$armature" -o "$scratch/arm.png" --width 64 --height 48
+expect_output "no lights"; expect_output "default light"
+covered=$(grep -o '[0-9.]*% of the pixels not black' <<<"$out" | cut -d% -f1)
+awk -v c="${covered:-0}" 'BEGIN { exit !(c > 10) }' || fail "the character covers ${covered:-no}% of the image, expected > 10%"
+expect_exit 1 "$PENUMBRA" render "$armature" -o "$scratch/dark.png" --width 64 --height 48 --exposure 1e-9
+expect_output "the image is black"
+# An ambient view of an unbaked scene is black too, and says to bake.
+expect_exit 1 "$PENUMBRA" render builtin:cornell -o "$scratch/dark.png" --width 32 --height 24 --view irradiance
+expect_output "--bake"
 finish

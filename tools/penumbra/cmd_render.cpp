@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cli.h"
+#include "penumbra/core/log.h"
 #include "penumbra/core/pbake.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/runtime.h"
@@ -107,6 +108,7 @@ int cmd_render(Args args) {
   const std::string& scene = args.rest()[0];
   World world;
   if (Status s = load_world(world, scene); !s) return fail(kFailure, s.error().message);
+  if (const std::string notice = add_viewing_light(world, scene); !notice.empty()) log(LogLevel::Warning, notice);
   if (bake) {
     auto file = read_bake_file(*bake);
     if (!file) return fail(kFailure, file.error().message);
@@ -169,8 +171,22 @@ int cmd_render(Args args) {
   auto image = (*renderer)->render_image(world, view, width, height, settings, exr);
   if (!image) return fail(kFailure, image.error().message);
   if (Status s = write_image(*image, *out); !s) return fail(kFailure, s.error().message);
-  std::printf("rendered %s (%s view) -> %s (%ux%u)\n", scene.c_str(), settings.view.c_str(),
-              out->c_str(), width, height);
+  // The share of pixels that are not black: an all-black image is a failure to see anything
+  // (camera inside or away from the geometry, nothing lit), never a success.
+  std::size_t lit = 0;
+  const std::size_t pixels = std::size_t{width} * height;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    bool any = false;
+    for (std::size_t c = 0; c < 3; ++c)
+      any = any || (exr ? image->rgba32f[4 * i + c] > 0.0f : image->rgba8[4 * i + c] > 0);
+    lit += any;
+  }
+  if (lit == 0)
+    return fail(kFailure, *out + ": the image is black (" + settings.view +
+                              " view): nothing in view gives it light; check the camera (--camera, or none to frame "
+                              "the scene), the scene's lights, and for the views of baked lighting the --bake file");
+  std::printf("rendered %s (%s view) -> %s (%ux%u, %.1f%% of the pixels not black)\n", scene.c_str(),
+              settings.view.c_str(), out->c_str(), width, height, 100.0 * double(lit) / double(pixels));
   return kSuccess;
 }
 

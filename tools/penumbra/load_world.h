@@ -19,4 +19,10 @@ void register_modules(World& world);
 // module's default components with the settings of `preset` (add_default_lighting).
 Status load_world(World& world, std::string_view scene, Preset preset = Preset::Medium);
 
+// For viewing a scene without any Light (a character or prop exported alone, which would render
+// black): adds a directional light named "default light" (3 W/m^2, from above and in front, as the
+// framing camera looks) and returns a notice that says so, naming `scene`; "" when the scene has a
+// light. Only the viewers call it (render, the editor): a bake holds the lights the file declares.
+std::string add_viewing_light(World& world, std::string_view scene);
+
 }  // namespace penumbra::cli

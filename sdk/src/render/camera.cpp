@@ -8,6 +8,7 @@
 
 #include "penumbra/ecs/transform.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
 
 namespace penumbra {
@@ -35,15 +36,7 @@ CameraView camera_view(const World& world, Entity camera, float aspect) {
 }
 
 CameraView framing_camera_view(World& world, float aspect) {
-  Aabb bounds;
-  world.view<const Mesh, const WorldTransform>().each([&](const Mesh& mesh, const WorldTransform& wt) {
-    if (!mesh.data || mesh.data->bounds.empty()) return;
-    const Aabb& b = mesh.data->bounds;
-    for (int i = 0; i < 8; ++i) {
-      const glm::vec3 corner((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y, (i & 4) ? b.max.z : b.min.z);
-      bounds.extend(glm::vec3(wt.matrix * glm::vec4(corner, 1.0f)));
-    }
-  });
+  Aabb bounds = posed_bounds(world);
   if (bounds.empty()) bounds.extend(glm::vec3(0.0f));
   const glm::vec3 centre = bounds.center();
   const float radius = std::max(0.5f * glm::length(bounds.extent()), 0.01f);

@@ -144,6 +144,32 @@ void skin_normals(const MeshData& mesh, const SkinPose& pose, std::vector<glm::v
   }
 }
 
+Aabb posed_bounds(World& world) {
+  Aabb bounds;
+  std::vector<glm::vec3> skinned;
+  world.view<const Mesh, const WorldTransform>().each([&](Entity e, const Mesh& mesh, const WorldTransform& wt) {
+    if (!mesh.data || mesh.data->bounds.empty()) return;
+    const MeshData& m = *mesh.data;
+    const SkinPose* pose = world.try_get<SkinPose>(e);
+    const bool skinned_now = pose && !m.joints.empty() && m.joints.size() == m.positions.size() &&
+                             m.weights.size() == m.positions.size() &&
+                             std::all_of(m.joints.begin(), m.joints.end(), [&](const glm::u16vec4& j) {
+                               return std::size_t{std::max({j.x, j.y, j.z, j.w})} < pose->joint_matrices.size();
+                             });
+    if (skinned_now) {
+      skin_positions(m, *pose, skinned);
+      for (const glm::vec3& p : skinned) bounds.extend(glm::vec3(wt.matrix * glm::vec4(p, 1.0f)));
+      return;
+    }
+    const Aabb& b = m.bounds;
+    for (int i = 0; i < 8; ++i) {
+      const glm::vec3 corner((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y, (i & 4) ? b.max.z : b.min.z);
+      bounds.extend(glm::vec3(wt.matrix * glm::vec4(corner, 1.0f)));
+    }
+  });
+  return bounds;
+}
+
 void register_scene_systems(World& world) {
   world.add_system({"animation", Phase::Animation, {component_id<Animator>()},
                     {component_id<Animator>(), component_id<Transform>()},

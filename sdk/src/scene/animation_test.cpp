@@ -199,5 +199,63 @@ TEST(Skinning, TwoBoneMeshClosedForm) {
   EXPECT_NEAR(glm::dot(normals[2], glm::normalize(glm::vec3(1, 1, 0))), 1.0f, 1e-6f);
 }
 
+// A character as the common pipelines export it: an armature node scaled by 0.01 over the joints
+// and the skinned mesh, whose inverse bind matrices undo the joints' world transforms. The skinned
+// vertices are where the mesh's positions say (metres); the mesh node's world transform, which
+// skinning ignores, would shrink its box a hundredfold.
+TEST(PosedBounds, ScaledArmatureIsBoundedByItsSkinnedVertices) {
+  World world;
+  register_scene_systems(world);
+  EXPECT_TRUE(posed_bounds(world).empty());
+  const Entity armature = world.create(), hips = world.create(), head = world.create(), body = world.create();
+  Transform a;
+  a.scale = glm::vec3(0.01f);
+  world.add<Transform>(armature, a);
+  Transform th, tb;
+  th.translation = {0, 90, 0};  // centimetres under the armature: 0.9 m
+  tb.translation = {0, 70, 0};
+  world.add<Transform>(hips, th);
+  world.add<Transform>(head, tb);
+  world.add<Transform>(body);
+  set_parent(world, hips, armature);
+  set_parent(world, head, hips);
+  set_parent(world, body, armature);
+  auto mesh = std::make_shared<MeshData>();
+  mesh->positions = {{-0.25f, 0, 0}, {0.25f, 0, 0}, {0, 1.8f, 0.1f}};
+  mesh->normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+  mesh->joints = {{0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}};
+  mesh->weights = {{1, 0, 0, 0}, {1, 0, 0, 0}, {1, 0, 0, 0}};
+  mesh->indices = {0, 1, 2};
+  mesh->bounds = Aabb{{-0.25f, 0, 0}, {0.25f, 1.8f, 0.1f}};
+  world.update(0.0);
+  Skin skin;
+  skin.joints = {hips, head};
+  skin.inverse_bind = {glm::inverse(world.get<WorldTransform>(hips).matrix),
+                       glm::inverse(world.get<WorldTransform>(head).matrix)};
+  world.add<Skin>(body, skin);
+  world.add<Mesh>(body, Mesh{mesh});
+  world.update(0.0);
+
+  Aabb b = posed_bounds(world);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(b.min[c], mesh->bounds.min[c], 1e-5f) << "axis " << c;
+    EXPECT_NEAR(b.max[c], mesh->bounds.max[c], 1e-5f) << "axis " << c;
+  }
+  // Head bent 90 degrees about +Z: its vertex, (0, 0.2, 0.1) from the head (at 1.6 m), turns to
+  // (-0.2, 1.6, 0.1).
+  world.patch<Transform>(head).rotation = glm::angleAxis(glm::radians(90.0f), glm::vec3(0, 0, 1));
+  world.update(0.0);
+  b = posed_bounds(world);
+  EXPECT_NEAR(b.max.y, 1.6f, 1e-4f);
+  EXPECT_NEAR(b.min.x, -0.25f, 1e-5f);
+
+  // Without a skin a mesh is its box through the node's transform.
+  world.remove<Skin>(body);
+  world.remove<SkinPose>(body);
+  world.update(0.0);
+  b = posed_bounds(world);
+  EXPECT_NEAR(b.max.y, 0.018f, 1e-6f);
+}
+
 }  // namespace
 }  // namespace penumbra

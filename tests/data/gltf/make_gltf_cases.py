@@ -192,6 +192,43 @@ def main():
                                "samplers": [{"input": 3, "output": 4, "interpolation": "LINEAR"}]}]
     write("bad_key_times.gltf", animated)
 
+    # scaled_armature.gltf: a 0.5 x 1.8 x 0.3 m box skinned to two joints under an "Armature" node
+    # scaled by 0.01 (joint translations in centimetres), as the common character pipelines export;
+    # no lights, no cameras. Its inverse bind matrices undo the joints' world transforms, so the
+    # skinned vertices are where the file's positions say (metres), while the mesh node's own world
+    # transform, which skinning ignores, would shrink the box to 1.8 cm.
+    box_p, box_n, box_i = [], [], []
+    for axis in range(3):
+        for sign in (1, -1):
+            n = [0, 0, 0]
+            n[axis] = sign
+            u, w = (axis + 1) % 3, (axis + 2) % 3
+            base_index = len(box_p)
+            for a_, b_ in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                c = [0, 0, 0]
+                c[axis] = 1 if sign > 0 else 0
+                c[u], c[w] = (a_, b_) if sign > 0 else (b_, a_)
+                box_p.append([(-0.25 + 0.5 * c[0]), 1.8 * c[1], (-0.15 + 0.3 * c[2])])
+                box_n.append(n)
+            box_i += [base_index, base_index + 1, base_index + 2, base_index, base_index + 2, base_index + 3]
+    joints = (struct.pack("<%dB" % (4 * len(box_p)), *sum(([0 if p[1] < 0.9 else 1, 0, 0, 0] for p in box_p), [])),
+              {"componentType": 5121, "count": len(box_p), "type": "VEC4"})
+    weights = (floats([1, 0, 0, 0] * len(box_p)), {"componentType": 5126, "count": len(box_p), "type": "VEC4"})
+    ibm = (floats([100, 0, 0, 0, 0, 100, 0, 0, 0, 0, 100, 0, 0, -90, 0, 1] +
+                  [100, 0, 0, 0, 0, 100, 0, 0, 0, 0, 100, 0, 0, -160, 0, 1]),
+           {"componentType": 5126, "count": 2, "type": "MAT4"})
+    d, v, a = build(box_p, box_n, box_i, [joints, weights, ibm])
+    armature = scene(d, v, a, primitives=[
+        {"attributes": {"POSITION": 0, "NORMAL": 1, "JOINTS_0": 3, "WEIGHTS_0": 4}, "indices": 2, "material": 0}])
+    armature["scenes"] = [{"nodes": [0]}]
+    armature["nodes"] = [{"name": "Armature", "scale": [0.01, 0.01, 0.01], "children": [1, 2]},
+                         {"name": "body", "mesh": 0, "skin": 0},
+                         {"name": "hips", "translation": [0, 90, 0], "children": [3]},
+                         {"name": "head", "translation": [0, 70, 0]}]
+    armature["meshes"][0]["name"] = "body"
+    armature["skins"] = [{"joints": [2, 3], "inverseBindMatrices": 5, "skeleton": 2}]
+    write("scaled_armature.gltf", armature)
+
     # valid.glb and truncated.glb: the quad as binary glTF, then cut inside its BIN chunk.
     doc = copy.deepcopy(base)
     del doc["buffers"][0]["uri"]

@@ -59,7 +59,8 @@ struct CameraView {
 };
 // The CameraView of a Camera entity at its WorldTransform, for a target of the given aspect.
 CameraView camera_view(const World& world, Entity camera, float aspect);
-// A camera that frames the bounds of every mesh, looking from the front and above.
+// A camera that frames every mesh as posed now (posed_bounds: skinned meshes by their skinned
+// vertices), looking from the front and above. Run after the skinning system.
 CameraView framing_camera_view(World& world, float aspect);
 
 struct RenderSettings {

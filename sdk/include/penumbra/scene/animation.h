@@ -44,6 +44,13 @@ void skin_positions(const MeshData& mesh, const SkinPose& pose, std::vector<glm:
 // Same for normals (blended matrix's inverse transpose, renormalised); empty if the mesh has none.
 void skin_normals(const MeshData& mesh, const SkinPose& pose, std::vector<glm::vec3>& out);
 
+// World-space box of every Mesh with data and a WorldTransform as posed now: a skinned mesh (with
+// a SkinPose whose matrices cover its joints) by its skinned vertices, any other by its box's
+// corners. This is what a camera must frame: a skinned mesh's node transform does not place its
+// vertices (an armature scaled by 0.01 shrinks the node's box, not the character). Empty when
+// the world has no such mesh. Run after the skinning system. Cost: O(skinned vertices + meshes).
+Aabb posed_bounds(World& world);
+
 // Registers, in order: "animation" (Phase::Animation), the ecs transform systems
 // (register_transform_systems, Phase::Transform) and "skinning" (Phase::Transform, after the
 // transforms). Call once per World instead of register_transform_systems.
