@@ -28,11 +28,18 @@ expect_exit 0 "$PENUMBRA" info "$scratch/good.pbake"
 # A bake that produces nothing says so and writes nothing: CesiumMan has no static mesh.
 if [ -f "$SOURCE_DIR/../shared/assets/CesiumMan.glb" ]; then
   expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/../shared/assets/CesiumMan.glb" -o "$scratch/none.pbake" --only vertex-ao
-  expect_output "baked nothing"
+  expect_output "baked nothing"; expect_output "1 skinned meshes, which pose-ao bakes"
   [ -e "$scratch/none.pbake" ] && fail "a bake of nothing wrote a file"
 else
   echo "skipped the empty-bake check: ../shared/assets/CesiumMan.glb is absent"
 fi
+# Every baker named says what it bakes and what the scene lacks (the test data, always present).
+expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/scaled_armature.gltf" -o "$scratch/none.pbake" \
+  --only probe-grid,ao-field,vertex-ao
+expect_output "probe-grid bakes entities with an IrradianceProbeGrid"; expect_output "ao-field bakes"
+expect_output "vertex-ao bakes Static meshes"
+expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/valid.gltf" -o "$scratch/none.pbake" --only pose-ao
+expect_output "0 skinned meshes"
 
 # info on damaged files: truncated, corrupted, not a bake file at all.
 head -c 100 "$scratch/good.pbake" > "$scratch/short.pbake"

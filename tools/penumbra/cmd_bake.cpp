@@ -1,4 +1,5 @@
 // penumbra bake SCENE -o FILE.pbake [...] and penumbra info FILE.pbake
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -118,10 +119,13 @@ int cmd_bake(Args args) {
   std::signal(SIGINT, SIG_DFL);
   if (!result) return fail(kFailure, scene + ": " + result.error().message);
   if (result->file.chunks.empty()) {
-    std::string what;
-    for (const std::string& n : names) what += (what.empty() ? "" : ", ") + n;
-    return fail(kFailure, scene + ": baked nothing: no entity has what " + (what.empty() ? "any baker" : what) +
-                              " bakes (Static meshes, or the modules' components); " + *out + " was not written");
+    // Each baker that ran says what it bakes and what the scene has instead.
+    std::string why;
+    for (const LightingModule* m : lighting_modules()) {
+      const bool ran = names.empty() || std::find(names.begin(), names.end(), m->name) != names.end();
+      if (ran) why += "\n  " + (m->explain_empty ? m->explain_empty(world) : std::string(m->name) + " found nothing");
+    }
+    return fail(kFailure, scene + ": baked nothing, so " + *out + " was not written:" + why);
   }
   if (Status s = write_bake_file(out_path, result->file, &g_cancel); !s) return fail(kFailure, s.error().message);
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -148,6 +148,13 @@ Status add_defaults(World& world, Preset preset, bool authored) {
 
 constexpr std::uint32_t kChunkTypes[] = {kAOFieldChunkType};
 
+std::string explain_empty(World& world) {
+  return "ao-field bakes entities with an AOFieldCaster and this scene has " +
+         std::to_string(world.view<const AOFieldCaster>().count()) +
+         " (the built-in scenes give one to each movable mesh; a glTF scene gets them only from a host that adds "
+         "the component)";
+}
+
 }  // namespace
 
 const LightingModule& ao_field_module() {
@@ -163,9 +170,9 @@ const LightingModule& ao_field_module() {
       .check = check_with<read_ao_field_chunk>,
       .describe = describe_ao_field_chunk,
       .add_defaults = add_defaults,
+      .explain_empty = explain_empty,
   };
   return module;
 }
-
 
 }  // namespace penumbra

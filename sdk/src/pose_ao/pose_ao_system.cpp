@@ -86,6 +86,13 @@ Status add_defaults(World& world, Preset preset, bool) {
 
 constexpr std::uint32_t kChunkTypes[] = {kPoseAOChunkType};
 
+std::string explain_empty(World& world) {
+  const std::size_t skinned = world.view<const Mesh, const Skin>().count();
+  return "pose-ao bakes skinned meshes (a Mesh with a Skin and a SkinnedPoseAO) and this scene has " +
+         std::to_string(skinned) + " skinned meshes, " +
+         std::to_string(world.view<const SkinnedPoseAO>().count()) + " with a SkinnedPoseAO";
+}
+
 }  // namespace
 
 const LightingModule& pose_ao_module() {
@@ -101,6 +108,7 @@ const LightingModule& pose_ao_module() {
       .check = check_with<read_pose_ao_chunk>,
       .describe = describe_pose_ao_chunk,
       .add_defaults = add_defaults,
+      .explain_empty = explain_empty,
   };
   return module;
 }

@@ -175,6 +175,15 @@ Status add_defaults(World& world, Preset preset, bool authored) {
 
 constexpr std::uint32_t kChunkTypes[] = {kProbeGridChunkType};
 
+std::string explain_empty(World& world) {
+  const std::size_t grids = world.view<const IrradianceProbeGrid>().count();
+  if (grids == 0)
+    return "probe-grid bakes entities with an IrradianceProbeGrid and this scene has none (the built-in scenes "
+           "get one; a glTF scene gets one only from a host that adds the component)";
+  return "probe-grid found " + std::to_string(grids) + " IrradianceProbeGrid entities but no Static geometry "
+         "to bake them against";
+}
+
 }  // namespace
 
 const LightingModule& probe_grid_module() {
@@ -190,6 +199,7 @@ const LightingModule& probe_grid_module() {
       .check = check_with<read_probe_grid_chunk>,
       .describe = describe_probe_grid_chunk,
       .add_defaults = add_defaults,
+      .explain_empty = explain_empty,
   };
   return module;
 }

@@ -57,6 +57,17 @@ std::vector<std::string> describe_vertex_ao(const BakeChunk& chunk) {
 
 constexpr std::uint32_t kChunkTypes[] = {kVertexAoChunkType};
 
+std::string explain_empty(World& world) {
+  std::size_t skinned = 0, movable = 0;
+  world.view<const Mesh>().each([&](Entity e, const Mesh&) {
+    if (world.has<Skin>(e)) ++skinned;
+    else if (!world.has<Static>(e)) ++movable;
+  });
+  return "vertex-ao bakes Static meshes and this scene has none (" + std::to_string(skinned) +
+         " skinned meshes, which pose-ao bakes; " + std::to_string(movable) +
+         " movable meshes, which ao-field casters shade)";
+}
+
 }  // namespace
 
 const LightingModule& vertex_ao_module() {
@@ -70,6 +81,7 @@ const LightingModule& vertex_ao_module() {
       .check = check_with<read_vertex_ao_chunk>,
       .describe = describe_vertex_ao,
       .add_defaults = nullptr,  // it bakes every Static mesh
+      .explain_empty = explain_empty,
   };
   return module;
 }

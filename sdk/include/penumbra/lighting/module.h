@@ -53,6 +53,10 @@ struct LightingModule {
   // settings on skinned meshes), false for the built-in scenes, made without lighting components,
   // which get a probe grid and AO-field casters too. Null: the module adds none.
   Status (*add_defaults)(World& world, Preset preset, bool authored) = nullptr;
+  // Why its bake gives no chunk for this World: what it bakes and what the scene has instead, in
+  // one sentence (the tools' message when a bake comes out empty). Null: the tools say only that
+  // it found nothing. Cost: one pass over the entities.
+  std::string (*explain_empty)(World& world) = nullptr;
 
   bool owns(std::uint32_t chunk_type) const;
 };
