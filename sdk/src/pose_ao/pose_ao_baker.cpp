@@ -206,20 +206,51 @@ Result<PoseRig> make_pose_rig(World& world, Entity e, std::string_view context) 
   return rig;
 }
 
-std::vector<JointRange> pose_ranges(const PoseRig& rig, const SkinnedPoseAO& settings) {
-  if (!settings.joint_ranges.empty()) return settings.joint_ranges;
-  std::vector<JointRange> ranges(rig.joint_count());
-  if (rig.clips.empty()) {
-    for (JointRange& r : ranges) r = JointRange{glm::vec3(-settings.default_range), glm::vec3(settings.default_range)};
-    return ranges;
+namespace {
+
+float width(const JointRange& r) { return std::max({r.max.x - r.min.x, r.max.y - r.min.y, r.max.z - r.min.z}); }
+
+}  // namespace
+
+PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
+  PoseSpace space;
+  const std::size_t J = rig.joint_count();
+  const JointRange around_bind{glm::vec3(-settings.default_range), glm::vec3(settings.default_range)};
+  if (!settings.joint_ranges.empty()) {
+    space.source = PoseSpace::Source::JointRanges;
+    space.ranges = settings.joint_ranges;
+  } else if (rig.clips.empty()) {
+    space.source = PoseSpace::Source::Default;
+    space.ranges.assign(J, around_bind);
+  } else {
+    space.source = PoseSpace::Source::Clips;
+    space.ranges.assign(J, JointRange{});
+    for (std::size_t j = 0; j < J; ++j) {
+      if (!rig.animated[j]) continue;  // fixed: zero range about the bind rotation
+      const JointRange& c = rig.clip_ranges[j];
+      space.clip_widest_range = std::max(space.clip_widest_range, width(c));
+      const glm::vec3 widen = settings.range_margin * (c.max - c.min);
+      space.ranges[j] = JointRange{c.min - widen, c.max + widen};
+    }
+    if (std::none_of(space.ranges.begin(), space.ranges.end(),
+                     [](const JointRange& r) { return width(r) > kPoseMinJointRange; })) {
+      // Step 1 (thesis 4.5 trains on poses that span the motion): clips that barely move give a
+      // space of one pose, so the joints they animate get the range a clip-less rig gets.
+      space.source = PoseSpace::Source::DegenerateClips;
+      const bool any = std::find(rig.animated.begin(), rig.animated.end(), true) != rig.animated.end();
+      for (std::size_t j = 0; j < J; ++j)
+        if (!any || rig.animated[j]) space.ranges[j] = around_bind;
+    }
   }
-  for (std::size_t j = 0; j < ranges.size(); ++j) {
-    if (!rig.animated[j]) continue;  // fixed: zero range about the bind rotation
-    const JointRange& c = rig.clip_ranges[j];
-    const glm::vec3 widen = settings.range_margin * (c.max - c.min);
-    ranges[j] = JointRange{c.min - widen, c.max + widen};
+  for (std::size_t j = 0; j < space.ranges.size(); ++j) {
+    const float w = width(space.ranges[j]);
+    space.moving += w > kPoseMinJointRange;
+    if (w > space.widest_range) {
+      space.widest_range = w;
+      space.widest = j;
+    }
   }
-  return ranges;
+  return space;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -616,6 +647,43 @@ Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& set
   auto rig = make_pose_rig(world, e, context);
   if (!rig) return rig.error();
   PENUMBRA_TRY(validate_pose_ao(settings, rig->joint_count(), context));
+  const PoseSpace space = pose_space(*rig, settings);
+  {
+    const Skin& skin = world.get<Skin>(e);
+    const auto joint_name = [&](std::size_t j) {
+      const Name* n = j < skin.joints.size() && world.alive(skin.joints[j]) ? world.try_get<Name>(skin.joints[j]) : nullptr;
+      return n ? "'" + n->value + "'" : "joint " + std::to_string(j);
+    };
+    char figures[160];
+    if (space.moving == 0) {
+      std::snprintf(figures, sizeof figures, " turn no joint more than %.3g rad (%.2g rad is the least that counts)",
+                    static_cast<double>(space.widest_range), static_cast<double>(kPoseMinJointRange));
+      const bool given = space.source == PoseSpace::Source::JointRanges;
+      return make_error(ErrorCode::InvalidArgument,
+                        context + ": " + (given ? "joint_ranges" : "the ranges from default_range") + figures +
+                            ": every reference pose would be the bind pose; give the joints that bend ranges of a "
+                            "few tenths of a radian" + (given ? "" : " (default_range 0.5)"));
+    }
+    if (space.source == PoseSpace::Source::DegenerateClips) {
+      std::string clips;
+      for (const AnimationClip* c : rig->clips) {
+        std::snprintf(figures, sizeof figures, " (%.3g s)", static_cast<double>(c->duration));
+        clips += (clips.empty() ? "'" : ", '") + c->name + "'" + figures;
+      }
+      std::snprintf(figures, sizeof figures, "%.3g rad", static_cast<double>(space.clip_widest_range));
+      const std::string message =
+          context + ": the clips " + clips + " turn no joint more than " + figures +
+          ": a degenerate pose space (every reference pose would be the bind pose); sampling +-" +
+          std::to_string(settings.default_range) + " rad (default_range) on the " + std::to_string(space.moving) +
+          " joints they animate instead; set joint_ranges for the character's real range of motion";
+      log(LogLevel::Warning, message);
+      if (warnings) warnings->push_back(message);
+    }
+    std::snprintf(figures, sizeof figures, "%zu of %zu joints move, the widest %.3g rad", space.moving,
+                  rig->joint_count(), static_cast<double>(space.widest_range));
+    log(LogLevel::Info, context + ": pose space from " + to_string(space.source) + ": " + figures + " (" +
+                            joint_name(space.widest) + ")");
+  }
   auto tracer = PoseAOTracer::create(mesh->data, rig->joint_count(), context);
   if (!tracer) return tracer.error();
 
@@ -642,7 +710,7 @@ Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& set
   // The bind pose (every skinning matrix the identity), then the reference poses.
   const std::vector<glm::mat4> identity(J, glm::mat4(1.0f));
   PENUMBRA_TRY(tracer->trace(identity, settings.rays_per_vertex, seed, jobs, training.bind_ao));
-  const std::vector<JointRange> ranges = pose_ranges(*rig, settings);
+  const std::vector<JointRange>& ranges = space.ranges;
   for (std::uint32_t p = 0; p < settings.reference_poses; ++p)
     PENUMBRA_TRY(training.add_pose(*tracer, *rig, random_pose(*rig, ranges, seed, p), settings.rays_per_vertex, seed, jobs));
   for (std::size_t c = 0; c < rig->clips.size(); ++c)
@@ -652,6 +720,9 @@ Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& set
     }
   auto data = fit_pose_ao(training, *rig, *mesh->data, settings, 0, jobs, warnings, context);
   if (!data) return data.error();
+  data->pose_space = space.source;
+  data->moving_joints = static_cast<std::uint32_t>(space.moving);
+  data->widest_range = space.widest_range;
   return data;
 }
 

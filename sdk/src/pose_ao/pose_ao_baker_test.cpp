@@ -77,7 +77,7 @@ TEST(PoseAORig, MatchesTheAnimationSystem) {
     EXPECT_GT(rig->clip_ranges[j].max.x - rig->clip_ranges[j].min.x, 0.5f) << j;
     EXPECT_NEAR(rig->clip_ranges[j].max.y, 0.0f, 1e-5f);
   }
-  const std::vector<JointRange> ranges = pose_ranges(*rig, quick());
+  const std::vector<JointRange> ranges = pose_space(*rig, quick()).ranges;
   EXPECT_NEAR(ranges[2].max.x - ranges[2].min.x, 1.5f * (rig->clip_ranges[2].max.x - rig->clip_ranges[2].min.x), 1e-5f);
   EXPECT_EQ(ranges[0].max, glm::vec3(0.0f));
 }
@@ -133,7 +133,7 @@ struct HeldOut {
 HeldOut held_out(Walker& w, const PoseAOData& data, const SkinnedPoseAO& s, std::size_t poses) {
   auto rig = make_pose_rig(*w.world, w.mesh, "walker").value();
   auto tracer = PoseAOTracer::create(w.world->get<Mesh>(w.mesh).data, rig.joint_count(), "walker").value();
-  const std::vector<JointRange> ranges = pose_ranges(rig, s);
+  const std::vector<JointRange> ranges = pose_space(rig, s).ranges;
   JobContext jobs;
   HeldOut e;
   const std::size_t n = data.vertex_count;
@@ -212,6 +212,63 @@ TEST(PoseAOExtremes, FewerPosesThanCoefficientsWarnsAndStillFits) {
   for (float c : data->coefficients) EXPECT_TRUE(std::isfinite(c));
   const auto lines = describe_pose_ao_chunk(write_pose_ao_chunk(*data));
   EXPECT_NE(lines.back().find("warning"), std::string::npos);
+}
+
+// As some exports hold a pose: every clip shortened to two equal keys 0.067 s apart.
+void hold_first_key(World& world) {
+  world.view<Animator>().each([](Entity, Animator& a) {
+    auto clips = std::make_shared<std::vector<AnimationClip>>(*a.clips);
+    for (AnimationClip& c : *clips) {
+      c.duration = 0.067f;
+      for (AnimationChannel& ch : c.channels) {
+        const glm::vec4 v = ch.values[ch.interpolation == AnimationChannel::Interpolation::CubicSpline ? 1 : 0];
+        ch.interpolation = AnimationChannel::Interpolation::Linear;
+        ch.times = {0.0f, 0.067f};
+        ch.values = {v, v};
+      }
+    }
+    a.clips = clips;
+  });
+}
+
+TEST(PoseAOExtremes, ADegeneratePoseSpaceIsWidenedWithAWarningOrRefused) {
+  Walker w;
+  SkinnedPoseAO s = quick();
+  auto walking = make_pose_rig(*w.world, w.mesh, "walker").value();
+  const PoseSpace from_clips = pose_space(walking, s);
+  EXPECT_EQ(from_clips.source, PoseSpace::Source::Clips);
+  EXPECT_GT(from_clips.clip_widest_range, 0.5f);
+
+  hold_first_key(*w.world);
+  auto held = make_pose_rig(*w.world, w.mesh, "walker").value();
+  const PoseSpace space = pose_space(held, s);
+  EXPECT_EQ(space.source, PoseSpace::Source::DegenerateClips);
+  EXPECT_LT(space.clip_widest_range, kPoseMinJointRange);
+  // Keys that never change rotate no joint, so every joint gets +-default_range.
+  for (std::size_t j = 0; j < held.joint_count(); ++j) {
+    EXPECT_FALSE(held.animated[j]) << j;
+    EXPECT_EQ(space.ranges[j].max, glm::vec3(s.default_range)) << j;
+  }
+  EXPECT_EQ(space.moving, held.joint_count());
+
+  // The bake says so, naming the clip, and trains on the widened space: its random poses differ.
+  JobContext jobs;
+  MemoryBudget budget;
+  std::vector<std::string> warnings;
+  s.reference_poses = 24;
+  auto data = bake_pose_ao(*w.world, w.mesh, s, 3, jobs, budget, &warnings);
+  ASSERT_TRUE(data) << data.error().message;
+  ASSERT_FALSE(warnings.empty());
+  EXPECT_NE(warnings[0].find("degenerate pose space"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("0.067 s"), std::string::npos) << warnings[0];
+  EXPECT_GT(data->locality, 0u);
+
+  // Ranges given by hand that move nothing are refused, naming the field.
+  s.joint_ranges.assign(held.joint_count(), JointRange{glm::vec3(-0.001f), glm::vec3(0.001f)});
+  auto refused = bake_pose_ao(*w.world, w.mesh, s, 3, jobs, budget);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
+  EXPECT_NE(refused.error().message.find("joint_ranges turn no joint"), std::string::npos) << refused.error().message;
 }
 
 TEST(PoseAOExtremes, VerticesWithoutSkinWeightsFollowTheMesh) {

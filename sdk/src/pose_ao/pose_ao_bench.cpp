@@ -135,7 +135,7 @@ Result<Report> run(const Options& options) {
     auto tracer = PoseAOTracer::create(mesh, rig->joint_count(), name);
     if (!tracer) return tracer.error();
     const std::size_t V = mesh->positions.size();
-    const std::vector<JointRange> ranges = pose_ranges(*rig, defaults);
+    const std::vector<JointRange> ranges = pose_space(*rig, defaults).ranges;
 
     // Training: random poses in batches (timed), then the clip frames.
     PoseAOTraining tr;

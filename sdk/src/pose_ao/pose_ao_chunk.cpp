@@ -11,6 +11,16 @@
 
 namespace penumbra {
 
+const char* to_string(PoseSpaceSource source) {
+  switch (source) {
+    case PoseSpaceSource::JointRanges: return "joint_ranges";
+    case PoseSpaceSource::Clips: return "the clips";
+    case PoseSpaceSource::Default: return "+-default_range (no clip)";
+    case PoseSpaceSource::DegenerateClips: return "+-default_range (the clips barely move)";
+  }
+  return "?";
+}
+
 BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
   ByteWriter w;
   w.write_string(d.key);
@@ -22,6 +32,9 @@ BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
   w.write(d.locality);
   w.write(d.lambda);
   w.write(d.training_rmse);
+  w.write(static_cast<std::uint8_t>(d.pose_space));
+  w.write(d.moving_joints);
+  w.write(d.widest_range);
   w.write_vector(d.joint_parents);
   w.write(static_cast<std::uint64_t>(d.groups.size()));
   for (const PoseAOGroup& g : d.groups) {
@@ -57,7 +70,17 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(d.locality));
   PENUMBRA_TRY(r.read(d.lambda));
   PENUMBRA_TRY(r.read(d.training_rmse));
+  std::uint8_t source = 0;
+  PENUMBRA_TRY(r.read(source));
+  PENUMBRA_TRY(r.read(d.moving_joints));
+  PENUMBRA_TRY(r.read(d.widest_range));
   const std::uint32_t V = d.vertex_count, J = d.joint_count;
+  if (source > static_cast<std::uint8_t>(PoseSpaceSource::DegenerateClips))
+    return bad("pose space source " + std::to_string(source) + " is unknown");
+  d.pose_space = static_cast<PoseSpaceSource>(source);
+  if (d.moving_joints > J || !(std::isfinite(d.widest_range) && d.widest_range >= 0.0f))
+    return bad(std::to_string(d.moving_joints) + " moving joints of " + std::to_string(J) +
+               " or a widest range that is negative or not finite");
   if (V == 0 || V > (1u << 30)) return bad("vertex count " + std::to_string(V) + " is outside 1..2^30");
   if (J == 0 || J > 65535) return bad("joint count " + std::to_string(J) + " is outside 1..65535");
   if (d.locality > d.requested_locality || d.requested_locality > kPoseAOMaxLocality)
@@ -135,6 +158,11 @@ std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk) {
   std::snprintf(line, sizeof line, "training RMSE %.4f, %.1f B per vertex (16-bit coefficients), %s", 
                 static_cast<double>(d->training_rmse), d->bytes_per_vertex(), format_bytes(d->bytes()).c_str());
   out.emplace_back(line);
+  std::snprintf(line, sizeof line, "pose space from %s: %u of %u joints move, the widest %.3g rad",
+                to_string(d->pose_space), d->moving_joints, d->joint_count, static_cast<double>(d->widest_range));
+  out.emplace_back(line);
+  if (d->pose_space == PoseSpaceSource::DegenerateClips)
+    out.emplace_back("warning: the clips barely move the joints; set joint_ranges for the character's range of motion");
   if (d->locality < d->requested_locality) {
     std::snprintf(line, sizeof line, "warning: locality reduced from %u to %u joints (too few poses); bake more poses",
                   d->requested_locality, d->locality);

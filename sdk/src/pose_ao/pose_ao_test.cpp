@@ -202,7 +202,10 @@ PoseAOData tiny_data() {
 }
 
 TEST(PoseAOChunk, RoundTripKeepsHalfPrecision) {
-  const PoseAOData d = tiny_data();
+  PoseAOData d = tiny_data();
+  d.pose_space = PoseSpaceSource::DegenerateClips;
+  d.moving_joints = 1;
+  d.widest_range = 1.0f;
   const BakeChunk chunk = write_pose_ao_chunk(d);
   EXPECT_EQ(chunk.label, "pose-ao:walker/body");
   auto r = read_pose_ao_chunk(chunk);
@@ -215,7 +218,13 @@ TEST(PoseAOChunk, RoundTripKeepsHalfPrecision) {
   ASSERT_EQ(r->coefficients.size(), d.coefficients.size());
   for (std::size_t i = 0; i < d.coefficients.size(); ++i)
     EXPECT_NEAR(r->coefficients[i], d.coefficients[i], std::abs(d.coefficients[i]) * 0x1p-11f + 1e-7f);
-  EXPECT_FALSE(describe_pose_ao_chunk(chunk).empty());
+  EXPECT_EQ(r->pose_space, PoseSpaceSource::DegenerateClips);
+  EXPECT_EQ(r->moving_joints, 1u);
+  EXPECT_EQ(r->widest_range, 1.0f);
+  const std::vector<std::string> lines = describe_pose_ao_chunk(chunk);
+  ASSERT_GE(lines.size(), 4u);
+  EXPECT_NE(lines[2].find("pose space from +-default_range (the clips barely move): 1 of"), std::string::npos) << lines[2];
+  EXPECT_NE(lines[3].find("warning"), std::string::npos) << lines[3];
 }
 
 TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
@@ -247,8 +256,9 @@ TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
     const std::uint32_t many_vertices = 1u << 30;
     std::memcpy(c.payload.data() + at, &many_vertices, 4);
     const std::uint64_t many_sets = std::uint64_t{1} << 29;
-    // After 8 four-byte values and the joint parents (a u64 count, then one i32 per joint).
-    std::memcpy(c.payload.data() + at + 32 + 8 + 4 * std::size_t{t.joint_count}, &many_sets, 8);
+    // After 8 four-byte values, the pose space (a byte, then two four-byte values) and the joint
+    // parents (a u64 count, then one i32 per joint).
+    std::memcpy(c.payload.data() + at + 32 + 9 + 8 + 4 * std::size_t{t.joint_count}, &many_sets, 8);
     auto r = read_pose_ao_chunk(c);
     ASSERT_FALSE(r);
     EXPECT_NE(r.error().message.find("joint sets do not fit"), std::string::npos) << r.error().message;

@@ -105,6 +105,17 @@ struct PoseAOGroup {
   std::uint32_t coefficient_count() const { return pose_ao_coefficients(joint_count); }
 };
 
+// Where a bake's pose space came from (pose_space in pose_ao_baker.h).
+enum class PoseSpaceSource : std::uint8_t {
+  JointRanges,      // SkinnedPoseAO::joint_ranges
+  Clips,            // the clip ranges widened by range_margin (joints no clip rotates stay fixed)
+  Default,          // no clip: +-default_range on every axis of every joint
+  DegenerateClips,  // the clips move no joint (e.g. two keys 0.067 s apart): +-default_range on
+                    // every joint they animate (every joint when they rotate none), as without clips
+};
+// "the clips", "joint_ranges", ... for reports.
+const char* to_string(PoseSpaceSource source);
+
 // Baked data of one skinned mesh.
 struct PoseAOData {
   std::string key;  // the mesh entity's stable key (scene/entity_key.h)
@@ -124,6 +135,9 @@ struct PoseAOData {
   std::uint32_t locality = 0;          // < requested when there were fewer poses than coefficients
   float lambda = 0.0f;
   float training_rmse = 0.0f;          // of the clamped model over the reference poses
+  PoseSpaceSource pose_space = PoseSpaceSource::Default;  // where the random poses' ranges came from
+  std::uint32_t moving_joints = 0;     // joints whose range exceeds kPoseMinJointRange (pose_ao_baker.h)
+  float widest_range = 0.0f;           // the widest joint range (radians, any axis)
 
   std::size_t feature_count() const { return std::size_t{joint_count} * kPoseFeaturesPerJoint; }
   std::uint64_t bytes() const;  // memory held by the arrays
@@ -150,7 +164,7 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
 // rest as written. The reader checks the version, every size and index, that the groups
 // partition the vertices, finiteness and [0, 1] baselines, naming the chunk in its errors.
 inline constexpr std::uint32_t kPoseAOChunkType = fourcc("PSAO");
-inline constexpr std::uint32_t kPoseAOChunkVersion = 2;  // 2: keyed by the mesh's entity key
+inline constexpr std::uint32_t kPoseAOChunkVersion = 3;  // 3: the pose space
 BakeChunk write_pose_ao_chunk(const PoseAOData& data);
 Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk);
 

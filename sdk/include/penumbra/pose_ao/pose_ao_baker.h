@@ -55,9 +55,24 @@ struct PoseRig {
 // The rig points into the Animators' clips: keep the World's clips alive while using it.
 Result<PoseRig> make_pose_rig(World& world, Entity mesh_entity, std::string_view context);
 
-// The ranges the bake samples: settings.joint_ranges when set; else the clip ranges widened by
-// range_margin (fixed joints stay fixed); else (no clip at all) +-default_range on every axis.
-std::vector<JointRange> pose_ranges(const PoseRig& rig, const SkinnedPoseAO& settings);
+// A joint moves when its range is wider than this on some axis (radians, about 1.1 degrees); a
+// pose space in which no joint moves is degenerate: every reference pose is the bind pose.
+inline constexpr float kPoseMinJointRange = 0.02f;
+
+// The pose space a bake samples, and where it came from.
+struct PoseSpace {
+  using Source = PoseSpaceSource;
+  Source source = Source::Default;
+  std::vector<JointRange> ranges;  // per skin joint
+  std::size_t moving = 0;          // joints wider than kPoseMinJointRange
+  std::size_t widest = 0;          // the joint of the widest range (any axis), and that width
+  float widest_range = 0.0f;
+  float clip_widest_range = 0.0f;  // the widest unwidened clip range (0 without clips)
+};
+
+// The pose space of `rig` under `settings` (above). With joint_ranges in which no joint moves the
+// space is degenerate too (moving == 0); bake_pose_ao refuses it. Cost: O(joints).
+PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings);
 
 // Random pose `index` of the stream `seed`: joint j's local rotation is bind rotation x
 // exp(r), r uniform in ranges[j] (Rng::stream(seed, index)); translations and scales stay at bind.
