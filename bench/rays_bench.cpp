@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -212,7 +213,8 @@ Result<Report> run_rays_bench(const Options& options) {
       {"ao_integrator",
        [&](benchmark::State& state) {
          JobContext jobs(&pool);
-         const AoSettings settings{kMaxDistance, kRaysPerPoint, 7};
+         // Independent rays, the raw loop's: both sides trace the same rays.
+         const AoSettings settings{kMaxDistance, kRaysPerPoint, 7, AoSampling::Independent};
          for (auto _ : state) {
            Status st = ambient_occlusion(*scene, s->points, settings, out, jobs);
            if (!st.ok()) failure = st;
@@ -264,8 +266,79 @@ Result<Report> run_rays_bench(const Options& options) {
   return report;
 }
 
+// `penumbra bench ao-noise`: the AO integrator's noise against its ray count, Sobol' (the
+// default) against independent rays, on receivers of the same scene. Reference per point: 4096
+// independent rays (its own standard error is reported and subtracted from the mean square). Goal:
+// Sobol' reaches the noise of independent rays at 256 per point with at most half of them.
+Result<Report> run_ao_noise_bench(const Options& options) {
+  const std::size_t point_count = options.quick ? 1024 : 8192;
+  constexpr std::uint32_t kReferenceRays = 4096;
+  ThreadPool pool(options.threads);
+  const std::unique_ptr<Scene> s = make_scene(point_count);
+  auto scene = RayScene::build(s->world, RaySceneOptions{.build_threads = pool.concurrency()});
+  if (!scene) return scene.error();
+  JobContext jobs(&pool);
+  std::vector<AoEstimate> reference(point_count), out(point_count);
+  PENUMBRA_TRY(ambient_occlusion(*scene, s->points, AoSettings{kMaxDistance, kReferenceRays, 99, AoSampling::Independent},
+                                 reference, jobs));
+  double reference_var = 0.0;  // the reference's own mean squared standard error
+  for (const AoEstimate& r : reference) reference_var += double(r.std_error) * r.std_error / double(point_count);
+
+  Report report;
+  report.columns = {"sampling", "rays", "rms_error", "mean_error_bar", "ms"};
+  // RMS error per (sampling, rays), the reference's variance removed.
+  std::map<std::pair<int, std::uint32_t>, double> rms;
+  const std::vector<std::uint32_t> counts = {16, 32, 64, 128, 256};
+  for (const AoSampling sampling : {AoSampling::Independent, AoSampling::Sobol}) {
+    for (const std::uint32_t rays : counts) {
+      const auto t0 = std::chrono::steady_clock::now();
+      PENUMBRA_TRY(ambient_occlusion(*scene, s->points, AoSettings{kMaxDistance, rays, 7, sampling}, out, jobs));
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      double ms_error = 0.0, ms_bar = 0.0;
+      for (std::size_t i = 0; i < point_count; ++i) {
+        const double e = double(out[i].value) - double(reference[i].value);
+        ms_error += e * e / double(point_count);
+        ms_bar += double(out[i].std_error) * out[i].std_error / double(point_count);
+      }
+      const double r = std::sqrt(std::max(ms_error - reference_var, 0.0));
+      rms[{static_cast<int>(sampling), rays}] = r;
+      report.rows.push_back({sampling == AoSampling::Sobol ? "sobol" : "independent", std::to_string(rays), fmt(r, 4),
+                             fmt(std::sqrt(ms_bar), 4), fmt(ms, 3)});
+    }
+  }
+  // Rays Sobol' needs for the noise of 256 independent rays: log-log interpolation between counts.
+  const double target = rms[{static_cast<int>(AoSampling::Independent), 256}];
+  double needed = 0.0;
+  for (std::size_t k = 0; k + 1 < counts.size() && needed == 0.0; ++k) {
+    const double a = rms[{static_cast<int>(AoSampling::Sobol), counts[k]}];
+    const double b = rms[{static_cast<int>(AoSampling::Sobol), counts[k + 1]}];
+    if (k == 0 && a <= target) needed = counts[0];
+    else if (a > target && b <= target)
+      needed = counts[k] * std::pow(double(counts[k + 1]) / counts[k], std::log(a / target) / std::log(a / b));
+  }
+  const double ratio = needed > 0.0 ? needed / 256.0 : 0.0;
+  report.notes.push_back("reference: " + std::to_string(kReferenceRays) + " independent rays per point, RMS standard error " +
+                         fmt(std::sqrt(reference_var), 4) + " (removed from the errors above); " +
+                         std::to_string(point_count) + " receivers, max distance " + fmt(kMaxDistance) + " m");
+  report.notes.push_back("goal: Sobol' reaches the noise of 256 independent rays (" + fmt(target, 4) + ") with at most " +
+                         "half the rays: " + (needed > 0.0 ? fmt(needed, 3) + " rays, " + fmt(ratio, 3) + "x" :
+                                                             std::string("not within 256 rays")) +
+                         ": " + (needed > 0.0 && ratio <= 0.5 ? "PASS" : "FAIL"));
+  report.plot.title = "AO noise against rays per point";
+  report.plot.x_label = "rays per point";
+  report.plot.y_label = "RMS error";
+  report.plot.x_column = 1;
+  report.plot.y_column = 2;
+  report.plot.series_column = 0;
+  report.plot.log_x = true;
+  report.plot.log_y = true;
+  return report;
+}
+
 }  // namespace
 }  // namespace penumbra::bench
 
+PENUMBRA_BENCH("ao-noise", "AO integrator noise against rays per point: Sobol' against independent rays",
+               penumbra::bench::run_ao_noise_bench);
 PENUMBRA_BENCH("rays", "AO integrator rays/s on a 1M-triangle scene against raw rtcOccluded16",
                penumbra::bench::run_rays_bench);

@@ -104,32 +104,67 @@ Status check_points(std::size_t points, std::size_t out, const char* what) {
 }  // namespace
 
 AoEstimate ambient_occlusion(const RayScene& scene, glm::vec3 x, glm::vec3 n, float max_distance,
-                             std::uint32_t rays, Rng& rng) {
+                             std::uint32_t rays, Rng& rng, AoSampling sampling) {
   const glm::vec3 origin = x + scene.ray_epsilon(x) * n;
   glm::vec3 t, b;
   orthonormal_basis(n, t, b);
+  const bool sobol = sampling == AoSampling::Sobol;
+  // Sobol: replicate r holds rays [r m, (r + 1) m), points 0..m-1 of its own scramble.
+  const std::uint32_t per_replicate = sobol ? (rays + kAoReplicates - 1) / kAoReplicates : rays;
+  const std::uint32_t total = sobol ? per_replicate * kAoReplicates : rays;
+  std::array<Sobol2D, kAoReplicates> scramble{Sobol2D(0), Sobol2D(0), Sobol2D(0), Sobol2D(0)};
+  std::array<std::uint32_t, kAoReplicates> replicate_open{};
+  if (sobol)
+    for (Sobol2D& s : scramble) s = Sobol2D(rng.next_u32());
   // Trace in blocks of 64 (four packets of 16): generating a block, then tracing it.
   constexpr std::uint32_t kBlock = 64;
   std::array<Ray, kBlock> block;
   std::array<std::uint8_t, kBlock> hit{};
   std::uint32_t open = 0;
-  for (std::uint32_t first = 0; first < rays; first += kBlock) {
-    const std::uint32_t count = std::min(kBlock, rays - first);
+  std::uint32_t replicate = 0, point = 0;  // of the next Sobol' ray
+  std::array<std::uint8_t, kBlock> of{};   // each ray's replicate
+  for (std::uint32_t first = 0; first < total; first += kBlock) {
+    const std::uint32_t count = std::min(kBlock, total - first);
     for (std::uint32_t i = 0; i < count; ++i) {
-      const float u0 = rng.next_float(), u1 = rng.next_float();
-      const glm::vec3 d = cosine_hemisphere({u0, u1});
+      glm::vec2 u;
+      if (sobol) {
+        u = scramble[replicate](point);
+        of[i] = static_cast<std::uint8_t>(replicate);
+        if (++point == per_replicate) {
+          point = 0;
+          ++replicate;
+        }
+      } else {
+        u.x = rng.next_float();
+        u.y = rng.next_float();
+      }
+      const glm::vec3 d = cosine_hemisphere(u);
       block[i] = Ray{origin, 0.0f, d.x * t + d.y * b + d.z * n, max_distance};
     }
     scene.occluded(std::span<const Ray>(block.data(), count), std::span<std::uint8_t>(hit.data(), count));
-    for (std::uint32_t i = 0; i < count; ++i) open += hit[i] == 0 ? 1u : 0u;
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const std::uint32_t o = hit[i] == 0 ? 1u : 0u;
+      open += o;
+      if (sobol) replicate_open[of[i]] += o;
+    }
   }
-  // Bernoulli samples: mean a, Bessel-corrected variance a (1 - a) N / (N - 1).
   AoEstimate e;
-  e.samples = rays;
-  if (rays == 0) return e;
-  const double a = double(open) / double(rays);
+  e.samples = total;
+  if (total == 0) return e;
+  const double a = double(open) / double(total);
   e.value = float(a);
-  if (rays > 1) e.std_error = float(std::sqrt(a * (1.0 - a) / double(rays - 1)));
+  if (sobol) {
+    // The replicates' means are independent and unbiased: their sample variance / R.
+    double var = 0.0;
+    for (std::uint32_t o : replicate_open) {
+      const double d = double(o) / double(per_replicate) - a;
+      var += d * d;
+    }
+    e.std_error = float(std::sqrt(var / double(kAoReplicates - 1) / double(kAoReplicates)));
+  } else if (total > 1) {
+    // Bernoulli samples: mean a, Bessel-corrected variance a (1 - a) N / (N - 1).
+    e.std_error = float(std::sqrt(a * (1.0 - a) / double(total - 1)));
+  }
   return e;
 }
 
@@ -150,7 +185,7 @@ Status ambient_occlusion(const RayScene& scene, std::span<const SurfacePoint> po
     for (std::size_t i = begin; i < end; ++i) {
       Rng rng = Rng::stream(settings.seed, i);
       out[i] = ambient_occlusion(scene, points[i].position, points[i].normal, settings.max_distance, settings.rays,
-                                 rng);
+                                 rng, settings.sampling);
     }
   });
 }

@@ -84,6 +84,58 @@ TEST(Integrators, AmbientOcclusionOfSphereBesidePointOnPlane) {
   EXPECT_EQ(near_only.std_error, 0.0f);
 }
 
+// Sobol' AO (the default of the batched integrator) against the closed form above over a ring of
+// receivers: unbiased, with an error bar whose mean square matches the actual squared error, and
+// with half the rays below the noise of independent rays.
+TEST(Integrators, SobolAmbientOcclusionNeedsHalfTheRaysWithAnHonestErrorBar) {
+  World world;
+  add_mesh(world, make_quad(100.0f, 100.0f), floor_at({0.0f, 0.0f, 0.0f}));
+  const glm::vec3 centre(0.0f, 2.0f, 0.0f);
+  const float radius = 1.0f;
+  add_mesh(world, make_icosphere(radius, 6), glm::translate(glm::mat4(1.0f), centre));
+  auto scene = RayScene::build(world);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  const glm::vec3 up(0.0f, 1.0f, 0.0f);
+  constexpr int kPoints = 256;
+  std::vector<SurfacePoint> points(kPoints);
+  std::vector<float> expected(kPoints);
+  for (int i = 0; i < kPoints; ++i) {
+    const float angle = 2.0f * kPi * float(i) / kPoints, r = 0.5f + 1.5f * float(i % 16) / 16.0f;
+    points[i].position = glm::vec3(r * std::cos(angle), 0.0f, r * std::sin(angle));
+    points[i].normal = up;
+    const float d = glm::length(centre - points[i].position);
+    const float cos_beta = glm::dot(up, centre - points[i].position) / d;
+    ASSERT_LT(std::acos(cos_beta) + std::asin(radius / d), kPi / 2);
+    expected[i] = 1.0f - cos_beta * (radius / d) * (radius / d);
+  }
+  const auto errors = [&](AoSampling sampling, std::uint32_t rays, double& mean_square, double& mean_se2) {
+    AoSettings settings;
+    settings.rays = rays;
+    settings.seed = 5;
+    settings.sampling = sampling;
+    std::vector<AoEstimate> out(kPoints);
+    JobContext jobs;
+    ASSERT_TRUE(ambient_occlusion(*scene, points, settings, out, jobs).ok());
+    mean_square = mean_se2 = 0.0;
+    for (int i = 0; i < kPoints; ++i) {
+      const double e = double(out[i].value) - expected[i];
+      mean_square += e * e / kPoints;
+      mean_se2 += double(out[i].std_error) * out[i].std_error / kPoints;
+    }
+  };
+  double sobol_ms = 0, sobol_se2 = 0, mc_ms = 0, mc_se2 = 0;
+  errors(AoSampling::Sobol, 64, sobol_ms, sobol_se2);
+  errors(AoSampling::Independent, 128, mc_ms, mc_se2);
+  std::printf("RMS error: Sobol 64 rays %.4f (error bar %.4f), independent 128 rays %.4f (error bar %.4f)\n",
+              std::sqrt(sobol_ms), std::sqrt(sobol_se2), std::sqrt(mc_ms), std::sqrt(mc_se2));
+  EXPECT_LT(sobol_ms, mc_ms);  // half the rays, less noise
+  // Both error bars are unbiased estimates of the variance: the ratio is 1 up to the noise of 256 points.
+  EXPECT_GT(sobol_ms / sobol_se2, 0.5);
+  EXPECT_LT(sobol_ms / sobol_se2, 2.0);
+  EXPECT_GT(mc_ms / mc_se2, 0.5);
+  EXPECT_LT(mc_ms / mc_se2, 2.0);
+}
+
 // --- (2) Furnace --------------------------------------------------------------------------------
 
 // Inside a closed inward-facing sphere of albedo rho and emission Le, E = pi Le sum_k rho^k.

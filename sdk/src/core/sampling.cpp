@@ -61,12 +61,24 @@ constexpr DirectionTable make_sobol_directions() {
 
 constexpr DirectionTable kSobolDirections = make_sobol_directions();
 
+// The generator matrix times the index, a byte at a time: kSobolBytes[dim][b][v] is the XOR of
+// the direction numbers of the bits set in byte value v at byte position b (4 look-ups per point
+// instead of a data-dependent branch per bit).
+using ByteTable = std::array<std::array<std::array<std::uint32_t, 256>, 4>, 4>;
+constexpr ByteTable make_sobol_bytes() {
+  ByteTable t{};
+  for (unsigned d = 0; d < 4; ++d)
+    for (unsigned b = 0; b < 4; ++b)
+      for (unsigned v = 0; v < 256; ++v)
+        for (unsigned bit = 0; bit < 8; ++bit)
+          if ((v >> bit) & 1u) t[d][b][v] ^= kSobolDirections[d][8 * b + bit];
+  return t;
+}
+constexpr ByteTable kSobolBytes = make_sobol_bytes();
+
 std::uint32_t sobol_raw(std::uint32_t index, std::uint32_t dim) {
-  std::uint32_t x = 0;
-  for (unsigned bit = 0; index != 0; ++bit, index >>= 1) {
-    if (index & 1u) x ^= kSobolDirections[dim][bit];
-  }
-  return x;
+  const auto& t = kSobolBytes[dim];
+  return t[0][index & 0xffu] ^ t[1][(index >> 8) & 0xffu] ^ t[2][(index >> 16) & 0xffu] ^ t[3][index >> 24];
 }
 
 // ---- Burley 2020 hash-based Owen scrambling --------------------------------------------------
@@ -75,8 +87,7 @@ std::uint32_t reverse_bits(std::uint32_t x) {
   x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
   x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
   x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
-  x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
-  return (x >> 16) | (x << 16);
+  return __builtin_bswap32(x);  // the bytes' order: the last two swaps in one instruction (GCC, Clang)
 }
 
 // A seeded bijection in which each output bit depends only on the same and lower input bits
@@ -133,7 +144,18 @@ float sobol(std::uint32_t index, std::uint32_t dim, std::uint32_t seed) {
   return to_unit_float(owen_scramble(sobol_raw(shuffled, dim), derive_seed(seed, dim)));
 }
 
-glm::vec2 sobol_2d(std::uint32_t index, std::uint32_t seed) { return {sobol(index, 0, seed), sobol(index, 1, seed)}; }
+glm::vec2 sobol_2d(std::uint32_t index, std::uint32_t seed) { return Sobol2D(seed)(index); }
+
+Sobol2D::Sobol2D(std::uint32_t seed)
+    : shuffle_(derive_seed(seed, 0xffffffffu)), scramble_{derive_seed(seed, 0), derive_seed(seed, 1)} {}
+
+glm::vec2 Sobol2D::operator()(std::uint32_t index) const {
+  // sobol() of dimensions 0 and 1 with the index shuffled once; dimension 0's direction numbers
+  // are the van der Corput sequence's, so its raw point is the index's bit reversal.
+  const std::uint32_t shuffled = owen_scramble(index, shuffle_);
+  return {to_unit_float(owen_scramble(reverse_bits(shuffled), scramble_[0])),
+          to_unit_float(owen_scramble(sobol_raw(shuffled, 1), scramble_[1]))};
+}
 
 float halton(std::uint32_t index, std::uint32_t dim, float rotation) {
   assert(dim < kPrimes.size() && "halton: dim must be below 32");

@@ -57,6 +57,12 @@ TEST(Sobol, DeterministicAndSeedDependent) {
     equal += sobol(i, 2, 5) == sobol(i, 2, 6);
   }
   EXPECT_LT(equal, 4);
+  // sobol_2d is dimensions 0 and 1 of sobol(), bit for bit.
+  for (std::uint32_t i = 0; i < 4096; i += 7)
+    for (std::uint32_t seed : {0u, 9u, 0xdeadbeefu}) {
+      EXPECT_EQ(sobol_2d(i, seed).x, sobol(i, 0, seed));
+      EXPECT_EQ(sobol_2d(i, seed).y, sobol(i, 1, seed));
+    }
 }
 
 TEST(Sobol, PairsOfDimensionsIntegrateProducts) {

@@ -380,11 +380,11 @@ Status PoseAOTracer::trace(std::span<const glm::mat4> joint_matrices, std::uint3
     for (std::size_t v = begin; v < end; ++v) {
       const glm::vec3 p = s.positions[v], nrm = s.normals[v];
       const float eps = s.eps_scale + 2e-5f * std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-      const auto scramble = static_cast<std::uint32_t>(mix64(seed ^ kRayStreamTag ^ mix64(v)));
+      const Sobol2D scramble(static_cast<std::uint32_t>(mix64(seed ^ kRayStreamTag ^ mix64(v))));
       for (std::uint32_t i = 0; i < rays; ++i) {
         batch[i].origin = p + eps * nrm;
         batch[i].tnear = 0.0f;
-        batch[i].direction = to_world(nrm, cosine_hemisphere(sobol_2d(i, scramble)));
+        batch[i].direction = to_world(nrm, cosine_hemisphere(scramble(i)));
         batch[i].tfar = std::numeric_limits<float>::infinity();
       }
       scene.occluded(batch, blocked);
