@@ -8,6 +8,8 @@
 #include <glm/ext/matrix_transform.hpp>
 #include <glm/geometric.hpp>
 
+#include "penumbra/ecs/transform.h"
+
 namespace penumbra::editor {
 
 namespace {
@@ -29,6 +31,16 @@ void CameraControl::set_orbit(float yaw, float pitch, float distance) {
   yaw_ = yaw;
   pitch_ = std::clamp(pitch, -kPitchLimit, kPitchLimit);
   if (distance > 0.0f) distance_ = distance;
+}
+
+void CameraControl::look_from(glm::vec3 eye, glm::vec3 forward, float field) {
+  mode_ = Mode::Orbit;
+  yfov = field;
+  yaw_ = std::atan2(-forward.x, -forward.z);
+  pitch_ = std::clamp(-std::asin(std::clamp(forward.y, -1.0f, 1.0f)), -kPitchLimit, kPitchLimit);
+  distance_ = std::max(glm::dot(target_ - eye, this->forward()), 0.1f * radius);
+  target_ = eye + distance_ * this->forward();
+  fly_eye_ = eye;
 }
 
 glm::vec3 CameraControl::forward() const {
@@ -88,6 +100,20 @@ CameraView CameraControl::view(float aspect) const {
   v.projection = glm::perspectiveRH_ZO(yfov, aspect, std::max(reach * 1e-4f, 1e-3f), reach);
   v.projection[1][1] = -v.projection[1][1];  // Vulkan: y down the image
   return v;
+}
+
+bool look_through_scene_camera(World& world, const Aabb& bounds, CameraControl& control) {
+  Entity first;
+  world.view<const Camera, const WorldTransform>().each([&](Entity e, const Camera&, const WorldTransform&) {
+    if (!first || e.index < first.index) first = e;
+  });
+  if (!first) return false;
+  const glm::mat4& m = world.get<WorldTransform>(first).matrix;
+  const glm::vec3 forward = -glm::vec3(m[2]);  // a camera looks down its local -Z (glTF)
+  if (!(glm::length(forward) > 0.0f)) return false;
+  control.frame(bounds);
+  control.look_from(glm::vec3(m[3]), glm::normalize(forward), world.get<Camera>(first).yfov);
+  return true;
 }
 
 }  // namespace penumbra::editor

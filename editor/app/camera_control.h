@@ -19,6 +19,9 @@ class CameraControl {
   void frame(const Aabb& bounds);
   // Orbit angles in radians (yaw about +Y from +Z, pitch up from the horizon) and distance.
   void set_orbit(float yaw, float pitch, float distance);
+  // Orbit from `eye` along `forward` (unit) with the vertical field `yfov`, around the point
+  // level with the framed target (frame() first): what a scene's camera sees, to turn from.
+  void look_from(glm::vec3 eye, glm::vec3 forward, float yfov);
 
   // Mouse drag by `delta` pixels: orbit turns around the target, fly looks around.
   void rotate(glm::vec2 delta);
@@ -48,5 +51,9 @@ class CameraControl {
   float yaw_ = 0.0f, pitch_ = 0.4f, distance_ = 10.0f;
   glm::vec3 fly_eye_{0.0f, 2.0f, 10.0f};
 };
+
+// Looks through the scene's first Camera entity (lowest index, as `penumbra render` picks), framing
+// `bounds` for the orbit's centre; false (and nothing changed) when the scene has no camera.
+bool look_through_scene_camera(World& world, const Aabb& bounds, CameraControl& control);
 
 }  // namespace penumbra::editor

@@ -163,8 +163,13 @@ int run(const Options& options) {
         last = start;
         glfwPollEvents();
         const bool baking = model.bakes().running();
-        if (model.poll() && model.bakes().status().state != BakeStatus::State::Done)
-          ui.message = "bake " + std::string(to_string(model.bakes().status().state)) + ": " + model.bakes().status().error;
+        if (model.poll()) {  // a bake ended: its outcome replaces "bake started"
+          const BakeStatus& st = model.bakes().status();
+          char done[96];
+          std::snprintf(done, sizeof done, "bake done in %.2f s, %.1f KiB", st.seconds, double(st.bytes) / 1024.0);
+          ui.message = st.state == BakeStatus::State::Done ? std::string(done)
+                                                           : "bake " + std::string(to_string(st.state)) + ": " + st.error;
+        }
         if (runner && click_frames == 0) {  // a click in progress holds the script
           if (Status s = runner->step(model); !s) {
             std::fprintf(stderr, "penumbra-editor: %s\n", s.error().message.c_str());
@@ -190,7 +195,10 @@ int run(const Options& options) {
         Document& doc = *model.document();
         doc.world().update(dt);
         if (doc.source() != opened_source) {  // after the update, which poses skinned meshes
-          ui.camera.frame(posed_bounds(doc.world()));
+          // The scene's camera when it has one, else a view framing everything.
+          const Aabb bounds = posed_bounds(doc.world());
+          ui.camera = CameraControl{};  // from the front and above, as the default light shines
+          if (!look_through_scene_camera(doc.world(), bounds, ui.camera)) ui.camera.frame(bounds);
           opened_source = doc.source();
           if (!doc.notice().empty()) ui.message = doc.notice();
         }

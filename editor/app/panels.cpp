@@ -15,6 +15,7 @@
 #include "overlays.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 
 namespace penumbra::editor {
@@ -94,6 +95,33 @@ void report(UiState& ui, const Status& s, const std::string& done = {}) {
   ui.message = s ? done : s.error().message;
 }
 
+// --- Layout ------------------------------------------------------------------------------------
+
+enum class Panel { Scene, Bake, Inspector, Stats, View, Plot };
+
+// The panels tile the window around the 3D view: Scene over Bake on the left, Inspector over
+// Stats on the right, View and the plot along the bottom, between the menu bar and the status
+// bar. Column widths and the bottom row's height follow the window within readable bounds.
+void place(Panel panel, const UiState& ui) {
+  const ImGuiViewport* vp = ImGui::GetMainViewport();
+  const float W = vp->Size.x, H = vp->Size.y, top = 20.0f, bottom = H - 22.0f, tall = bottom - top;
+  const float left = std::clamp(0.2f * W, 220.0f, 380.0f), right = std::clamp(0.24f * W, 260.0f, 440.0f);
+  const float row = std::clamp(0.26f * H, 160.0f, 320.0f), middle = std::max(W - left - right, 200.0f);
+  ImVec2 pos, size;
+  switch (panel) {
+    case Panel::Scene: pos = {0, top}, size = {left, 0.55f * tall}; break;
+    case Panel::Bake: pos = {0, top + 0.55f * tall}, size = {left, 0.45f * tall}; break;
+    case Panel::Inspector: pos = {W - right, top}, size = {right, 0.6f * tall}; break;
+    case Panel::Stats: pos = {W - right, top + 0.6f * tall}, size = {right, 0.4f * tall}; break;
+    case Panel::View: pos = {left, bottom - row}, size = {0.6f * middle, row}; break;
+    case Panel::Plot: pos = {left + 0.6f * middle, bottom - row}, size = {0.4f * middle, row}; break;
+  }
+  // Laid out again whenever the window's size changes; in between the user may move and resize.
+  const ImGuiCond cond = ui.relayout ? ImGuiCond_Always : ImGuiCond_FirstUseEver;
+  ImGui::SetNextWindowPos(ImVec2(vp->Pos.x + pos.x, vp->Pos.y + pos.y), cond);
+  ImGui::SetNextWindowSize(size, cond);
+}
+
 // --- Hierarchy ---------------------------------------------------------------------------------
 
 void hierarchy_node(Document& doc, Entity e) {
@@ -117,9 +145,8 @@ void hierarchy_node(Document& doc, Entity e) {
   }
 }
 
-void hierarchy_panel(Document& doc) {
-  ImGui::SetNextWindowPos(ImVec2(0, 20), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(250, 330), ImGuiCond_FirstUseEver);
+void hierarchy_panel(Document& doc, const UiState& ui) {
+  place(Panel::Scene, ui);
   ImGui::Begin("Scene");
   ImGui::TextDisabled("%s, %zu entities", doc.source().c_str(), doc.world().entity_count());
   World& w = doc.world();
@@ -137,12 +164,24 @@ void hierarchy_panel(Document& doc) {
 
 // --- Inspector ---------------------------------------------------------------------------------
 
+// "samples_per_axis" -> "samples per axis (unit)", angles in degrees: what the inspector shows
+// above a field's widget (the script and file name stays the field's own).
+std::string field_label(const FieldDesc& f) {
+  std::string label = f.name;
+  std::replace(label.begin(), label.end(), '_', ' ');
+  const std::string unit = f.unit == "rad" ? "deg" : f.unit;
+  return unit.empty() ? label : label + " (" + unit + ")";
+}
+
 // One widget for one field; edits go through the undo stack (drags merge until released).
 void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
   World& w = doc.world();
   FieldValue v = f.get(w, e);
   bool changed = false;
-  const std::string id = f.name + "##" + f.component;
+  const std::string id = "##" + f.component + "." + f.name;
+  ImGui::TextUnformatted(field_label(f).c_str());
+  if (!f.help.empty() && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", f.help.c_str());
+  ImGui::SetNextItemWidth(-FLT_MIN);
   if (f.read_only) ImGui::BeginDisabled();
   switch (f.kind) {
     case FieldKind::Bool: changed = ImGui::Checkbox(id.c_str(), &std::get<bool>(v)); break;
@@ -166,8 +205,12 @@ void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
       break;
     }
     case FieldKind::Float: {
-      const float lo = static_cast<float>(std::max(f.min, -1e9)), hi = static_cast<float>(std::min(f.max, 1e9));
-      changed = ImGui::DragFloat(id.c_str(), &std::get<float>(v), f.speed, lo, hi, "%.4g");
+      // Angles are stored in radians and shown in degrees.
+      const float shown = f.unit == "rad" ? 57.29577951308232f : 1.0f;
+      const float lo = static_cast<float>(std::max(f.min, -1e9)) * shown, hi = static_cast<float>(std::min(f.max, 1e9)) * shown;
+      float x = std::get<float>(v) * shown;
+      changed = ImGui::DragFloat(id.c_str(), &x, f.speed * shown, lo, hi, "%.4g");
+      if (changed) v = FieldValue(x / shown);
       break;
     }
     case FieldKind::Vec2: changed = ImGui::DragFloat2(id.c_str(), &std::get<glm::vec2>(v).x, f.speed); break;
@@ -191,9 +234,15 @@ void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
   }
   if (f.read_only) ImGui::EndDisabled();
   if (!f.help.empty() && ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
-    ImGui::SetTooltip("%s%s%s", f.help.c_str(), f.unit.empty() ? "" : "; unit: ", f.unit.c_str());
+    ImGui::SetTooltip("%s", f.help.c_str());
   if (changed) {
-    if (Status s = doc.undo().set(w, e, f, v, /*merge=*/true); !s) ui.message = s.error().message;
+    // An error stays in the status bar until the next edit that succeeds.
+    if (Status s = doc.undo().set(w, e, f, v, /*merge=*/true); !s) {
+      ui.message = ui.field_error = s.error().message;
+    } else if (!ui.field_error.empty() && ui.message == ui.field_error) {
+      ui.message.clear();
+      ui.field_error.clear();
+    }
   }
   if (ImGui::IsItemDeactivatedAfterEdit()) doc.undo().end_merge();
 }
@@ -205,8 +254,7 @@ void module_lines(World& w, Entity e) {
 }
 
 void inspector_panel(Document& doc, UiState& ui) {
-  ImGui::SetNextWindowPos(ImVec2(980, 20), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(300, 420), ImGuiCond_FirstUseEver);
+  place(Panel::Inspector, ui);
   ImGui::Begin("Inspector");
   World& w = doc.world();
   const Entity e = doc.selection();
@@ -250,8 +298,7 @@ void inspector_panel(Document& doc, UiState& ui) {
 // --- Bake --------------------------------------------------------------------------------------
 
 void bake_panel(EditorModel& model, UiState& ui) {
-  ImGui::SetNextWindowPos(ImVec2(0, 350), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(250, 250), ImGuiCond_FirstUseEver);
+  place(Panel::Bake, ui);
   ImGui::Begin("Bake");
   int preset = static_cast<int>(model.bake_settings.preset);
   ImGui::Combo("preset", &preset, "draft\0medium\0high\0");
@@ -287,8 +334,7 @@ void bake_panel(EditorModel& model, UiState& ui) {
 // --- Stats -------------------------------------------------------------------------------------
 
 void stats_panel(EditorModel& model, UiState& ui) {
-  ImGui::SetNextWindowPos(ImVec2(980, 440), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(300, 260), ImGuiCond_FirstUseEver);
+  place(Panel::Stats, ui);
   ImGui::Begin("Stats");
   const std::vector<float> recent(ui.frames.recent_ms.begin(), ui.frames.recent_ms.end());
   const float last = recent.empty() ? 0.0f : recent.back();
@@ -320,8 +366,7 @@ void stats_panel(EditorModel& model, UiState& ui) {
 // --- Visualisation -----------------------------------------------------------------------------
 
 void view_panel(EditorModel& model, UiState& ui) {
-  ImGui::SetNextWindowPos(ImVec2(260, 560), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(460, 170), ImGuiCond_FirstUseEver);
+  place(Panel::View, ui);
   ImGui::Begin("View");
   if (ImGui::BeginCombo("debug view", ui.render.view.c_str())) {
     for (const ViewInfo& v : ui.views) {
@@ -344,6 +389,12 @@ void view_panel(EditorModel& model, UiState& ui) {
   int mode = ui.camera.mode() == CameraControl::Mode::Orbit ? 0 : 1;
   if (ImGui::Combo("camera", &mode, "orbit (drag, wheel, middle-drag)\0fly (drag, WASD QE)\0"))
     ui.camera.set_mode(mode == 0 ? CameraControl::Mode::Orbit : CameraControl::Mode::Fly);
+  World& world = model.document()->world();
+  if (ImGui::Button("Scene camera") && !look_through_scene_camera(world, posed_bounds(world), ui.camera))
+    ui.message = "the scene has no camera";
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("look through the scene's first camera");
+  ImGui::SameLine();
+  if (ImGui::Button("Frame all")) ui.camera.frame(posed_bounds(world));
   // Each module's controls (overlays, its own views).
   ViewContext view{model.document()->world(), model.document()->selection(), ui.camera_now, {}, ui.message};
   for (const EditorExtension& x : editor_extensions())
@@ -361,8 +412,7 @@ CostPlotSource cost_plot_source(World& world, Entity e) {
 }
 
 void plot_panel(Document& doc, UiState& ui) {
-  ImGui::SetNextWindowPos(ImVec2(730, 560), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(240, 150), ImGuiCond_FirstUseEver);
+  place(Panel::Plot, ui);
   ImGui::Begin("Error vs cost");
   // The plot follows the selected component: its bench's CSV in the tool's default folder, the
   // rows of its current mode marked (cost_plot_source's default bench without a lighting selection).
@@ -452,6 +502,9 @@ void status_bar(const UiState& ui) {
 
 void draw_panels(EditorModel& model, UiState& ui) {
   if (!model.document() || !ui.show_ui) return;
+  const ImVec2 window = ImGui::GetMainViewport()->Size;
+  ui.relayout = window.x != ui.laid_out_for.x || window.y != ui.laid_out_for.y;
+  ui.laid_out_for = glm::vec2(window.x, window.y);
   menu_bar(model, ui);
   Document& doc = *model.document();
   // Keyboard undo/redo when no text field has focus.
@@ -460,7 +513,7 @@ void draw_panels(EditorModel& model, UiState& ui) {
     if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Z))) doc.undo().undo(doc.world());
     if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Y))) doc.undo().redo(doc.world());
   }
-  hierarchy_panel(doc);
+  hierarchy_panel(doc, ui);
   inspector_panel(doc, ui);
   bake_panel(model, ui);
   stats_panel(model, ui);

@@ -58,6 +58,7 @@ struct UiState {
   FrameStats renderer_stats;
   std::vector<ViewInfo> views;  // the renderer's debug views (Renderer::views)
   std::string message;  // the last error or notice, shown in the status bar
+  std::string field_error;  // the last inspector edit's error (cleared by the next edit that succeeds)
   char scene_path[512] = "builtin:courtyard";
   char bake_path[512] = "scene.pbake";
   char edits_path[512] = "edits.txt";
@@ -68,6 +69,9 @@ struct UiState {
   // A scene the menus asked to open. Opening replaces the Document, so the main loop does it
   // between frames (take_open_request), never while panels hold references into the old one.
   std::string open_request;
+  // The window size the panels were last laid out for, and whether this frame lays them out again.
+  glm::vec2 laid_out_for{0.0f};
+  bool relayout = true;
 };
 
 // Every panel, the menu bar and the status bar.

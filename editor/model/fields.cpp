@@ -42,6 +42,12 @@ FieldDesc member(const char* name, FieldKind kind, M C::*ptr, double min = -1e30
   return f;
 }
 
+FieldDesc described(FieldDesc f, const char* unit, const char* help) {
+  f.unit = unit;
+  f.help = help;
+  return f;
+}
+
 FieldDesc with_choices(FieldDesc f, std::vector<std::string> choices) {
   f.choices = std::move(choices);
   f.min = 0;
@@ -53,18 +59,28 @@ std::vector<FieldDesc> build_fields() {
   std::vector<FieldDesc> t;
   constexpr double kBig = 1e30;
   // Transform (ecs): the local TRS.
-  t.push_back(member("translation", FieldKind::Vec3, &Transform::translation, -1e6, 1e6, 0.02f));
-  t.push_back(member("rotation", FieldKind::Rotation, &Transform::rotation));
-  t.push_back(member("scale", FieldKind::Vec3, &Transform::scale, 1e-6, 1e6, 0.01f));
+  t.push_back(described(member("translation", FieldKind::Vec3, &Transform::translation, -1e6, 1e6, 0.02f), "m",
+                        "position relative to the parent"));
+  t.push_back(described(member("rotation", FieldKind::Rotation, &Transform::rotation), "deg",
+                        "Euler angles relative to the parent (X, Y, Z)"));
+  t.push_back(described(member("scale", FieldKind::Vec3, &Transform::scale, 1e-6, 1e6, 0.01f), "",
+                        "scale along the local axes, applied before the rotation"));
 
   // Light (scene).
   t.push_back(with_choices(member("type", FieldKind::Enum, &Light::type), {"directional", "point", "spot", "rect"}));
-  t.push_back(member("color", FieldKind::Color, &Light::color, 0.0, kBig));
-  t.push_back(member("intensity", FieldKind::Float, &Light::intensity, 0.0, kBig, 0.05f));
-  t.push_back(member("range", FieldKind::Float, &Light::range, 0.0, kBig, 0.05f));
-  t.push_back(member("inner_cone_angle", FieldKind::Float, &Light::inner_cone_angle, 0.0, 3.1415926, 0.005f));
-  t.push_back(member("outer_cone_angle", FieldKind::Float, &Light::outer_cone_angle, 0.0, 3.1415926, 0.005f));
-  t.push_back(member("size", FieldKind::Vec2, &Light::size, 0.0, kBig, 0.01f));
+  t.push_back(described(member("color", FieldKind::Color, &Light::color, 0.0, kBig), "",
+                        "linear RGB; multiplies the intensity"));
+  t.push_back(described(member("intensity", FieldKind::Float, &Light::intensity, 0.0, kBig, 0.05f), "",
+                        "directional: illuminance in lux; point and spot: intensity in candela; rect: radiance in "
+                        "W/(m^2 sr)"));
+  t.push_back(described(member("range", FieldKind::Float, &Light::range, 0.0, kBig, 0.05f), "m",
+                        "distance at which the light fades to nothing; 0: no limit"));
+  t.push_back(described(member("inner_cone_angle", FieldKind::Float, &Light::inner_cone_angle, 0.0, 3.1415926, 0.005f),
+                        "rad", "spot: full intensity inside this angle from the axis"));
+  t.push_back(described(member("outer_cone_angle", FieldKind::Float, &Light::outer_cone_angle, 0.0, 3.1415926, 0.005f),
+                        "rad", "spot: no light beyond this angle from the axis"));
+  t.push_back(described(member("size", FieldKind::Vec2, &Light::size, 0.0, kBig, 0.01f), "m",
+                        "rect: width (local X) and height (local Y)"));
 
   // Material (scene): base colour split into RGB and alpha.
   {
@@ -96,15 +112,17 @@ std::vector<FieldDesc> build_fields() {
   t.push_back(member("double_sided", FieldKind::Bool, &Material::double_sided));
 
   // Camera (scene).
-  t.push_back(member("yfov", FieldKind::Float, &Camera::yfov, 0.01, 3.1, 0.005f));
-  t.push_back(member("aspect", FieldKind::Float, &Camera::aspect, 0.0, 100.0));
-  t.push_back(member("znear", FieldKind::Float, &Camera::znear, 1e-6, kBig, 0.001f));
-  t.push_back(member("zfar", FieldKind::Float, &Camera::zfar, 1e-5, kBig, 1.0f));
+  t.push_back(described(member("yfov", FieldKind::Float, &Camera::yfov, 0.01, 3.1, 0.005f), "rad", "vertical field of view"));
+  t.push_back(described(member("aspect", FieldKind::Float, &Camera::aspect, 0.0, 100.0), "",
+                        "width / height; 0 follows the window"));
+  t.push_back(described(member("znear", FieldKind::Float, &Camera::znear, 1e-6, kBig, 0.001f), "m", "near clip distance"));
+  t.push_back(described(member("zfar", FieldKind::Float, &Camera::zfar, 1e-5, kBig, 1.0f), "m", "far clip distance"));
 
   // Animator (scene).
   t.push_back(member("clip", FieldKind::Count, &Animator::clip, 0.0, 1e9));
-  t.push_back(member("time", FieldKind::Float, &Animator::time, 0.0, kBig));
-  t.push_back(member("speed", FieldKind::Float, &Animator::speed, -100.0, 100.0));
+  t.push_back(described(member("time", FieldKind::Float, &Animator::time, 0.0, kBig), "s", "playback time in the clip"));
+  t.push_back(described(member("speed", FieldKind::Float, &Animator::speed, -100.0, 100.0), "x",
+                        "playback rate; negative plays backwards"));
   t.push_back(member("loop", FieldKind::Bool, &Animator::loop));
   t.push_back(member("playing", FieldKind::Bool, &Animator::playing));
 

@@ -146,8 +146,9 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
 
 // File > Open of another scene while one is open, clicked as a user would (the script's click
 // moves the pointer and presses the button): the document is replaced between frames, so nothing
-// drawn that frame uses the old one. Then a glTF character without lights (an armature scaled by
-// 0.01): framed by its skinned vertices, lit by the default light.
+// drawn that frame uses the old one, and the new scene is seen through its camera. Then a glTF
+// character without lights or camera (an armature scaled by 0.01): framed by its skinned
+// vertices, lit by the default light.
 TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
   ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
   const fs::path dir = fs::temp_directory_path() / ("penumbra_editor_open_" + std::to_string(::getpid()));
@@ -164,6 +165,9 @@ TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
               "click 60 33\n"
               "frames 3\n"
               "save-edits " << d << "/after_menu.txt\n"
+              "ui off\n"
+              "screenshot " << d << "/cornell.png\n"
+              "ui on\n"
               "open " PENUMBRA_TEST_DATA "/gltf/scaled_armature.gltf\n"
               "frames 3\n"
               "ui off\n"
@@ -184,6 +188,19 @@ TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
   std::ifstream edits(dir / "after_menu.txt");
   std::string text((std::istreambuf_iterator<char>(edits)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("open builtin:cornell"), std::string::npos) << text;
+  // The Cornell box opens through its own camera: its red and green walls both in view (from the
+  // orbit camera's default it would be seen from behind its back wall).
+  const Png cornell = load_png(dir / "cornell.png");
+  ASSERT_EQ(cornell.width, 1280);
+  std::size_t red = 0, green = 0;
+  for (std::size_t i = 0; i + 2 < cornell.rgb.size(); i += 3) {
+    const int r = cornell.rgb[i], g = cornell.rgb[i + 1], b = cornell.rgb[i + 2];
+    red += r > 40 && r > 2 * g && r > 2 * b;
+    green += g > 40 && g > 2 * r && g > 2 * b;
+  }
+  std::printf("Cornell box through its camera: %zu red and %zu green wall pixels\n", red, green);
+  EXPECT_GT(red, 20000u);
+  EXPECT_GT(green, 20000u);
   // The character fills a good part of the bare viewport.
   const Png character = load_png(dir / "character.png");
   ASSERT_EQ(character.width, 1280);

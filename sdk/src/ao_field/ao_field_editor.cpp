@@ -15,9 +15,10 @@
 namespace penumbra::editor {
 namespace {
 
+// Every overlay starts off: the View panel turns them on.
 struct Overlay {
-  bool bounds = true;   // the hull (radial fit) or grid cube, and the falloff sphere
-  bool slice = true;    // once baked
+  bool bounds = false;  // the hull (radial fit) or grid cube, and the falloff sphere
+  bool slice = false;   // once baked
   int resolution = 32;  // slice points per side (~0.1 ms at 32)
   float height = 0.0f;  // of the slice above the caster's lowest point, metres
 };

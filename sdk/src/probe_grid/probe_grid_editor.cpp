@@ -17,10 +17,11 @@
 namespace penumbra::editor {
 namespace {
 
+// Every overlay starts off: the View panel turns them on.
 struct ProbeOverlay {
-  bool probes = true;      // node positions coloured by E(+Y)
-  bool invalid = true;     // nodes without an in-domain sample (filled by dilation) as red rings
-  bool bounds = true;      // the grid box
+  bool probes = false;     // node positions coloured by E(+Y)
+  bool invalid = false;    // nodes without an in-domain sample (filled by dilation) as red rings
+  bool bounds = false;     // the grid box
   float exposure = 0.3f;   // the courtyard's nodes see 1-10 W/m^2
   int max_points = 20000;  // per grid; larger grids are subsampled by a stride
 };
