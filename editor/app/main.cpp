@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <utility>
 
 #define GLFW_INCLUDE_VULKAN
@@ -169,6 +170,7 @@ int run(const Options& options) {
           std::snprintf(done, sizeof done, "bake done in %.2f s, %.1f KiB", st.seconds, double(st.bytes) / 1024.0);
           ui.message = st.state == BakeStatus::State::Done ? std::string(done)
                                                            : "bake " + std::string(to_string(st.state)) + ": " + st.error;
+          std::printf("%s\n", ui.message.c_str());  // for scripted runs and logs
         }
         if (runner && click_frames == 0) {  // a click in progress holds the script
           if (Status s = runner->step(model); !s) {
@@ -224,7 +226,7 @@ int run(const Options& options) {
             if (x.draw_overlay) x.draw_overlay(view, ImGui::GetBackgroundDrawList());
         }
         ImGui::Render();
-        (*viewport)->set_render_scale(ui.render_scale);
+        (*viewport)->set_render_scale(baking ? std::min(ui.render_scale, ui.bake_render_scale) : ui.render_scale);
 
         Image shot;
         const bool capture = !pending_screenshot.empty();
@@ -247,6 +249,9 @@ int run(const Options& options) {
           ui.frames.add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(),
                         baking, (*viewport)->times());
         }
+        // A running bake keeps the cores: the frame waits out the rest of its 1 / bake_fps.
+        if (baking && ui.bake_fps > 0)
+          std::this_thread::sleep_until(start + std::chrono::microseconds(1000000 / ui.bake_fps));
       }
       model.bakes().cancel();
       model.bakes().wait();

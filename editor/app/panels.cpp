@@ -377,6 +377,10 @@ void view_panel(EditorModel& model, UiState& ui) {
   }
   ImGui::DragFloat("exposure", &ui.render.exposure, 0.01f, 0.01f, 100.0f);
   ImGui::SliderFloat("3D resolution", &ui.render_scale, 0.25f, 1.0f, "x%.2f");
+  ImGui::SliderInt("fps while baking", &ui.bake_fps, 0, 60, ui.bake_fps == 0 ? "no limit" : "%d");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("the viewport draws at most this often while a bake runs, leaving the cores to the bake");
+  ImGui::SliderFloat("3D resolution while baking", &ui.bake_render_scale, 0.25f, 1.0f, "x%.2f");
   ImGui::Checkbox("shadows", &ui.render.shadows);
   ImGui::SameLine();
   int shadow = static_cast<int>(ui.render.shadow_map_size);

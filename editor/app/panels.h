@@ -54,6 +54,10 @@ struct UiState {
   RenderSettings render;
   bool show_ui = true;
   float render_scale = 1.0f;  // of the 3D view (Viewport::set_render_scale)
+  // While a bake runs the viewport yields the cores to it: at most this many frames per second,
+  // the 3D view at most this scale (0 frames per second: no limit).
+  int bake_fps = 4;
+  float bake_render_scale = 0.25f;
   FrameTimes frames;
   FrameStats renderer_stats;
   std::vector<ViewInfo> views;  // the renderer's debug views (Renderer::views)
