@@ -40,6 +40,14 @@ expect_output "probe-grid bakes entities with an IrradianceProbeGrid"; expect_ou
 expect_output "vertex-ao bakes Static meshes"
 expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/valid.gltf" -o "$scratch/none.pbake" --only pose-ao
 expect_output "0 skinned meshes"
+# A glTF level declares its lighting components (PENUMBRA_lighting): the bake bakes them; a
+# mistake in a declaration names the file, the node, the component and the field.
+level="$SOURCE_DIR/tests/data/gltf/lighting_extension.gltf"
+expect_exit 0 "$PENUMBRA" bake "$level" -o "$scratch/level.pbake" --only probe-grid,ao-field
+expect_output "grid 8x4x8"; expect_output "falloff 1.5"
+sed 's/"spacing": 1.0/"spacing": -1.0/' "$level" > "$scratch/bad_level.gltf"
+expect_exit 1 "$PENUMBRA" bake "$scratch/bad_level.gltf" -o "$scratch/bad.pbake"
+expect_output "bad_level.gltf: nodes\[3\] 'probes'.extensions.PENUMBRA_lighting: IrradianceProbeGrid: field 'spacing'"
 
 # info on damaged files: truncated, corrupted, not a bake file at all.
 head -c 100 "$scratch/good.pbake" > "$scratch/short.pbake"

@@ -29,9 +29,19 @@ const LightingModule* lighting_module_for_chunk(std::uint32_t type);
 // systems with `world`. Call once per World, before the first update.
 void register_lighting(World& world);
 
-// Every module's add_defaults (module.h) in the modules' order, then one world.update(0) so that
-// the new components' transforms are current. A module that fails does not stop the others; the
-// first error is returned.
+// Turns every AuthoredLighting (a glTF node's PENUMBRA_lighting, scene/components.h) into the
+// modules' components, by their field lists: each declared component is added (on the node's
+// entity, or on each of its mesh entities for ComponentInfo::on_mesh), set to its preset when one
+// is named, then given the declared fields; the AuthoredLighting is removed. InvalidInput naming
+// the file, the node, the component and the field (an unknown component, field or preset, a
+// value of the wrong form or out of range, a per-mesh component on a node without a mesh); the
+// components applied before the error stay. Cost: O(declared fields).
+Status apply_authored_lighting(World& world);
+
+// apply_authored_lighting, then every module's add_defaults (module.h) in the modules' order
+// (modules skip entities that already have their components), then one world.update(0) so that
+// the new components' transforms are current. An authored declaration's error returns at once;
+// a module that fails does not stop the others, and the first module error is returned.
 Status add_default_lighting(World& world, Preset preset, bool authored);
 
 // Attaches every chunk of `file` to the entities its keys name, through the module that owns the

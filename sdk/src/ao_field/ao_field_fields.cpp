@@ -66,7 +66,9 @@ const ComponentInfo& ao_field_caster_info() {
                                   .find = fields::find_in<AOFieldCaster>,
                                   .patch = fields::patch_in<AOFieldCaster>,
                                   .copy = fields::copy_in<AOFieldCaster>,
-                                  .set_preset_fields = fields::preset_fields<AOFieldCaster>};
+                                  .set_preset_fields = fields::preset_fields<AOFieldCaster>,
+                                  .emplace = fields::emplace_in<AOFieldCaster>,
+                                  .on_mesh = true};
   return info;
 }
 
@@ -76,7 +78,9 @@ const ComponentInfo& ao_field_receiver_info() {
                                   .defaults = &kReceiverDefaults,
                                   .find = fields::find_in<AOFieldReceiver>,
                                   .patch = fields::patch_in<AOFieldReceiver>,
-                                  .copy = fields::copy_in<AOFieldReceiver>};
+                                  .copy = fields::copy_in<AOFieldReceiver>,
+                                  .emplace = fields::emplace_in<AOFieldReceiver>,
+                                  .on_mesh = true};
   return info;
 }
 

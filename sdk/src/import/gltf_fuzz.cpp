@@ -1,8 +1,11 @@
 // Fuzz target "gltf": the glTF importer (import_gltf) on any bytes, as .gltf or .glb (the first
-// byte of the input chooses, the rest is the file). Invariants: an import succeeds with valid
-// meshes, or fails with an error that starts with the file's path and leaves no entity behind.
+// byte of the input chooses, the rest is the file), then the lighting components its
+// PENUMBRA_lighting declares (apply_authored_lighting). Invariants: an import succeeds with valid
+// meshes, or fails with an error that starts with the file's path and leaves no entity behind;
+// applying the declarations succeeds or fails naming the file.
 #include "fuzz/fuzz.h"
 #include "penumbra/import/gltf.h"
+#include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
 
 extern "C" std::uint32_t penumbra_fuzz_chunk_type() { return 0; }
@@ -18,6 +21,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   auto imported = import_gltf(world, path, options);
   if (imported) {
     world.each<Mesh>([&](Entity, Mesh& m) { fuzz::require(m.data && m.data->validate("fuzz").ok(), "invalid mesh"); });
+    register_lighting(world);
+    const Status applied = apply_authored_lighting(world);
+    fuzz::require(applied || applied.error().message.rfind(path.string(), 0) == 0,
+                  "a lighting declaration's error that does not name the file");
   } else {
     fuzz::require(imported.error().message.rfind(path.string(), 0) == 0, "an error that does not name the file");
     std::size_t left = 0;

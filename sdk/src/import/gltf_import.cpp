@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <memory>
@@ -29,8 +30,11 @@ namespace penumbra {
 namespace {
 
 // Extensions this importer implements; any other one listed in extensionsRequired is refused.
-constexpr std::array<std::string_view, 2> kSupportedExtensions = {"KHR_lights_punctual",
-                                                                  "KHR_materials_emissive_strength"};
+constexpr std::array<std::string_view, 3> kSupportedExtensions = {"KHR_lights_punctual",
+                                                                  "KHR_materials_emissive_strength",
+                                                                  "PENUMBRA_lighting"};
+// The PENUMBRA_lighting version this importer reads.
+constexpr int kLightingExtensionVersion = 1;
 
 std::string element(std::string_view kind, std::size_t index) {
   return std::string(kind) + "[" + std::to_string(index) + "]";
@@ -181,6 +185,9 @@ class Importer {
   Status load_skins();
   Status load_animations();
   Status attach_node_contents(std::size_t node, bool animated);
+  // The node's PENUMBRA_lighting extension as an AuthoredLighting on its entity (`meshes`: the
+  // entities made for its primitives).
+  Status read_lighting_extension(std::size_t node, const tinygltf::Value& ext, std::vector<Entity> meshes);
 
   World& world_;
   const tinygltf::Model& model_;
@@ -203,7 +210,7 @@ Status Importer::check_extensions() {
     if (!supported)
       return fail(ErrorCode::Unsupported, "extensionsRequired",
                   "extension '" + name + "' is required but not supported (Penumbra supports "
-                  "KHR_lights_punctual and KHR_materials_emissive_strength); export without it");
+                  "KHR_lights_punctual, KHR_materials_emissive_strength and PENUMBRA_lighting); export without it");
   }
   return {};
 }
@@ -601,7 +608,10 @@ Status Importer::attach_node_contents(std::size_t ni, bool animated) {
     world_.add<Light>(e, light);
     ++out_.lights;
   }
-  if (node.mesh < 0) return {};
+  const auto lighting = node.extensions.find("PENUMBRA_lighting");
+  std::vector<Entity> mesh_entities;
+  if (node.mesh < 0)
+    return lighting == node.extensions.end() ? Status{} : read_lighting_extension(ni, lighting->second, {});
   if (static_cast<std::size_t>(node.mesh) >= meshes_.size())
     return fail(ErrorCode::InvalidInput, where, "mesh " + std::to_string(node.mesh) + " does not exist");
   const Skin* skin = nullptr;
@@ -636,7 +646,74 @@ Status Importer::attach_node_contents(std::size_t ni, bool animated) {
     if (options_.mark_static && !skinned && !animated) world_.add<Static>(pe);
     ++out_.mesh_entities;
     out_.triangles += data->triangle_count();
+    mesh_entities.push_back(pe);
   }
+  if (lighting != node.extensions.end()) return read_lighting_extension(ni, lighting->second, std::move(mesh_entities));
+  return {};
+}
+
+Status Importer::read_lighting_extension(std::size_t ni, const tinygltf::Value& ext, std::vector<Entity> meshes) {
+  const tinygltf::Node& node = model_.nodes[ni];
+  const std::string where = element("nodes", ni) + (node.name.empty() ? "" : " '" + node.name + "'") +
+                            ".extensions.PENUMBRA_lighting";
+  if (!ext.IsObject()) return fail(ErrorCode::InvalidInput, where, "is not an object");
+  const tinygltf::Value& version = ext.Get("version");
+  if (!version.IsNumber())
+    return fail(ErrorCode::InvalidInput, where, "has no \"version\"; give \"version\": " +
+                                                    std::to_string(kLightingExtensionVersion));
+  if (version.GetNumberAsDouble() != kLightingExtensionVersion) {
+    char given[32];
+    std::snprintf(given, sizeof given, "%g", version.GetNumberAsDouble());
+    return fail(ErrorCode::Unsupported, where,
+                std::string("version ") + given + " is not the version this Penumbra reads (" +
+                    std::to_string(kLightingExtensionVersion) + "); update Penumbra or export version " +
+                    std::to_string(kLightingExtensionVersion));
+  }
+  for (const std::string& key : ext.Keys())
+    if (key != "version" && key != "components")
+      return fail(ErrorCode::InvalidInput, where, "unknown key \"" + key + "\" (version, components)");
+  const tinygltf::Value& components = ext.Get("components");
+  if (!components.IsObject())
+    return fail(ErrorCode::InvalidInput, where, "\"components\" is missing or not an object of component name -> "
+                                                "fields");
+  AuthoredLighting authored;
+  authored.source = file_ + ": " + where;
+  authored.meshes = std::move(meshes);
+  for (const std::string& type : components.Keys()) {
+    const tinygltf::Value& body = components.Get(type);
+    const std::string cwhere = where + ".components." + type;
+    if (!body.IsObject()) return fail(ErrorCode::InvalidInput, cwhere, "is not an object of field -> value");
+    AuthoredComponent c;
+    c.type = type;
+    for (const std::string& field : body.Keys()) {
+      const tinygltf::Value& v = body.Get(field);
+      if (field == "preset") {
+        if (!v.IsString()) return fail(ErrorCode::InvalidInput, cwhere, "\"preset\" is not a string (draft, medium, high)");
+        c.preset = v.Get<std::string>();
+        continue;
+      }
+      if (v.IsBool()) {
+        c.fields.emplace_back(field, AuthoredValue(v.Get<bool>()));
+      } else if (v.IsNumber()) {
+        c.fields.emplace_back(field, AuthoredValue(v.GetNumberAsDouble()));
+      } else if (v.IsString()) {
+        c.fields.emplace_back(field, AuthoredValue(v.Get<std::string>()));
+      } else if (v.IsArray()) {
+        std::vector<double> numbers;
+        for (std::size_t i = 0; i < v.ArrayLen(); ++i) {
+          if (!v.Get(static_cast<int>(i)).IsNumber())
+            return fail(ErrorCode::InvalidInput, cwhere + "." + field, "element " + std::to_string(i) + " is not a number");
+          numbers.push_back(v.Get(static_cast<int>(i)).GetNumberAsDouble());
+        }
+        c.fields.emplace_back(field, AuthoredValue(std::move(numbers)));
+      } else {
+        return fail(ErrorCode::InvalidInput, cwhere + "." + field,
+                    "is not a boolean, number, string or array of numbers");
+      }
+    }
+    authored.components.push_back(std::move(c));
+  }
+  world_.add<AuthoredLighting>(out_.nodes[ni], std::move(authored));
   return {};
 }
 

@@ -307,6 +307,77 @@ TEST(GltfImport, StructureIsCheckedBeforeDecoding) {
 }
 
 // A light with a negative intensity is refused naming the light and the fix.
+// PENUMBRA_lighting: the importer keeps each node's declarations as written (the lighting layer
+// turns them into components: runtime.h, apply_authored_lighting) and refuses what it cannot read.
+TEST(GltfImport, LightingExtensionIsKeptPerNodeAndItsShapeChecked) {
+  World world;
+  auto imported = import_gltf(world, kCases / "lighting_extension.gltf");
+  ASSERT_TRUE(imported.ok()) << imported.error().message;
+  std::size_t declared = 0;
+  world.each<AuthoredLighting, Name>([&](Entity, AuthoredLighting& a, Name& n) {
+    ++declared;
+    ASSERT_EQ(a.components.size(), 1u);
+    EXPECT_NE(a.source.find("lighting_extension.gltf: nodes["), std::string::npos) << a.source;
+    if (n.value == "crate") {
+      EXPECT_EQ(a.components[0].type, "AOFieldCaster");
+      EXPECT_EQ(a.components[0].preset, "draft");
+      EXPECT_EQ(a.meshes.size(), 1u);  // the crate's one primitive
+      ASSERT_EQ(a.components[0].fields.size(), 1u);
+      EXPECT_EQ(a.components[0].fields[0].first, "falloff_distance");
+      EXPECT_EQ(std::get<double>(a.components[0].fields[0].second), 1.5);
+    } else {
+      EXPECT_EQ(n.value, "probes");
+      EXPECT_TRUE(a.meshes.empty());
+      EXPECT_EQ(std::get<std::string>(a.components[0].fields[0].second), "L1");  // by name: sh_order, then spacing
+    }
+  });
+  EXPECT_EQ(declared, 2u);
+
+  nlohmann::json base;
+  std::ifstream(kCases / "lighting_extension.gltf") >> base;
+  struct Mutation {
+    const char* what;
+    void (*apply)(nlohmann::json&);
+    ErrorCode code;
+    std::vector<const char*> mentions;
+  };
+  const Mutation mutations[] = {
+      {"newer version", [](nlohmann::json& j) { j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["version"] = 2; },
+       ErrorCode::Unsupported, {"nodes[3] 'probes'.extensions.PENUMBRA_lighting", "version 2", "update Penumbra"}},
+      {"no version", [](nlohmann::json& j) { j["nodes"][3]["extensions"]["PENUMBRA_lighting"].erase("version"); },
+       ErrorCode::InvalidInput, {"has no \"version\""}},
+      {"unknown key", [](nlohmann::json& j) { j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["lights"] = 1; },
+       ErrorCode::InvalidInput, {"unknown key \"lights\""}},
+      {"components not an object",
+       [](nlohmann::json& j) { j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["components"] = {1, 2}; },
+       ErrorCode::InvalidInput, {"\"components\" is missing or not an object"}},
+      {"a field as an object",
+       [](nlohmann::json& j) {
+         j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["components"]["IrradianceProbeGrid"]["spacing"] = {{"a", 1}};
+       },
+       ErrorCode::InvalidInput, {"components.IrradianceProbeGrid.spacing", "is not a boolean, number, string"}},
+      {"an array of strings",
+       [](nlohmann::json& j) {
+         j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["components"]["IrradianceProbeGrid"]["resolution"] = {"x"};
+       },
+       ErrorCode::InvalidInput, {"IrradianceProbeGrid.resolution", "element 0 is not a number"}},
+  };
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("penumbra_lighting_ext_" + std::to_string(::getpid()) + ".gltf");
+  for (const Mutation& m : mutations) {
+    nlohmann::json j = base;
+    m.apply(j);
+    std::ofstream(path) << j.dump();
+    World w;
+    auto r = import_gltf(w, path);
+    ASSERT_FALSE(r.ok()) << m.what << " was accepted";
+    EXPECT_EQ(r.error().code, m.code) << m.what;
+    for (const char* s : m.mentions) EXPECT_NE(r.error().message.find(s), std::string::npos) << m.what << ": " << r.error().message;
+    EXPECT_EQ(entity_count(w), 0u) << m.what;  // rolled back
+  }
+  std::filesystem::remove(path);
+}
+
 TEST(GltfImport, NegativeLightIntensityIsRefused) {
   const std::filesystem::path path =
       std::filesystem::temp_directory_path() / ("penumbra_dark_light_" + std::to_string(::getpid()) + ".gltf");

@@ -1,6 +1,7 @@
 // Field lists: range checks, hashing and presets derived from them (see fields.h).
 #include "penumbra/lighting/fields.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -52,6 +53,65 @@ const FieldInfo* ComponentInfo::field(std::string_view field_name) const {
   for (const FieldInfo& f : fields)
     if (f.name == field_name) return &f;
   return nullptr;
+}
+
+Result<FieldValue> field_value_from(const FieldInfo& f, const AuthoredValue& a) {
+  const std::string where = "field '" + std::string(f.name) + "'";
+  const auto bad = [&](const std::string& form) {
+    return make_error(ErrorCode::InvalidArgument, where + " takes " + form);
+  };
+  const auto* number = std::get_if<double>(&a);
+  const auto* numbers = std::get_if<std::vector<double>>(&a);
+  const auto integral = [](double x) { return std::isfinite(x) && x == std::floor(x) && std::abs(x) < 0x1p53; };
+  FieldValue v;
+  switch (f.type) {
+    case FieldType::Bool:
+      if (!std::holds_alternative<bool>(a)) return bad("true or false");
+      v = std::get<bool>(a);
+      break;
+    case FieldType::Int:
+    case FieldType::Count:
+      if (!number || !integral(*number)) return bad("an integer");
+      v = static_cast<std::int64_t>(*number);
+      break;
+    case FieldType::Enum: {
+      std::string names;
+      for (std::size_t c = 0; c < f.choices.size(); ++c) {
+        names += (c > 0 ? ", \"" : "\"") + std::string(f.choices[c]) + "\"";
+        if (const auto* s = std::get_if<std::string>(&a); s && *s == f.choices[c]) v = static_cast<std::int64_t>(c);
+      }
+      if (!std::holds_alternative<std::int64_t>(v)) return bad("one of " + names);
+      break;
+    }
+    case FieldType::Float:
+      if (!number) return bad("a number");
+      v = static_cast<float>(*number);
+      break;
+    case FieldType::Vec2:
+      if (!numbers || numbers->size() != 2) return bad("an array of 2 numbers");
+      v = glm::vec2((*numbers)[0], (*numbers)[1]);
+      break;
+    case FieldType::Vec3:
+    case FieldType::Color:
+      if (!numbers || numbers->size() != 3) return bad("an array of 3 numbers");
+      v = glm::vec3((*numbers)[0], (*numbers)[1], (*numbers)[2]);
+      break;
+    case FieldType::Count3:
+      if (!numbers || numbers->size() != 3 || !std::all_of(numbers->begin(), numbers->end(), integral) ||
+          *std::min_element(numbers->begin(), numbers->end()) < 0)
+        return bad("an array of 3 non-negative integers");
+      v = glm::uvec3(static_cast<std::uint32_t>(std::min((*numbers)[0], 4294967295.0)),
+                     static_cast<std::uint32_t>(std::min((*numbers)[1], 4294967295.0)),
+                     static_cast<std::uint32_t>(std::min((*numbers)[2], 4294967295.0)));
+      break;
+    case FieldType::Rotation:
+      if (!numbers || numbers->size() != 4) return bad("a quaternion [x, y, z, w]");
+      v = glm::quat(static_cast<float>((*numbers)[3]), static_cast<float>((*numbers)[0]),
+                    static_cast<float>((*numbers)[1]), static_cast<float>((*numbers)[2]));
+      break;
+  }
+  PENUMBRA_TRY(check_field_value(f, v));
+  return v;
 }
 
 Status check_field_value(const FieldInfo& f, const FieldValue& v) {

@@ -44,7 +44,9 @@ const ComponentInfo& skinned_pose_ao_info() {
                                   .find = fields::find_in<SkinnedPoseAO>,
                                   .patch = fields::patch_in<SkinnedPoseAO>,
                                   .copy = fields::copy_in<SkinnedPoseAO>,
-                                  .set_preset_fields = fields::preset_fields<SkinnedPoseAO>};
+                                  .set_preset_fields = fields::preset_fields<SkinnedPoseAO>,
+                                  .emplace = fields::emplace_in<SkinnedPoseAO>,
+                                  .on_mesh = true};
   return info;
 }
 

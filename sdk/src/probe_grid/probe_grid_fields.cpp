@@ -87,7 +87,8 @@ const ComponentInfo& irradiance_probe_grid_info() {
                                   .find = fields::find_in<IrradianceProbeGrid>,
                                   .patch = fields::patch_in<IrradianceProbeGrid>,
                                   .copy = fields::copy_in<IrradianceProbeGrid>,
-                                  .set_preset_fields = fields::preset_fields<IrradianceProbeGrid>};
+                                  .set_preset_fields = fields::preset_fields<IrradianceProbeGrid>,
+                                  .emplace = fields::emplace_in<IrradianceProbeGrid>};
   return info;
 }
 
@@ -97,7 +98,9 @@ const ComponentInfo& probe_lit_info() {
                                   .defaults = &kLitDefaults,
                                   .find = fields::find_in<ProbeLit>,
                                   .patch = fields::patch_in<ProbeLit>,
-                                  .copy = fields::copy_in<ProbeLit>};
+                                  .copy = fields::copy_in<ProbeLit>,
+                                  .emplace = fields::emplace_in<ProbeLit>,
+                                  .on_mesh = true};
   return info;
 }
 

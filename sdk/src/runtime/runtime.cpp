@@ -1,7 +1,11 @@
 // The SDK's module list and the game-facing calls (see penumbra/runtime.h).
 #include "penumbra/runtime.h"
 
+#include <algorithm>
 #include <array>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "penumbra/core/log.h"
 #include "penumbra/scene/animation.h"
@@ -39,7 +43,79 @@ void register_lighting(World& world) {
     if (m->register_runtime) m->register_runtime(world);
 }
 
+namespace {
+
+// The component type `name` of a linked module, or nullptr.
+const ComponentInfo* find_component(std::string_view name) {
+  for (const LightingModule* m : lighting_modules())
+    for (const ComponentInfo* c : m->components)
+      if (c->name == name) return c;
+  return nullptr;
+}
+
+Status apply_one(World& world, const AuthoredLighting& a, Entity node, const AuthoredComponent& c) {
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidInput, a.source + ": " + c.type + ": " + what);
+  };
+  const ComponentInfo* info = find_component(c.type);
+  if (info == nullptr || info->emplace == nullptr) {
+    std::string known;
+    for (const LightingModule* m : lighting_modules())
+      for (const ComponentInfo* k : m->components)
+        if (k->emplace) known += (known.empty() ? "" : ", ") + std::string(k->name);
+    return bad("no lighting component of that name can be authored; use one of " + known);
+  }
+  std::optional<Preset> preset;
+  if (!c.preset.empty()) {
+    auto p = parse_preset(c.preset);
+    if (!p) return bad("preset '" + c.preset + "' is unknown; use draft, medium or high");
+    if (info->set_preset_fields == nullptr) return bad("has no presets; give its fields instead");
+    preset = *p;
+  }
+  // Every field converted and checked before anything is added.
+  std::vector<std::pair<const FieldInfo*, FieldValue>> values;
+  for (const auto& [name, value] : c.fields) {
+    const FieldInfo* f = info->field(name);
+    if (f == nullptr) {
+      std::string names;
+      for (const FieldInfo& k : info->fields)
+        if (!k.read_only) names += (names.empty() ? "" : ", ") + std::string(k.name);
+      return bad("no field '" + name + "'; its fields: " + names);
+    }
+    if (f->read_only) return bad("field '" + name + "' is written by the runtime and cannot be authored");
+    auto v = field_value_from(*f, value);
+    if (!v) return bad(v.error().message);
+    values.emplace_back(f, std::move(*v));
+  }
+  std::vector<Entity> targets = info->on_mesh ? a.meshes : std::vector<Entity>{node};
+  if (targets.empty()) return bad("belongs on a mesh and the node has none; declare it on a node with a mesh");
+  for (const Entity e : targets) {
+    if (!world.alive(e)) continue;
+    info->emplace(world, e);
+    void* component = info->patch(world, e);
+    if (preset) info->set_preset_fields(*info, component, *preset);
+    for (const auto& [f, v] : values) f->set(component, v);
+    if (Status s = check_fields(*info, component, a.source + ": " + c.type); !s) return s.error();
+  }
+  return {};
+}
+
+}  // namespace
+
+Status apply_authored_lighting(World& world) {
+  std::vector<Entity> nodes;
+  world.view<AuthoredLighting>().each([&](Entity e, AuthoredLighting&) { nodes.push_back(e); });
+  std::sort(nodes.begin(), nodes.end(), [](Entity x, Entity y) { return x.index < y.index; });
+  for (const Entity e : nodes) {
+    const AuthoredLighting a = world.get<AuthoredLighting>(e);
+    world.remove<AuthoredLighting>(e);
+    for (const AuthoredComponent& c : a.components) PENUMBRA_TRY(apply_one(world, a, e, c));
+  }
+  return {};
+}
+
 Status add_default_lighting(World& world, Preset preset, bool authored) {
+  PENUMBRA_TRY(apply_authored_lighting(world));
   Status first;
   for (const LightingModule* m : lighting_modules())
     if (m->add_defaults)

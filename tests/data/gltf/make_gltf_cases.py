@@ -229,6 +229,32 @@ def main():
     armature["skins"] = [{"joints": [2, 3], "inverseBindMatrices": 5, "skeleton": 2}]
     write("scaled_armature.gltf", armature)
 
+    # lighting_extension.gltf: a small level authored with Penumbra's lighting components
+    # (PENUMBRA_lighting on nodes): a floor, a movable crate that casts an AO field, a probe grid
+    # whose box is its node's unit cube (scaled to the level), and a sun.
+    d, v, a = build(QUAD_P, QUAD_N, QUAD_I)
+    level = scene(d, v, a)
+    level["extensionsUsed"] = ["KHR_lights_punctual", "PENUMBRA_lighting"]
+    level["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "directional", "intensity": 3.0}]}}
+    level["nodes"] = [
+        {"name": "level", "children": [1, 2, 3, 4]},
+        {"name": "floor", "mesh": 0, "scale": [8, 1, 8], "translation": [-4, 0, 4]},
+        {"name": "crate", "mesh": 0, "translation": [0, 0.5, 0], "rotation": [0.7071068, 0, 0, 0.7071068],
+         "extensions": {"PENUMBRA_lighting": {"version": 1, "components": {
+             "AOFieldCaster": {"preset": "draft", "falloff_distance": 1.5}}}}},
+        {"name": "probes", "translation": [0, 1.5, 0], "scale": [7, 2.5, 7],
+         "extensions": {"PENUMBRA_lighting": {"version": 1, "components": {
+             "IrradianceProbeGrid": {"preset": "draft", "spacing": 1.0, "sh_order": "L1"}}}}},
+        {"name": "sun", "rotation": [-0.5, 0, 0, 0.8660254], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+    ]
+    level["animations"] = [{"channels": [{"sampler": 0, "target": {"node": 2, "path": "translation"}}],
+                            "samplers": [{"input": 3, "output": 4, "interpolation": "LINEAR"}]}]
+    times = (floats([0.0, 2.0]), {"componentType": 5126, "count": 2, "type": "SCALAR"})
+    moves = (floats([0, 0.5, 0, 2, 0.5, 0]), {"componentType": 5126, "count": 2, "type": "VEC3"})
+    d, v, a = build(QUAD_P, QUAD_N, QUAD_I, [times, moves])
+    level["buffers"], level["bufferViews"], level["accessors"] = scene(d, v, a)["buffers"], v, a
+    write("lighting_extension.gltf", level)
+
     # valid.glb and truncated.glb: the quad as binary glTF, then cut inside its BIN chunk.
     doc = copy.deepcopy(base)
     del doc["buffers"][0]["uri"]

@@ -59,6 +59,10 @@ void* patch_in(World& world, Entity e) {
   return &world.patch<C>(e);
 }
 template <class C>
+void emplace_in(World& world, Entity e) {
+  world.add<C>(e);
+}
+template <class C>
 void copy_in(const World& from, Entity src, World& to, Entity dst) {
   if (const C* c = from.try_get<C>(src)) to.add<C>(dst, *c);
 }

@@ -21,6 +21,7 @@
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
 #include "penumbra/lighting/settings.h"
+#include "penumbra/scene/components.h"
 
 namespace penumbra {
 
@@ -68,6 +69,12 @@ struct ComponentInfo {
   // Sets every preset field of `component` to the preset's value (field_list.h: preset_fields<C>).
   // Null: the component has no presets.
   void (*set_preset_fields)(const ComponentInfo& info, void* component, Preset preset) = nullptr;
+  // Adds a default-constructed component to `e`, replacing one present (World::add). Null for
+  // components only the runtime adds (nobody authors them).
+  void (*emplace)(World& world, Entity e) = nullptr;
+  // The component belongs on an entity with a Mesh: a glTF node's declaration of it goes on each
+  // of the node's mesh entities (one per primitive) rather than on the node's own entity.
+  bool on_mesh = false;
 
   const FieldInfo* field(std::string_view name) const;
   bool present(const World& world, Entity e) const { return find(world, e) != nullptr; }
@@ -76,6 +83,11 @@ struct ComponentInfo {
 // InvalidArgument when `value` has the wrong type for the field, is not finite, or is out of
 // range; the message names the field, the range and the unit.
 Status check_field_value(const FieldInfo& field, const FieldValue& value);
+// A field's value from its glTF (JSON) form (scene/components.h, AuthoredValue): true/false for
+// Bool; an integer for Int and Count; a choice's name for Enum; a number for Float; an array of 2
+// or 3 numbers for Vec2, Vec3 and Color, of 3 integers for Count3; [x, y, z, w] for Rotation.
+// InvalidArgument naming the field and the form it takes; then check_field_value's checks.
+Result<FieldValue> field_value_from(const FieldInfo& field, const AuthoredValue& value);
 // Every field of `component` (a C of `info`) through check_field_value; the message starts with
 // `context` (e.g. "probe grid 'hall' (entity 3)"). Cost: O(fields).
 Status check_fields(const ComponentInfo& info, const void* component, std::string_view context);

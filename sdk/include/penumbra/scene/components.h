@@ -12,6 +12,8 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <variant>
 #include <vector>
 
 #include <glm/common.hpp>
@@ -152,6 +154,22 @@ struct Static {};
 // Name from the source file (glTF node name) or the built-in scene.
 struct Name {
   std::string value;
+};
+
+// Lighting components a glTF node declares (its PENUMBRA_lighting extension), as the file gives
+// them: the importer reads them without knowing the lighting modules, and apply_authored_lighting
+// (penumbra/runtime.h) turns them into components by the modules' field lists, then removes this.
+// Values keep their JSON shape: true/false, a number, a string (an enum value's name), an array.
+using AuthoredValue = std::variant<bool, double, std::string, std::vector<double>>;
+struct AuthoredComponent {
+  std::string type;    // a component's name, e.g. "IrradianceProbeGrid"
+  std::string preset;  // "draft", "medium", "high" or empty: the preset the fields start from
+  std::vector<std::pair<std::string, AuthoredValue>> fields;  // by field name
+};
+struct AuthoredLighting {
+  std::string source;  // "FILE: nodes[3] 'hall'": where error messages point
+  std::vector<AuthoredComponent> components;
+  std::vector<Entity> meshes;  // the node's mesh entities (one per primitive), for per-mesh components
 };
 
 }  // namespace penumbra

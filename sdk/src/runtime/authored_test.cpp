@@ -1,0 +1,109 @@
+// apply_authored_lighting: a glTF level's PENUMBRA_lighting declarations become the modules'
+// components by their field lists (presets first, then the fields), on the node or on its meshes;
+// every mistake is refused naming the file, the node, the component and the field.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "penumbra/ao_field/ao_field.h"
+#include "penumbra/import/gltf.h"
+#include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/runtime.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+namespace {
+
+const std::filesystem::path kCases = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf";
+
+Entity named(World& world, const std::string& name) {
+  Entity found;
+  world.each<Name>([&](Entity e, Name& n) {
+    if (n.value == name && !found) found = e;
+  });
+  return found;
+}
+
+TEST(AuthoredLighting, AGltfLevelDeclaresItsComponents) {
+  World world;
+  register_lighting(world);
+  auto loaded = load_scene(world, (kCases / "lighting_extension.gltf").string());
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  world.update(0.0);
+  ASSERT_TRUE(add_default_lighting(world, Preset::Medium, true).ok());
+  EXPECT_EQ(world.view<AuthoredLighting>().count(), 0u);  // consumed
+
+  // The probe grid on its node (a unit-cube box through the node's transform): the draft preset,
+  // then the declared spacing and SH order.
+  const Entity probes = named(world, "probes");
+  ASSERT_TRUE(world.has<IrradianceProbeGrid>(probes));
+  const IrradianceProbeGrid& grid = world.get<IrradianceProbeGrid>(probes);
+  const IrradianceProbeGrid draft = IrradianceProbeGrid::preset(Preset::Draft);
+  EXPECT_EQ(grid.spacing, 1.0f);
+  EXPECT_EQ(grid.sh_order, ProbeShOrder::L1);
+  EXPECT_EQ(grid.samples_per_node, draft.samples_per_node);
+  EXPECT_EQ(world.view<IrradianceProbeGrid>().count(), 1u);  // no default grid besides it
+
+  // The AO-field caster on the crate's mesh (its primitive's entity), not on the node.
+  const Entity crate = named(world, "crate");
+  EXPECT_FALSE(world.has<AOFieldCaster>(crate));
+  std::size_t casters = 0;
+  world.each<AOFieldCaster, Mesh>([&](Entity, AOFieldCaster& c, Mesh&) {
+    ++casters;
+    EXPECT_EQ(c.falloff_distance, 1.5f);
+    EXPECT_EQ(c.rays_per_sample, AOFieldCaster::preset(Preset::Draft).rays_per_sample);
+  });
+  EXPECT_EQ(casters, 1u);
+}
+
+TEST(AuthoredLighting, MistakesNameTheNodeTheComponentAndTheField) {
+  struct Case {
+    const char* what;
+    AuthoredComponent component;
+    bool node_has_mesh;
+    std::vector<const char*> mentions;
+  };
+  const auto with = [](const char* type, const char* field, AuthoredValue v, const char* preset = "") {
+    AuthoredComponent c;
+    c.type = type;
+    c.preset = preset;
+    if (field[0] != '\0') c.fields.emplace_back(field, std::move(v));
+    return c;
+  };
+  const Case cases[] = {
+      {"unknown component", with("Lightmap", "", false), false, {"Lightmap", "use one of", "IrradianceProbeGrid"}},
+      {"unknown field", with("IrradianceProbeGrid", "spaceing", 1.0), false, {"no field 'spaceing'", "spacing"}},
+      {"wrong form", with("IrradianceProbeGrid", "spacing", std::string("wide")), false,
+       {"IrradianceProbeGrid", "field 'spacing' takes a number"}},
+      {"out of range", with("IrradianceProbeGrid", "samples_per_node", 0.0), false, {"samples_per_node", "outside"}},
+      {"not an integer", with("IrradianceProbeGrid", "samples_per_node", 2.5), false, {"takes an integer"}},
+      {"unknown choice", with("IrradianceProbeGrid", "sh_order", std::string("L3")), false, {"\"L1\"", "\"L2\""}},
+      {"unknown preset", with("IrradianceProbeGrid", "", false, "ultra"), false, {"preset 'ultra'"}},
+      {"read-only field", with("ProbeLit", "covered", true), true, {"written by the runtime"}},
+      {"per-mesh on a node without mesh", with("AOFieldCaster", "", false), false, {"belongs on a mesh"}},
+      {"NaN", with("AOFieldCaster", "falloff_distance", std::nan("")), true, {"falloff_distance", "NaN"}},
+  };
+  for (const Case& c : cases) {
+    World world;
+    register_lighting(world);
+    const Entity node = world.create();
+    AuthoredLighting a;
+    a.source = "level.gltf: nodes[4] 'hall'.extensions.PENUMBRA_lighting";
+    a.components.push_back(c.component);
+    if (c.node_has_mesh) {
+      const Entity mesh = world.create();
+      world.add<Mesh>(mesh, Mesh{std::make_shared<MeshData>()});
+      a.meshes.push_back(mesh);
+    }
+    world.add<AuthoredLighting>(node, a);
+    const Status s = apply_authored_lighting(world);
+    ASSERT_FALSE(s.ok()) << c.what << " was accepted";
+    EXPECT_EQ(s.error().code, ErrorCode::InvalidInput) << c.what;
+    EXPECT_EQ(s.error().message.rfind(a.source, 0), 0u) << s.error().message;
+    for (const char* m : c.mentions) EXPECT_NE(s.error().message.find(m), std::string::npos) << c.what << ": " << s.error().message;
+  }
+}
+
+}  // namespace
+}  // namespace penumbra
