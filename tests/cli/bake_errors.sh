@@ -48,6 +48,8 @@ expect_output "grid 8x4x8"; expect_output "falloff 1.5"
 sed 's/"spacing": 1.0/"spacing": -1.0/' "$level" > "$scratch/bad_level.gltf"
 expect_exit 1 "$PENUMBRA" bake "$scratch/bad_level.gltf" -o "$scratch/bad.pbake"
 expect_output "bad_level.gltf: nodes\[3\] 'probes'.extensions.PENUMBRA_lighting: IrradianceProbeGrid: field 'spacing'"
+expect_exit 1 "$PENUMBRA" validate "$scratch/bad_level.gltf"; expect_output "field 'spacing'"
+expect_exit 0 "$PENUMBRA" validate "$level"; expect_output "2 lighting components declared"
 
 # info on damaged files: truncated, corrupted, not a bake file at all.
 head -c 100 "$scratch/good.pbake" > "$scratch/short.pbake"

@@ -207,11 +207,16 @@ int cmd_validate(Args args) {
     World world;
     auto imported = import_gltf(world, path);
     if (!imported) return fail(kFailure, imported.error().message);
+    // The PENUMBRA_lighting declarations, turned into components as a bake would.
+    std::size_t declared = 0;
+    world.view<AuthoredLighting>().each([&](Entity, AuthoredLighting& a) { declared += a.components.size(); });
+    register_lighting(world);
+    if (Status s = apply_authored_lighting(world); !s) return fail(kFailure, s.error().message);
     std::printf("%s: valid glTF, %zu nodes, %zu meshes, %zu triangles, %zu materials, %zu skins, %zu animations, "
-                "%zu lights, %zu cameras, %zu warnings%s\n",
+                "%zu lights, %zu cameras, %zu lighting components declared, %zu warnings%s\n",
                 path.c_str(), imported->nodes.size(), imported->mesh_entities, imported->triangles, imported->materials,
-                imported->skins, imported->animations, imported->lights, imported->cameras, imported->warnings.size(),
-                imported->warnings.empty() ? "" : " (on stderr)");
+                imported->skins, imported->animations, imported->lights, imported->cameras, declared,
+                imported->warnings.size(), imported->warnings.empty() ? "" : " (on stderr)");
     return kSuccess;
   }
   return fail(kUsage, path.string() + ": validate reads .gltf, .glb and .pbake files; give one of those");
