@@ -10,6 +10,7 @@
 
 #include <span>
 #include <string_view>
+#include <vector>
 
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
@@ -37,6 +38,17 @@ void register_lighting(World& world);
 // value of the wrong form or out of range, a per-mesh component on a node without a mesh); the
 // components applied before the error stay. Cost: O(declared fields).
 Status apply_authored_lighting(World& world);
+
+// The inverse, for writing a glTF: the authorable components of `node` and of its `meshes` (the
+// first mesh that has a per-mesh component speaks for the node), each with every settable field.
+// apply_authored_lighting of the result rebuilds them. Cost: O(components x fields).
+std::vector<AuthoredComponent> authored_components(const World& world, Entity node, std::span<const Entity> meshes);
+
+// What save_gltf (import/gltf.h) needs to write a World back to the glTF it was imported from: per
+// imported node (GltfNode) its Transform (unless a clip animates it: the World holds the pose, not
+// the rest transform), its Light and its authored_components (with the node's mesh children).
+// Entities the file did not have (a viewer's default light) are not written. Cost: O(entities).
+std::vector<GltfNodeEdit> gltf_node_edits(World& world);
 
 // apply_authored_lighting, then every module's add_defaults (module.h) in the modules' order
 // (modules skip entities that already have their components), then one world.update(0) so that

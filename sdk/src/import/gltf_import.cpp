@@ -6,6 +6,8 @@
 
 #include "penumbra/scene/builtin.h"
 
+#include "gltf_json.h"
+
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -28,6 +30,9 @@
 namespace penumbra {
 
 namespace {
+
+using gltf_detail::json_depth;
+using gltf_detail::kMaxJsonDepth;
 
 // Extensions this importer implements; any other one listed in extensionsRequired is refused.
 constexpr std::array<std::string_view, 3> kSupportedExtensions = {"KHR_lights_punctual",
@@ -549,6 +554,7 @@ Status Importer::create_node(int index, Entity parent, bool animated) {
     return fail(ErrorCode::InvalidInput, where, "has a non-finite or singular transform");
   const Entity e = create(node.name.empty() ? where : node.name);
   out_.nodes[ni] = e;
+  world_.add<GltfNode>(e, GltfNode{static_cast<std::uint32_t>(ni)});
   world_.add<Transform>(e, *transform);
   set_parent(world_, e, parent);
   animated_nodes_[ni] = animated || animated_nodes_[ni];
@@ -883,31 +889,6 @@ Result<ImportedScene> Importer::run() {
   if (!clips_->empty()) world_.add<Animator>(out_.root, Animator{clips_});
   return std::move(out_);
 }
-
-// The deepest nesting of JSON arrays and objects in `text` (string contents skipped), stopping once
-// it passes `limit`: checked before any JSON parser sees the text, since tinygltf's and nlohmann's
-// recursion overflow the stack on a few thousand levels.
-int json_depth(std::string_view text, int limit) {
-  int depth = 0, deepest = 0;
-  bool in_string = false, escaped = false;
-  for (char c : text) {
-    if (in_string) {
-      if (escaped) escaped = false;
-      else if (c == '\\') escaped = true;
-      else if (c == '"') in_string = false;
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      deepest = std::max(deepest, ++depth);
-      if (deepest > limit) break;
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-  return deepest;
-}
-
-constexpr int kMaxJsonDepth = 128;
 
 // The glTF's integer property `key` of `object` (`fallback` when absent, or when present but not
 // a non-negative integer, an error naming `where`, the value and the fix).

@@ -114,6 +114,29 @@ Result<FieldValue> field_value_from(const FieldInfo& f, const AuthoredValue& a) 
   return v;
 }
 
+AuthoredValue authored_value(const FieldInfo& f, const FieldValue& v) {
+  return std::visit(
+      [&](const auto& x) -> AuthoredValue {
+        using X = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<X, bool>) {
+          return x;
+        } else if constexpr (std::is_same_v<X, std::int64_t>) {
+          if (f.type == FieldType::Enum && x >= 0 && static_cast<std::size_t>(x) < f.choices.size())
+            return std::string(f.choices[static_cast<std::size_t>(x)]);
+          return static_cast<double>(x);
+        } else if constexpr (std::is_same_v<X, float>) {
+          return static_cast<double>(x);
+        } else if constexpr (std::is_same_v<X, glm::quat>) {
+          return std::vector<double>{x.x, x.y, x.z, x.w};
+        } else {
+          std::vector<double> out;
+          for (int i = 0; i < static_cast<int>(X::length()); ++i) out.push_back(static_cast<double>(x[i]));
+          return out;
+        }
+      },
+      v);
+}
+
 Status check_field_value(const FieldInfo& f, const FieldValue& v) {
   const std::string where = "field '" + std::string(f.name) + "'";
   if (!holds_type(f.type, v))

@@ -3,10 +3,17 @@
 // every mistake is refused naming the file, the node, the component and the field.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <set>
 #include <string>
+#include <vector>
 
 #include "penumbra/ao_field/ao_field.h"
+#include "penumbra/ecs/transform.h"
 #include "penumbra/import/gltf.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/runtime.h"
@@ -103,6 +110,81 @@ TEST(AuthoredLighting, MistakesNameTheNodeTheComponentAndTheField) {
     EXPECT_EQ(s.error().message.rfind(a.source, 0), 0u) << s.error().message;
     for (const char* m : c.mentions) EXPECT_NE(s.error().message.find(m), std::string::npos) << c.what << ": " << s.error().message;
   }
+}
+
+World imported(const std::filesystem::path& path) {
+  World world;
+  register_lighting(world);
+  auto loaded = load_scene(world, path.string());
+  EXPECT_TRUE(loaded.ok()) << loaded.error().message;
+  world.update(0.0);
+  EXPECT_TRUE(apply_authored_lighting(world).ok());
+  world.update(0.0);
+  return world;
+}
+
+TEST(AuthoredLighting, SavedGltfReopensWithTheEditsAndKeepsTheRest) {
+  World world = imported(kCases / "lighting_extension.gltf");
+  world.patch<IrradianceProbeGrid>(named(world, "probes")).spacing = 2.0f;
+  world.patch<Transform>(named(world, "probes")).translation = {1.0f, 1.5f, -1.0f};
+  world.patch<Light>(named(world, "sun")).intensity = 5.0f;
+  const auto out = std::filesystem::temp_directory_path() / ("penumbra_saved_" + std::to_string(::getpid()) + ".gltf");
+  const std::vector<GltfNodeEdit> edits = gltf_node_edits(world);
+  ASSERT_TRUE(save_gltf(kCases / "lighting_extension.gltf", out, edits).ok());
+
+  World reopened = imported(out);
+  EXPECT_EQ(reopened.get<IrradianceProbeGrid>(named(reopened, "probes")).spacing, 2.0f);
+  EXPECT_EQ(reopened.get<IrradianceProbeGrid>(named(reopened, "probes")).sh_order, ProbeShOrder::L1);
+  EXPECT_EQ(reopened.get<Transform>(named(reopened, "probes")).translation, glm::vec3(1.0f, 1.5f, -1.0f));
+  EXPECT_EQ(reopened.get<Light>(named(reopened, "sun")).intensity, 5.0f);
+  std::size_t casters = 0;
+  reopened.each<AOFieldCaster>([&](Entity, AOFieldCaster& c) {
+    ++casters;
+    EXPECT_EQ(c.falloff_distance, 1.5f);
+  });
+  EXPECT_EQ(casters, 1u);
+  // Saving what was reopened gives the same file (a fixed point), and what no edit touches is
+  // kept as read.
+  const auto again = std::filesystem::temp_directory_path() / ("penumbra_saved2_" + std::to_string(::getpid()) + ".gltf");
+  ASSERT_TRUE(save_gltf(out, again, gltf_node_edits(reopened)).ok());
+  const auto text = [](const std::filesystem::path& p) {
+    std::ifstream in(p);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  EXPECT_EQ(text(out), text(again));
+  const std::string saved = text(out);
+  for (const char* kept : {"\"animations\"", "\"samplers\"", "data:application/octet-stream;base64,", "\"grey\""})
+    EXPECT_NE(saved.find(kept), std::string::npos) << kept;
+  std::filesystem::remove(out);
+  std::filesystem::remove(again);
+}
+
+TEST(AuthoredLighting, SavedGlbKeepsItsBinaryChunkAndTakesNewComponents) {
+  World world = imported(kCases / "valid.glb");
+  const Entity root = named(world, "root");
+  ASSERT_TRUE(world.alive(root));
+  world.add<IrradianceProbeGrid>(root, IrradianceProbeGrid::preset(Preset::Draft));
+  const auto out = std::filesystem::temp_directory_path() / ("penumbra_saved_" + std::to_string(::getpid()) + ".glb");
+  ASSERT_TRUE(save_gltf(kCases / "valid.glb", out, gltf_node_edits(world)).ok());
+  World reopened = imported(out);
+  ASSERT_TRUE(reopened.has<IrradianceProbeGrid>(named(reopened, "root")));
+  EXPECT_EQ(reopened.get<IrradianceProbeGrid>(named(reopened, "root")).samples_per_node,
+            IrradianceProbeGrid::preset(Preset::Draft).samples_per_node);
+  std::size_t meshes = 0;
+  reopened.each<Mesh>([&](Entity, Mesh&) { ++meshes; });
+  EXPECT_EQ(meshes, 1u);
+  // The wrong extension, and a node the file lacks, are refused; nothing is written.
+  const auto wrong = std::filesystem::temp_directory_path() / ("penumbra_saved_" + std::to_string(::getpid()) + ".gltf");
+  const Status s = save_gltf(kCases / "valid.glb", wrong, {});
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("ending in .glb"), std::string::npos) << s.error().message;
+  EXPECT_FALSE(std::filesystem::exists(wrong));
+  GltfNodeEdit far;
+  far.node = 99;
+  const Status t = save_gltf(kCases / "valid.glb", out, std::vector<GltfNodeEdit>{far});
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().message.find("nodes[99] does not exist"), std::string::npos) << t.error().message;
+  std::filesystem::remove(out);
 }
 
 }  // namespace

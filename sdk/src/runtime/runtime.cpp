@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <array>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "penumbra/core/log.h"
+#include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
 
 namespace penumbra {
@@ -112,6 +114,52 @@ Status apply_authored_lighting(World& world) {
     for (const AuthoredComponent& c : a.components) PENUMBRA_TRY(apply_one(world, a, e, c));
   }
   return {};
+}
+
+std::vector<AuthoredComponent> authored_components(const World& world, Entity node, std::span<const Entity> meshes) {
+  std::vector<AuthoredComponent> out;
+  for (const LightingModule* m : lighting_modules())
+    for (const ComponentInfo* info : m->components) {
+      if (info->emplace == nullptr) continue;
+      const void* component = nullptr;
+      if (info->on_mesh) {
+        for (const Entity e : meshes)
+          if (world.alive(e) && (component = info->find(world, e)) != nullptr) break;
+      } else if (world.alive(node)) {
+        component = info->find(world, node);
+      }
+      if (component == nullptr) continue;
+      AuthoredComponent c;
+      c.type = std::string(info->name);
+      for (const FieldInfo& f : info->fields)
+        if (!f.read_only && f.get) c.fields.emplace_back(std::string(f.name), authored_value(f, f.get(component)));
+      out.push_back(std::move(c));
+    }
+  return out;
+}
+
+std::vector<GltfNodeEdit> gltf_node_edits(World& world) {
+  std::set<std::uint32_t> animated;  // entity indices some clip targets
+  world.each<Animator>([&](Entity, Animator& a) {
+    if (a.clips)
+      for (const AnimationClip& c : *a.clips)
+        for (Entity t : c.targets) animated.insert(t.index);
+  });
+  std::vector<GltfNodeEdit> edits;
+  world.each<GltfNode, Transform>([&](Entity e, GltfNode& n, Transform& t) {
+    GltfNodeEdit edit;
+    edit.node = n.index;
+    if (!animated.contains(e.index)) edit.transform = t;
+    if (const Light* l = world.try_get<Light>(e)) edit.light = *l;
+    std::vector<Entity> meshes;
+    if (const Children* kids = world.try_get<Children>(e))
+      for (Entity k : kids->entities)
+        if (world.has<Mesh>(k) && !world.has<GltfNode>(k)) meshes.push_back(k);
+    edit.lighting = authored_components(world, e, meshes);
+    edits.push_back(std::move(edit));
+  });
+  std::sort(edits.begin(), edits.end(), [](const GltfNodeEdit& a, const GltfNodeEdit& b) { return a.node < b.node; });
+  return edits;
 }
 
 Status add_default_lighting(World& world, Preset preset, bool authored) {

@@ -9,6 +9,8 @@
 //   skin                -> Skin on each primitive entity of the skinned node
 //   animations          -> one AnimationClip each, shared by one Animator on the root entity
 //   KHR_lights_punctual -> Light;  camera (perspective) -> Camera
+//   PENUMBRA_lighting   -> AuthoredLighting on the node's entity (apply_authored_lighting, runtime.h)
+// Each node's entity also gets GltfNode (its index in the file), which save_gltf writes back to.
 // Everything tinygltf does not check is validated here: accessor ranges against buffer views and
 // buffers, component types, index ranges, finite values, joint indices against the skin, weight
 // sums, node and skin references, animation key times. Degenerate triangles are dropped and
@@ -16,13 +18,18 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "penumbra/core/result.h"
+#include "penumbra/ecs/transform.h"
 #include "penumbra/ecs/world.h"
 #include "penumbra/scene/builtin.h"
+#include "penumbra/scene/components.h"
 
 namespace penumbra {
 
@@ -52,6 +59,18 @@ struct ImportedScene {
 // Unsupported (a required extension or feature Penumbra does not handle), Io (unreadable file).
 Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& path,
                                   const ImportOptions& options = {});
+
+// Rewrites the glTF file `source` as `out` with `edits` applied and everything else kept as read
+// (meshes, buffers, images, animations, extras, other extensions): a .gltf stays JSON with the same
+// buffer and image URIs (relative ones resolve against out's folder: save next to the source, or
+// copy its external files), a .glb keeps its binary chunk byte for byte. `out` has the source's
+// extension; it is written atomically (core/file.h), so it may be `source` itself. extensionsUsed
+// lists PENUMBRA_lighting exactly when some node declares it. Errors: the source's own (NotFound,
+// InvalidInput, naming the file), InvalidArgument (another extension for out, a node index outside
+// the file, a light edit for a node without a light, a non-finite transform), Io.
+// Cost: linear in the file's size.
+Status save_gltf(const std::filesystem::path& source, const std::filesystem::path& out,
+                 std::span<const GltfNodeEdit> edits);
 
 // "builtin:NAME" loads a built-in scene (builtin.h); anything else is a path to a .gltf or .glb
 // file (import_gltf with default options).

@@ -88,6 +88,8 @@ Status check_field_value(const FieldInfo& field, const FieldValue& value);
 // or 3 numbers for Vec2, Vec3 and Color, of 3 integers for Count3; [x, y, z, w] for Rotation.
 // InvalidArgument naming the field and the form it takes; then check_field_value's checks.
 Result<FieldValue> field_value_from(const FieldInfo& field, const AuthoredValue& value);
+// The inverse: a field's value in that form (an Enum by its choice's name).
+AuthoredValue authored_value(const FieldInfo& field, const FieldValue& value);
 // Every field of `component` (a C of `info`) through check_field_value; the message starts with
 // `context` (e.g. "probe grid 'hall' (entity 3)"). Cost: O(fields).
 Status check_fields(const ComponentInfo& info, const void* component, std::string_view context);

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -24,6 +25,7 @@
 #include <glm/vec4.hpp>
 
 #include "penumbra/core/result.h"
+#include "penumbra/ecs/transform.h"
 #include "penumbra/ecs/world.h"
 
 namespace penumbra {
@@ -170,6 +172,20 @@ struct AuthoredLighting {
   std::string source;  // "FILE: nodes[3] 'hall'": where error messages point
   std::vector<AuthoredComponent> components;
   std::vector<Entity> meshes;  // the node's mesh entities (one per primitive), for per-mesh components
+};
+
+// The glTF node an entity was imported from (import_gltf adds it): its index in the file's `nodes`.
+struct GltfNode {
+  std::uint32_t index = 0;
+};
+
+// What save_gltf (import/gltf.h) changes in one node of the file; what is left empty is kept as read.
+struct GltfNodeEdit {
+  std::uint32_t node = 0;              // index into the file's nodes
+  std::optional<Transform> transform;  // written as translation/rotation/scale (replacing a matrix)
+  std::optional<Light> light;          // the settings of the node's KHR_lights_punctual light
+  // Its PENUMBRA_lighting components (runtime.h: authored_components); empty removes the extension.
+  std::vector<AuthoredComponent> lighting;
 };
 
 }  // namespace penumbra
