@@ -203,6 +203,8 @@ int run(const Options& options) {
           if (!look_through_scene_camera(doc.world(), bounds, ui.camera)) ui.camera.frame(bounds);
           opened_source = doc.source();
           if (!doc.notice().empty()) ui.message = doc.notice();
+          std::snprintf(ui.gltf_path, sizeof ui.gltf_path, "%s", doc.source().starts_with("builtin:") ? "scene.glb"
+                                                                                                  : doc.source().c_str());
         }
 
         ImGui_ImplVulkan_NewFrame();

@@ -290,6 +290,26 @@ void inspector_panel(Document& doc, UiState& ui) {
     }
     for (const FieldDesc& f : editable_fields())
       if (f.component == component) field_widget(doc, e, f, ui);
+    if (const ComponentInfo* info = find_authored_component(component)) {
+      if (ImGui::SmallButton(("Remove " + component).c_str()))
+        report(ui, doc.undo().remove_component(w, e, *info), "removed " + component + " (Ctrl+Z brings it back)");
+    }
+  }
+  // The lighting components this entity can take, at the Bake panel's preset.
+  ImGui::Separator();
+  if (ImGui::BeginCombo("##add", "Add lighting component")) {
+    for (const ComponentInfo* info : authored_component_infos()) {
+      if (info->present(w, e)) continue;
+      const bool fits = !info->on_mesh || w.has<Mesh>(e);
+      if (!fits) ImGui::BeginDisabled();
+      if (ImGui::Selectable(std::string(info->name).c_str()))
+        report(ui, doc.undo().add_component(w, e, *info, ui.add_preset), "added " + std::string(info->name));
+      if (!fits) {
+        ImGui::EndDisabled();
+        if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("goes on an entity with a Mesh");
+      }
+    }
+    ImGui::EndCombo();
   }
   module_lines(w, e);
   ImGui::End();
@@ -474,6 +494,9 @@ void menu_bar(EditorModel& model, UiState& ui) {
     ImGui::Separator();
     ImGui::InputText("scene", ui.scene_path, sizeof ui.scene_path);
     if (ImGui::MenuItem("Open scene (glTF or builtin:NAME)")) ui.open_request = ui.scene_path;
+    ImGui::InputText("glTF", ui.gltf_path, sizeof ui.gltf_path);
+    if (ImGui::MenuItem("Save scene as glTF"))
+      report(ui, doc.save_gltf(ui.gltf_path), std::string("saved ") + ui.gltf_path);
     if (ImGui::MenuItem("Save edits as script")) report(ui, doc.save_edits(ui.edits_path), "saved edits");
     ImGui::InputText("edits", ui.edits_path, sizeof ui.edits_path);
     ImGui::Separator();
@@ -517,6 +540,7 @@ void draw_panels(EditorModel& model, UiState& ui) {
     if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Z))) doc.undo().undo(doc.world());
     if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Y))) doc.undo().redo(doc.world());
   }
+  ui.add_preset = model.bake_settings.preset;  // an added component starts from the Bake panel's preset
   hierarchy_panel(doc, ui);
   inspector_panel(doc, ui);
   bake_panel(model, ui);

@@ -66,6 +66,8 @@ struct UiState {
   char scene_path[512] = "builtin:courtyard";
   char bake_path[512] = "scene.pbake";
   char edits_path[512] = "edits.txt";
+  char gltf_path[512] = "scene.glb";  // Save scene as glTF: set to the opened file (saving over it)
+  std::optional<Preset> add_preset = Preset::Medium;  // what an added component starts from
   char bench_path[512] = "";  // the plot's CSV: bench-results/<bench>.csv, where `penumbra bench` writes by default
   std::string plot_source;  // the bench and mode the plot shows (the selection's; see plot_panel)
   CostPlot plot;

@@ -3,10 +3,10 @@
 
 #include <charconv>
 #include <cstdio>
-#include <fstream>
-#include <unistd.h>
 
 #include "load_world.h"
+#include "penumbra/core/file.h"
+#include "penumbra/import/gltf.h"
 #include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
 
@@ -91,39 +91,28 @@ Status Document::save_bake(const std::filesystem::path& path) const {
   return write_bake_file(path, out);
 }
 
+Status Document::save_gltf(const std::filesystem::path& path) {
+  if (source_.starts_with("builtin:"))
+    return make_error(ErrorCode::InvalidArgument, "save as glTF: " + source_ +
+                                                      " is a built-in scene, not a glTF file; save its edits as a "
+                                                      "script, or open a glTF to save into");
+  return penumbra::save_gltf(source_, path, gltf_node_edits(world_));
+}
+
 Status Document::save_edits(const std::filesystem::path& path) {
   std::string text = "# Penumbra editor edits: replay with penumbra-editor --script " + path.filename().string() + "\n";
   text += "open " + source_ + "\n";
   for (std::size_t i = 0; i < undo_.position(); ++i) {
     const Edit& edit = undo_.entry(i);
     if (!world_.alive(edit.entity)) continue;
+    if (edit.component)
+      text += std::string(edit.added ? "add #" : "remove #") + std::to_string(edit.entity.index) + " " +
+              std::string(edit.component->name) + "\n";
     for (const FieldChange& c : edit.changes)
       text += "set #" + std::to_string(edit.entity.index) + " " + c.field->component + "." + c.field->name + " " +
               format_field_value(*c.field, c.after) + "\n";
   }
-  return write_text_file(path, text);
-}
-
-Status write_text_file(const std::filesystem::path& path, std::string_view text) {
-  const std::filesystem::path tmp = path.string() + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return make_error(ErrorCode::Io, path.string() + ": cannot write in this directory; check that it exists and is writable");
-    out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      return make_error(ErrorCode::Io, path.string() + ": the write failed (disk full?)");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    return make_error(ErrorCode::Io, path.string() + ": cannot replace the file: " + ec.message());
-  }
-  return {};
+  return write_file_atomically(path, text);
 }
 
 }  // namespace penumbra::editor

@@ -53,6 +53,10 @@ class Document {
   // Writes a script that re-creates this document: `open SOURCE` then one `set` per field edit that
   // is applied (undo position), so a built-in scene's edits can be saved and replayed. Atomic.
   Status save_edits(const std::filesystem::path& path);
+  // Writes the scene back as the glTF it was opened from, with the nodes' transforms, lights and
+  // lighting components (PENUMBRA_lighting), everything else as read (import/gltf.h: save_gltf;
+  // the path takes the source's extension). Atomic. InvalidArgument for a built-in scene.
+  Status save_gltf(const std::filesystem::path& path);
 
  private:
   Document() = default;
@@ -64,8 +68,5 @@ class Document {
   UndoStack undo_;
   BakeFile baked_;
 };
-
-// Writes `text` to `path` atomically (temporary file in the same directory, then rename).
-Status write_text_file(const std::filesystem::path& path, std::string_view text);
 
 }  // namespace penumbra::editor

@@ -381,4 +381,24 @@ const ComponentPreset* find_preset(std::string_view technique) {
   return nullptr;
 }
 
+std::vector<const ComponentInfo*> authored_component_infos() {
+  std::vector<const ComponentInfo*> out;
+  for (const LightingModule* m : lighting_modules())
+    for (const ComponentInfo* c : m->components)
+      if (c->emplace && c->erase) out.push_back(c);
+  return out;
+}
+
+const ComponentInfo* find_authored_component(std::string_view name) {
+  for (const ComponentInfo* c : authored_component_infos())
+    if (c->name == name) return c;
+  return nullptr;
+}
+
+std::string authored_component_names() {
+  std::string names;
+  for (const ComponentInfo* c : authored_component_infos()) names += (names.empty() ? "" : ", ") + std::string(c->name);
+  return names;
+}
+
 }  // namespace penumbra::editor

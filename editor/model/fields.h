@@ -68,4 +68,10 @@ struct ComponentPreset {
 std::span<const ComponentPreset> component_presets();
 const ComponentPreset* find_preset(std::string_view technique);
 
+// The lighting components a user can add to an entity (ComponentInfo::emplace), by type name, in
+// the modules' order; and their names, comma-separated, for messages.
+std::vector<const ComponentInfo*> authored_component_infos();
+const ComponentInfo* find_authored_component(std::string_view name);
+std::string authored_component_names();
+
 }  // namespace penumbra::editor

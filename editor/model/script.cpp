@@ -52,7 +52,7 @@ std::string check_action(const ScriptAction& a) {
   if (v == "open") {
     if (n < 1 || n > 2 || (n == 2 && !preset_ok(a.args[1])))
       return "'open' takes a scene (builtin:NAME or a .gltf/.glb path) and an optional preset (draft, medium, high)";
-  } else if (v == "open-bake" || v == "save-bake" || v == "save-edits" || v == "screenshot") {
+  } else if (v == "open-bake" || v == "save-bake" || v == "save-edits" || v == "save-gltf" || v == "screenshot") {
     if (n != 1) return "'" + v + "' takes one PATH";
   } else if (v == "select") {
     if (n != 1) return "'select' takes one entity: its Name (quoted when it has blanks) or #INDEX";
@@ -67,6 +67,10 @@ std::string check_action(const ScriptAction& a) {
     std::string value;
     for (std::size_t i = 2; i < n; ++i) value += (i > 2 ? " " : "") + a.args[i];
     if (auto parsed = parse_field_value(*f, value); !parsed) return "'set': " + parsed.error().message;
+  } else if (v == "add" || v == "remove") {
+    if (n != 2) return "'" + v + "' takes an entity and a lighting component, e.g. " + v + " crate AOFieldCaster";
+    if (find_authored_component(a.args[1]) == nullptr)
+      return "'" + v + "': no lighting component '" + a.args[1] + "' can be added; use " + authored_component_names();
   } else if (v == "preset") {
     if (n != 3) return "'preset' takes an entity, a lighting module's name and a preset (draft, medium, high)";
     if (find_preset(a.args[1]) == nullptr) {
@@ -103,7 +107,8 @@ std::string check_action(const ScriptAction& a) {
       return "'quit' takes an optional exit code from 0 to 255";
   } else {
     return "unknown action '" + v +
-           "'; actions: open, open-bake, save-bake, save-edits, select, set, preset, undo, redo, bake, cancel, wait, "
+           "'; actions: open, open-bake, save-bake, save-edits, save-gltf, select, set, add, remove, preset, undo, redo, "
+           "bake, cancel, wait, "
            "frames, screenshot, orbit, view, ui, click, reset-stats, quit";
   }
   return {};
@@ -198,6 +203,14 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
   if (a.verb == "open-bake") return doc->open_bake(args[0]);
   if (a.verb == "save-bake") return doc->save_bake(args[0]);
   if (a.verb == "save-edits") return doc->save_edits(args[0]);
+  if (a.verb == "save-gltf") return doc->save_gltf(args[0]);
+  if (a.verb == "add" || a.verb == "remove") {
+    auto e = doc->find(args[0]);
+    if (!e) return e.error();
+    const ComponentInfo& info = *find_authored_component(args[1]);
+    return a.verb == "add" ? doc->undo().add_component(world, *e, info, model.bake_settings.preset)
+                           : doc->undo().remove_component(world, *e, info);
+  }
   if (a.verb == "select") {
     auto e = doc->find(args[0]);
     if (!e) return e.error();

@@ -4,8 +4,10 @@
 //   open SOURCE [draft|medium|high]     builtin:NAME or a glTF path (preset of the default grid)
 //   open-bake PATH | save-bake PATH     read and attach / write the document's .pbake
 //   save-edits PATH                     the document's edits as a script
+//   save-gltf PATH                      the scene as glTF with its lighting components (a glTF document)
 //   select REF                          REF: an entity Name or #INDEX
 //   set REF COMPONENT.FIELD VALUE...    e.g. set lamp Light.intensity 40; undoable
+//   add REF COMPONENT | remove REF COMPONENT   a lighting component (e.g. IrradianceProbeGrid), undoable
 //   preset REF MODULE PRESET            a lighting module's preset on REF's component, e.g. preset grid <module> draft
 //   undo | redo
 //   bake all|selection|BAKER[,BAKER...] [draft|medium|high]   starts a background bake

@@ -35,16 +35,19 @@ TEST(Script, ParsesEveryActionAndSkipsComments) {
       "cancel\n"
       "ui off\n"
       "click 20 10\n"
+      "add lamp IrradianceProbeGrid\n"
+      "remove lamp IrradianceProbeGrid\n"
+      "save-gltf out.glb\n"
       "reset-stats\n"
       "quit 0\n";
   auto script = parse_script(text, "demo.txt");
   ASSERT_TRUE(script.ok()) << script.error().message;
-  ASSERT_EQ(script->actions.size(), 20u);
+  ASSERT_EQ(script->actions.size(), 23u);
   EXPECT_EQ(script->actions[0].verb, "open");
   EXPECT_EQ(script->actions[0].line, 2);
   EXPECT_EQ(script->actions[1].args[0], "probe grid");
   EXPECT_EQ(script->actions[3].args.size(), 5u);
-  EXPECT_EQ(script->actions.back().line, 22);
+  EXPECT_EQ(script->actions.back().line, 25);
 }
 
 TEST(Script, BadLinesNameTheLineAndTheFix) {
@@ -72,6 +75,9 @@ TEST(Script, BadLinesNameTheLineAndTheFix) {
       {"frames 0", "'frames' takes a count"},
       {"orbit left up", "'orbit' takes YAW and PITCH"},
       {"click 20", "'click' takes X and Y"},
+      {"add lamp", "'add' takes an entity and a lighting component"},
+      {"add lamp Lightmap", "no lighting component 'Lightmap'"},
+      {"save-gltf", "'save-gltf' takes one PATH"},
       {"click -1 5", "'click' takes X and Y"},
       {"quit 300", "exit code"},
   };

@@ -1,12 +1,32 @@
 // Undo stack of field edits (undo.h).
 #include "undo.h"
 
+#include <utility>
+
 namespace penumbra::editor {
 
 namespace {
 
+// The settable fields of `info`'s component on `e`.
+std::vector<std::pair<const FieldInfo*, FieldValue>> snapshot_of(World& world, Entity e, const ComponentInfo& info) {
+  std::vector<std::pair<const FieldInfo*, FieldValue>> out;
+  const void* c = info.find(world, e);
+  for (const FieldInfo& f : info.fields)
+    if (f.set && f.get && c) out.emplace_back(&f, f.get(c));
+  return out;
+}
+
+// Puts the component back with its recorded fields / takes it away.
+void restore(World& world, const Edit& e) {
+  e.component->emplace(world, e.entity);
+  void* c = e.component->patch(world, e.entity);
+  for (const auto& [f, v] : e.snapshot) f->set(c, v);
+}
+void take_away(World& world, const Edit& e) { e.component->erase(world, e.entity); }
+
 bool applicable(World& world, const Edit& edit) {
   if (!world.alive(edit.entity)) return false;
+  if (edit.component) return true;
   for (const FieldChange& c : edit.changes)
     if (!c.field->present(world, edit.entity) || !c.field->set) return false;
   return true;
@@ -62,6 +82,44 @@ Status UndoStack::record(World& world, Entity entity, std::string_view component
   return {};
 }
 
+Status UndoStack::add_component(World& world, Entity entity, const ComponentInfo& info, std::optional<Preset> preset) {
+  const std::string label = "add " + std::string(info.name);
+  if (!world.alive(entity))
+    return make_error(ErrorCode::InvalidArgument, label + ": the entity no longer exists; select another");
+  if (!info.emplace || !info.erase)
+    return make_error(ErrorCode::InvalidArgument, label + ": the runtime adds this component, not the user");
+  if (info.present(world, entity))
+    return make_error(ErrorCode::InvalidArgument, label + ": the entity already has one");
+  if (info.on_mesh && !world.has<Mesh>(entity))
+    return make_error(ErrorCode::InvalidArgument, label + ": it belongs on a mesh; select an entity with a Mesh");
+  info.emplace(world, entity);
+  if (preset && info.set_preset_fields) info.set_preset_fields(info, info.patch(world, entity), *preset);
+  Edit edit{entity, label, {}};
+  edit.component = &info;
+  edit.added = true;
+  edit.snapshot = snapshot_of(world, entity, info);
+  push(std::move(edit));
+  merging_ = false;
+  return {};
+}
+
+Status UndoStack::remove_component(World& world, Entity entity, const ComponentInfo& info) {
+  const std::string label = "remove " + std::string(info.name);
+  if (!world.alive(entity))
+    return make_error(ErrorCode::InvalidArgument, label + ": the entity no longer exists; select another");
+  if (!info.emplace || !info.erase)
+    return make_error(ErrorCode::InvalidArgument, label + ": the runtime owns this component");
+  if (!info.present(world, entity)) return make_error(ErrorCode::InvalidArgument, label + ": the entity has none");
+  Edit edit{entity, label, {}};
+  edit.component = &info;
+  edit.added = false;
+  edit.snapshot = snapshot_of(world, entity, info);
+  info.erase(world, entity);
+  push(std::move(edit));
+  merging_ = false;
+  return {};
+}
+
 void UndoStack::push(Edit edit) {
   entries_.resize(position_);  // a new edit drops the undone ones
   entries_.push_back(std::move(edit));
@@ -77,6 +135,10 @@ bool UndoStack::undo(World& world) {
     --position_;
     return false;
   }
+  if (e.component) {
+    if (e.added) take_away(world, e);
+    else restore(world, e);
+  }
   // Undo in reverse order so that a field changed twice ends at its first value.
   for (auto c = e.changes.rbegin(); c != e.changes.rend(); ++c) c->field->set(world, e.entity, c->before);
   --position_;
@@ -90,6 +152,10 @@ bool UndoStack::redo(World& world) {
   if (!applicable(world, e)) {
     entries_.erase(entries_.begin() + static_cast<std::ptrdiff_t>(position_));
     return false;
+  }
+  if (e.component) {
+    if (e.added) restore(world, e);
+    else take_away(world, e);
   }
   for (const FieldChange& c : e.changes) c.field->set(world, e.entity, c.after);
   ++position_;

@@ -1,5 +1,6 @@
 // Undo and redo of component edits: each entry holds the before and after values of the fields it
-// changed (fields.h), so undoing writes the old values back through the same setters.
+// changed (fields.h), so undoing writes the old values back through the same setters, or a
+// lighting component it added or removed with its field values.
 // Consecutive edits of one field of one entity made with `merge` (a drag in progress) become one
 // entry that keeps the first before-value, until end_merge() (the drag ended) or another edit.
 // Not thread-safe: use it with its World on the main thread.
@@ -7,6 +8,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,11 @@ struct Edit {
   Entity entity;
   std::string label;  // for the Edit menu, e.g. "set Light.intensity"
   std::vector<FieldChange> changes;
+  // A lighting component this entry added (added) or removed (!added), and the values of its
+  // settable fields, restored whenever it comes back (its baked data does not: re-bake it).
+  const ComponentInfo* component = nullptr;
+  bool added = false;
+  std::vector<std::pair<const FieldInfo*, FieldValue>> snapshot;
 };
 
 class UndoStack {
@@ -34,6 +41,12 @@ class UndoStack {
   // values changed as one entry labelled `label`. For presets and other multi-field edits.
   Status record(World& world, Entity entity, std::string_view component, std::string label,
                 const std::function<void()>& mutate);
+  // Adds a lighting component to `entity` (its defaults, then `preset`'s values when it has
+  // presets) / removes one, as an entry. InvalidArgument for a stale entity, a component that is
+  // already there (add) or absent (remove), one that cannot be authored (no emplace), or a
+  // per-mesh component (ComponentInfo::on_mesh) on an entity without a Mesh.
+  Status add_component(World& world, Entity entity, const ComponentInfo& info, std::optional<Preset> preset);
+  Status remove_component(World& world, Entity entity, const ComponentInfo& info);
 
   // Writes the before-values of the latest entry back / the after-values of the next undone one.
   // False when there is nothing to undo/redo or the entity no longer has the component (the entry

@@ -33,6 +33,36 @@ TEST(Undo, SetUndoRedoRestoresExactValues) {
   EXPECT_FALSE(doc->undo().redo(w));
 }
 
+TEST(Undo, AddAndRemoveALightingComponentAreEntriesThatRestoreItsFields) {
+  auto doc = courtyard();
+  World& w = doc->world();
+  const Entity lamp = *doc->find("lamp");
+  const ComponentInfo& grid = *find_authored_component("IrradianceProbeGrid");
+  ASSERT_TRUE(doc->undo().add_component(w, lamp, grid, Preset::Draft).ok());
+  ASSERT_TRUE(w.has<IrradianceProbeGrid>(lamp));
+  EXPECT_EQ(w.get<IrradianceProbeGrid>(lamp).samples_per_node, IrradianceProbeGrid::preset(Preset::Draft).samples_per_node);
+  ASSERT_TRUE(doc->undo().set(w, lamp, *find_field("IrradianceProbeGrid", "spacing"), FieldValue(0.75f)).ok());
+  // Remove, then undo the removal: the edited value comes back.
+  ASSERT_TRUE(doc->undo().remove_component(w, lamp, grid).ok());
+  EXPECT_FALSE(w.has<IrradianceProbeGrid>(lamp));
+  ASSERT_TRUE(doc->undo().undo(w));
+  ASSERT_TRUE(w.has<IrradianceProbeGrid>(lamp));
+  EXPECT_EQ(w.get<IrradianceProbeGrid>(lamp).spacing, 0.75f);
+  // Undo the edit and the add: no grid; redo both: the grid with the edit.
+  ASSERT_TRUE(doc->undo().undo(w));
+  ASSERT_TRUE(doc->undo().undo(w));
+  EXPECT_FALSE(w.has<IrradianceProbeGrid>(lamp));
+  ASSERT_TRUE(doc->undo().redo(w));
+  ASSERT_TRUE(doc->undo().redo(w));
+  EXPECT_EQ(w.get<IrradianceProbeGrid>(lamp).spacing, 0.75f);
+  // Refused: a second one, a per-mesh component on an entity without a Mesh, removing what is absent.
+  EXPECT_FALSE(doc->undo().add_component(w, lamp, grid, std::nullopt).ok());
+  const Status no_mesh = doc->undo().add_component(w, lamp, *find_authored_component("AOFieldCaster"), std::nullopt);
+  ASSERT_FALSE(no_mesh.ok());
+  EXPECT_NE(no_mesh.error().message.find("belongs on a mesh"), std::string::npos) << no_mesh.error().message;
+  EXPECT_FALSE(doc->undo().remove_component(w, lamp, *find_authored_component("SkinnedPoseAO")).ok());
+}
+
 TEST(Undo, EditsStampTheChangeTick) {
   auto doc = courtyard();
   World& w = doc->world();

@@ -12,7 +12,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "penumbra/ao_field/ao_field.h"
 #include "penumbra/core/pbake.h"
+#include "penumbra/import/gltf.h"
+#include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/runtime.h"
 #include "penumbra/scene/builtin.h"
 #include "stb_image.h"
@@ -172,6 +175,16 @@ TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
               "frames 3\n"
               "ui off\n"
               "screenshot " << d << "/character.png\n"
+              "ui on\n"
+              // Lighting components added (one undone and redone), then the scene saved as glTF.
+              "add Armature IrradianceProbeGrid\n"
+              "set Armature IrradianceProbeGrid.spacing 0.25\n"
+              "add body/0 AOFieldCaster\n"
+              "undo\n"
+              "redo\n"
+              "save-gltf " << d << "/saved.gltf\n"
+              "open " << d << "/saved.gltf\n"
+              "frames 2\n"
               "quit\n";
   }
   const char* driver = std::getenv("VK_DRIVER_FILES");
@@ -210,6 +223,20 @@ TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
   const double share = double(covered) / (1280.0 * 720.0);
   std::printf("the character covers %.1f%% of the viewport\n", 100.0 * share);
   EXPECT_GT(share, 0.05);
+  // The saved glTF declares what was added, and reopens with it.
+  penumbra::World saved;
+  penumbra::register_lighting(saved);
+  auto loaded = penumbra::load_scene(saved, (dir / "saved.gltf").string());
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  ASSERT_TRUE(penumbra::apply_authored_lighting(saved).ok());
+  std::size_t grids = 0, casters = 0;
+  saved.each<penumbra::IrradianceProbeGrid>([&](penumbra::Entity, penumbra::IrradianceProbeGrid& g) {
+    ++grids;
+    EXPECT_EQ(g.spacing, 0.25f);
+  });
+  saved.each<penumbra::AOFieldCaster>([&](penumbra::Entity, penumbra::AOFieldCaster&) { ++casters; });
+  EXPECT_EQ(grids, 1u);
+  EXPECT_EQ(casters, 1u);
   fs::remove_all(dir);
 }
 

@@ -40,8 +40,9 @@ void register_lighting(World& world);
 Status apply_authored_lighting(World& world);
 
 // The inverse, for writing a glTF: the authorable components of `node` and of its `meshes` (the
-// first mesh that has a per-mesh component speaks for the node), each with every settable field.
-// apply_authored_lighting of the result rebuilds them. Cost: O(components x fields).
+// first mesh that has a per-mesh component speaks for the node), each with the preset whose knobs
+// it has (if any) and the settable fields that differ from that preset's (or the defaults').
+// apply_authored_lighting of the result rebuilds them exactly. Cost: O(components x fields).
 std::vector<AuthoredComponent> authored_components(const World& world, Entity node, std::span<const Entity> meshes);
 
 // What save_gltf (import/gltf.h) needs to write a World back to the glTF it was imported from: per

@@ -68,6 +68,7 @@ const ComponentInfo& ao_field_caster_info() {
                                   .copy = fields::copy_in<AOFieldCaster>,
                                   .set_preset_fields = fields::preset_fields<AOFieldCaster>,
                                   .emplace = fields::emplace_in<AOFieldCaster>,
+                                  .erase = fields::erase_in<AOFieldCaster>,
                                   .on_mesh = true};
   return info;
 }
@@ -80,6 +81,7 @@ const ComponentInfo& ao_field_receiver_info() {
                                   .patch = fields::patch_in<AOFieldReceiver>,
                                   .copy = fields::copy_in<AOFieldReceiver>,
                                   .emplace = fields::emplace_in<AOFieldReceiver>,
+                                  .erase = fields::erase_in<AOFieldReceiver>,
                                   .on_mesh = true};
   return info;
 }

@@ -46,6 +46,7 @@ const ComponentInfo& skinned_pose_ao_info() {
                                   .copy = fields::copy_in<SkinnedPoseAO>,
                                   .set_preset_fields = fields::preset_fields<SkinnedPoseAO>,
                                   .emplace = fields::emplace_in<SkinnedPoseAO>,
+                                  .erase = fields::erase_in<SkinnedPoseAO>,
                                   .on_mesh = true};
   return info;
 }

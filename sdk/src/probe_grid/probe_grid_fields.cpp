@@ -88,7 +88,8 @@ const ComponentInfo& irradiance_probe_grid_info() {
                                   .patch = fields::patch_in<IrradianceProbeGrid>,
                                   .copy = fields::copy_in<IrradianceProbeGrid>,
                                   .set_preset_fields = fields::preset_fields<IrradianceProbeGrid>,
-                                  .emplace = fields::emplace_in<IrradianceProbeGrid>};
+                                  .emplace = fields::emplace_in<IrradianceProbeGrid>,
+                                  .erase = fields::erase_in<IrradianceProbeGrid>};
   return info;
 }
 
@@ -100,6 +101,7 @@ const ComponentInfo& probe_lit_info() {
                                   .patch = fields::patch_in<ProbeLit>,
                                   .copy = fields::copy_in<ProbeLit>,
                                   .emplace = fields::emplace_in<ProbeLit>,
+                                  .erase = fields::erase_in<ProbeLit>,
                                   .on_mesh = true};
   return info;
 }

@@ -131,8 +131,30 @@ std::vector<AuthoredComponent> authored_components(const World& world, Entity no
       if (component == nullptr) continue;
       AuthoredComponent c;
       c.type = std::string(info->name);
+      // The base the fields are written against: the defaults, or the preset whose knobs the
+      // component has (then named), so a file says only what differs.
+      World scratch;
+      const Entity base_entity = scratch.create();
+      info->emplace(scratch, base_entity);
+      const void* base = info->find(scratch, base_entity);
+      if (info->set_preset_fields) {
+        for (const Preset p : {Preset::Draft, Preset::Medium, Preset::High}) {
+          void* candidate = info->patch(scratch, base_entity);
+          info->set_preset_fields(*info, candidate, p);
+          const bool matches = std::all_of(info->fields.begin(), info->fields.end(), [&](const FieldInfo& f) {
+            return !f.preset || !f.get || f.get(candidate) == f.get(component);
+          });
+          if (matches) {
+            c.preset = to_string(p);
+            break;
+          }
+          info->emplace(scratch, base_entity);  // back to the defaults
+        }
+        base = info->find(scratch, base_entity);
+      }
       for (const FieldInfo& f : info->fields)
-        if (!f.read_only && f.get) c.fields.emplace_back(std::string(f.name), authored_value(f, f.get(component)));
+        if (!f.read_only && f.get && f.get(component) != f.get(base))
+          c.fields.emplace_back(std::string(f.name), authored_value(f, f.get(component)));
       out.push_back(std::move(c));
     }
   return out;

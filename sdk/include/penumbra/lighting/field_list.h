@@ -63,6 +63,10 @@ void emplace_in(World& world, Entity e) {
   world.add<C>(e);
 }
 template <class C>
+void erase_in(World& world, Entity e) {
+  world.remove<C>(e);
+}
+template <class C>
 void copy_in(const World& from, Entity src, World& to, Entity dst) {
   if (const C* c = from.try_get<C>(src)) to.add<C>(dst, *c);
 }

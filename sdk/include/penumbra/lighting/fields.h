@@ -72,6 +72,8 @@ struct ComponentInfo {
   // Adds a default-constructed component to `e`, replacing one present (World::add). Null for
   // components only the runtime adds (nobody authors them).
   void (*emplace)(World& world, Entity e) = nullptr;
+  // Removes the component from `e` (World::remove; nothing when absent). Null with emplace.
+  void (*erase)(World& world, Entity e) = nullptr;
   // The component belongs on an entity with a Mesh: a glTF node's declaration of it goes on each
   // of the node's mesh entities (one per primitive) rather than on the node's own entity.
   bool on_mesh = false;
