@@ -57,11 +57,29 @@ std::string run_command(const std::string& command, int& status) {
   return out;
 }
 
-TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
-  ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
-  const fs::path dir = fs::temp_directory_path() / ("penumbra_editor_xvfb_" + std::to_string(::getpid()));
+// A fresh scratch folder for one test.
+fs::path scratch_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
+  return dir;
+}
+
+// The editor at 1280x720 under xvfb-run with the validation layer, on lavapipe unless the caller
+// chose a driver, running `script`; its output (also printed) and exit status.
+std::string run_editor(const fs::path& script, int& status) {
+  const char* driver = std::getenv("VK_DRIVER_FILES");
+  const std::string env = driver ? "" : "VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json ";
+  const std::string output = run_command(env + "xvfb-run -a -s '-screen 0 1280x720x24' " PENUMBRA_EDITOR_PATH
+                                               " --validation --size 1280x720 --script " + script.string() + " 2>&1",
+                                         status);
+  std::printf("%s", output.c_str());
+  return output;
+}
+
+TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
+  ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
+  const fs::path dir = scratch_dir("penumbra_editor_xvfb");
   const std::string d = dir.string();
   {
     std::ofstream script(dir / "bake.txt");
@@ -85,14 +103,8 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
               "save-bake " << d << "/courtyard.pbake\n"
               "quit\n";
   }
-  // lavapipe unless the caller chose a driver.
-  const char* driver = std::getenv("VK_DRIVER_FILES");
-  const std::string env = driver ? "" : "VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json ";
   int status = 0;
-  const std::string output = run_command(env + "xvfb-run -a -s '-screen 0 1280x720x24' " PENUMBRA_EDITOR_PATH
-                                               " --validation --size 1280x720 --script " + d + "/bake.txt 2>&1",
-                                         status);
-  std::printf("%s", output.c_str());
+  const std::string output = run_editor(dir / "bake.txt", status);
   ASSERT_EQ(status, 0) << output;  // includes: no validation message
   EXPECT_NE(output.find("validation messages: 0"), std::string::npos);
 
@@ -154,9 +166,7 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
 // vertices, lit by the default light.
 TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
   ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
-  const fs::path dir = fs::temp_directory_path() / ("penumbra_editor_open_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = scratch_dir("penumbra_editor_open");
   const std::string d = dir.string();
   {
     std::ofstream script(dir / "open.txt");
@@ -187,13 +197,8 @@ TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
               "frames 2\n"
               "quit\n";
   }
-  const char* driver = std::getenv("VK_DRIVER_FILES");
-  const std::string env = driver ? "" : "VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json ";
   int status = 0;
-  const std::string output = run_command(env + "xvfb-run -a -s '-screen 0 1280x720x24' " PENUMBRA_EDITOR_PATH
-                                               " --validation --size 1280x720 --script " + d + "/open.txt 2>&1",
-                                         status);
-  std::printf("%s", output.c_str());
+  const std::string output = run_editor(dir / "open.txt", status);
   ASSERT_EQ(status, 0) << output;
   EXPECT_NE(output.find("validation messages: 0"), std::string::npos);
   // The menu opened (its items cover part of the top-left panel), and the click on its first item

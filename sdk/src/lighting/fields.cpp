@@ -63,6 +63,11 @@ Result<FieldValue> field_value_from(const FieldInfo& f, const AuthoredValue& a) 
   const auto* number = std::get_if<double>(&a);
   const auto* numbers = std::get_if<std::vector<double>>(&a);
   const auto integral = [](double x) { return std::isfinite(x) && x == std::floor(x) && std::abs(x) < 0x1p53; };
+  // Numbers beyond the float range (converting them is undefined) or not finite are refused here.
+  const auto in_float_range = [](double x) { return std::isfinite(x) && std::abs(x) <= 3.4028234663852886e38; };
+  if ((number && !in_float_range(*number)) ||
+      (numbers && !std::all_of(numbers->begin(), numbers->end(), in_float_range)))
+    return make_error(ErrorCode::InvalidArgument, where + " takes finite numbers within +-3.4e38");
   FieldValue v;
   switch (f.type) {
     case FieldType::Bool:

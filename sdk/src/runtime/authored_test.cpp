@@ -89,7 +89,10 @@ TEST(AuthoredLighting, MistakesNameTheNodeTheComponentAndTheField) {
       {"unknown preset", with("IrradianceProbeGrid", "", false, "ultra"), false, {"preset 'ultra'"}},
       {"read-only field", with("ProbeLit", "covered", true), true, {"written by the runtime"}},
       {"per-mesh on a node without mesh", with("AOFieldCaster", "", false), false, {"belongs on a mesh"}},
-      {"NaN", with("AOFieldCaster", "falloff_distance", std::nan("")), true, {"falloff_distance", "NaN"}},
+      {"NaN", with("AOFieldCaster", "falloff_distance", std::nan("")), true, {"falloff_distance", "finite numbers"}},
+      {"beyond float", with("AOFieldCaster", "falloff_distance", 1e300), true, {"falloff_distance", "3.4e38"}},
+      {"vector beyond float", with("IrradianceProbeGrid", "box_min", std::vector<double>{0, 1e39, 0}), false,
+       {"box_min", "3.4e38"}},
   };
   for (const Case& c : cases) {
     World world;
