@@ -1,15 +1,9 @@
 // The SDK's module list and the game-facing calls (see penumbra/runtime.h).
 #include "penumbra/runtime.h"
 
-#include <algorithm>
 #include <array>
-#include <optional>
-#include <set>
-#include <string>
-#include <vector>
 
 #include "penumbra/core/log.h"
-#include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
 
 namespace penumbra {
@@ -43,145 +37,6 @@ void register_lighting(World& world) {
   register_scene_systems(world);
   for (const LightingModule* m : lighting_modules())
     if (m->register_runtime) m->register_runtime(world);
-}
-
-namespace {
-
-// The component type `name` of a linked module, or nullptr.
-const ComponentInfo* find_component(std::string_view name) {
-  for (const LightingModule* m : lighting_modules())
-    for (const ComponentInfo* c : m->components)
-      if (c->name == name) return c;
-  return nullptr;
-}
-
-Status apply_one(World& world, const AuthoredLighting& a, Entity node, const AuthoredComponent& c) {
-  const auto bad = [&](const std::string& what) {
-    return make_error(ErrorCode::InvalidInput, a.source + ": " + c.type + ": " + what);
-  };
-  const ComponentInfo* info = find_component(c.type);
-  if (info == nullptr || info->emplace == nullptr) {
-    std::string known;
-    for (const LightingModule* m : lighting_modules())
-      for (const ComponentInfo* k : m->components)
-        if (k->emplace) known += (known.empty() ? "" : ", ") + std::string(k->name);
-    return bad("no lighting component of that name can be authored; use one of " + known);
-  }
-  std::optional<Preset> preset;
-  if (!c.preset.empty()) {
-    auto p = parse_preset(c.preset);
-    if (!p) return bad("preset '" + c.preset + "' is unknown; use draft, medium or high");
-    if (info->set_preset_fields == nullptr) return bad("has no presets; give its fields instead");
-    preset = *p;
-  }
-  // Every field converted and checked before anything is added.
-  std::vector<std::pair<const FieldInfo*, FieldValue>> values;
-  for (const auto& [name, value] : c.fields) {
-    const FieldInfo* f = info->field(name);
-    if (f == nullptr) {
-      std::string names;
-      for (const FieldInfo& k : info->fields)
-        if (!k.read_only) names += (names.empty() ? "" : ", ") + std::string(k.name);
-      return bad("no field '" + name + "'; its fields: " + names);
-    }
-    if (f->read_only) return bad("field '" + name + "' is written by the runtime and cannot be authored");
-    auto v = field_value_from(*f, value);
-    if (!v) return bad(v.error().message);
-    values.emplace_back(f, std::move(*v));
-  }
-  std::vector<Entity> targets = info->on_mesh ? a.meshes : std::vector<Entity>{node};
-  if (targets.empty()) return bad("belongs on a mesh and the node has none; declare it on a node with a mesh");
-  for (const Entity e : targets) {
-    if (!world.alive(e)) continue;
-    info->emplace(world, e);
-    void* component = info->patch(world, e);
-    if (preset) info->set_preset_fields(*info, component, *preset);
-    for (const auto& [f, v] : values) f->set(component, v);
-    if (Status s = check_fields(*info, component, a.source + ": " + c.type); !s) return s.error();
-  }
-  return {};
-}
-
-}  // namespace
-
-Status apply_authored_lighting(World& world) {
-  std::vector<Entity> nodes;
-  world.view<AuthoredLighting>().each([&](Entity e, AuthoredLighting&) { nodes.push_back(e); });
-  std::sort(nodes.begin(), nodes.end(), [](Entity x, Entity y) { return x.index < y.index; });
-  for (const Entity e : nodes) {
-    const AuthoredLighting a = world.get<AuthoredLighting>(e);
-    world.remove<AuthoredLighting>(e);
-    for (const AuthoredComponent& c : a.components) PENUMBRA_TRY(apply_one(world, a, e, c));
-  }
-  return {};
-}
-
-std::vector<AuthoredComponent> authored_components(const World& world, Entity node, std::span<const Entity> meshes) {
-  std::vector<AuthoredComponent> out;
-  for (const LightingModule* m : lighting_modules())
-    for (const ComponentInfo* info : m->components) {
-      if (info->emplace == nullptr) continue;
-      const void* component = nullptr;
-      if (info->on_mesh) {
-        for (const Entity e : meshes)
-          if (world.alive(e) && (component = info->find(world, e)) != nullptr) break;
-      } else if (world.alive(node)) {
-        component = info->find(world, node);
-      }
-      if (component == nullptr) continue;
-      AuthoredComponent c;
-      c.type = std::string(info->name);
-      // The base the fields are written against: the defaults, or the preset whose knobs the
-      // component has (then named), so a file says only what differs.
-      World scratch;
-      const Entity base_entity = scratch.create();
-      info->emplace(scratch, base_entity);
-      const void* base = info->find(scratch, base_entity);
-      if (info->set_preset_fields) {
-        for (const Preset p : {Preset::Draft, Preset::Medium, Preset::High}) {
-          void* candidate = info->patch(scratch, base_entity);
-          info->set_preset_fields(*info, candidate, p);
-          const bool matches = std::all_of(info->fields.begin(), info->fields.end(), [&](const FieldInfo& f) {
-            return !f.preset || !f.get || f.get(candidate) == f.get(component);
-          });
-          if (matches) {
-            c.preset = to_string(p);
-            break;
-          }
-          info->emplace(scratch, base_entity);  // back to the defaults
-        }
-        base = info->find(scratch, base_entity);
-      }
-      for (const FieldInfo& f : info->fields)
-        if (!f.read_only && f.get && f.get(component) != f.get(base))
-          c.fields.emplace_back(std::string(f.name), authored_value(f, f.get(component)));
-      out.push_back(std::move(c));
-    }
-  return out;
-}
-
-std::vector<GltfNodeEdit> gltf_node_edits(World& world) {
-  std::set<std::uint32_t> animated;  // entity indices some clip targets
-  world.each<Animator>([&](Entity, Animator& a) {
-    if (a.clips)
-      for (const AnimationClip& c : *a.clips)
-        for (Entity t : c.targets) animated.insert(t.index);
-  });
-  std::vector<GltfNodeEdit> edits;
-  world.each<GltfNode, Transform>([&](Entity e, GltfNode& n, Transform& t) {
-    GltfNodeEdit edit;
-    edit.node = n.index;
-    if (!animated.contains(e.index)) edit.transform = t;
-    if (const Light* l = world.try_get<Light>(e)) edit.light = *l;
-    std::vector<Entity> meshes;
-    if (const Children* kids = world.try_get<Children>(e))
-      for (Entity k : kids->entities)
-        if (world.has<Mesh>(k) && !world.has<GltfNode>(k)) meshes.push_back(k);
-    edit.lighting = authored_components(world, e, meshes);
-    edits.push_back(std::move(edit));
-  });
-  std::sort(edits.begin(), edits.end(), [](const GltfNodeEdit& a, const GltfNodeEdit& b) { return a.node < b.node; });
-  return edits;
 }
 
 Status add_default_lighting(World& world, Preset preset, bool authored) {
