@@ -40,8 +40,8 @@ void register_lighting(World& world);
 Status apply_authored_lighting(World& world);
 
 // The inverse, for writing a glTF: the authorable components of `node` and of its `meshes` (the
-// first mesh that has a per-mesh component speaks for the node), each with the preset whose knobs
-// it has (if any) and the settable fields that differ from that preset's (or the defaults').
+// first mesh that has a per-mesh component speaks for the node), each as the defaults or a preset
+// (whichever leaves fewer) and the settable fields that differ from it.
 // apply_authored_lighting of the result rebuilds them exactly. Cost: O(components x fields).
 std::vector<AuthoredComponent> authored_components(const World& world, Entity node, std::span<const Entity> meshes);
 

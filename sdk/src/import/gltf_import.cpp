@@ -151,8 +151,9 @@ struct AccessorView {
 
 class Importer {
  public:
-  Importer(World& world, const tinygltf::Model& model, std::string file, const ImportOptions& options)
-      : world_(world), model_(model), file_(std::move(file)), options_(options) {}
+  Importer(World& world, const tinygltf::Model& model, const nlohmann::json& json, std::string file,
+           const ImportOptions& options)
+      : world_(world), model_(model), json_(json), file_(std::move(file)), options_(options) {}
 
   Result<ImportedScene> run();
   // Destroys every entity created so far (after an error).
@@ -192,10 +193,11 @@ class Importer {
   Status attach_node_contents(std::size_t node, bool animated);
   // The node's PENUMBRA_lighting extension as an AuthoredLighting on its entity (`meshes`: the
   // entities made for its primitives).
-  Status read_lighting_extension(std::size_t node, const tinygltf::Value& ext, std::vector<Entity> meshes);
+  Status read_lighting_extension(std::size_t node, const nlohmann::json& ext, std::vector<Entity> meshes);
 
   World& world_;
   const tinygltf::Model& model_;
+  const nlohmann::json& json_;  // the same file as parsed by nlohmann (check_structure)
   std::string file_;
   const ImportOptions& options_;
   ImportedScene out_;
@@ -614,10 +616,15 @@ Status Importer::attach_node_contents(std::size_t ni, bool animated) {
     world_.add<Light>(e, light);
     ++out_.lights;
   }
-  const auto lighting = node.extensions.find("PENUMBRA_lighting");
+  // The node's PENUMBRA_lighting in the raw JSON (null when absent).
+  const nlohmann::json* lighting = nullptr;
+  if (const auto nodes = json_.find("nodes"); nodes != json_.end() && nodes->is_array() && ni < nodes->size()) {
+    const nlohmann::json& n = (*nodes)[ni];
+    if (const auto ext = n.find("extensions"); n.is_object() && ext != n.end() && ext->is_object())
+      if (const auto it = ext->find("PENUMBRA_lighting"); it != ext->end()) lighting = &*it;
+  }
   std::vector<Entity> mesh_entities;
-  if (node.mesh < 0)
-    return lighting == node.extensions.end() ? Status{} : read_lighting_extension(ni, lighting->second, {});
+  if (node.mesh < 0) return lighting == nullptr ? Status{} : read_lighting_extension(ni, *lighting, {});
   if (static_cast<std::size_t>(node.mesh) >= meshes_.size())
     return fail(ErrorCode::InvalidInput, where, "mesh " + std::to_string(node.mesh) + " does not exist");
   const Skin* skin = nullptr;
@@ -654,62 +661,56 @@ Status Importer::attach_node_contents(std::size_t ni, bool animated) {
     out_.triangles += data->triangle_count();
     mesh_entities.push_back(pe);
   }
-  if (lighting != node.extensions.end()) return read_lighting_extension(ni, lighting->second, std::move(mesh_entities));
+  if (lighting != nullptr) return read_lighting_extension(ni, *lighting, std::move(mesh_entities));
   return {};
 }
 
-Status Importer::read_lighting_extension(std::size_t ni, const tinygltf::Value& ext, std::vector<Entity> meshes) {
+Status Importer::read_lighting_extension(std::size_t ni, const nlohmann::json& ext, std::vector<Entity> meshes) {
   const tinygltf::Node& node = model_.nodes[ni];
   const std::string where = element("nodes", ni) + (node.name.empty() ? "" : " '" + node.name + "'") +
                             ".extensions.PENUMBRA_lighting";
-  if (!ext.IsObject()) return fail(ErrorCode::InvalidInput, where, "is not an object");
-  const tinygltf::Value& version = ext.Get("version");
-  if (!version.IsNumber())
+  if (!ext.is_object()) return fail(ErrorCode::InvalidInput, where, "is not an object");
+  if (!ext.contains("version") || !ext["version"].is_number())
     return fail(ErrorCode::InvalidInput, where, "has no \"version\"; give \"version\": " +
                                                     std::to_string(kLightingExtensionVersion));
-  if (version.GetNumberAsDouble() != kLightingExtensionVersion) {
+  if (ext["version"].get<double>() != kLightingExtensionVersion) {
     char given[32];
-    std::snprintf(given, sizeof given, "%g", version.GetNumberAsDouble());
+    std::snprintf(given, sizeof given, "%g", ext["version"].get<double>());
     return fail(ErrorCode::Unsupported, where,
                 std::string("version ") + given + " is not the version this Penumbra reads (" +
                     std::to_string(kLightingExtensionVersion) + "); update Penumbra or export version " +
                     std::to_string(kLightingExtensionVersion));
   }
-  for (const std::string& key : ext.Keys())
+  for (const auto& [key, value] : ext.items())
     if (key != "version" && key != "components")
       return fail(ErrorCode::InvalidInput, where, "unknown key \"" + key + "\" (version, components)");
-  const tinygltf::Value& components = ext.Get("components");
-  if (!components.IsObject())
+  if (!ext.contains("components") || !ext["components"].is_object())
     return fail(ErrorCode::InvalidInput, where, "\"components\" is missing or not an object of component name -> "
                                                 "fields");
   AuthoredLighting authored;
   authored.source = file_ + ": " + where;
   authored.meshes = std::move(meshes);
-  for (const std::string& type : components.Keys()) {
-    const tinygltf::Value& body = components.Get(type);
+  for (const auto& [type, body] : ext["components"].items()) {
     const std::string cwhere = where + ".components." + type;
-    if (!body.IsObject()) return fail(ErrorCode::InvalidInput, cwhere, "is not an object of field -> value");
+    if (!body.is_object()) return fail(ErrorCode::InvalidInput, cwhere, "is not an object of field -> value");
     AuthoredComponent c;
     c.type = type;
-    for (const std::string& field : body.Keys()) {
-      const tinygltf::Value& v = body.Get(field);
+    for (const auto& [field, v] : body.items()) {
       if (field == "preset") {
-        if (!v.IsString()) return fail(ErrorCode::InvalidInput, cwhere, "\"preset\" is not a string (draft, medium, high)");
-        c.preset = v.Get<std::string>();
-        continue;
-      }
-      if (v.IsBool()) {
-        c.fields.emplace_back(field, AuthoredValue(v.Get<bool>()));
-      } else if (v.IsNumber()) {
-        c.fields.emplace_back(field, AuthoredValue(v.GetNumberAsDouble()));
-      } else if (v.IsString()) {
-        c.fields.emplace_back(field, AuthoredValue(v.Get<std::string>()));
-      } else if (v.IsArray()) {
+        if (!v.is_string()) return fail(ErrorCode::InvalidInput, cwhere, "\"preset\" is not a string (draft, medium, high)");
+        c.preset = v.get<std::string>();
+      } else if (v.is_boolean()) {
+        c.fields.emplace_back(field, AuthoredValue(v.get<bool>()));
+      } else if (v.is_number()) {
+        c.fields.emplace_back(field, AuthoredValue(v.get<double>()));
+      } else if (v.is_string()) {
+        c.fields.emplace_back(field, AuthoredValue(v.get<std::string>()));
+      } else if (v.is_array()) {
         std::vector<double> numbers;
-        for (std::size_t i = 0; i < v.ArrayLen(); ++i) {
-          if (!v.Get(static_cast<int>(i)).IsNumber())
+        for (std::size_t i = 0; i < v.size(); ++i) {
+          if (!v[i].is_number())
             return fail(ErrorCode::InvalidInput, cwhere + "." + field, "element " + std::to_string(i) + " is not a number");
-          numbers.push_back(v.Get(static_cast<int>(i)).GetNumberAsDouble());
+          numbers.push_back(v[i].get<double>());
         }
         c.fields.emplace_back(field, AuthoredValue(std::move(numbers)));
       } else {
@@ -1073,16 +1074,16 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
                                                    std::to_string(kMaxJsonDepth) +
                                                    " levels deep; the file is malformed (a glTF needs fewer than 20)");
 
-  // The structural pre-check, before tinygltf decodes anything (see check_structure).
-  {
-    nlohmann::json json;
-    try {
-      json = nlohmann::json::parse(json_text);
-    } catch (const nlohmann::json::exception& e) {
-      return make_error(ErrorCode::InvalidInput, file + ": not valid JSON (" + e.what() + "); fix or re-export the file");
-    }
-    PENUMBRA_TRY(check_structure(json, file, path, glb_binary_bytes));
+  // The structural pre-check, before tinygltf decodes anything (see check_structure). The parsed
+  // JSON stays for the PENUMBRA_lighting declarations, which tinygltf's values would not keep whole
+  // (it drops empty objects, so `"AOFieldReceiver": {}` would vanish).
+  nlohmann::json json;
+  try {
+    json = nlohmann::json::parse(json_text);
+  } catch (const nlohmann::json::exception& e) {
+    return make_error(ErrorCode::InvalidInput, file + ": not valid JSON (" + e.what() + "); fix or re-export the file");
   }
+  PENUMBRA_TRY(check_structure(json, file, path, glb_binary_bytes));
   stream.close();
 
   tinygltf::TinyGLTF loader;
@@ -1101,7 +1102,7 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
     return make_error(ErrorCode::InvalidInput, file + ": tinygltf could not parse it: " + err);
   }
 
-  Importer importer(world, model, file, options);
+  Importer importer(world, model, json, file, options);
   if (!warn.empty()) log(LogLevel::Warning, file + ": tinygltf: " + warn);
   Result<ImportedScene> result = Error{};
   try {

@@ -364,6 +364,20 @@ TEST(GltfImport, LightingExtensionIsKeptPerNodeAndItsShapeChecked) {
   };
   const std::filesystem::path path =
       std::filesystem::temp_directory_path() / ("penumbra_lighting_ext_" + std::to_string(::getpid()) + ".gltf");
+  // A component declared with no fields (all defaults) is kept: tinygltf's values drop empty
+  // objects, so the importer reads the extension from the raw JSON.
+  {
+    nlohmann::json j = base;
+    j["nodes"][2]["extensions"]["PENUMBRA_lighting"]["components"]["AOFieldReceiver"] = nlohmann::json::object();
+    std::ofstream(path) << j.dump();
+    World w;
+    ASSERT_TRUE(import_gltf(w, path).ok());
+    std::size_t components = 0;
+    w.each<AuthoredLighting, Name>([&](Entity, AuthoredLighting& a, Name& n) {
+      if (n.value == "crate") components = a.components.size();
+    });
+    EXPECT_EQ(components, 2u);
+  }
   for (const Mutation& m : mutations) {
     nlohmann::json j = base;
     m.apply(j);

@@ -1,14 +1,17 @@
 // save_gltf (penumbra/import/gltf.h): the source's JSON edited in place with nlohmann::ordered_json, so
 // that everything the edits do not touch is written back as it was read; a .glb's binary chunk is
 // copied byte for byte.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
 
 #include "penumbra/core/file.h"
@@ -32,6 +35,64 @@ void put32(std::string& s, std::uint32_t v) { s.append(reinterpret_cast<const ch
 
 nlohmann::ordered_json to_json(const AuthoredValue& v) {
   return std::visit([](const auto& x) { return nlohmann::ordered_json(x); }, v);
+}
+
+// The node's local matrix as the file gives it (matrix, else T R S; identity for what is absent);
+// nullopt when the fields are malformed.
+std::optional<glm::mat4> file_matrix(const nlohmann::ordered_json& node) {
+  const auto numbers = [&](const char* key, std::size_t n) -> std::optional<std::vector<float>> {
+    if (!node.contains(key)) return std::vector<float>{};
+    const auto& a = node[key];
+    if (!a.is_array() || a.size() != n) return std::nullopt;
+    std::vector<float> out;
+    for (const auto& x : a) {
+      if (!x.is_number()) return std::nullopt;
+      out.push_back(x.get<float>());
+    }
+    return out;
+  };
+  const auto m = numbers("matrix", 16);
+  if (!m) return std::nullopt;
+  if (!m->empty()) {
+    glm::mat4 out;
+    for (int i = 0; i < 16; ++i) glm::value_ptr(out)[i] = (*m)[static_cast<std::size_t>(i)];
+    return out;
+  }
+  const auto t = numbers("translation", 3), r = numbers("rotation", 4), sc = numbers("scale", 3);
+  if (!t || !r || !sc) return std::nullopt;
+  Transform x;
+  if (!t->empty()) x.translation = glm::vec3((*t)[0], (*t)[1], (*t)[2]);
+  if (!r->empty()) x.rotation = glm::quat((*r)[3], (*r)[0], (*r)[1], (*r)[2]);
+  if (!sc->empty()) x.scale = glm::vec3((*sc)[0], (*sc)[1], (*sc)[2]);
+  return x.matrix();
+}
+
+// Whether two local matrices agree to float rounding (the importer's normalisation of the
+// rotation, a matrix read back as TRS), so that an unchanged node keeps its fields as written.
+bool same_matrix(const glm::mat4& a, const glm::mat4& b) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (std::abs(a[c][r] - b[c][r]) > 1e-5f * (1.0f + std::abs(a[c][r]))) return false;
+  return true;
+}
+
+// Sets object[key] to `values` (one number, or an array of them) unless it already holds them to
+// float rounding, so that what did not change keeps the file's own digits.
+void set_numbers(nlohmann::ordered_json& object, const char* key, std::vector<float> values) {
+  if (object.contains(key)) {
+    const auto& old = object[key];
+    std::vector<double> have;
+    if (old.is_number()) have.push_back(old.get<double>());
+    if (old.is_array())
+      for (const auto& x : old)
+        if (x.is_number()) have.push_back(x.get<double>());
+    bool same = have.size() == values.size();
+    for (std::size_t i = 0; same && i < values.size(); ++i)
+      same = std::abs(have[i] - double(values[i])) <= 1e-6 * (1.0 + std::abs(have[i]));
+    if (same) return;
+  }
+  if (values.size() == 1) object[key] = values[0];
+  else object[key] = values;
 }
 
 bool finite(const Transform& t) {
@@ -83,6 +144,8 @@ Status save_gltf(const std::filesystem::path& source, const std::filesystem::pat
   if (!nodes.is_array()) nodes = nlohmann::ordered_json::array();
 
   for (const GltfNodeEdit& edit : edits) {
+    if (edit.node < nodes.size() && !nodes[edit.node].is_object())
+      return make_error(ErrorCode::InvalidInput, file + ": nodes[" + std::to_string(edit.node) + "] is not an object");
     if (edit.node >= nodes.size())
       return make_error(ErrorCode::InvalidArgument, file + ": nodes[" + std::to_string(edit.node) +
                                                         "] does not exist (the file has " +
@@ -92,10 +155,13 @@ Status save_gltf(const std::filesystem::path& source, const std::filesystem::pat
     if (edit.transform) {
       const Transform& t = *edit.transform;
       if (!finite(t)) return make_error(ErrorCode::InvalidArgument, where + ": the transform is not finite");
-      node.erase("matrix");
-      node["translation"] = {t.translation.x, t.translation.y, t.translation.z};
-      node["rotation"] = {t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w};
-      node["scale"] = {t.scale.x, t.scale.y, t.scale.z};
+      const std::optional<glm::mat4> before = file_matrix(node);
+      if (!before || !same_matrix(*before, t.matrix())) {
+        node.erase("matrix");
+        node["translation"] = {t.translation.x, t.translation.y, t.translation.z};
+        node["rotation"] = {t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w};
+        node["scale"] = {t.scale.x, t.scale.y, t.scale.z};
+      }
     }
     if (edit.light) {
       const nlohmann::ordered_json* index = nullptr;
@@ -108,15 +174,28 @@ Status save_gltf(const std::filesystem::path& source, const std::filesystem::pat
           index->get<std::size_t>() >= lights->size())
         return make_error(ErrorCode::InvalidArgument, where + ": has no KHR_lights_punctual light to write the Light to");
       nlohmann::ordered_json& light = (*lights)[index->get<std::size_t>()];
+      if (!light.is_object())
+        return make_error(ErrorCode::InvalidInput, where + ": its KHR_lights_punctual light is not an object");
       const Light& l = *edit.light;
-      light["color"] = {l.color.x, l.color.y, l.color.z};
-      light["intensity"] = l.intensity;
-      if (l.range > 0.0f) light["range"] = l.range;
+      if (l.type == Light::Type::Rect)
+        return make_error(ErrorCode::InvalidArgument, where + ": a rect light has no KHR_lights_punctual form; make it a "
+                                                              "point, spot or directional light");
+      light["type"] = l.type == Light::Type::Directional ? "directional" : l.type == Light::Type::Point ? "point" : "spot";
+      if (l.color != glm::vec3(1.0f) || light.contains("color")) set_numbers(light, "color", {l.color.x, l.color.y, l.color.z});
+      if (l.intensity != 1.0f || light.contains("intensity")) set_numbers(light, "intensity", {l.intensity});
+      if (l.range > 0.0f) set_numbers(light, "range", {l.range});
       else light.erase("range");
-      if (l.type == Light::Type::Spot)
-        light["spot"] = {{"innerConeAngle", l.inner_cone_angle}, {"outerConeAngle", l.outer_cone_angle}};
+      if (l.type == Light::Type::Spot) {
+        if (!light.contains("spot") || !light["spot"].is_object()) light["spot"] = nlohmann::ordered_json::object();
+        set_numbers(light["spot"], "innerConeAngle", {l.inner_cone_angle});
+        set_numbers(light["spot"], "outerConeAngle", {l.outer_cone_angle});
+      } else {
+        light.erase("spot");
+      }
     }
     // PENUMBRA_lighting, written whole (or removed).
+    if (node.contains("extensions") && !node["extensions"].is_object())
+      return make_error(ErrorCode::InvalidInput, where + ": extensions is not an object");
     if (edit.lighting.empty()) {
       if (node.contains("extensions")) {
         node["extensions"].erase("PENUMBRA_lighting");
@@ -144,6 +223,12 @@ Status save_gltf(const std::filesystem::path& source, const std::filesystem::pat
   used.erase(std::remove(used.begin(), used.end(), "PENUMBRA_lighting"), used.end());
   if (declared) used.push_back("PENUMBRA_lighting");
   if (used.empty()) j.erase("extensionsUsed");
+  // A file may require it; it must not once no node declares it (a required extension is a used one).
+  if (j.contains("extensionsRequired") && j["extensionsRequired"].is_array() && !declared) {
+    nlohmann::ordered_json& required = j["extensionsRequired"];
+    required.erase(std::remove(required.begin(), required.end(), "PENUMBRA_lighting"), required.end());
+    if (required.empty()) j.erase("extensionsRequired");
+  }
 
   std::string text = j.dump(binary ? -1 : 1);
   if (!binary) return write_file_atomically(out, text + "\n");

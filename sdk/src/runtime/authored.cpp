@@ -97,30 +97,30 @@ std::vector<AuthoredComponent> authored_components(const World& world, Entity no
       if (component == nullptr) continue;
       AuthoredComponent c;
       c.type = std::string(info->name);
-      // The base the fields are written against: the defaults, or the preset whose knobs the
-      // component has (then named), so a file says only what differs.
+      // The base the fields are written against: the defaults or a preset (then named), whichever
+      // leaves the fewest fields to write, so a file says only what differs.
+      const auto differing = [&](const void* base) {
+        std::vector<std::pair<std::string, AuthoredValue>> fields;
+        for (const FieldInfo& f : info->fields)
+          if (!f.read_only && f.get && f.get(component) != f.get(base))
+            fields.emplace_back(std::string(f.name), authored_value(f, f.get(component)));
+        return fields;
+      };
       World scratch;
-      const Entity base_entity = scratch.create();
-      info->emplace(scratch, base_entity);
-      const void* base = info->find(scratch, base_entity);
+      const Entity base = scratch.create();
+      info->emplace(scratch, base);
+      c.fields = differing(info->find(scratch, base));
       if (info->set_preset_fields) {
         for (const Preset p : {Preset::Draft, Preset::Medium, Preset::High}) {
-          void* candidate = info->patch(scratch, base_entity);
-          info->set_preset_fields(*info, candidate, p);
-          const bool matches = std::all_of(info->fields.begin(), info->fields.end(), [&](const FieldInfo& f) {
-            return !f.preset || !f.get || f.get(candidate) == f.get(component);
-          });
-          if (matches) {
+          info->emplace(scratch, base);
+          info->set_preset_fields(*info, info->patch(scratch, base), p);
+          auto fields = differing(info->find(scratch, base));
+          if (fields.size() < c.fields.size()) {
             c.preset = to_string(p);
-            break;
+            c.fields = std::move(fields);
           }
-          info->emplace(scratch, base_entity);  // back to the defaults
         }
-        base = info->find(scratch, base_entity);
       }
-      for (const FieldInfo& f : info->fields)
-        if (!f.read_only && f.get && f.get(component) != f.get(base))
-          c.fields.emplace_back(std::string(f.name), authored_value(f, f.get(component)));
       out.push_back(std::move(c));
     }
   return out;

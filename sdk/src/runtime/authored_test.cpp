@@ -2,6 +2,7 @@
 // components by their field lists (presets first, then the fields), on the node or on its meshes;
 // every mistake is refused naming the file, the node, the component and the field.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
@@ -160,6 +161,41 @@ TEST(AuthoredLighting, SavedGltfReopensWithTheEditsAndKeepsTheRest) {
     EXPECT_NE(saved.find(kept), std::string::npos) << kept;
   std::filesystem::remove(out);
   std::filesystem::remove(again);
+}
+
+// A scene saved without changes is the file it came from, up to formatting: transforms (a matrix
+// included), lights and the rest keep the file's own numbers.
+TEST(AuthoredLighting, AnUnchangedSceneSavesAsTheFileItCameFrom) {
+  for (const char* name : {"valid.gltf", "lighting_extension.gltf", "scaled_armature.gltf"}) {
+    World world = imported(kCases / name);
+    const auto out = std::filesystem::temp_directory_path() / ("penumbra_same_" + std::to_string(::getpid()) + ".gltf");
+    ASSERT_TRUE(save_gltf(kCases / name, out, gltf_node_edits(world)).ok()) << name;
+    nlohmann::ordered_json source, saved;
+    std::ifstream(kCases / name) >> source;
+    std::ifstream(out) >> saved;
+    EXPECT_EQ(saved, source) << name << ":\n" << saved.dump(1);
+    std::filesystem::remove(out);
+  }
+  // A node given as a matrix keeps it unless it moves.
+  nlohmann::ordered_json with_matrix;
+  std::ifstream(kCases / "valid.gltf") >> with_matrix;
+  with_matrix["nodes"][0].erase("translation");
+  with_matrix["nodes"][0]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 1};
+  const auto source = std::filesystem::temp_directory_path() / ("penumbra_matrix_" + std::to_string(::getpid()) + ".gltf");
+  std::ofstream(source) << with_matrix.dump();
+  World world = imported(source);
+  const auto out = std::filesystem::temp_directory_path() / ("penumbra_matrix_out_" + std::to_string(::getpid()) + ".gltf");
+  ASSERT_TRUE(save_gltf(source, out, gltf_node_edits(world)).ok());
+  nlohmann::ordered_json saved;
+  std::ifstream(out) >> saved;
+  EXPECT_EQ(saved["nodes"][0], with_matrix["nodes"][0]);
+  world.patch<Transform>(named(world, "root")).translation.y = 2.0f;
+  ASSERT_TRUE(save_gltf(source, out, gltf_node_edits(world)).ok());
+  std::ifstream(out) >> saved;
+  EXPECT_FALSE(saved["nodes"][0].contains("matrix"));
+  EXPECT_EQ(saved["nodes"][0]["translation"][1], 2.0);
+  std::filesystem::remove(source);
+  std::filesystem::remove(out);
 }
 
 TEST(AuthoredLighting, SavedGlbKeepsItsBinaryChunkAndTakesNewComponents) {

@@ -61,13 +61,16 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
                                   const ImportOptions& options = {});
 
 // Rewrites the glTF file `source` as `out` with `edits` applied and everything else kept as read
-// (meshes, buffers, images, animations, extras, other extensions): a .gltf stays JSON with the same
+// (meshes, buffers, images, animations, extras, other extensions; a node's transform is rewritten,
+// as translation/rotation/scale, and a light's settings, only where they differ from the file's
+// beyond float rounding): a .gltf stays JSON with the same
 // buffer and image URIs (relative ones resolve against out's folder: save next to the source, or
 // copy its external files), a .glb keeps its binary chunk byte for byte. `out` has the source's
 // extension; it is written atomically (core/file.h), so it may be `source` itself. extensionsUsed
 // lists PENUMBRA_lighting exactly when some node declares it. Errors: the source's own (NotFound,
 // InvalidInput, naming the file), InvalidArgument (another extension for out, a node index outside
-// the file, a light edit for a node without a light, a non-finite transform), Io.
+// the file, a light edit for a node without a light or of a rect light, a non-finite transform),
+// InvalidInput (a node, light or extensions entry that is not an object), Io.
 // Cost: linear in the file's size.
 Status save_gltf(const std::filesystem::path& source, const std::filesystem::path& out,
                  std::span<const GltfNodeEdit> edits);

@@ -182,8 +182,8 @@ struct GltfNode {
 // What save_gltf (import/gltf.h) changes in one node of the file; what is left empty is kept as read.
 struct GltfNodeEdit {
   std::uint32_t node = 0;              // index into the file's nodes
-  std::optional<Transform> transform;  // written as translation/rotation/scale (replacing a matrix)
-  std::optional<Light> light;          // the settings of the node's KHR_lights_punctual light
+  std::optional<Transform> transform;  // written as translation/rotation/scale when it changed
+  std::optional<Light> light;          // the node's KHR_lights_punctual light (not a Rect)
   // Its PENUMBRA_lighting components (runtime.h: authored_components); empty removes the extension.
   std::vector<AuthoredComponent> lighting;
 };
