@@ -10,7 +10,9 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <cstring>
 #include <numbers>
+#include <optional>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -71,48 +73,6 @@ bool same_settings(const AOFieldCaster& a, const AOFieldCaster& b) {
          a.supersample == b.supersample && a.grid_size == b.grid_size && a.falloff_distance == b.falloff_distance &&
          a.fade_start == b.fade_start && a.inside_occlusion == b.inside_occlusion &&
          a.inside_exponent == b.inside_exponent;
-}
-
-Result<std::vector<BakeChunk>> bake_fields(BakeInputs& in) {
-  std::vector<BakeChunk> chunks;
-  // Casters that share a MeshData and settings (instances, e.g. the courtyard's crates) share the
-  // field of the first of them in entity order.
-  struct Baked {
-    const MeshData* mesh;
-    AOFieldCaster settings;
-    std::shared_ptr<const AOFieldData> data;
-  };
-  std::vector<Baked> baked;
-  for (Entity e : caster_entities(in.world)) {
-    const AOFieldCaster caster = in.world.get<AOFieldCaster>(e);
-    const std::string context = caster_context(in.world, e);
-    PENUMBRA_TRY(validate_ao_field_caster(caster, in.world.get<WorldTransform>(e).matrix, context));
-    const MeshData* mesh = in.world.get<Mesh>(e).data.get();
-    const auto shared = std::find_if(baked.begin(), baked.end(), [&](const Baked& b) {
-      return b.mesh == mesh && same_settings(b.settings, caster);
-    });
-    auto key = bake_key(in, e, context);
-    if (!key) return key.error();
-    AOFieldData data;
-    if (shared != baked.end()) {
-      data = *shared->data;
-    } else {
-      // The caster's random streams follow its key, not its index: the same scene built in another
-      // order bakes the same field.
-      Hasher seed;
-      seed.add(in.settings.seed);
-      seed.add(std::string_view(*key));
-      auto fresh = bake_ao_field(caster, *mesh, seed.digest(), in.jobs, in.budget, context);
-      if (!fresh) return fresh.error();
-      data = std::move(*fresh);
-    }
-    data.key = std::move(*key);
-    chunks.push_back(write_ao_field_chunk(data));
-    auto ptr = std::make_shared<const AOFieldData>(std::move(data));
-    if (shared == baked.end()) baked.push_back({mesh, caster, ptr});
-    in.world.patch<AOFieldCaster>(e).data = std::move(ptr);
-  }
-  return chunks;
 }
 
 void hash_field_inputs(World& world, const BakeSettings&, Hasher& h) {
@@ -239,55 +199,59 @@ void fill_inside_vertices(std::uint32_t size, const std::vector<double>& coord, 
   }
 }
 
-// The grid representation (Malmer et al. 2007): Omega and Omega x Upsilon at every vertex that a
-// point within r_far can interpolate from (the others stay 0), then the inside vertices filled
-// from outside. Vertex v draws from Rng::stream(seed, v).
-Status bake_grid(const AOFieldCaster& caster, const RayScene& scene, std::uint64_t seed, float tnear,
-                 JobContext& jobs, AOFieldData& data) {
-  const std::uint32_t size = caster.grid_size;
-  const double far = data.r_far;
-  std::vector<double> coord(size);  // the warped vertex coordinate g(u) r_far per index
+// The warped vertex coordinate g(u) r_far of each grid index.
+std::vector<double> grid_coordinates(std::uint32_t size, double far) {
+  std::vector<double> coord(size);
   for (std::uint32_t i = 0; i < size; ++i) {
     const double u = 2.0 * i / double(size - 1) - 1.0;
     coord[i] = u * std::abs(u) * far;
   }
-  // Per index, the distance from 0 to the span of the cells around the vertex (0 when it holds 0).
-  std::vector<double> near_span(size);
-  for (std::uint32_t i = 0; i < size; ++i) {
-    const double lo = coord[i == 0 ? 0 : i - 1], hi = coord[std::min(i + 1, size - 1)];
-    near_span[i] = lo <= 0.0 && hi >= 0.0 ? 0.0 : std::min(std::abs(lo), std::abs(hi));
-  }
-  const std::size_t count = std::size_t{size} * size * size;
-  data.nodes.assign(count, AOFieldGridNode{});
-  const std::vector<glm::vec3> dirs = sphere_directions(caster.rays_per_sample);
-  const glm::dvec3 centre(data.centre);
-  std::vector<std::uint8_t> known(count, 1);
-  jobs.begin_stage("ao field", count);
-  PENUMBRA_TRY(jobs.parallel_for(count, 256, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t v = begin; v < end; ++v) {
-      const std::size_t i = v % size, j = (v / size) % size, k = v / (std::size_t{size} * size);
-      const glm::dvec3 span(near_span[i], near_span[j], near_span[k]);
-      if (!(glm::length(span) < far)) continue;  // no point within r_far reads this vertex
-      Rng rng = Rng::stream(seed, v);
-      const glm::vec3 at(centre + glm::dvec3(coord[i], coord[j], coord[k]));
-      const SphereSample smp =
-          trace_sphere(scene, std::span<const glm::vec3>(&at, 1), dirs, random_rotation(rng), tnear);
-      const double omega = 4.0 * kPi * smp.hits / caster.rays_per_sample;
-      const double len = glm::length(smp.sum);
-      AOFieldGridNode& node = data.nodes[v];
-      node.omega = static_cast<float>(omega);
-      node.weighted_direction = len > 0.0 ? glm::vec3(omega * smp.sum / len) : glm::vec3(0.0f);
-      known[v] = smp.hits < caster.rays_per_sample ? 1 : 0;
-    }
-  }));
-  fill_inside_vertices(size, coord, data.nodes, std::move(known));
-  return {};
+  return coord;
 }
 
-}  // namespace
+// What one element's results hold: a texel and whether its fit was clamped, or a grid vertex and
+// whether any of its rays escaped (known; the others are filled from outside).
+constexpr std::size_t kTexelResultBytes = sizeof(AOFieldTexel) + 1;
+constexpr std::size_t kNodeResultBytes = sizeof(AOFieldGridNode) + 1;
 
-Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& mesh, std::uint64_t seed,
-                                  JobContext& jobs, MemoryBudget& budget, std::string_view context) {
+// One caster's field as a group of elements (cube-map texels or grid vertices), element i drawing
+// from Rng::stream(seed, i): prepare() from the mesh, run() over ranges, finish_field() from the
+// results alone.
+class FieldBake {
+ public:
+  static Result<std::shared_ptr<FieldBake>> prepare(const AOFieldCaster& caster, const MeshData& mesh,
+                                                    std::uint64_t seed, JobContext& jobs, MemoryBudget& budget,
+                                                    std::string_view context);
+  const AOFieldData& header() const { return header_; }
+  std::uint64_t elements() const {
+    return grid_ ? std::uint64_t{caster_.grid_size} * caster_.grid_size * caster_.grid_size
+                 : 6 * std::uint64_t{header_.resolution} * header_.resolution;
+  }
+  // Rays per element.
+  double element_cost() const {
+    return grid_ ? double(caster_.rays_per_sample) : double(caster_.radial_samples) * caster_.rays_per_sample;
+  }
+  Result<std::vector<std::byte>> run(std::uint64_t begin, std::uint64_t end, JobContext& jobs) const;
+
+ private:
+  AOFieldCaster caster_;
+  AOFieldData header_;  // every field but the arrays
+  bool grid_ = false;
+  std::uint64_t seed_ = 0;
+  float tnear_ = 0.0f;
+  std::optional<RayScene> scene_;  // the caster alone, in its mesh frame
+  std::vector<glm::vec3> sphere_dirs_;
+  // Radial fit: step 1's support directions and function.
+  std::vector<glm::dvec3> dirs_;
+  std::vector<double> support_;
+  // Grid: the vertex coordinates and, per index, the distance from 0 to the span of the cells
+  // around the vertex (0 when it holds 0).
+  std::vector<double> coord_, near_span_;
+};
+
+Result<std::shared_ptr<FieldBake>> FieldBake::prepare(const AOFieldCaster& caster, const MeshData& mesh,
+                                                      std::uint64_t seed, JobContext& jobs, MemoryBudget& budget,
+                                                      std::string_view context) {
   PENUMBRA_TRY(validate_ao_field_caster(caster, glm::mat4(1.0f), context));
   PENUMBRA_TRY(mesh.validate(context));
   // Field origin: the area-weighted centroid of the surface (inside the convex hull).
@@ -303,22 +267,20 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
                           " does not reach beyond the caster (bounding radius " + std::to_string(radius) +
                           "); use at least 2x the bounding radius, or 0 for 6x");
 
-  const bool grid = caster.representation == AOFieldRepresentation::Grid;
-  const std::uint32_t res = grid ? 0 : caster.resolution;
-  const std::size_t texel_count = 6 * std::size_t{res} * res;
-  const std::uint64_t need = grid ? std::uint64_t{caster.grid_size} * caster.grid_size * caster.grid_size *
-                                        sizeof(AOFieldGridNode)
-                                  : texel_count * (sizeof(AOFieldTexel) + 1);
+  auto bake = std::make_shared<FieldBake>();
+  bake->caster_ = caster;
+  bake->grid_ = caster.representation == AOFieldRepresentation::Grid;
+  bake->seed_ = seed;
+  const std::uint32_t res = bake->grid_ ? 0 : caster.resolution;
+  // The arrays must fit the budget before any ray is traced.
+  const std::uint64_t need = bake->grid_ ? std::uint64_t{caster.grid_size} * caster.grid_size * caster.grid_size *
+                                               (sizeof(AOFieldGridNode) + kNodeResultBytes)
+                                         : 6 * std::uint64_t{res} * res * (sizeof(AOFieldTexel) + kTexelResultBytes);
   if (auto st = budget.reserve(std::string(context) + " texels", need); !st)
-    return make_error(ErrorCode::OutOfBudget, st.error().message + (grid ? "; use a smaller grid_size"
-                                                                              : "; use a lower resolution"));
-  struct Release {
-    MemoryBudget& b;
-    std::uint64_t n;
-    ~Release() { b.release(n); }
-  } release{budget, need};
+    return make_error(ErrorCode::OutOfBudget, st.error().message + (bake->grid_ ? "; use a smaller grid_size"
+                                                                                  : "; use a lower resolution"));
+  budget.release(need);
 
-  // The caster alone, in its mesh frame.
   World alone;
   {
     const Entity e = alone.create();
@@ -330,45 +292,88 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
   options.build_threads = jobs.concurrency();
   auto scene = RayScene::build(alone, options);
   if (!scene) return scene.error();
+  bake->scene_.emplace(std::move(*scene));
 
-  AOFieldData data;
+  AOFieldData& data = bake->header_;
   data.representation = caster.representation;
   data.resolution = res;
-  data.grid_size = grid ? caster.grid_size : 0;
+  data.grid_size = bake->grid_ ? caster.grid_size : 0;
   data.centre = glm::vec3(centroid);
   data.bounding_radius = static_cast<float>(radius);
   data.r_far = static_cast<float>(r_far);
   data.fade_start = caster.fade_start;
   data.inside_occlusion = caster.inside_occlusion;
   data.inside_exponent = caster.inside_exponent;
-  const float tnear = static_cast<float>(1e-6 * radius);
-  if (grid) {
-    PENUMBRA_TRY(bake_grid(caster, *scene, seed, tnear, jobs, data));
-    return data;
+  bake->tnear_ = static_cast<float>(1e-6 * radius);
+  bake->sphere_dirs_ = sphere_directions(caster.rays_per_sample);
+  if (bake->grid_) {
+    const std::uint32_t size = caster.grid_size;
+    bake->coord_ = grid_coordinates(size, r_far);
+    bake->near_span_.resize(size);
+    for (std::uint32_t i = 0; i < size; ++i) {
+      const double lo = bake->coord_[i == 0 ? 0 : i - 1], hi = bake->coord_[std::min(i + 1, size - 1)];
+      bake->near_span_[i] = lo <= 0.0 && hi >= 0.0 ? 0.0 : std::min(std::abs(lo), std::abs(hi));
+    }
+    return bake;
   }
-
   // Step 1's support function h(u) = max_v (v - centre) . u.
-  const std::vector<glm::dvec3> dirs = support_directions(mesh);
-  std::vector<double> support(dirs.size(), 0.0);
-  for (std::size_t i = 0; i < dirs.size(); ++i) {
+  bake->dirs_ = support_directions(mesh);
+  bake->support_.assign(bake->dirs_.size(), 0.0);
+  for (std::size_t i = 0; i < bake->dirs_.size(); ++i) {
     double h = -std::numeric_limits<double>::infinity();
-    for (const glm::vec3& v : mesh.positions) h = std::max(h, glm::dot(glm::dvec3(v) - centroid, dirs[i]));
-    support[i] = std::max(h, 0.0);
+    for (const glm::vec3& v : mesh.positions) h = std::max(h, glm::dot(glm::dvec3(v) - centroid, bake->dirs_[i]));
+    bake->support_[i] = std::max(h, 0.0);
+  }
+  return bake;
+}
+
+Result<std::vector<std::byte>> FieldBake::run(std::uint64_t first, std::uint64_t last, JobContext& jobs) const {
+  const std::size_t count = static_cast<std::size_t>(last - first);
+  std::vector<std::byte> out(count * (grid_ ? kNodeResultBytes : kTexelResultBytes));
+  jobs.begin_stage("ao field", count);
+  const RayScene& scene = *scene_;
+  const glm::dvec3 centre(header_.centre);
+  if (grid_) {
+    // The grid representation (Malmer et al. 2007): Omega and Omega x Upsilon at every vertex that
+    // a point within r_far can interpolate from (the others stay 0).
+    const std::uint32_t size = caster_.grid_size;
+    const double far = header_.r_far;
+    PENUMBRA_TRY(jobs.parallel_for(count, 256, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::size_t v = static_cast<std::size_t>(first) + i;
+        const std::size_t x = v % size, y = (v / size) % size, z = v / (std::size_t{size} * size);
+        AOFieldGridNode node;
+        std::uint8_t known = 1;
+        const glm::dvec3 span(near_span_[x], near_span_[y], near_span_[z]);
+        if (glm::length(span) < far) {
+          Rng rng = Rng::stream(seed_, v);
+          const glm::vec3 at(centre + glm::dvec3(coord_[x], coord_[y], coord_[z]));
+          const SphereSample smp =
+              trace_sphere(scene, std::span<const glm::vec3>(&at, 1), sphere_dirs_, random_rotation(rng), tnear_);
+          const double omega = 4.0 * kPi * smp.hits / caster_.rays_per_sample;
+          const double len = glm::length(smp.sum);
+          node.omega = static_cast<float>(omega);
+          node.weighted_direction = len > 0.0 ? glm::vec3(omega * smp.sum / len) : glm::vec3(0.0f);
+          known = smp.hits < caster_.rays_per_sample ? 1 : 0;
+        }
+        std::byte* o = out.data() + i * kNodeResultBytes;
+        std::memcpy(o, &node, sizeof node);
+        std::memcpy(o + sizeof node, &known, 1);
+      }
+    }));
+    return out;
   }
 
-  data.texels.resize(texel_count);
-  std::vector<std::uint8_t> clamped(texel_count, 0);
-  const std::uint32_t radii = caster.radial_samples;
-  const std::uint32_t rays = caster.rays_per_sample;
-  const std::uint32_t sub = caster.supersample;
-  const std::vector<glm::vec3> sphere_dirs = sphere_directions(rays);
-  const glm::vec3 origin_centre(centroid);
-  jobs.begin_stage("ao field", texel_count);
-  Status st = jobs.parallel_for(texel_count, 4, [&](std::size_t begin, std::size_t end) {
+  const std::uint32_t res = header_.resolution, radii = caster_.radial_samples, rays = caster_.rays_per_sample,
+                      sub = caster_.supersample;
+  const double radius = header_.bounding_radius, r_far = header_.r_far;
+  const glm::vec3 origin_centre(header_.centre);
+  PENUMBRA_TRY(jobs.parallel_for(count, 4, [&](std::size_t begin, std::size_t end) {
     std::vector<AORadialSample> samples(radii);
     std::vector<glm::vec3> sub_dirs(std::size_t{sub} * sub), from(sub_dirs.size());
-    for (std::size_t i = begin; i < end; ++i) {
-      Rng rng = Rng::stream(seed, i);
+    for (std::size_t n = begin; n < end; ++n) {
+      const std::size_t i = static_cast<std::size_t>(first) + n;
+      Rng rng = Rng::stream(seed_, i);
       const auto face = static_cast<std::uint32_t>(i / (std::size_t{res} * res));
       const auto row = static_cast<std::uint32_t>((i / res) % res), col = static_cast<std::uint32_t>(i % res);
       const float texel = 2.0f / static_cast<float>(res);
@@ -377,7 +382,7 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
       const glm::vec3 w = cube_direction(face, s, t);
       const glm::dvec3 wd(w);
       // Step 1: the hull distance along w.
-      const double r0 = hull_distance_of(dirs, support, wd, radius);
+      const double r0 = hull_distance_of(dirs_, support_, wd, radius);
       // The supersample directions: the centres of the sub x sub texels of the cube map built at
       // sub x the resolution that cover this texel; the sampled radii start outside the hull
       // along all of them.
@@ -388,7 +393,7 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
           const float dt = (static_cast<float>(b) + 0.5f) / static_cast<float>(sub) - 0.5f;
           const glm::vec3 d = sub == 1 ? w : cube_direction(face, s + ds * texel, t + dt * texel);
           sub_dirs[b * sub + a] = d;
-          if (sub > 1) r0_max = std::max(r0_max, hull_distance_of(dirs, support, glm::dvec3(d), radius));
+          if (sub > 1) r0_max = std::max(r0_max, hull_distance_of(dirs_, support_, glm::dvec3(d), radius));
         }
       // Step 2: Omega and Upsilon at log-spaced radii from just outside the hull to r_far, each
       // averaged over the supersample directions (rays spread over them in turn).
@@ -396,7 +401,7 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
       for (std::uint32_t k = 0; k < radii; ++k) {
         const double r = r_lo * std::pow(r_far / r_lo, double(k) / double(radii - 1));
         for (std::size_t d = 0; d < sub_dirs.size(); ++d) from[d] = origin_centre + static_cast<float>(r) * sub_dirs[d];
-        const SphereSample smp = trace_sphere(*scene, from, sphere_dirs, random_rotation(rng), tnear);
+        const SphereSample smp = trace_sphere(scene, from, sphere_dirs_, random_rotation(rng), tnear_);
         AORadialSample& rs = samples[k];
         rs.rho = r / radius;
         rs.omega = 4.0 * kPi * smp.hits / rays;
@@ -405,26 +410,191 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
       }
       // Steps 3 and 4: the fits, in units of the bounding radius, then back to mesh units.
       AOOmegaFit p{};
-      clamped[i] = fit_ao_omega(samples, r0 / radius, r_far / radius, p) ? 1 : 0;
+      const std::uint8_t clamped = fit_ao_omega(samples, r0 / radius, r_far / radius, p) ? 1 : 0;
       const glm::dvec3 c0 = fit_ao_c0(samples, wd, r0 / radius) * radius;
-      AOFieldTexel& tx = data.texels[i];
+      AOFieldTexel tx;
       tx.a = static_cast<float>(p[0] / (radius * radius));
       tx.b = static_cast<float>(p[1] / radius);
       tx.c = static_cast<float>(p[2]);
       tx.r0 = static_cast<float>(r0);
       tx.c0 = glm::vec3(c0);
+      std::byte* o = out.data() + n * kTexelResultBytes;
+      std::memcpy(o, &tx, sizeof tx);
+      std::memcpy(o + sizeof tx, &clamped, 1);
     }
-  });
-  if (!st) return st.error();
-  data.clamped_fits = static_cast<std::uint32_t>(std::count(clamped.begin(), clamped.end(), std::uint8_t{1}));
+  }));
+  return out;
+}
+
+// The field from its header and every element's results: the texels and the count of clamped
+// fits, or the grid vertices with those inside the caster's solid filled from outside (the one
+// step that needs every vertex).
+Result<AOFieldData> finish_field(AOFieldData data, std::span<const std::byte> results, std::string_view context) {
+  const bool grid = data.representation == AOFieldRepresentation::Grid;
+  const std::size_t count = grid ? std::size_t{data.grid_size} * data.grid_size * data.grid_size
+                                 : 6 * std::size_t{data.resolution} * data.resolution;
+  const std::size_t each = grid ? kNodeResultBytes : kTexelResultBytes;
+  if (count == 0 || results.size() != count * each || (grid && data.grid_size < 2))
+    return make_error(ErrorCode::InvalidInput, std::string(context) + ": " + std::to_string(results.size()) +
+                                                   " bytes of results for " + std::to_string(count) +
+                                                   " elements; the part is corrupt, re-bake it");
+  if (!grid) {
+    data.texels.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      std::memcpy(&data.texels[i], results.data() + i * each, sizeof(AOFieldTexel));
+      if (results[i * each + sizeof(AOFieldTexel)] != std::byte{0}) ++data.clamped_fits;
+    }
+    return data;
+  }
+  data.nodes.resize(count);
+  std::vector<std::uint8_t> known(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    std::memcpy(&data.nodes[i], results.data() + i * each, sizeof(AOFieldGridNode));
+    known[i] = results[i * each + sizeof(AOFieldGridNode)] != std::byte{0} ? 1 : 0;
+  }
+  fill_inside_vertices(data.grid_size, grid_coordinates(data.grid_size, data.r_far), data.nodes, std::move(known));
   return data;
+}
+
+// A group's header: the field's scalars, then the casters that take this field (their keys and
+// their places in entity order; instances of one mesh and settings share one bake).
+void write_field_header(ByteWriter& w, const AOFieldData& d) {
+  w.write(d.representation);
+  w.write(d.resolution);
+  w.write(d.grid_size);
+  w.write(d.centre);
+  w.write(d.bounding_radius);
+  w.write(d.r_far);
+  w.write(d.fade_start);
+  w.write(d.inside_occlusion);
+  w.write(d.inside_exponent);
+}
+Status read_field_header(ByteReader& r, AOFieldData& d) {
+  PENUMBRA_TRY(r.read(d.representation));
+  PENUMBRA_TRY(r.read(d.resolution));
+  PENUMBRA_TRY(r.read(d.grid_size));
+  PENUMBRA_TRY(r.read(d.centre));
+  PENUMBRA_TRY(r.read(d.bounding_radius));
+  PENUMBRA_TRY(r.read(d.r_far));
+  PENUMBRA_TRY(r.read(d.fade_start));
+  PENUMBRA_TRY(r.read(d.inside_occlusion));
+  PENUMBRA_TRY(r.read(d.inside_exponent));
+  const bool grid = d.representation == AOFieldRepresentation::Grid;
+  if ((!grid && d.representation != AOFieldRepresentation::RadialFit) || (grid ? d.grid_size : d.resolution) > 1024)
+    return make_error(ErrorCode::InvalidInput, r.context() + ": representation " +
+                                                   std::to_string(static_cast<std::uint32_t>(d.representation)) +
+                                                   " of size " + std::to_string(grid ? d.grid_size : d.resolution) +
+                                                   " is out of range; the part is corrupt");
+  return {};
+}
+
+constexpr std::uint64_t kTexelBlock = 64;   // cube-map texels per work item
+constexpr std::uint64_t kNodeBlock = 4096;  // grid vertices per work item
+
+// A group per distinct field (casters sharing a MeshData and settings share the first one's, in
+// entity order), named by the first caster's key.
+Result<BakeWork> plan_fields(BakeInputs& in) {
+  struct Distinct {
+    const MeshData* mesh;
+    AOFieldCaster settings;
+    std::vector<std::pair<std::uint32_t, std::string>> casters;  // place in entity order, key
+    std::shared_ptr<FieldBake> bake;
+  };
+  std::vector<Distinct> distinct;
+  const std::vector<Entity> casters = caster_entities(in.world);
+  for (std::size_t i = 0; i < casters.size(); ++i) {
+    const Entity e = casters[i];
+    const AOFieldCaster caster = in.world.get<AOFieldCaster>(e);
+    const std::string context = caster_context(in.world, e);
+    PENUMBRA_TRY(validate_ao_field_caster(caster, in.world.get<WorldTransform>(e).matrix, context));
+    const MeshData* mesh = in.world.get<Mesh>(e).data.get();
+    auto key = bake_key(in, e, context);
+    if (!key) return key.error();
+    const auto shared = std::find_if(distinct.begin(), distinct.end(), [&](const Distinct& d) {
+      return d.mesh == mesh && same_settings(d.settings, caster);
+    });
+    if (shared != distinct.end()) {
+      shared->casters.push_back({static_cast<std::uint32_t>(i), std::move(*key)});
+      continue;
+    }
+    // The caster's random streams follow its key, not its index: the same scene built in another
+    // order bakes the same field.
+    Hasher seed;
+    seed.add(in.settings.seed);
+    seed.add(std::string_view(*key));
+    auto bake = FieldBake::prepare(caster, *mesh, seed.digest(), in.jobs, in.budget, context);
+    if (!bake) return bake.error();
+    distinct.push_back({mesh, caster, {{static_cast<std::uint32_t>(i), std::move(*key)}}, std::move(*bake)});
+  }
+  BakeWork work;
+  auto bakes = std::make_shared<std::vector<std::shared_ptr<FieldBake>>>();
+  for (Distinct& d : distinct) {
+    ByteWriter header;
+    write_field_header(header, d.bake->header());
+    header.write(static_cast<std::uint32_t>(d.casters.size()));
+    for (const auto& [place, key] : d.casters) {
+      header.write(place);
+      header.write_string(key);
+    }
+    const bool grid = d.settings.representation == AOFieldRepresentation::Grid;
+    work.groups.push_back(BakeGroup{d.casters.front().second, d.bake->elements(), grid ? kNodeBlock : kTexelBlock,
+                                    d.bake->element_cost(), header.take()});
+    bakes->push_back(d.bake);
+  }
+  work.run = [bakes](std::size_t g, std::uint64_t begin, std::uint64_t end, JobContext& jobs) {
+    return (*bakes)[g]->run(begin, end, jobs);
+  };
+  return work;
+}
+
+// One AOFC chunk per caster, in entity order.
+Result<std::vector<BakeChunk>> finish_fields(std::span<const BakedGroup> groups, JobContext&) {
+  std::vector<std::pair<std::uint32_t, BakeChunk>> placed;
+  for (const BakedGroup& g : groups) {
+    const std::string context = "ao field '" + g.group->name + "'";
+    ByteReader header(g.group->header, context + " header");
+    AOFieldData data;
+    PENUMBRA_TRY(read_field_header(header, data));
+    std::uint32_t count = 0;
+    PENUMBRA_TRY(header.read(count));
+    if (count == 0 || count > header.remaining())
+      return make_error(ErrorCode::InvalidInput, context + ": " + std::to_string(count) + " casters; the part is corrupt");
+    std::vector<std::pair<std::uint32_t, std::string>> casters(count);
+    for (auto& [place, key] : casters) {
+      PENUMBRA_TRY(header.read(place));
+      PENUMBRA_TRY(header.read_string(key));
+    }
+    PENUMBRA_TRY(header.finish());
+    auto field = finish_field(std::move(data), g.results, context);
+    if (!field) return field.error();
+    for (auto& [place, key] : casters) {
+      field->key = std::move(key);
+      placed.push_back({place, write_ao_field_chunk(*field)});
+    }
+  }
+  std::stable_sort(placed.begin(), placed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<BakeChunk> chunks;
+  for (auto& [place, chunk] : placed) chunks.push_back(std::move(chunk));
+  return chunks;
+}
+
+}  // namespace
+
+Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& mesh, std::uint64_t seed,
+                                  JobContext& jobs, MemoryBudget& budget, std::string_view context) {
+  auto bake = FieldBake::prepare(caster, mesh, seed, jobs, budget, context);
+  if (!bake) return bake.error();
+  auto results = (*bake)->run(0, (*bake)->elements(), jobs);
+  if (!results) return results.error();
+  return finish_field((*bake)->header(), *results, context);
 }
 
 void register_ao_field_baker(World& world) {
   Baker b = baker_for(ao_field_module());
   b.stages = 1;
   b.hash_inputs = hash_field_inputs;
-  b.bake = bake_fields;
+  b.plan = plan_fields;
+  b.finish = finish_fields;
   world.resource<BakerRegistry>().add(std::move(b));
 }
 

@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "penumbra/bake/ray_scene.h"
+#include "drive.h"
 #include "penumbra/core/version.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
@@ -24,6 +25,7 @@ Baker baker_for(const LightingModule& module) {
   b.name = std::string(module.name);
   b.description = std::string(module.description);
   b.describe = module.describe;
+  b.attach = module.attach;
   return b;
 }
 
@@ -104,9 +106,6 @@ void hash_scene(World& world, Hasher& h) {
   }
 }
 
-namespace {
-
-// The bakers `names` selects, in registration order; all when empty.
 Result<std::vector<const Baker*>> select_bakers(const BakerRegistry& registry, const std::vector<std::string>& names) {
   std::vector<const Baker*> selected;
   for (const std::string& name : names) {
@@ -120,8 +119,6 @@ Result<std::vector<const Baker*>> select_bakers(const BakerRegistry& registry, c
     if (names.empty() || std::find(names.begin(), names.end(), b.name) != names.end()) selected.push_back(&b);
   return selected;
 }
-
-}  // namespace
 
 std::uint64_t bake_input_hash(World& world, const std::vector<std::string>& names, const BakeSettings& settings) {
   Hasher h;
@@ -139,19 +136,11 @@ std::uint64_t bake_input_hash(World& world, const std::vector<std::string>& name
   return h.digest();
 }
 
-Result<BakeResult> bake_world(World& world, const std::vector<std::string>& names, const BakeSettings& settings,
-                              JobContext& jobs) {
-  auto bakers = select_bakers(world.resource<BakerRegistry>(), names);
-  if (!bakers) return bakers.error();
-  if (bakers->empty()) return make_error(ErrorCode::NotFound, "no baker is registered; link a lighting module");
-
+Status drive_bake(World& world, const std::vector<const Baker*>& bakers, const BakeSettings& settings,
+                  JobContext& jobs, BakeReport& report, const DriveStep& step) {
   int stages = 1;
-  for (const Baker* b : *bakers) stages += b->stages;
+  for (const Baker* b : bakers) stages += b->stages;
   jobs.set_stage_count(stages);
-
-  BakeResult result;
-  result.file.input_hash = bake_input_hash(world, names, settings);
-  result.file.sdk_version = std::string(sdk_version());
 
   // Build the ray scene once for every baker (static geometry; bakers bake what does not move).
   jobs.begin_stage("ray scene", 1);
@@ -162,29 +151,67 @@ Result<BakeResult> bake_world(World& world, const std::vector<std::string>& name
   auto rays = RayScene::build(world, options);
   if (!rays) return rays.error();
   jobs.advance(1);
-  result.report.ray_scene_seconds = seconds_since(start);
-  result.report.ray_scene_bytes = rays->bvh_bytes();
-  result.report.triangles = rays->triangle_count();
+  report.ray_scene_seconds = seconds_since(start);
+  report.ray_scene_bytes = rays->bvh_bytes();
+  report.triangles = rays->triangle_count();
 
   MemoryBudget budget(settings.memory_limit_bytes);
   const EntityKeys keys = EntityKeys::build(world);
-  for (const Baker* b : *bakers) {
+  for (const Baker* b : bakers) {
     if (jobs.cancelled()) return make_error(ErrorCode::Cancelled, "the bake was cancelled");
     start = std::chrono::steady_clock::now();
     BakeInputs inputs{world, *rays, settings, jobs, budget, keys};
-    auto chunks = b->bake(inputs);
-    if (!chunks) return Error{chunks.error().code, b->name + ": " + chunks.error().message};
+    auto work = b->plan(inputs);
+    if (!work) return Error{work.error().code, b->name + ": " + work.error().message};
     BakeReport::Item item;
     item.baker = b->name;
+    if (Status s = step(*b, *work, item); !s) return Error{s.error().code, b->name + ": " + s.error().message};
     item.seconds = seconds_since(start);
-    for (BakeChunk& chunk : *chunks) {
-      item.bytes += chunk.payload.size();
-      if (b->describe)
-        for (auto& line : b->describe(chunk)) item.lines.push_back(std::move(line));
-      result.file.chunks.push_back(std::move(chunk));
-    }
-    result.report.items.push_back(std::move(item));
+    report.items.push_back(std::move(item));
   }
+  return {};
+}
+
+Result<std::vector<BakeChunk>> finish_groups(const Baker& baker, const std::vector<BakeGroup>& groups,
+                                             const std::vector<std::vector<std::byte>>& results, JobContext& jobs) {
+  std::vector<BakedGroup> baked(groups.size());
+  for (std::size_t g = 0; g < groups.size(); ++g) baked[g] = BakedGroup{&groups[g], results[g]};
+  return baker.finish(baked, jobs);
+}
+
+Result<BakeResult> bake_world(World& world, const std::vector<std::string>& names, const BakeSettings& settings,
+                              JobContext& jobs) {
+  auto bakers = select_bakers(world.resource<BakerRegistry>(), names);
+  if (!bakers) return bakers.error();
+  if (bakers->empty()) return make_error(ErrorCode::NotFound, "no baker is registered; link a lighting module");
+
+  BakeResult result;
+  result.file.input_hash = bake_input_hash(world, names, settings);
+  result.file.sdk_version = std::string(sdk_version());
+  const EntityKeys keys = EntityKeys::build(world);
+  PENUMBRA_TRY(drive_bake(world, *bakers, settings, jobs, result.report,
+                          [&](const Baker& b, BakeWork& work, BakeReport::Item& item) -> Status {
+                            // Every group whole, then the global steps: what `penumbra merge` does
+                            // with the parts of a sharded bake.
+                            std::vector<std::vector<std::byte>> results(work.groups.size());
+                            for (std::size_t g = 0; g < work.groups.size(); ++g) {
+                              if (work.groups[g].elements == 0) continue;
+                              auto r = work.run(g, 0, work.groups[g].elements, jobs);
+                              if (!r) return r.error();
+                              results[g] = std::move(*r);
+                            }
+                            auto chunks = finish_groups(b, work.groups, results, jobs);
+                            if (!chunks) return chunks.error();
+                            for (BakeChunk& chunk : *chunks) {
+                              item.bytes += chunk.payload.size();
+                              if (b.describe)
+                                for (auto& line : b.describe(chunk)) item.lines.push_back(std::move(line));
+                              // What the file holds is what the World shows.
+                              if (b.attach) PENUMBRA_TRY(b.attach(world, chunk, keys));
+                              result.file.chunks.push_back(std::move(chunk));
+                            }
+                            return {};
+                          }));
   return result;
 }
 

@@ -183,7 +183,7 @@ Status ambient_occlusion(const RayScene& scene, std::span<const SurfacePoint> po
   jobs.begin_stage("ambient occlusion", points.size());
   return jobs.parallel_for(points.size(), 16, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
-      Rng rng = Rng::stream(settings.seed, i);
+      Rng rng = Rng::stream(settings.seed, settings.first_stream + i);
       out[i] = ambient_occlusion(scene, points[i].position, points[i].normal, settings.max_distance, settings.rays,
                                  rng, settings.sampling);
     }

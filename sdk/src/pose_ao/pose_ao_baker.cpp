@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <limits>
 #include <map>
 #include <optional>
@@ -638,8 +640,36 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
   return data;
 }
 
-Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& settings, std::uint64_t seed,
-                                JobContext& jobs, MemoryBudget& budget, std::vector<std::string>* warnings) {
+namespace {
+
+// One character as a group of poses: element 0 the bind pose, then the reference poses (random,
+// then from the clips). Pose p's results: its features (J x 9 floats; zero for the bind pose) and
+// every vertex's AO (V floats). prepare() checks the rig and picks the pose space, run() traces
+// poses, finish_pose_ao() fits from the results alone (the step that needs every pose).
+class PoseBake {
+ public:
+  static Result<std::shared_ptr<PoseBake>> prepare(World& world, Entity e, const SkinnedPoseAO& settings,
+                                                   std::uint64_t seed, MemoryBudget& budget,
+                                                   std::vector<std::string>* warnings);
+  std::uint64_t elements() const { return 1 + poses_; }
+  double element_cost() const { return double(vertices_) * settings_.rays_per_vertex; }
+  std::vector<std::byte> header() const;
+  Result<std::vector<std::byte>> run(std::uint64_t begin, std::uint64_t end, JobContext& jobs);
+
+ private:
+  std::string context_;
+  SkinnedPoseAO settings_;
+  std::shared_ptr<const MeshData> mesh_;
+  PoseRig rig_;
+  PoseSpace space_;
+  std::optional<PoseAOTracer> tracer_;
+  std::uint64_t seed_ = 0;
+  std::size_t vertices_ = 0, poses_ = 0;
+};
+
+Result<std::shared_ptr<PoseBake>> PoseBake::prepare(World& world, Entity e, const SkinnedPoseAO& settings,
+                                                    std::uint64_t seed, MemoryBudget& budget,
+                                                    std::vector<std::string>* warnings) {
   const std::string context = entity_context(world, e);
   const Mesh* mesh = world.alive(e) ? world.try_get<Mesh>(e) : nullptr;
   if (mesh == nullptr || !mesh->data)
@@ -689,61 +719,187 @@ Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& set
 
   const std::size_t V = mesh->data->positions.size(), J = rig->joint_count();
   const std::size_t P = settings.reference_poses + std::size_t{settings.clip_poses} * rig->clips.size();
-  const std::uint64_t bytes = P * (V + J * kPoseFeaturesPerJoint) * sizeof(float) +
+  const std::uint64_t bytes = (P + 1) * (V + J * kPoseFeaturesPerJoint) * sizeof(float) * 2 +
                               V * (pose_ao_coefficients(kPoseAOMaxLocality) + 4) * sizeof(float);
   PENUMBRA_TRY(budget.reserve(context + " reference poses (" + std::to_string(P) + " poses x " + std::to_string(V) +
                                   " vertices; use fewer reference_poses)",
                               bytes));
-  struct Release {
-    MemoryBudget& b;
-    std::uint64_t n;
-    ~Release() { b.release(n); }
-  } release{budget, bytes};
+  budget.release(bytes);
 
+  auto bake = std::make_shared<PoseBake>();
+  bake->context_ = context;
+  bake->settings_ = settings;
+  bake->settings_.data.reset();
+  bake->mesh_ = mesh->data;
+  bake->rig_ = std::move(*rig);
+  bake->space_ = space;
+  bake->tracer_.emplace(std::move(*tracer));
+  bake->seed_ = seed;
+  bake->vertices_ = V;
+  bake->poses_ = P;
+  return bake;
+}
+
+// What finish_pose_ao() reads of a character: the counts, the rig's hierarchy, the mesh's
+// positions and skinning, the fit's settings and the pose space the poses came from.
+struct PoseHeaderScalars {
+  std::uint32_t vertices = 0, joints = 0, poses = 0;
+  std::uint32_t locality = 0, rays_per_vertex = 0;
+  float lambda = 0.0f;
+  std::uint32_t pose_space = 0, moving_joints = 0;
+  float widest_range = 0.0f;
+};
+
+std::vector<std::byte> PoseBake::header() const {
+  ByteWriter w;
+  w.write_string(context_);
+  w.write(PoseHeaderScalars{static_cast<std::uint32_t>(vertices_), static_cast<std::uint32_t>(rig_.joint_count()),
+                            static_cast<std::uint32_t>(poses_), settings_.locality, settings_.rays_per_vertex,
+                            settings_.lambda, static_cast<std::uint32_t>(space_.source),
+                            static_cast<std::uint32_t>(space_.moving), space_.widest_range});
+  w.write_vector(rig_.parents);
+  w.write_vector(mesh_->positions);
+  w.write_vector(mesh_->joints);
+  w.write_vector(mesh_->weights);
+  return w.take();
+}
+
+Result<std::vector<std::byte>> PoseBake::run(std::uint64_t first, std::uint64_t last, JobContext& jobs) {
+  const std::size_t V = vertices_, J = rig_.joint_count(), F = J * kPoseFeaturesPerJoint;
+  const std::uint32_t rays = settings_.rays_per_vertex;
+  ByteWriter out;
+  std::vector<float> features(F), ao(V);
+  jobs.begin_stage("pose-ao poses", (last - first) * V);
+  for (std::uint64_t p = first; p < last; ++p) {
+    if (p == 0) {
+      // The bind pose: every skinning matrix the identity.
+      const std::vector<glm::mat4> identity(J, glm::mat4(1.0f));
+      std::fill(features.begin(), features.end(), 0.0f);
+      PENUMBRA_TRY(tracer_->trace(identity, rays, seed_, jobs, ao));
+    } else {
+      const std::uint64_t r = p - 1;
+      Pose pose;
+      if (r < settings_.reference_poses) {
+        pose = random_pose(rig_, space_.ranges, seed_, r);
+      } else {
+        const std::size_t c = static_cast<std::size_t>((r - settings_.reference_poses) / settings_.clip_poses);
+        const auto k = static_cast<std::uint32_t>((r - settings_.reference_poses) % settings_.clip_poses);
+        const float t = rig_.clips[c]->duration * (static_cast<float>(k) + 0.5f) / static_cast<float>(settings_.clip_poses);
+        pose = clip_pose(rig_, c, t);
+      }
+      const std::vector<glm::mat4> matrices = skinning_matrices(rig_, pose);
+      pose_features(rig_.parents, matrices, features);
+      PENUMBRA_TRY(tracer_->trace(matrices, rays, seed_, jobs, ao));
+    }
+    out.write_array(std::span<const float>(features));
+    out.write_array(std::span<const float>(ao));
+  }
+  return out.take();
+}
+
+// The fit (step 4) from a character's header and every pose's results.
+Result<PoseAOData> finish_pose_ao(std::span<const std::byte> header_bytes, std::span<const std::byte> results,
+                                  JobContext& jobs, std::vector<std::string>* warnings, std::string_view where) {
+  ByteReader header(header_bytes, std::string(where) + " header");
+  std::string context;
+  PoseHeaderScalars h;
+  PoseRig rig;
+  MeshData mesh;
+  PENUMBRA_TRY(header.read_string(context));
+  PENUMBRA_TRY(header.read(h));
+  PENUMBRA_TRY(header.read_vector(rig.parents, 65535));
+  PENUMBRA_TRY(header.read_vector(mesh.positions));
+  PENUMBRA_TRY(header.read_vector(mesh.joints));
+  PENUMBRA_TRY(header.read_vector(mesh.weights));
+  PENUMBRA_TRY(header.finish());
+  const std::size_t V = h.vertices, J = h.joints, P = h.poses, F = J * kPoseFeaturesPerJoint;
+  bool acyclic = rig.parents.size() == J;
+  for (std::size_t j = 0; acyclic && j < J; ++j) {
+    std::size_t steps = 0;
+    for (std::int32_t a = static_cast<std::int32_t>(j); a >= 0 && acyclic; ++steps) {
+      acyclic = steps <= J && static_cast<std::size_t>(a) < J;
+      if (acyclic) a = rig.parents[static_cast<std::size_t>(a)];
+    }
+  }
+  if (V == 0 || J == 0 || P == 0 || !acyclic || mesh.positions.size() != V || mesh.joints.size() != V ||
+      mesh.weights.size() != V || std::uint64_t{V} * J > (std::uint64_t{1} << 26) || h.locality > kPoseAOMaxLocality ||
+      !(h.lambda >= 0.0f) || !std::isfinite(h.lambda) ||
+      h.pose_space > static_cast<std::uint32_t>(PoseSpaceSource::DegenerateClips) ||
+      results.size() != (P + 1) * (F + V) * sizeof(float))
+    return make_error(ErrorCode::InvalidInput, std::string(where) + ": the header (" + std::to_string(V) + " vertices, " +
+                                                   std::to_string(J) + " joints, " + std::to_string(P) +
+                                                   " poses) or the " + std::to_string(results.size()) +
+                                                   " bytes of results do not describe a character; the part is "
+                                                   "corrupt, re-bake it");
   PoseAOTraining training;
   training.vertex_count = V;
   training.joint_count = J;
-  training.features.reserve(P * J * kPoseFeaturesPerJoint);
-  training.ao.reserve(P * V);
   training.bind_ao.resize(V);
-  jobs.begin_stage("pose-ao poses", (P + 1) * V);
-  // The bind pose (every skinning matrix the identity), then the reference poses.
-  const std::vector<glm::mat4> identity(J, glm::mat4(1.0f));
-  PENUMBRA_TRY(tracer->trace(identity, settings.rays_per_vertex, seed, jobs, training.bind_ao));
-  const std::vector<JointRange>& ranges = space.ranges;
-  for (std::uint32_t p = 0; p < settings.reference_poses; ++p)
-    PENUMBRA_TRY(training.add_pose(*tracer, *rig, random_pose(*rig, ranges, seed, p), settings.rays_per_vertex, seed, jobs));
-  for (std::size_t c = 0; c < rig->clips.size(); ++c)
-    for (std::uint32_t k = 0; k < settings.clip_poses; ++k) {
-      const float t = rig->clips[c]->duration * (static_cast<float>(k) + 0.5f) / static_cast<float>(settings.clip_poses);
-      PENUMBRA_TRY(training.add_pose(*tracer, *rig, clip_pose(*rig, c, t), settings.rays_per_vertex, seed, jobs));
-    }
-  auto data = fit_pose_ao(training, *rig, *mesh->data, settings, 0, jobs, warnings, context);
+  training.features.resize(P * F);
+  training.ao.resize(P * V);
+  const auto floats_at = [&](std::size_t offset, std::span<float> out) {
+    std::memcpy(out.data(), results.data() + offset * sizeof(float), out.size_bytes());
+  };
+  floats_at(F, training.bind_ao);
+  for (std::size_t p = 0; p < P; ++p) {
+    const std::size_t at = (p + 1) * (F + V);
+    floats_at(at, std::span<float>(training.features).subspan(p * F, F));
+    floats_at(at + F, std::span<float>(training.ao).subspan(p * V, V));
+  }
+  SkinnedPoseAO settings;
+  settings.locality = h.locality;
+  settings.lambda = h.lambda;
+  settings.rays_per_vertex = h.rays_per_vertex;
+  auto data = fit_pose_ao(training, rig, mesh, settings, 0, jobs, warnings, context);
   if (!data) return data.error();
-  data->pose_space = space.source;
-  data->moving_joints = static_cast<std::uint32_t>(space.moving);
-  data->widest_range = space.widest_range;
+  data->pose_space = static_cast<PoseSpaceSource>(h.pose_space);
+  data->moving_joints = h.moving_joints;
+  data->widest_range = h.widest_range;
   return data;
+}
+
+}  // namespace
+
+Result<PoseAOData> bake_pose_ao(World& world, Entity e, const SkinnedPoseAO& settings, std::uint64_t seed,
+                                JobContext& jobs, MemoryBudget& budget, std::vector<std::string>* warnings) {
+  auto bake = PoseBake::prepare(world, e, settings, seed, budget, warnings);
+  if (!bake) return bake.error();
+  auto results = (*bake)->run(0, (*bake)->elements(), jobs);
+  if (!results) return results.error();
+  return finish_pose_ao((*bake)->header(), *results, jobs, warnings, entity_context(world, e));
 }
 
 namespace {
 
-Result<std::vector<BakeChunk>> bake_all(BakeInputs& in) {
+// A group per skinned mesh with SkinnedPoseAO, one pose per work item.
+Result<BakeWork> plan_pose_ao(BakeInputs& in) {
   const std::vector<Entity> meshes = pose_ao_meshes(in.world);
   auto keys = bake_keys(in, meshes, "pose-AO mesh");
   if (!keys) return keys.error();
-  std::vector<BakeChunk> chunks;
+  BakeWork work;
+  auto bakes = std::make_shared<std::vector<std::shared_ptr<PoseBake>>>();
   for (std::size_t i = 0; i < meshes.size(); ++i) {
     const Entity e = meshes[i];
-    const SkinnedPoseAO settings = in.world.get<SkinnedPoseAO>(e);
-    auto data = bake_pose_ao(in.world, e, settings, in.settings.seed, in.jobs, in.budget);
+    auto bake = PoseBake::prepare(in.world, e, in.world.get<SkinnedPoseAO>(e), in.settings.seed, in.budget, nullptr);
+    if (!bake) return bake.error();
+    work.groups.push_back(
+        BakeGroup{std::move((*keys)[i]), (*bake)->elements(), 1, (*bake)->element_cost(), (*bake)->header()});
+    bakes->push_back(std::move(*bake));
+  }
+  work.run = [bakes](std::size_t g, std::uint64_t begin, std::uint64_t end, JobContext& jobs) {
+    return (*bakes)[g]->run(begin, end, jobs);
+  };
+  return work;
+}
+
+// One PSAO chunk per character, in entity order.
+Result<std::vector<BakeChunk>> finish_all(std::span<const BakedGroup> groups, JobContext& jobs) {
+  std::vector<BakeChunk> chunks;
+  for (const BakedGroup& g : groups) {
+    auto data = finish_pose_ao(g.group->header, g.results, jobs, nullptr, "pose-AO '" + g.group->name + "'");
     if (!data) return data.error();
-    data->key = std::move((*keys)[i]);
+    data->key = g.group->name;
     chunks.push_back(write_pose_ao_chunk(*data));
-    // Attach what the file holds (16-bit coefficients), so the runtime matches a reload.
-    auto stored = read_pose_ao_chunk(chunks.back());
-    if (!stored) return stored.error();
-    in.world.patch<SkinnedPoseAO>(e).data = std::make_shared<const PoseAOData>(std::move(*stored));
   }
   return chunks;
 }
@@ -777,7 +933,8 @@ void register_pose_ao_baker(World& world) {
   Baker b = baker_for(pose_ao_module());
   b.stages = 2;  // per mesh: poses, fit
   b.hash_inputs = hash_inputs;
-  b.bake = bake_all;
+  b.plan = plan_pose_ao;
+  b.finish = finish_all;
   world.resource<BakerRegistry>().add(std::move(b));
 }
 

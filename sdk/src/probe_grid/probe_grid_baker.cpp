@@ -10,6 +10,8 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <string>
 
 #include <glm/common.hpp>
@@ -207,26 +209,75 @@ bool dilate(const ProbeGridLayout& layout, std::vector<SH9rgb>& values, std::vec
   return true;
 }
 
-}  // namespace
 
-Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
-                                      const RayScene& scene, std::span<const WorldLight> lights, std::uint64_t seed,
-                                      JobContext& jobs, MemoryBudget& budget, std::string_view context) {
+// The settings finish() needs besides the layout (a group's header, with the layout).
+struct ProbeFinishSettings {
+  std::uint8_t sh_order = 0, sampling = 0, lighting = 0, leak_guard = 0;
+  std::uint32_t samples_per_node = 0;
+  float deringing_window = 0.0f;
+};
+
+// A grid as a group of nodes, node n drawing from Rng::stream(seed, n): prepare(), run() over
+// node ranges (steps 0 and 1, which need only the node itself), finish_probe_grid() (steps 2-4,
+// which need every node: the fill from neighbours, the least-squares fit, the convolution).
+// Node n's results: its reach (leak guard; 6 bytes), validity (float), radiance SH (27 floats)
+// and, fitted, its S samples' grid position, domain flag and radiance.
+class ProbeBake {
+ public:
+  static Result<std::shared_ptr<ProbeBake>> prepare(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
+                                                    const RayScene& scene, std::vector<WorldLight> lights,
+                                                    std::uint64_t seed, MemoryBudget& budget, std::string_view context);
+  const ProbeGridLayout& layout() const { return layout_; }
+  std::vector<std::byte> header() const;
+  // Rays per node, roughly: samples x rays x (1 + hit paths when hits are shaded).
+  double node_cost() const {
+    return double(grid_.samples_per_node) * grid_.rays_per_sample * (grid_.bounces > 0 ? 1.0 + grid_.hit_samples : 1.0);
+  }
+  Result<std::vector<std::byte>> run(std::uint64_t begin, std::uint64_t end, JobContext& jobs) const;
+
+ private:
+  IrradianceProbeGrid grid_;
+  ProbeGridLayout layout_;
+  const RayScene* scene_ = nullptr;
+  std::vector<WorldLight> lights_;
+  std::uint64_t seed_ = 0;
+  SampleSettings s_;
+};
+
+std::size_t probe_columns(std::uint8_t sh_order) {
+  return static_cast<std::size_t>(sh_coefficients(static_cast<ProbeShOrder>(sh_order))) * 3;
+}
+// Bytes of one node's results.
+std::size_t node_result_bytes(const ProbeFinishSettings& f) {
+  const bool fitted = static_cast<ProbeSampling>(f.sampling) == ProbeSampling::Fitted;
+  return (f.leak_guard ? 6 : 0) + sizeof(float) + sizeof(SH9rgb) +
+         (fitted ? std::size_t{f.samples_per_node} * (sizeof(glm::vec3) + 1 + probe_columns(f.sh_order) * sizeof(float))
+                 : 0);
+}
+
+ProbeFinishSettings finish_settings(const IrradianceProbeGrid& g) {
+  return {static_cast<std::uint8_t>(g.sh_order), static_cast<std::uint8_t>(g.sampling),
+          static_cast<std::uint8_t>(g.lighting), static_cast<std::uint8_t>(g.leak_guard ? 1 : 0), g.samples_per_node,
+          g.deringing_window};
+}
+
+Result<std::shared_ptr<ProbeBake>> ProbeBake::prepare(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
+                                                      const RayScene& scene, std::vector<WorldLight> lights,
+                                                      std::uint64_t seed, MemoryBudget& budget,
+                                                      std::string_view context) {
   auto layout = probe_grid_layout(grid, world_matrix, context);
   if (!layout) return layout.error();
   const std::size_t nodes = layout->node_count();
   const std::size_t count = static_cast<std::size_t>(sh_coefficients(grid.sh_order));
-
   const bool point = grid.sampling == ProbeSampling::Point;
   const bool fitted = grid.sampling == ProbeSampling::Fitted;
   const std::size_t S = grid.samples_per_node;
   const std::size_t columns = count * 3;  // fitted: one least-squares column per coefficient and channel
 
-  // Memory: the working expansions plus the stored arrays, checked before allocating; fitted mode
-  // also keeps every sample (position, domain flag, coefficients) and the solver's arrays.
-  const std::uint64_t reach_bytes = grid.leak_guard ? 6 : 0;
-  std::uint64_t need =
-      std::uint64_t{nodes} * (sizeof(SH9rgb) + count * sizeof(glm::vec3) + sizeof(float) + 1 + reach_bytes);
+  // Memory: the results, the working expansions plus the stored arrays, checked before any ray is
+  // traced; fitted mode also keeps every sample and the solver's arrays.
+  std::uint64_t need = std::uint64_t{nodes} * (node_result_bytes(finish_settings(grid)) + sizeof(SH9rgb) +
+                                               count * sizeof(glm::vec3) + sizeof(float) + 1 + (grid.leak_guard ? 6 : 0));
   if (fitted)
     need += std::uint64_t{nodes} * S * (sizeof(glm::vec3) * (grid.leak_guard ? 2 : 1) + 1 + columns * sizeof(float)) +
             std::uint64_t{nodes} * columns * sizeof(float) + probe_fit_bytes(nodes, columns);
@@ -235,26 +286,16 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
                                                   std::to_string(layout->resolution.y) + "x" +
                                                   std::to_string(layout->resolution.z) +
                                                   " nodes; use a larger spacing or a smaller box)");
-  struct Release {
-    MemoryBudget& b;
-    std::uint64_t n;
-    ~Release() { b.release(n); }
-  } release{budget, need};
+  budget.release(need);
 
-  ProbeGridData data;
-  data.layout = *layout;
-  data.sh_order = grid.sh_order;
-  data.sampling = grid.sampling;
-  data.lighting = grid.lighting;
-  std::vector<SH9rgb> radiance(nodes);
-  data.validity.assign(nodes, 0.0f);
-  data.filled.assign(nodes, 0);
-  std::vector<glm::vec3> sample_position(fitted ? nodes * S : 0);
-  std::vector<std::uint8_t> sample_in_domain(fitted ? nodes * S : 0);
-  std::vector<float> sample_values(fitted ? nodes * S * columns : 0);
-  std::vector<glm::vec3> sample_lookup(fitted && grid.leak_guard ? nodes * S : 0);
-
-  SampleSettings s;
+  auto bake = std::make_shared<ProbeBake>();
+  bake->grid_ = grid;
+  bake->grid_.data.reset();
+  bake->layout_ = *layout;
+  bake->scene_ = &scene;
+  bake->lights_ = std::move(lights);
+  bake->seed_ = seed;
+  SampleSettings& s = bake->s_;
   s.rays = point ? grid.samples_per_node * grid.rays_per_sample : grid.rays_per_sample;
   s.back_face_threshold = grid.back_face_threshold;
   s.skip_outside = !point;
@@ -264,69 +305,169 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   s.hit.reference = grid.bounces == kProbeAllBounces;
   s.hit.bounces = grid.bounces > 0 ? grid.bounces - 1 : 0;
   s.hit.rect_light_samples = kRectLightSamples;
-  const glm::uvec3 res = layout->resolution;
-  const glm::vec3 cell = 1.0f / glm::vec3(res - 1u);
+  return bake;
+}
 
-  // Step 0 (leak guard): every node's reach, which step 1 needs around each node (6 rays a node;
-  // the first stage counts each node once for it and once for its samples).
-  jobs.begin_stage("probe samples", grid.leak_guard ? 2 * nodes : nodes);
+void write_layout(ByteWriter& w, const ProbeGridLayout& l) {
+  w.write(l.resolution);
+  w.write(l.grid_to_world);
+  w.write(l.world_to_grid);
+  w.write(l.spacing);
+}
+
+std::vector<std::byte> ProbeBake::header() const {
+  ByteWriter w;
+  write_layout(w, layout_);
+  w.write(finish_settings(grid_));
+  return w.take();
+}
+
+Result<std::vector<std::byte>> ProbeBake::run(std::uint64_t first, std::uint64_t last, JobContext& jobs) const {
+  const IrradianceProbeGrid& grid = grid_;
+  const ProbeGridLayout& layout = layout_;
+  const RayScene& scene = *scene_;
+  const std::size_t count = static_cast<std::size_t>(last - first);
+  const bool point = grid.sampling == ProbeSampling::Point;
+  const bool fitted = grid.sampling == ProbeSampling::Fitted;
+  const std::size_t columns = probe_columns(static_cast<std::uint8_t>(grid.sh_order));
+  const ProbeFinishSettings f = finish_settings(grid);
+  const std::size_t each = node_result_bytes(f);
+  std::vector<std::byte> out(count * each);
+  const glm::uvec3 res = layout.resolution;
+  const glm::vec3 cell = 1.0f / glm::vec3(res - 1u);
+  const auto ijk_of = [&](std::size_t n) {
+    return glm::uvec3(n % res.x, (n / res.x) % res.y, n / (std::size_t{res.x} * res.y));
+  };
+  const std::size_t reach_at = 0, validity_at = f.leak_guard ? 6 : 0, radiance_at = validity_at + sizeof(float),
+                    samples_at = radiance_at + sizeof(SH9rgb);
+  const std::size_t sample_bytes = sizeof(glm::vec3) + 1 + columns * sizeof(float);
+
+  // Step 0 (leak guard): each node's reach, which step 1 needs at the node (6 rays a node; the
+  // stage counts each node once for it and once for its samples).
+  jobs.begin_stage("probe samples", grid.leak_guard ? 2 * count : count);
   if (grid.leak_guard) {
-    data.reach.assign(nodes * 6, 0);
-    const Status reached = jobs.parallel_for(nodes, 64, [&](std::size_t begin, std::size_t end) {
-      for (std::size_t n = begin; n < end; ++n)
-        trace_reach(scene, *layout, glm::uvec3(n % res.x, (n / res.x) % res.y, n / (std::size_t{res.x} * res.y)),
-                    &data.reach[6 * n]);
-    });
-    if (!reached) return reached.error();
+    PENUMBRA_TRY(jobs.parallel_for(count, 64, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i)
+        trace_reach(scene, layout, ijk_of(static_cast<std::size_t>(first) + i),
+                    reinterpret_cast<std::uint8_t*>(out.data() + i * each + reach_at));
+    }));
   }
 
   // Step 1: per node, radiance SH from its sample points (node n from its own stream).
-  const Status traced = jobs.parallel_for(nodes, 4, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t n = begin; n < end; ++n) {
-      Rng rng = Rng::stream(seed, n);
-      const glm::uvec3 ijk(n % res.x, (n / res.x) % res.y, n / (std::size_t{res.x} * res.y));
+  PENUMBRA_TRY(jobs.parallel_for(count, 4, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::size_t n = static_cast<std::size_t>(first) + i;
+      std::byte* o = out.data() + i * each;
+      const std::uint8_t* reach = reinterpret_cast<const std::uint8_t*>(o + reach_at);
+      Rng rng = Rng::stream(seed_, n);
+      const glm::uvec3 ijk = ijk_of(n);
       const glm::vec3 u = glm::vec3(ijk) * cell;
+      float validity = 0.0f;
+      SH9rgb radiance;
       if (point) {
         // The classic irradiance volume: everything at the node.
-        const PointSample p = sample_point(scene, lights, layout->node_position(ijk), s, rng);
-        radiance[n] = p.radiance;
-        data.validity[n] = p.in_domain ? 1.0f : 0.0f;
-        continue;
-      }
-      // Supersampling: S points from the tent B_i, averaged over those in the domain (and, with
-      // the leak guard, seen by the node); fitted mode keeps each one for the least-squares step,
-      // with the lookup fraction the runtime will use for it.
-      const std::array<std::uint32_t, 3> scrambles{rng.next_u32(), rng.next_u32(), rng.next_u32()};
-      SH9rgb sum;
-      std::uint32_t inside = 0;
-      for (std::uint32_t k = 0; k < grid.samples_per_node; ++k) {
-        const glm::vec3 t = tent_offset(k, scrambles, ijk, res, fitted);
-        // The lookup's test (probe_node_sees): a node averages only what it will be used for.
-        const bool seen = !grid.leak_guard || probe_node_sees(&data.reach[6 * n], t);
-        if (!seen && !fitted) continue;  // supersampled: no rays for a point the node never serves
-        const glm::vec3 y(layout->grid_to_world * glm::vec4(u + t * cell, 1.0f));
-        const PointSample p = sample_point(scene, lights, y, s, rng);
-        if (fitted) {
-          const std::size_t i = n * S + k;
-          const glm::vec3 at = glm::vec3(ijk) + t;
-          sample_position[i] = at;
-          sample_in_domain[i] = p.in_domain ? 1 : 0;
-          for (std::size_t c = 0; c < columns; ++c)
-            sample_values[i * columns + c] = p.radiance[static_cast<int>(c / 3)][static_cast<int>(c % 3)];
-          if (grid.leak_guard) {
-            const glm::uvec3 base = probe_fit_cell(at, res);
-            sample_lookup[i] = probe_lookup_fraction(data, base, at - glm::vec3(base), glm::vec3(0.0f));
+        const PointSample p = sample_point(scene, lights_, layout.node_position(ijk), s_, rng);
+        radiance = p.radiance;
+        validity = p.in_domain ? 1.0f : 0.0f;
+      } else {
+        // Supersampling: S points from the tent B_i, averaged over those in the domain (and, with
+        // the leak guard, seen by the node); fitted mode keeps each one for the least-squares step.
+        const std::array<std::uint32_t, 3> scrambles{rng.next_u32(), rng.next_u32(), rng.next_u32()};
+        SH9rgb sum;
+        std::uint32_t inside = 0;
+        for (std::uint32_t k = 0; k < grid.samples_per_node; ++k) {
+          const glm::vec3 t = tent_offset(k, scrambles, ijk, res, fitted);
+          // The lookup's test (probe_node_sees): a node averages only what it will be used for.
+          const bool seen = !grid.leak_guard || probe_node_sees(reach, t);
+          if (!seen && !fitted) continue;  // supersampled: no rays for a point the node never serves
+          const glm::vec3 y(layout.grid_to_world * glm::vec4(u + t * cell, 1.0f));
+          const PointSample p = sample_point(scene, lights_, y, s_, rng);
+          if (fitted) {
+            std::byte* smp = o + samples_at + k * sample_bytes;
+            const glm::vec3 at = glm::vec3(ijk) + t;
+            const std::uint8_t in_domain = p.in_domain ? 1 : 0;
+            std::memcpy(smp, &at, sizeof at);
+            std::memcpy(smp + sizeof at, &in_domain, 1);
+            for (std::size_t c = 0; c < columns; ++c) {
+              const float v = p.radiance[static_cast<int>(c / 3)][static_cast<int>(c % 3)];
+              std::memcpy(smp + sizeof at + 1 + c * sizeof(float), &v, sizeof v);
+            }
           }
+          if (!p.in_domain || !seen) continue;
+          sum += p.radiance;
+          ++inside;
         }
-        if (!p.in_domain || !seen) continue;
-        sum += p.radiance;
-        ++inside;
+        validity = float(inside) / float(grid.samples_per_node);
+        if (inside > 0) radiance = sum * (1.0f / float(inside));
       }
-      data.validity[n] = float(inside) / float(grid.samples_per_node);
-      if (inside > 0) radiance[n] = sum * (1.0f / float(inside));
+      std::memcpy(o + validity_at, &validity, sizeof validity);
+      std::memcpy(o + radiance_at, &radiance, sizeof radiance);
     }
-  });
-  if (!traced) return traced.error();
+  }));
+  return out;
+}
+
+// Steps 2-4 from the layout, the settings and every node's results (nodes in index order).
+Result<ProbeGridData> finish_probe_grid(const ProbeGridLayout& layout, const ProbeFinishSettings& f,
+                                        std::span<const std::byte> results, JobContext& jobs,
+                                        std::string_view context) {
+  const std::size_t nodes = layout.node_count();
+  const auto sampling = static_cast<ProbeSampling>(f.sampling);
+  if (f.sh_order > static_cast<std::uint8_t>(ProbeShOrder::L2) || f.sampling > static_cast<std::uint8_t>(ProbeSampling::Fitted) ||
+      f.leak_guard > 1 || (f.lighting != static_cast<std::uint8_t>(LightingContent::All) &&
+                           f.lighting != static_cast<std::uint8_t>(LightingContent::Indirect)) ||
+      f.samples_per_node == 0 || glm::any(glm::lessThan(layout.resolution, glm::uvec3(2u))) ||
+      nodes > kMaxProbeNodes || results.size() / node_result_bytes(f) != nodes ||
+      results.size() % node_result_bytes(f) != 0)
+    return make_error(ErrorCode::InvalidInput, std::string(context) + ": the header or the " +
+                                                   std::to_string(results.size()) +
+                                                   " bytes of node results do not describe a grid; the part is "
+                                                   "corrupt, re-bake it");
+  const bool point = sampling == ProbeSampling::Point;
+  const bool fitted = sampling == ProbeSampling::Fitted;
+  const std::size_t S = f.samples_per_node;
+  const std::size_t count = static_cast<std::size_t>(sh_coefficients(static_cast<ProbeShOrder>(f.sh_order)));
+  const std::size_t columns = count * 3;
+  const std::size_t each = node_result_bytes(f);
+  const std::size_t validity_at = f.leak_guard ? 6 : 0, radiance_at = validity_at + sizeof(float),
+                    samples_at = radiance_at + sizeof(SH9rgb);
+  const std::size_t sample_bytes = sizeof(glm::vec3) + 1 + columns * sizeof(float);
+
+  ProbeGridData data;
+  data.layout = layout;
+  data.sh_order = static_cast<ProbeShOrder>(f.sh_order);
+  data.sampling = sampling;
+  data.lighting = static_cast<LightingContent>(f.lighting);
+  std::vector<SH9rgb> radiance(nodes);
+  data.validity.assign(nodes, 0.0f);
+  data.filled.assign(nodes, 0);
+  if (f.leak_guard) data.reach.assign(nodes * 6, 0);
+  std::vector<glm::vec3> sample_position(fitted ? nodes * S : 0);
+  std::vector<std::uint8_t> sample_in_domain(fitted ? nodes * S : 0);
+  std::vector<float> sample_values(fitted ? nodes * S * columns : 0);
+  for (std::size_t n = 0; n < nodes; ++n) {
+    const std::byte* o = results.data() + n * each;
+    if (f.leak_guard) std::memcpy(&data.reach[6 * n], o, 6);
+    std::memcpy(&data.validity[n], o + validity_at, sizeof(float));
+    std::memcpy(&radiance[n], o + radiance_at, sizeof(SH9rgb));
+    if (!(data.validity[n] >= 0.0f && data.validity[n] <= 1.0f))
+      return make_error(ErrorCode::InvalidInput, std::string(context) + ": node " + std::to_string(n) +
+                                                     " has validity " + std::to_string(data.validity[n]) +
+                                                     "; the part is corrupt, re-bake it");
+    for (std::size_t k = 0; fitted && k < S; ++k) {
+      const std::byte* smp = o + samples_at + k * sample_bytes;
+      const std::size_t i = n * S + k;
+      std::memcpy(&sample_position[i], smp, sizeof(glm::vec3));
+      std::memcpy(&sample_in_domain[i], smp + sizeof(glm::vec3), 1);
+      std::memcpy(&sample_values[i * columns], smp + sizeof(glm::vec3) + 1, columns * sizeof(float));
+      const glm::vec3 at = sample_position[i];
+      if (!(glm::all(glm::greaterThanEqual(at, glm::vec3(0.0f))) &&
+            glm::all(glm::lessThanEqual(at, glm::vec3(layout.resolution - 1u)))))
+        return make_error(ErrorCode::InvalidInput, std::string(context) + ": node " + std::to_string(n) + " sample " +
+                                                       std::to_string(k) +
+                                                       " lies outside the grid; the part is corrupt, re-bake it");
+    }
+  }
 
   // Step 2: fill nodes with no in-domain sample (supersampled and fitted; point mode keeps the
   // classic values).
@@ -336,7 +477,7 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
                         std::string(context) + ": no node has a sample in the domain of interest (every probe is "
                                                "inside geometry or sees back faces); move or enlarge the grid, or "
                                                "raise back_face_threshold for open geometry");
-    if (!dilate(*layout, radiance, data.validity, data.filled, jobs))
+    if (!dilate(layout, radiance, data.validity, data.filled, jobs))
       return make_error(ErrorCode::Cancelled, std::string(context) + ": the bake was cancelled");
   } else {
     jobs.begin_stage("probe fill", 1);
@@ -344,15 +485,23 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   }
 
   // Step 3 (fitted): the node values that minimise the reconstruction error over the in-domain
-  // samples, pulled towards the averages of steps 1-2 where support is thin (probe_fit.h).
+  // samples, pulled towards the averages of steps 1-2 where support is thin (probe_fit.h); with the
+  // leak guard, each sample at the lookup fraction the runtime will use for it (which reads the
+  // reach of the cell's eight nodes).
   if (fitted) {
+    std::vector<glm::vec3> sample_lookup(f.leak_guard ? nodes * S : 0);
+    for (std::size_t i = 0; i < sample_lookup.size(); ++i) {
+      const glm::vec3 at = sample_position[i];
+      const glm::uvec3 base = probe_fit_cell(at, layout.resolution);
+      sample_lookup[i] = probe_lookup_fraction(data, base, at - glm::vec3(base), glm::vec3(0.0f));
+    }
     std::vector<float> values(nodes * columns);
     for (std::size_t n = 0; n < nodes; ++n)
       for (std::size_t c = 0; c < columns; ++c)
         values[n * columns + c] = radiance[n][static_cast<int>(c / 3)][static_cast<int>(c % 3)];
     ProbeFitInput input;
-    input.resolution = layout->resolution;
-    input.samples_per_node = grid.samples_per_node;
+    input.resolution = layout.resolution;
+    input.samples_per_node = f.samples_per_node;
     input.columns = columns;
     input.positions = sample_position;
     input.in_domain = sample_in_domain;
@@ -371,10 +520,23 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   data.coefficients.resize(nodes * count);
   for (std::size_t n = 0; n < nodes; ++n) {
     SH9rgb e = sh_convolve_cosine(radiance[n]);
-    if (grid.deringing_window > 0.0f) e = sh_apply_window(e, sh_lanczos_window(grid.deringing_window));
+    if (f.deringing_window > 0.0f) e = sh_apply_window(e, sh_lanczos_window(f.deringing_window));
     for (std::size_t c = 0; c < count; ++c) data.coefficients[n * count + c] = e[static_cast<int>(c)];
   }
   return data;
+}
+
+}  // namespace
+
+Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
+                                      const RayScene& scene, std::span<const WorldLight> lights, std::uint64_t seed,
+                                      JobContext& jobs, MemoryBudget& budget, std::string_view context) {
+  auto bake = ProbeBake::prepare(grid, world_matrix, scene, std::vector<WorldLight>(lights.begin(), lights.end()),
+                                 seed, budget, context);
+  if (!bake) return bake.error();
+  auto results = (*bake)->run(0, (*bake)->layout().node_count(), jobs);
+  if (!results) return results.error();
+  return finish_probe_grid((*bake)->layout(), finish_settings(grid), *results, jobs, context);
 }
 
 namespace {
@@ -390,21 +552,52 @@ std::string grid_context(World& world, Entity e) {
          ")";
 }
 
-Result<std::vector<BakeChunk>> bake_probes(BakeInputs& in) {
+constexpr std::uint64_t kNodeBlock = 16;  // probe nodes per work item
+
+// A group per grid entity, its nodes the elements.
+Result<BakeWork> plan_probes(BakeInputs& in) {
   const std::vector<Entity> entities = grid_entities(in.world);
   auto keys = bake_keys(in, entities, "probe grid");
   if (!keys) return keys.error();
-  const std::vector<WorldLight> lights = gather_lights(in.world);
-  std::vector<BakeChunk> chunks;
+  const std::vector<WorldLight> lights = entities.empty() ? std::vector<WorldLight>{} : gather_lights(in.world);
+  BakeWork work;
+  auto bakes = std::make_shared<std::vector<std::shared_ptr<ProbeBake>>>();
   for (std::size_t i = 0; i < entities.size(); ++i) {
     const Entity e = entities[i];
-    const IrradianceProbeGrid grid = in.world.get<IrradianceProbeGrid>(e);
-    auto data = bake_probe_grid(grid, in.world.get<WorldTransform>(e).matrix, in.rays, lights, in.settings.seed,
-                                in.jobs, in.budget, grid_context(in.world, e));
+    auto bake = ProbeBake::prepare(in.world.get<IrradianceProbeGrid>(e), in.world.get<WorldTransform>(e).matrix,
+                                   in.rays, lights, in.settings.seed, in.budget, grid_context(in.world, e));
+    if (!bake) return bake.error();
+    work.groups.push_back(BakeGroup{std::move((*keys)[i]), (*bake)->layout().node_count(), kNodeBlock,
+                                    (*bake)->node_cost(), (*bake)->header()});
+    bakes->push_back(std::move(*bake));
+  }
+  work.run = [bakes](std::size_t g, std::uint64_t begin, std::uint64_t end, JobContext& jobs) {
+    return (*bakes)[g]->run(begin, end, jobs);
+  };
+  return work;
+}
+
+// One PRBG chunk per grid, in entity order.
+Result<std::vector<BakeChunk>> finish_probes(std::span<const BakedGroup> groups, JobContext& jobs) {
+  std::vector<BakeChunk> chunks;
+  for (const BakedGroup& g : groups) {
+    const std::string context = "probe grid '" + g.group->name + "'";
+    ByteReader header(g.group->header, context + " header");
+    ProbeGridLayout layout;
+    ProbeFinishSettings f;
+    PENUMBRA_TRY(header.read(layout.resolution));
+    PENUMBRA_TRY(header.read(layout.grid_to_world));
+    PENUMBRA_TRY(header.read(layout.world_to_grid));
+    PENUMBRA_TRY(header.read(layout.spacing));
+    PENUMBRA_TRY(header.read(f));
+    PENUMBRA_TRY(header.finish());
+    if (std::uint64_t{layout.resolution.x} * layout.resolution.y * layout.resolution.z != g.group->elements)
+      return make_error(ErrorCode::InvalidInput, context + ": the layout does not have the group's " +
+                                                     std::to_string(g.group->elements) + " nodes; the part is corrupt");
+    auto data = finish_probe_grid(layout, f, g.results, jobs, context);
     if (!data) return data.error();
-    data->key = std::move((*keys)[i]);
+    data->key = g.group->name;
     chunks.push_back(write_probe_grid_chunk(*data));
-    in.world.patch<IrradianceProbeGrid>(e).data = std::make_shared<const ProbeGridData>(std::move(*data));
   }
   return chunks;
 }
@@ -425,7 +618,8 @@ void register_probe_grid_baker(World& world) {
   Baker b = baker_for(probe_grid_module());
   b.stages = 3;  // per grid (samples, fill, fit); a scene usually has one
   b.hash_inputs = hash_probe_inputs;
-  b.bake = bake_probes;
+  b.plan = plan_probes;
+  b.finish = finish_probes;
   world.resource<BakerRegistry>().add(std::move(b));
 }
 

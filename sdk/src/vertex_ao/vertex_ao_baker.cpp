@@ -36,55 +36,93 @@ std::vector<Entity> static_meshes(World& world) {
 
 namespace {
 
-Result<std::vector<BakeChunk>> bake_vertex_ao(BakeInputs& in) {
+constexpr std::uint64_t kVertexBlock = 4096;  // vertices per work item
+
+// What finish() needs of a group besides its results: the settings the chunk records.
+struct VertexAoHeader {
+  float max_distance = 0.0f;
+  std::uint32_t rays = 0;
+};
+
+// A group per static mesh, its vertices the elements (one float of AO each). Vertex v of the
+// scene's concatenated vertices (meshes in entity order) draws from Rng::stream(seed, v).
+Result<BakeWork> plan_vertex_ao(BakeInputs& in) {
   const VertexAoSettings settings = VertexAoSettings::preset(in.settings.preset);
   const std::vector<Entity> entities = static_meshes(in.world);
-  if (entities.empty()) return std::vector<BakeChunk>{};  // nothing to bake: no chunk
   auto keys = bake_keys(in, entities, "vertex-AO mesh");
   if (!keys) return keys.error();
+  ByteWriter header;
+  header.write(VertexAoHeader{settings.max_distance, settings.rays});
+  const std::vector<std::byte> header_bytes = header.take();
 
-  // Gather every vertex in world space; normals by the inverse transpose.
-  std::size_t total = 0;
-  for (Entity e : entities) total += in.world.get<Mesh>(e).data->positions.size();
-  PENUMBRA_TRY(in.budget.reserve("vertex AO points", total * (sizeof(SurfacePoint) + sizeof(AoEstimate))));
-  std::vector<SurfacePoint> points;
-  points.reserve(total);
-  for (Entity e : entities) {
+  struct Group {
+    Entity entity;
+    std::uint64_t first_vertex;
+  };
+  auto groups = std::make_shared<std::vector<Group>>();
+  BakeWork work;
+  std::uint64_t next = 0;
+  for (std::size_t i = 0; i < entities.size(); ++i) {
+    const std::size_t n = in.world.get<Mesh>(entities[i]).data->positions.size();
+    work.groups.push_back(BakeGroup{std::move((*keys)[i]), n, kVertexBlock, double(settings.rays), header_bytes});
+    groups->push_back({entities[i], next});
+    next += n;
+  }
+  work.run = [&in, groups, settings](std::size_t g, std::uint64_t begin, std::uint64_t end,
+                                     JobContext& jobs) -> Result<std::vector<std::byte>> {
+    // The range's vertices in world space; normals by the inverse transpose.
+    const Entity e = (*groups)[g].entity;
     const MeshData& mesh = *in.world.get<Mesh>(e).data;
     const glm::mat4& m = in.world.get<WorldTransform>(e).matrix;
     const glm::mat3 normal_matrix = glm::transpose(glm::inverse(glm::mat3(m)));
-    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
-      SurfacePoint p;
-      p.position = glm::vec3(m * glm::vec4(mesh.positions[v], 1.0f));
+    const std::size_t count = static_cast<std::size_t>(end - begin);
+    PENUMBRA_TRY(in.budget.reserve("vertex AO points", count * (sizeof(SurfacePoint) + sizeof(AoEstimate))));
+    std::vector<SurfacePoint> points(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::size_t v = static_cast<std::size_t>(begin) + i;
+      points[i].position = glm::vec3(m * glm::vec4(mesh.positions[v], 1.0f));
       const glm::vec3 n = v < mesh.normals.size() ? normal_matrix * mesh.normals[v] : glm::vec3(0.0f, 1.0f, 0.0f);
       const float len = glm::length(n);
-      p.normal = len > 0.0f && std::isfinite(len) ? n / len : glm::vec3(0.0f, 1.0f, 0.0f);
-      points.push_back(p);
+      points[i].normal = len > 0.0f && std::isfinite(len) ? n / len : glm::vec3(0.0f, 1.0f, 0.0f);
     }
-  }
+    // Trace: one random stream per vertex, results by index (deterministic at any thread count).
+    std::vector<AoEstimate> estimates(count);
+    AoSettings ao;
+    ao.max_distance = settings.max_distance;
+    ao.rays = settings.rays;
+    ao.seed = in.settings.seed;
+    ao.first_stream = (*groups)[g].first_vertex + begin;
+    const Status traced = ambient_occlusion(in.rays, points, ao, estimates, jobs);
+    in.budget.release(count * (sizeof(SurfacePoint) + sizeof(AoEstimate)));
+    PENUMBRA_TRY(traced);
+    ByteWriter out;
+    for (const AoEstimate& a : estimates) out.write(a.value);
+    return out.take();
+  };
+  return work;
+}
 
-  // Trace: one random stream per vertex, results by index (deterministic at any thread count).
-  std::vector<AoEstimate> estimates(points.size());
-  AoSettings ao;
-  ao.max_distance = settings.max_distance;
-  ao.rays = settings.rays;
-  ao.seed = in.settings.seed;
-  const Status traced = ambient_occlusion(in.rays, points, ao, estimates, in.jobs);
-  in.budget.release(total * (sizeof(SurfacePoint) + sizeof(AoEstimate)));
-  PENUMBRA_TRY(traced);
-
+// One chunk with every mesh's AO, meshes in plan order.
+Result<std::vector<BakeChunk>> finish_vertex_ao(std::span<const BakedGroup> groups, JobContext&) {
+  std::vector<BakeChunk> chunks;
+  if (groups.empty()) return chunks;  // nothing to bake: no chunk
   VertexAoData data;
-  data.max_distance = settings.max_distance;
-  data.rays = settings.rays;
-  std::size_t next = 0;
-  for (Entity e : entities) {
+  for (const BakedGroup& g : groups) {
+    const std::string context = "vertex-AO mesh '" + g.group->name + "'";
+    ByteReader header(g.group->header, context + " header");
+    VertexAoHeader h;
+    PENUMBRA_TRY(header.read(h));
+    PENUMBRA_TRY(header.finish());
+    data.max_distance = h.max_distance;
+    data.rays = h.rays;
     VertexAoData::Entry entry;
-    entry.key = std::move((*keys)[data.entries.size()]);
-    entry.ao.resize(in.world.get<Mesh>(e).data->positions.size());
-    for (float& a : entry.ao) a = estimates[next++].value;
+    entry.key = g.group->name;
+    entry.ao.resize(static_cast<std::size_t>(g.group->elements));
+    ByteReader results(g.results, context + " results");
+    PENUMBRA_TRY(results.read_array(std::span<float>(entry.ao)));
+    PENUMBRA_TRY(results.finish());
     data.entries.push_back(std::move(entry));
   }
-  std::vector<BakeChunk> chunks;
   chunks.push_back(write_vertex_ao_chunk(data));
   return chunks;
 }
@@ -100,7 +138,8 @@ void register_vertex_ao_baker(World& world) {
     h.add(v.rays);
     h.add(kVertexAoChunkVersion);
   };
-  b.bake = bake_vertex_ao;
+  b.plan = plan_vertex_ao;
+  b.finish = finish_vertex_ao;
   world.resource<BakerRegistry>().add(std::move(b));
 }
 

@@ -3,10 +3,20 @@
 // `bake_world` builds the RayScene once, runs the selected bakers in registration order and
 // collects their chunks into a BakeFile (penumbra/core/pbake.h), which attach_bake()
 // (penumbra/runtime.h) loads back through the same modules.
+//
+// Every bake runs in two steps, so that it can be split over machines (penumbra/bake/shard.h):
+//   plan + run   from the scene: groups of independent elements (probe nodes, AO-field texels,
+//                reference poses, vertices), each element's results a function of its own index;
+//   finish       from the results alone, without the scene: what needs every element together
+//                (a neighbour fill, a least-squares fit), ending in the chunks.
+// A single-machine bake runs each whole group and finishes; a shard runs some blocks of some
+// groups (its work items) and `penumbra merge` finishes, so both give the same bytes.
 #pragma once
 
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -51,19 +61,54 @@ Result<std::string> bake_key(const BakeInputs& in, Entity e, std::string_view wh
 Result<std::vector<std::string>> bake_keys(const BakeInputs& in, const std::vector<Entity>& entities,
                                            std::string_view what);
 
+// One group of a baker's work: `elements` independent units whose results each depend on the
+// element's index alone. A work item, the unit a shard takes, is a block of `block` consecutive
+// elements; item ids ("probe-grid:hall#3") are stable whatever the thread or shard count.
+struct BakeGroup {
+  std::string name;             // unique within the baker: the entity key of what it bakes
+  std::uint64_t elements = 0;
+  std::uint64_t block = 1;      // elements per work item, >= 1: a constant of the baker
+  double element_cost = 1.0;    // estimated cost of one element (rays traced), to balance shards
+  std::vector<std::byte> header;  // what finish() needs besides the results (layouts, settings)
+};
+
+// A planned bake: the groups, and how to bake a range of a group's elements.
+struct BakeWork {
+  std::vector<BakeGroup> groups;
+  // The results of elements [begin, end) of groups[group] (begin < end <= elements), each
+  // element's bytes a function of its index alone, concatenated in element order: the results of
+  // consecutive ranges, concatenated, are the results of their union. Opens its own progress
+  // stage. Valid while the BakeInputs given to plan() live.
+  std::function<Result<std::vector<std::byte>>(std::size_t group, std::uint64_t begin, std::uint64_t end,
+                                               JobContext& jobs)>
+      run;
+};
+
+// A group and the results of all its elements, in element order: what finish() reads.
+struct BakedGroup {
+  const BakeGroup* group = nullptr;
+  std::span<const std::byte> results;
+};
+
 struct Baker {
   std::string name;         // the module's name, what `--only` names, e.g. "vertex-ao"
   std::string description;  // one line for `penumbra bake --help`
-  int stages = 1;           // how many progress stages bake() opens
-  // Adds everything bake() reads (scene content it depends on, its settings) to the input hash,
+  int stages = 1;           // how many progress stages run() and finish() open
+  // Adds everything plan() reads (scene content it depends on, its settings) to the input hash,
   // so that an unchanged scene is not baked again.
   std::function<void(World&, const BakeSettings&, Hasher&)> hash_inputs;
-  std::function<Result<std::vector<BakeChunk>>(BakeInputs&)> bake;
+  // Checks the scene's components and plans the work; no group when there is nothing to bake.
+  std::function<Result<BakeWork>(BakeInputs&)> plan;
+  // The chunks from every group's results (groups in plan order), without the scene: the global
+  // steps, which `penumbra merge` runs. InvalidInput when results do not parse (a corrupt part).
+  std::function<Result<std::vector<BakeChunk>>(std::span<const BakedGroup>, JobContext&)> finish;
   // Human-readable lines about one of its chunks (the module's describe, LightingModule).
   std::function<std::vector<std::string>(const BakeChunk&)> describe;
+  // Attaches one of its chunks to the World (the module's attach, LightingModule).
+  Status (*attach)(World& world, const BakeChunk& chunk, const EntityKeys& keys) = nullptr;
 };
 
-// A Baker with the module's name, description and describe(); the module sets the rest.
+// A Baker with the module's name, description, describe() and attach(); the module sets the rest.
 Baker baker_for(const LightingModule& module);
 
 // The bakers a World knows: world.resource<BakerRegistry>().
@@ -103,8 +148,14 @@ struct BakeResult {
   BakeReport report;
 };
 
-// Runs the named bakers (all registered ones when `names` is empty). Fails naming an unknown baker
-// and listing the known ones. The World must be up to date (world transforms computed).
+// The bakers `names` selects, in registration order (all when empty). NotFound naming an unknown
+// baker and listing the known ones.
+Result<std::vector<const Baker*>> select_bakers(const BakerRegistry& registry, const std::vector<std::string>& names);
+
+// Runs the named bakers (all registered ones when `names` is empty): plans each, runs every group
+// whole, finishes, and attaches the chunks to `world` (so it shows what the file holds). Fails
+// naming an unknown baker and listing the known ones. The World must be up to date (world
+// transforms computed).
 Result<BakeResult> bake_world(World& world, const std::vector<std::string>& names, const BakeSettings& settings,
                               JobContext& jobs);
 

@@ -72,8 +72,9 @@ struct AoSettings {
   std::uint32_t rays = 256;
   std::uint64_t seed = 0;
   AoSampling sampling = AoSampling::Sobol;
+  std::uint64_t first_stream = 0;  // point i draws from stream first_stream + i (a range of a larger set)
 };
-// AO at every point, point i from Rng::stream(settings.seed, i), in parallel on `jobs` (one
+// AO at every point, point i from Rng::stream(settings.seed, settings.first_stream + i), in parallel on `jobs` (one
 // progress stage, "ambient occlusion"). Fails with InvalidArgument for rays < 2 or a non-positive
 // max_distance, Cancelled when the host cancels. out.size() must equal points.size().
 Status ambient_occlusion(const RayScene& scene, std::span<const SurfacePoint> points, const AoSettings& settings,
