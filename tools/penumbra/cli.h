@@ -43,6 +43,7 @@ ProgressCallback terminal_progress();
 
 int cmd_info(Args args);
 int cmd_bake(Args args);
+int cmd_merge(Args args);
 int cmd_bench(Args args);
 int cmd_render(Args args);
 int cmd_validate(Args args);

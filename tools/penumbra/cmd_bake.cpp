@@ -9,6 +9,8 @@
 #include "cli.h"
 #include "penumbra/runtime.h"
 #include "penumbra/bake/baker.h"
+#include "penumbra/bake/shard.h"
+#include "penumbra/bakers.h"
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/import/gltf.h"
@@ -45,7 +47,14 @@ int cmd_bake(Args args) {
   const auto preset = args.take("--preset");
   const auto threads = args.take("--threads");
   const auto seed = args.take("--seed");
+  const auto shard_arg = args.take("--shard");
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
+  std::optional<ShardSpec> shard;
+  if (shard_arg) {
+    auto s = parse_shard(*shard_arg);
+    if (!s) return fail(kUsage, s.error().message);
+    shard = *s;
+  }
 
   if (list) {
     World world;
@@ -102,12 +111,13 @@ int cmd_bake(Args args) {
   World world;
   if (Status s = load_world(world, scene, settings.preset); !s) return fail(kFailure, s.error().message);
 
-  // Skip the bake when the file on disk was made from the same inputs.
+  // Skip the bake when the file on disk was made from the same inputs (a part: and the same shard).
   const std::uint64_t input_hash = bake_input_hash(world, names, settings);
+  const std::uint64_t file_hash = shard ? part_input_hash(input_hash, *shard) : input_hash;
   if (!force && std::filesystem::exists(out_path)) {
-    if (auto info = read_bake_info(out_path); info && info->input_hash == input_hash) {
-      std::printf("%s is up to date (input hash %s): nothing to bake; --force bakes anyway\n", out->c_str(),
-                  hex64(input_hash).c_str());
+    if (auto info = read_bake_info(out_path); info && info->input_hash == file_hash) {
+      std::printf("%s is up to date (input hash %s%s): nothing to bake; --force bakes anyway\n", out->c_str(),
+                  hex64(input_hash).c_str(), shard ? (", shard " + *shard_arg).c_str() : "");
       return kSuccess;
     }
   }
@@ -115,10 +125,17 @@ int cmd_bake(Args args) {
   ThreadPool pool(thread_count);
   std::signal(SIGINT, on_interrupt);
   JobContext jobs(&pool, terminal_progress(), &g_cancel);
-  auto result = bake_world(world, names, settings, jobs);
+  auto result = shard ? bake_shard(world, names, settings, *shard, scene, jobs) : bake_world(world, names, settings, jobs);
   std::signal(SIGINT, SIG_DFL);
   if (!result) return fail(kFailure, scene + ": " + result.error().message);
-  if (result->file.chunks.empty()) {
+  // A part is empty when no baker planned any work (a shard may hold no item of a small plan).
+  bool empty = result->file.chunks.empty();
+  if (shard) {
+    auto part = read_bake_part(result->file, *out);
+    if (!part) return fail(kFailure, part.error().message);
+    empty = std::all_of(part->bakers.begin(), part->bakers.end(), [](const auto& b) { return b.groups.empty(); });
+  }
+  if (empty) {
     // Each baker that ran says what it bakes and what the scene has instead.
     std::string why;
     for (const LightingModule* m : lighting_modules()) {
@@ -131,7 +148,8 @@ int cmd_bake(Args args) {
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   const BakeReport& r = result->report;
-  std::printf("baked %s -> %s (preset %s, seed %llu, %u threads)\n", scene.c_str(), out->c_str(),
+  std::printf("baked %s%s -> %s (preset %s, seed %llu, %u threads)\n",
+              shard ? ("shard " + *shard_arg + " of ").c_str() : "", scene.c_str(), out->c_str(),
               to_string(settings.preset), static_cast<unsigned long long>(settings.seed), pool.concurrency());
   std::printf("  ray scene     %8.3f s  %10s  %zu triangles\n", r.ray_scene_seconds,
               format_bytes(r.ray_scene_bytes).c_str(), r.triangles);
@@ -144,11 +162,95 @@ int cmd_bake(Args args) {
   return kSuccess;
 }
 
+// penumbra merge PART... -o FILE.pbake: the parts of a sharded bake into the file a single machine
+// writes.
+int cmd_merge(Args args) {
+  const bool force = args.take_flag("--force");
+  const auto out = args.take("-o");
+  const auto threads = args.take("--threads");
+  if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
+  if (!out) return fail(kUsage, "merge needs -o FILE.pbake");
+  for (const std::string& a : args.rest())
+    if (a.starts_with("-")) return fail(kUsage, "merge: unknown option " + a);
+  if (args.rest().empty()) return fail(kUsage, "merge takes the part files ('penumbra bake --shard I/N' wrote) and -o FILE");
+  unsigned thread_count = 0;
+  if (threads) {
+    auto n = parse_count("--threads", *threads);
+    if (!n) return kUsage;
+    if (*n == 0 || *n > 1024) return fail(kUsage, "--threads takes a count from 1 to 1024");
+    thread_count = static_cast<unsigned>(*n);
+  }
+  const std::filesystem::path out_path = *out;
+  std::error_code ec;
+  std::vector<NamedPart> parts;
+  for (const std::string& path : args.rest()) {
+    if (std::filesystem::exists(out_path, ec) && std::filesystem::equivalent(out_path, path, ec))
+      return fail(kFailure, *out + " is one of the parts; write the merged file to another path");
+    auto file = read_bake_file(path);
+    if (!file) return fail(kFailure, file.error().message);
+    auto part = read_bake_part(*file, path);
+    if (!part) return fail(kFailure, part.error().message);
+    parts.push_back({path, std::move(*part)});
+  }
+  if (std::filesystem::exists(out_path, ec) && !force) {
+    if (!std::filesystem::is_regular_file(out_path, ec))
+      return fail(kFailure, *out + " exists and is not a regular file; choose another -o");
+    if (auto info = read_bake_info(out_path); !info)
+      return fail(kFailure, *out + " exists and is not a .pbake file (" + info.error().message +
+                                "); choose another -o, or pass --force to replace it");
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  World world;  // only for the registry of bakers, whose finish() the merge runs
+  register_bakers(world);
+  ThreadPool pool(thread_count);
+  std::signal(SIGINT, on_interrupt);
+  JobContext jobs(&pool, terminal_progress(), &g_cancel);
+  MergeReport report;
+  auto merged = merge_bake_parts(world.resource<BakerRegistry>(), parts, jobs, &report);
+  std::signal(SIGINT, SIG_DFL);
+  if (!merged) return fail(kFailure, merged.error().message);
+  if (Status s = write_bake_file(out_path, *merged, &g_cancel); !s) return fail(kFailure, s.error().message);
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("merged %zu parts of %u shards of %s -> %s (preset %s, seed %llu)\n", parts.size(),
+              parts.front().part.shard.count, parts.front().part.scene.c_str(), out->c_str(),
+              to_string(parts.front().part.preset), static_cast<unsigned long long>(parts.front().part.seed));
+  for (const MergeReport::Item& item : report.items)
+    std::printf("  %-12s  %8.3f s  %10s  from %zu work items (the global steps)\n", item.baker.c_str(), item.seconds,
+                format_bytes(item.bytes).c_str(), item.items);
+  std::printf("  total         %8.3f s  %10s on disk, input hash %s\n", total,
+              format_bytes(std::filesystem::file_size(out_path)).c_str(), hex64(merged->input_hash).c_str());
+  return kSuccess;
+}
+
+namespace {
+
+// `penumbra info` and `validate` of a part file: its manifest, checked.
+int describe_part(const std::string& path, const BakeFile& file, bool verbose) {
+  auto part = read_bake_part(file, path);
+  if (!part) return fail(kFailure, part.error().message);
+  std::size_t groups = 0;
+  for (const auto& b : part->bakers) groups += b.groups.size();
+  std::printf("%s: part of a sharded bake: shard %u/%u of %s (preset %s, seed %llu, bake input hash %s), %zu work "
+              "items of %zu groups; merge the parts with 'penumbra merge'\n",
+              path.c_str(), part->shard.index, part->shard.count, part->scene.c_str(), to_string(part->preset),
+              static_cast<unsigned long long>(part->seed), hex64(part->input_hash).c_str(), part->items.size(), groups);
+  if (verbose)
+    for (const BakePart::Item& item : part->items) {
+      const auto& b = part->bakers[item.baker];
+      std::printf("  item %s: %s of results\n", item_id(b.name, b.groups[item.group].name, item.block).c_str(),
+                  format_bytes(item.results.size()).c_str());
+    }
+  return kSuccess;
+}
+
+}  // namespace
+
 int cmd_info(Args args) {
   if (args.rest().size() != 1 || args.rest()[0].starts_with("-")) return fail(kUsage, "info takes one FILE.pbake");
   const std::string& path = args.rest()[0];
   auto file = read_bake_file(path);
   if (!file) return fail(kFailure, file.error().message);
+  if (file->find(kShardManifestChunk) != nullptr) return describe_part(path, *file, true);
 
   std::printf("%s\n  format version %u, written by Penumbra %s\n  input hash %s\n  %zu chunks, %s in all\n",
               path.c_str(), file->format_version, file->sdk_version.c_str(), hex64(file->input_hash).c_str(),
@@ -184,6 +286,7 @@ int cmd_validate(Args args) {
   if (ext == ".pbake") {
     auto file = read_bake_file(path);
     if (!file) return fail(kFailure, file.error().message);
+    if (file->find(kShardManifestChunk) != nullptr) return describe_part(path.string(), *file, false);
     std::size_t invalid = 0, unread = 0;
     for (const BakeChunk& chunk : file->chunks) {
       const LightingModule* module = lighting_module_for_chunk(chunk.type);

@@ -14,11 +14,20 @@ constexpr const char* kUsage = R"(usage: penumbra COMMAND [ARGS]
 
 Commands:
   bake SCENE -o FILE.pbake [--only LIST] [--preset draft|medium|high] [--threads N] [--seed S] [--force]
+       [--shard I/N]
       Bake the lighting data of SCENE (a glTF file or builtin:NAME) into FILE.pbake. --only takes a
       comma-separated list of bakers (default: all; 'penumbra bake --list' names them). An unchanged
       scene with the same settings is not baked again unless --force is given. FILE is never the
       scene itself, and an existing FILE that is not a .pbake is replaced only with --force; when
       FILE is a symbolic link, the file it points to is written and the link kept.
+      --shard I/N bakes only shard I (from 0) of N into a part file for 'penumbra merge': the work
+      items (blocks of probe nodes, AO-field texels, poses, vertices) that a balanced, deterministic
+      assignment gives it; an up-to-date part is not baked again.
+  merge PART.pbake... -o FILE.pbake [--threads N] [--force]
+      Merge the parts of a sharded bake into FILE.pbake, byte-identical to a single-machine bake of
+      the same scene and settings; runs the global steps (the probe grid's fill and fit, the
+      AO-field grid's inside fill, the pose-AO fit). Refuses parts of different bakes and missing
+      or duplicated work items, naming them.
   info FILE.pbake
       Show the file's version, input hash, chunks, their sizes and what they hold.
   render SCENE [--bake FILE] -o OUT.png|OUT.exr [--width W] [--height H] [--camera NAME] [--time T]
@@ -84,6 +93,7 @@ int main(int argc, char** argv) {
   });
   penumbra::cli::Args args(std::move(words));
   if (command == "bake") return penumbra::cli::cmd_bake(std::move(args));
+  if (command == "merge") return penumbra::cli::cmd_merge(std::move(args));
   if (command == "info") return penumbra::cli::cmd_info(std::move(args));
   if (command == "bench") return penumbra::cli::cmd_bench(std::move(args));
   if (command == "render") return penumbra::cli::cmd_render(std::move(args));

@@ -60,7 +60,8 @@ Status add_default_lighting(World& world, Preset preset, bool authored);
 // Attaches every chunk of `file` to the entities its keys name, through the module that owns the
 // chunk's type (chunks of types no linked module owns are skipped with a logged warning). Fails at
 // the first chunk that is corrupt or names a key this World lacks (the error names the chunk and
-// the key); the chunks before it stay attached. Cost: O(entities) to index the keys, then each
+// the key); the chunks before it stay attached. A part of a sharded bake (kShardManifestChunk) is
+// refused before any chunk, with InvalidInput saying to merge the parts. Cost: O(entities) to index the keys, then each
 // module's attach.
 Status attach_bake(World& world, const BakeFile& file);
 

@@ -488,7 +488,7 @@ Status read_field_header(ByteReader& r, AOFieldData& d) {
   return {};
 }
 
-constexpr std::uint64_t kTexelBlock = 64;   // cube-map texels per work item
+constexpr std::uint64_t kTexelBlock = 16;   // cube-map texels per work item
 constexpr std::uint64_t kNodeBlock = 4096;  // grid vertices per work item
 
 // A group per distinct field (casters sharing a MeshData and settings share the first one's, in

@@ -50,6 +50,10 @@ Status add_default_lighting(World& world, Preset preset, bool authored) {
 }
 
 Status attach_bake(World& world, const BakeFile& file) {
+  if (file.find(kShardManifestChunk) != nullptr)
+    return make_error(ErrorCode::InvalidInput, "the file is one part of a sharded bake, which holds work items, not "
+                                               "lighting; merge the parts first ('penumbra merge part_*.pbake -o "
+                                               "level.pbake') and load the merged file");
   const EntityKeys keys = EntityKeys::build(world);
   for (const BakeChunk& chunk : file.chunks) {
     const LightingModule* m = lighting_module_for_chunk(chunk.type);

@@ -29,7 +29,6 @@
 
 namespace penumbra {
 
-inline constexpr std::uint32_t kShardManifestChunk = fourcc("SHRD");
 inline constexpr std::uint32_t kShardItemChunk = fourcc("SITM");
 inline constexpr std::uint32_t kShardChunkVersion = 1;
 inline constexpr std::uint32_t kMaxShards = 4096;

@@ -46,6 +46,10 @@ constexpr std::uint32_t fourcc(const char (&code)[5]) {
 // "PRBG" back from the code; non-printable bytes become '?'.
 std::string fourcc_to_string(std::uint32_t type);
 
+// The chunk that marks a part of a sharded bake (penumbra/bake/shard.h), which only `penumbra
+// merge` reads: a part holds work items, not lighting data.
+inline constexpr std::uint32_t kShardManifestChunk = fourcc("SHRD");
+
 // One baker's output: its type, the version of its payload layout, a short label (at most
 // kPbakeMaxLabel bytes, e.g. the entity or probe-volume name) and the serialised data.
 struct BakeChunk {
