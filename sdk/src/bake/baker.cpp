@@ -26,6 +26,7 @@ Baker baker_for(const LightingModule& module) {
   b.description = std::string(module.description);
   b.describe = module.describe;
   b.attach = module.attach;
+  b.check = module.check;
   return b;
 }
 

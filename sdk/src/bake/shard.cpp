@@ -366,6 +366,12 @@ Result<BakeFile> merge_bake_parts(const BakerRegistry& registry, std::span<const
     if (!chunks) return Error{chunks.error().code, bakers[b]->name + ": " + chunks.error().message};
     MergeReport::Item item{bakers[b]->name, 0.0, 0, count};
     for (BakeChunk& chunk : *chunks) {
+      // Values no reader accepts come from a damaged part (its CRC-32s rewritten, or a bug).
+      if (bakers[b]->check)
+        if (Status s = bakers[b]->check(chunk); !s)
+          return make_error(ErrorCode::InvalidInput, bakers[b]->name + ": the merged chunk is invalid (" +
+                                                         s.error().message +
+                                                         "); a part is corrupt: re-bake the shards and merge again");
       item.bytes += chunk.payload.size();
       out.chunks.push_back(std::move(chunk));
     }

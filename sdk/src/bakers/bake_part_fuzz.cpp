@@ -3,6 +3,8 @@
 // part of the courtyard, which holds every work item, so mutants reach each finish(). Mutator:
 // pbake_mutator.cpp. Invariants: a part either parses or fails with an error naming the file; a
 // merge either fails with a message or writes chunks that their modules' checks accept.
+#include <cstdio>
+
 #include "fuzz/fuzz.h"
 #include "penumbra/bake/shard.h"
 #include "penumbra/bakers.h"
@@ -33,7 +35,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (const BakeChunk& chunk : merged->chunks) {
     const LightingModule* module = lighting_module_for_chunk(chunk.type);
     fuzz::require(module != nullptr, "the merge wrote a chunk no module reads");
-    fuzz::require(module->check(chunk).ok(), "the merge wrote a chunk its module refuses");
+    const Status checked = module->check(chunk);
+    if (!checked) std::fprintf(stderr, "%s\n", checked.error().message.c_str());
+    fuzz::require(checked.ok(), "the merge wrote a chunk its module refuses");
   }
   return 0;
 }

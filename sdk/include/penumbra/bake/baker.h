@@ -106,9 +106,13 @@ struct Baker {
   std::function<std::vector<std::string>(const BakeChunk&)> describe;
   // Attaches one of its chunks to the World (the module's attach, LightingModule).
   Status (*attach)(World& world, const BakeChunk& chunk, const EntityKeys& keys) = nullptr;
+  // Reads one of its chunks with every check, attaching nothing (the module's check): what a merge
+  // checks its output with, since parts come from other machines.
+  Status (*check)(const BakeChunk& chunk) = nullptr;
 };
 
-// A Baker with the module's name, description, describe() and attach(); the module sets the rest.
+// A Baker with the module's name, description, describe(), attach() and check(); the module sets
+// the rest.
 Baker baker_for(const LightingModule& module);
 
 // The bakers a World knows: world.resource<BakerRegistry>().

@@ -105,7 +105,8 @@ struct MergeReport {
 // Merges the parts of one sharded bake into the file a single machine writes: checks that every
 // part comes from the same inputs and settings (naming the parts and what differs), that no item
 // is missing (naming it and the shard that bakes it) or given twice (naming both parts), then
-// runs each baker's finish() over the items' results in order. `registry` supplies finish();
+// runs each baker's finish() over the items' results in order and checks every chunk with its
+// module's reader (InvalidInput: a corrupt part). `registry` supplies finish();
 // Unsupported when a part names a baker it lacks or was written by another SDK version.
 Result<BakeFile> merge_bake_parts(const BakerRegistry& registry, std::span<const NamedPart> parts, JobContext& jobs,
                                   MergeReport* report = nullptr);
