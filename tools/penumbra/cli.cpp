@@ -54,6 +54,17 @@ std::optional<unsigned long long> parse_count(std::string_view option, const std
   return std::stoull(text);
 }
 
+std::optional<unsigned> parse_threads(const std::optional<std::string>& text) {
+  if (!text) return 0u;
+  auto n = parse_count("--threads", *text);
+  if (!n) return std::nullopt;
+  if (*n == 0 || *n > 1024) {
+    fail(kUsage, "--threads takes a count from 1 to 1024");
+    return std::nullopt;
+  }
+  return static_cast<unsigned>(*n);
+}
+
 ProgressCallback terminal_progress() {
   if (!::isatty(STDERR_FILENO)) return {};
   struct Bar {

@@ -38,6 +38,10 @@ int fail(int code, std::string_view message);
 // Parses a non-negative integer option; prints a usage error on failure.
 std::optional<unsigned long long> parse_count(std::string_view option, const std::string& text);
 
+// The thread count of --threads (0 when absent: every hardware thread); prints a usage error and
+// returns nullopt for anything but 1..1024.
+std::optional<unsigned> parse_threads(const std::optional<std::string>& text);
+
 // A progress bar on stderr when it is a terminal; nothing in a pipe.
 ProgressCallback terminal_progress();
 

@@ -78,13 +78,8 @@ int cmd_bake(Args args) {
     if (!s) return kUsage;
     settings.seed = *s;
   }
-  unsigned thread_count = 0;
-  if (threads) {
-    auto n = parse_count("--threads", *threads);
-    if (!n) return kUsage;
-    if (*n == 0 || *n > 1024) return fail(kUsage, "--threads takes a count from 1 to 1024");
-    thread_count = static_cast<unsigned>(*n);
-  }
+  const std::optional<unsigned> thread_count = parse_threads(threads);
+  if (!thread_count) return kUsage;
   const std::vector<std::string> names = only ? split_list(*only) : std::vector<std::string>{};
 
   const std::string& scene = args.rest()[0];
@@ -122,7 +117,7 @@ int cmd_bake(Args args) {
     }
   }
 
-  ThreadPool pool(thread_count);
+  ThreadPool pool(*thread_count);
   std::signal(SIGINT, on_interrupt);
   JobContext jobs(&pool, terminal_progress(), &g_cancel);
   auto result = shard ? bake_shard(world, names, settings, *shard, scene, jobs) : bake_world(world, names, settings, jobs);
@@ -173,13 +168,8 @@ int cmd_merge(Args args) {
   for (const std::string& a : args.rest())
     if (a.starts_with("-")) return fail(kUsage, "merge: unknown option " + a);
   if (args.rest().empty()) return fail(kUsage, "merge takes the part files ('penumbra bake --shard I/N' wrote) and -o FILE");
-  unsigned thread_count = 0;
-  if (threads) {
-    auto n = parse_count("--threads", *threads);
-    if (!n) return kUsage;
-    if (*n == 0 || *n > 1024) return fail(kUsage, "--threads takes a count from 1 to 1024");
-    thread_count = static_cast<unsigned>(*n);
-  }
+  const std::optional<unsigned> thread_count = parse_threads(threads);
+  if (!thread_count) return kUsage;
   const std::filesystem::path out_path = *out;
   std::error_code ec;
   std::vector<NamedPart> parts;
@@ -202,7 +192,7 @@ int cmd_merge(Args args) {
   const auto t0 = std::chrono::steady_clock::now();
   World world;  // only for the registry of bakers, whose finish() the merge runs
   register_bakers(world);
-  ThreadPool pool(thread_count);
+  ThreadPool pool(*thread_count);
   std::signal(SIGINT, on_interrupt);
   JobContext jobs(&pool, terminal_progress(), &g_cancel);
   MergeReport report;

@@ -456,29 +456,11 @@ Result<AOFieldData> finish_field(AOFieldData data, std::span<const std::byte> re
   return data;
 }
 
-// A group's header: the field's scalars, then the casters that take this field (their keys and
-// their places in entity order; instances of one mesh and settings share one bake).
-void write_field_header(ByteWriter& w, const AOFieldData& d) {
-  w.write(d.representation);
-  w.write(d.resolution);
-  w.write(d.grid_size);
-  w.write(d.centre);
-  w.write(d.bounding_radius);
-  w.write(d.r_far);
-  w.write(d.fade_start);
-  w.write(d.inside_occlusion);
-  w.write(d.inside_exponent);
-}
+// A group's header: the field's description (as its chunk lays it out), then the casters that take
+// this field (their keys and their places in entity order; instances of one mesh and settings share
+// one bake).
 Status read_field_header(ByteReader& r, AOFieldData& d) {
-  PENUMBRA_TRY(r.read(d.representation));
-  PENUMBRA_TRY(r.read(d.resolution));
-  PENUMBRA_TRY(r.read(d.grid_size));
-  PENUMBRA_TRY(r.read(d.centre));
-  PENUMBRA_TRY(r.read(d.bounding_radius));
-  PENUMBRA_TRY(r.read(d.r_far));
-  PENUMBRA_TRY(r.read(d.fade_start));
-  PENUMBRA_TRY(r.read(d.inside_occlusion));
-  PENUMBRA_TRY(r.read(d.inside_exponent));
+  PENUMBRA_TRY(read_ao_field_description(r, d));
   const bool grid = d.representation == AOFieldRepresentation::Grid;
   if ((!grid && d.representation != AOFieldRepresentation::RadialFit) || (grid ? d.grid_size : d.resolution) > 1024)
     return make_error(ErrorCode::InvalidInput, r.context() + ": representation " +
@@ -530,7 +512,7 @@ Result<BakeWork> plan_fields(BakeInputs& in) {
   auto bakes = std::make_shared<std::vector<std::shared_ptr<FieldBake>>>();
   for (Distinct& d : distinct) {
     ByteWriter header;
-    write_field_header(header, d.bake->header());
+    write_ao_field_description(header, d.bake->header());
     header.write(static_cast<std::uint32_t>(d.casters.size()));
     for (const auto& [place, key] : d.casters) {
       header.write(place);

@@ -12,9 +12,7 @@
 
 namespace penumbra {
 
-BakeChunk write_ao_field_chunk(const AOFieldData& data) {
-  ByteWriter w;
-  w.write_string(data.key);
+void write_ao_field_description(ByteWriter& w, const AOFieldData& data) {
   w.write(static_cast<std::uint32_t>(data.representation));
   w.write(data.resolution);
   w.write(data.grid_size);
@@ -24,6 +22,27 @@ BakeChunk write_ao_field_chunk(const AOFieldData& data) {
   w.write(data.fade_start);
   w.write(data.inside_occlusion);
   w.write(data.inside_exponent);
+}
+
+Status read_ao_field_description(ByteReader& r, AOFieldData& d) {
+  std::uint32_t representation = 0;
+  PENUMBRA_TRY(r.read(representation));
+  PENUMBRA_TRY(r.read(d.resolution));
+  PENUMBRA_TRY(r.read(d.grid_size));
+  PENUMBRA_TRY(r.read(d.centre));
+  PENUMBRA_TRY(r.read(d.bounding_radius));
+  PENUMBRA_TRY(r.read(d.r_far));
+  PENUMBRA_TRY(r.read(d.fade_start));
+  PENUMBRA_TRY(r.read(d.inside_occlusion));
+  PENUMBRA_TRY(r.read(d.inside_exponent));
+  d.representation = static_cast<AOFieldRepresentation>(representation);
+  return {};
+}
+
+BakeChunk write_ao_field_chunk(const AOFieldData& data) {
+  ByteWriter w;
+  w.write_string(data.key);
+  write_ao_field_description(w, data);
   w.write(data.clamped_fits);
   w.write_vector(data.texels);
   w.write_vector(data.nodes);
@@ -38,21 +57,12 @@ Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(check_chunk(chunk, kAOFieldChunkType, kAOFieldChunkVersion, context));
   AOFieldData d;
   ByteReader r(chunk.payload, context);
-  std::uint32_t representation = 0;
   PENUMBRA_TRY(r.read_string(d.key));
-  PENUMBRA_TRY(r.read(representation));
-  PENUMBRA_TRY(r.read(d.resolution));
-  PENUMBRA_TRY(r.read(d.grid_size));
-  PENUMBRA_TRY(r.read(d.centre));
-  PENUMBRA_TRY(r.read(d.bounding_radius));
-  PENUMBRA_TRY(r.read(d.r_far));
-  PENUMBRA_TRY(r.read(d.fade_start));
-  PENUMBRA_TRY(r.read(d.inside_occlusion));
-  PENUMBRA_TRY(r.read(d.inside_exponent));
+  PENUMBRA_TRY(read_ao_field_description(r, d));
   PENUMBRA_TRY(r.read(d.clamped_fits));
+  const auto representation = static_cast<std::uint32_t>(d.representation);
   if (representation > static_cast<std::uint32_t>(AOFieldRepresentation::Grid))
     return bad("representation " + std::to_string(representation) + " is unknown");
-  d.representation = static_cast<AOFieldRepresentation>(representation);
   const bool grid = d.representation == AOFieldRepresentation::Grid;
   if (grid ? (d.resolution != 0 || d.grid_size < 4 || d.grid_size > 128)
            : (d.resolution < 1 || d.resolution > 256 || d.grid_size != 0))

@@ -257,6 +257,11 @@ inline constexpr std::uint32_t kAOFieldChunkType = fourcc("AOFC");
 inline constexpr std::uint32_t kAOFieldChunkVersion = 3;  // 3: keyed by the caster's entity key
 BakeChunk write_ao_field_chunk(const AOFieldData& data);
 Result<AOFieldData> read_ao_field_chunk(const BakeChunk& chunk);
+// The chunk's layout of a field's description (representation, sizes, centre, radii, fade and
+// inside settings; no key, arrays or diagnostics), which the bake's work groups reuse. The reader
+// checks nothing but the bytes left: the caller validates.
+void write_ao_field_description(ByteWriter& w, const AOFieldData& data);
+Status read_ao_field_description(ByteReader& r, AOFieldData& data);
 // Lines for `penumbra info`: resolution, radii, bytes, clamped fits.
 std::vector<std::string> describe_ao_field_chunk(const BakeChunk& chunk);
 
