@@ -18,6 +18,7 @@ namespace penumbra::bench {
 struct Options {
   bool quick = false;    // a small sweep for CI and smoke tests
   unsigned threads = 0;  // 0: all hardware threads
+  std::string out_dir;   // where the tool writes NAME.csv and NAME.png; benches may add images there
 };
 
 // What to plot: y against x, one line per distinct value of the series column (-1: one line).

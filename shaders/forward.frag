@@ -1,8 +1,8 @@
 #version 450
 // Forward pass, fragment stage: Lambertian shading with
 //   direct light   directional / point / spot (KHR_lights_punctual, as bake/light_sampling.h) and
-//                  rect lights as Lambertian emitters of intensity L A cos(theta_l) from their centre,
-//                  each with a PCF-filtered shadow map;
+//                  rect lights by their exact unshadowed irradiance (the polygon formula, clipped to
+//                  the horizon), each with a PCF-filtered shadow map (a rect's from its centre);
 //   indirect light the ambient image's irradiance times its open fraction (what the render
 //                  features' sources and occluders drew into it before this pass;
 //                  render/feature.h), upsampled; times the draw's entity-wide open fraction and
@@ -71,6 +71,32 @@ uint cube_face(vec3 d) {
   return d.z > 0.0 ? 4u : 5u;
 }
 
+// Irradiance per unit radiance at p (unit normal n) from a rect of centre c and half-size vectors
+// hx, hy: the exact polygon formula E / L = 1/2 sum_i angle(v_i, v_i+1) n . unit(v_i x v_i+1)
+// (Lambert 1760; Baum, Rushmeier & Winget 1989), over the rect clipped to the hemisphere above p
+// (Sutherland-Hodgman against the tangent plane), unshadowed.
+float rect_irradiance(vec3 p, vec3 n, vec3 c, vec3 hx, vec3 hy) {
+  vec3 q[4] = vec3[4](c - hx - hy - p, c + hx - hy - p, c + hx + hy - p, c - hx + hy - p);
+  vec3 poly[5];
+  int m = 0;
+  for (int i = 0; i < 4; ++i) {
+    vec3 a = q[i], b = q[(i + 1) & 3];
+    float da = dot(n, a), db = dot(n, b);
+    if (da > 0.0) poly[m++] = a;
+    if ((da > 0.0) != (db > 0.0)) poly[m++] = a + (b - a) * (da / (da - db));
+  }
+  if (m < 3) return 0.0;
+  float sum = 0.0;
+  for (int i = 0; i < 5; ++i) {
+    if (i >= m) break;
+    vec3 a = normalize(poly[i]), b = normalize(poly[i + 1 < m ? i + 1 : 0]);
+    vec3 x = cross(a, b);
+    float s = length(x);
+    if (s > 1e-9) sum += atan(s, dot(a, b)) * dot(n, x) / s;  // the edge's angle, stable when small
+  }
+  return 0.5 * abs(sum);
+}
+
 // Irradiance E (W/m^2 per channel) at p with unit normal n from every light, shadowed.
 vec3 direct_irradiance(vec3 p, vec3 n) {
   vec3 e = vec3(0.0);
@@ -99,12 +125,12 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
         float scale = 1.0 / max(0.001, light.cone_shadow.y - light.cone_shadow.x);
         float a = clamp((cos_l - light.cone_shadow.x) * scale, 0.0, 1.0);
         falloff *= a * a;
-      } else if (type == PENUMBRA_LIGHT_RECT) {  // Lambertian emitter: I = L A cos(theta_l)
-        falloff *= light.color.w * max(cos_l, 0.0);
+      } else if (type == PENUMBRA_LIGHT_RECT) {  // one-sided: nothing behind its plane
+        falloff = cos_l > 0.0 ? rect_irradiance(p, n, light.position_type.xyz, light.half_x.xyz, light.half_y.xyz) : 0.0;
       }
       power *= falloff;
     }
-    float cos_x = dot(n, l);
+    float cos_x = type == PENUMBRA_LIGHT_RECT ? 1.0 : dot(n, l);  // the rect's E already holds the cosine
     if (cos_x <= 0.0 || all(equal(power, vec3(0.0)))) continue;
     float visible = 1.0;
     if (kShadowTaps != 0u && light.cone_shadow.z >= 0.0) {
@@ -158,11 +184,14 @@ void main() {
   vec3 albedo = push.base_color.rgb * texture(base_color_texture, in_uv).rgb;
   bool has_indirect = (frame.params.z & PENUMBRA_FLAG_INDIRECT) != 0u;
   // AO: the vertex attribute, the draw's entity-wide open fraction, the ambient image's per pixel.
+  // Composition (renderer.h): each occlusion counted once, so the static geometry's vertex AO,
+  // which the ambient sources' bakes already shadow, stays out of their light (the AO view shows it).
   float ao = in_ao * push.feature.y;
+  float ao_unseen = (push.draw.w != 0u ? 1.0 : in_ao) * push.feature.y;
   vec3 indirect = vec3(0.0);
   if (kAmbient) {
     vec4 ambient = ambient_at_pixel(n);
-    if (has_indirect) indirect = ambient.rgb * (ao / frame.ambient_scale.x);
+    if (has_indirect) indirect = ambient.rgb * (ao_unseen / frame.ambient_scale.x);
     ao *= ambient.a;
   }
   const uint view = kView;

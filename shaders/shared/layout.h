@@ -80,6 +80,8 @@ struct GpuLight {
   vec4 direction_range; // xyz unit direction light travels (directional, spot, rect normal), w range (0: infinite)
   vec4 color;           // rgb colour x intensity, w rect area (m^2)
   vec4 cone_shadow;     // x cos outer, y cos inner (spot), z first shadow layer (-1: none), w layer count (1 or 6)
+  vec4 half_x;          // rect: xyz half-size vector along its local X (world space)
+  vec4 half_y;          // rect: xyz half-size vector along its local Y
 };
 
 // Push constants of every draw (forward, pre-pass, shadow; a feature's passes use them as they
@@ -88,7 +90,8 @@ struct DrawPush {
   mat4 model;           // object -> world
   vec4 base_color;      // linear albedo, alpha
   vec4 emissive;        // rgb emitted radiance W/(m^2 sr)
-  uvec4 draw;           // x first joint (skinned), y 1 when skinned, z shadow layer (shadow pass), w unused
+  uvec4 draw;           // x first joint (skinned), y 1 when skinned, z shadow layer (shadow pass), w 1 when
+                        // the vertex AO is the static geometry's (VertexAO::static_occluders)
   vec4 feature;         // the render features' DrawFeatureValues: x receiver code (G-buffer w), y the
                         // entity-wide open fraction (1: unoccluded), zw unused
 };

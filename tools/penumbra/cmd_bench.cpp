@@ -13,6 +13,7 @@ int cmd_bench(Args args) {
   bench::Options options;
   options.quick = args.take_flag("--quick");
   const std::string out_dir = args.take("--out").value_or("bench-results");
+  options.out_dir = out_dir;
   if (auto threads = args.take("--threads")) {
     auto n = parse_count("--threads", *threads);
     if (!n) return kUsage;

@@ -568,4 +568,12 @@ std::uint64_t RayScene::bvh_bytes() const {
 glm::vec3 RayScene::bounds_min() const { return impl_->lo; }
 glm::vec3 RayScene::bounds_max() const { return impl_->hi; }
 
+float RayScene::max_albedo() const {
+  float m = 0.0f;
+  for (const auto& part : impl_->static_parts) m = std::max({m, part.material.albedo.r, part.material.albedo.g, part.material.albedo.b});
+  for (const GeometryRecord& g : impl_->geometries)
+    if (g.kind != GeometryRecord::Kind::Static) m = std::max({m, g.material.albedo.r, g.material.albedo.g, g.material.albedo.b});
+  return m;
+}
+
 }  // namespace penumbra

@@ -31,25 +31,33 @@ IrradianceProbeGrid IrradianceProbeGrid::preset(Preset preset) {
     case Preset::Draft:
       g.samples_per_node = 8;
       g.rays_per_sample = 16;
-      g.bounces = 1;
-      g.spacing = 2.0f;
+      g.truncation = 0.2f;
+      g.cells = 3;
       break;
     case Preset::Medium:
       g.samples_per_node = 32;
       g.rays_per_sample = 16;
-      g.bounces = 2;
-      g.spacing = 1.0f;
+      g.truncation = 0.05f;
+      g.cells = 6;
       g.sampling = ProbeSampling::Fitted;  // the probe-grid bench: lower RMSE and leak at ~1.1x the time
       break;
     case Preset::High:
       g.samples_per_node = 64;
       g.rays_per_sample = 32;
-      g.bounces = 3;
-      g.spacing = 0.5f;
+      g.truncation = 0.01f;
+      g.cells = 12;
       g.sampling = ProbeSampling::Fitted;
       break;
   }
   return g;
+}
+
+std::uint32_t probe_bounces(const IrradianceProbeGrid& grid, float max_albedo) {
+  if (!(grid.truncation > 0.0f)) return grid.bounces;
+  if (!(max_albedo > 0.0f)) return 1;  // black scene: nothing reflects, one bounce shows it
+  if (!(max_albedo < 1.0f)) return kMaxDerivedBounces;
+  const double k = std::ceil(std::log(double(std::min(grid.truncation, 1.0f))) / std::log(double(max_albedo)) - 1e-9);
+  return static_cast<std::uint32_t>(std::clamp(k, 1.0, double(kMaxDerivedBounces)));
 }
 
 glm::vec3 probe_lit_irradiance(const ProbeLit& lit, glm::vec3 n) {
@@ -117,11 +125,18 @@ Result<ProbeGridLayout> probe_grid_layout(const IrradianceProbeGrid& grid, const
   // Resolution: explicit, or from the spacing.
   glm::uvec3 res = grid.resolution;
   if (res == glm::uvec3(0u)) {
-    if (!(grid.spacing > 0.0f) || !std::isfinite(grid.spacing))
-      return invalid(context, "spacing " + std::to_string(grid.spacing) + " must be a positive number of metres");
-    const glm::vec3 cells = glm::ceil(size / grid.spacing);
+    float spacing = grid.spacing;
+    if (spacing == 0.0f) {  // follows the box: `cells` across its smallest side (range-checked by the
+                            // field list above), bounded along its longest
+      spacing = std::max(std::min({size.x, size.y, size.z}) / float(grid.cells),
+                         std::max({size.x, size.y, size.z}) / float(kMaxDerivedCells));
+    }
+    if (!(spacing > 0.0f) || !std::isfinite(spacing))
+      return invalid(context, "spacing " + std::to_string(grid.spacing) + " must be a positive number of metres "
+                              "(or 0 to follow the box's size)");
+    const glm::vec3 cells = glm::ceil(size / spacing - 1e-4f);
     if (!(std::max({cells.x, cells.y, cells.z}) < 1e6f))
-      return invalid(context, "spacing " + std::to_string(grid.spacing) + " m gives over a million nodes per axis "
+      return invalid(context, "spacing " + std::to_string(spacing) + " m gives over a million nodes per axis "
                               "over a box of size " + vec_text(size) + "; use a larger spacing");
     res = glm::uvec3(glm::max(cells, glm::vec3(1.0f))) + 1u;
   } else if (res.x < 2 || res.y < 2 || res.z < 2) {

@@ -18,6 +18,7 @@
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
+#include "penumbra/core/log.h"
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/core/sh.h"
@@ -291,19 +292,31 @@ Result<std::shared_ptr<ProbeBake>> ProbeBake::prepare(const IrradianceProbeGrid&
   auto bake = std::make_shared<ProbeBake>();
   bake->grid_ = grid;
   bake->grid_.data.reset();
+  bake->grid_.bounces = probe_bounces(grid, scene.max_albedo());
+  bake->grid_.truncation = 0.0f;
+  // The values the presets chose from the scene, reported (the chunk keeps the layout).
+  if (grid.truncation > 0.0f || (grid.spacing == 0.0f && grid.resolution == glm::uvec3(0u))) {
+    char line[240];
+    std::snprintf(line, sizeof line, "%.*s: %u bounces (max albedo %.3g, truncation %.3g), spacing %.3g m%s",
+                  int(context.size()), context.data(), bake->grid_.bounces, double(scene.max_albedo()),
+                  double(grid.truncation), double(layout->spacing.x),
+                  grid.spacing == 0.0f ? " (from the box's size)" : "");
+    log(LogLevel::Info, line);
+  }
   bake->layout_ = *layout;
   bake->scene_ = &scene;
   bake->lights_ = std::move(lights);
   bake->seed_ = seed;
+  const IrradianceProbeGrid& g = bake->grid_;
   SampleSettings& s = bake->s_;
   s.rays = point ? grid.samples_per_node * grid.rays_per_sample : grid.rays_per_sample;
   s.back_face_threshold = grid.back_face_threshold;
   s.skip_outside = !point;
-  s.shade_hits = grid.bounces > 0;
+  s.shade_hits = g.bounces > 0;
   s.direct = grid.lighting == LightingContent::All;
   s.hit.samples = grid.hit_samples;
-  s.hit.reference = grid.bounces == kProbeAllBounces;
-  s.hit.bounces = grid.bounces > 0 ? grid.bounces - 1 : 0;
+  s.hit.reference = g.bounces == kProbeAllBounces;
+  s.hit.bounces = g.bounces > 0 ? g.bounces - 1 : 0;
   s.hit.rect_light_samples = kRectLightSamples;
   return bake;
 }

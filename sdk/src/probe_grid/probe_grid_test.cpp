@@ -119,7 +119,9 @@ TEST(ProbeGridLayout, RejectsBadSettings) {
 }
 
 TEST(ProbeGridLayout, NodesSpanTheBoxAndTheTransformedUnitCube) {
-  auto a = probe_grid_layout(box_grid({-1, 0, 2}, {3, 2, 4}, {0, 0, 0}), glm::mat4(1.0f), "g");
+  IrradianceProbeGrid metre = box_grid({-1, 0, 2}, {3, 2, 4}, {0, 0, 0});
+  metre.spacing = 1.0f;
+  auto a = probe_grid_layout(metre, glm::mat4(1.0f), "g");
   ASSERT_TRUE(a.ok());
   EXPECT_EQ(a->resolution, glm::uvec3(5, 3, 3));  // ceil(size / 1 m) + 1
   EXPECT_EQ(a->node_position({0, 0, 0}), glm::vec3(-1, 0, 2));
@@ -136,13 +138,54 @@ TEST(ProbeGridLayout, NodesSpanTheBoxAndTheTransformedUnitCube) {
   EXPECT_LT(glm::length(b->spacing - glm::vec3(2, 1, 3)), 1e-5f);
 }
 
+// Spacing 0 follows the box: `cells` across its smallest side, whatever its scale, and at most
+// kMaxDerivedCells along its longest.
+TEST(ProbeGridLayout, DerivedSpacingFollowsTheBoxScale) {
+  for (float scale : {1e-3f, 1.0f, 1e3f}) {
+    IrradianceProbeGrid g = box_grid(glm::vec3(0.0f), scale * glm::vec3(4, 1, 2), {0, 0, 0});
+    g.cells = 6;
+    auto l = probe_grid_layout(g, glm::mat4(1.0f), "g");
+    ASSERT_TRUE(l.ok()) << l.error().message;
+    EXPECT_EQ(l->resolution, glm::uvec3(25, 7, 13)) << scale;
+    EXPECT_NEAR(l->spacing.y, scale / 6.0f, 1e-5f * scale) << scale;
+  }
+  IrradianceProbeGrid flat = box_grid(glm::vec3(0.0f), glm::vec3(1000, 1, 1000), {0, 0, 0});
+  auto l = probe_grid_layout(flat, glm::mat4(1.0f), "g");
+  ASSERT_TRUE(l.ok()) << l.error().message;
+  EXPECT_EQ(l->resolution.x, kMaxDerivedCells + 1);
+  flat.cells = 0;
+  auto bad = probe_grid_layout(flat, glm::mat4(1.0f), "grid 'hall'");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("field 'cells' = 0"), std::string::npos) << bad.error().message;
+}
+
+// Bounces from a truncation: the fewest k with rho^k <= t, so the light left out is at most t.
+TEST(ProbeGridPreset, BouncesBoundTheTruncation) {
+  IrradianceProbeGrid g;
+  g.bounces = 2;
+  EXPECT_EQ(probe_bounces(g, 0.73f), 2u);  // truncation 0: as given
+  g.truncation = 0.05f;
+  for (float rho : {0.1f, 0.5f, 0.73f, 0.9f}) {
+    const std::uint32_t k = probe_bounces(g, rho);
+    EXPECT_LE(std::pow(rho, float(k)), 0.05f + 1e-6f) << rho;
+    EXPECT_GT(std::pow(rho, float(k - 1)), 0.05f) << rho;
+  }
+  EXPECT_EQ(probe_bounces(g, 0.73f), 10u);  // the Cornell box's white
+  EXPECT_EQ(probe_bounces(g, 0.0f), 1u);
+  EXPECT_EQ(probe_bounces(g, 1.0f), kMaxDerivedBounces);
+  EXPECT_EQ(probe_bounces(g, std::nanf("")), 1u);
+  EXPECT_EQ(probe_bounces(g, 0.9999f), kMaxDerivedBounces);
+}
+
 TEST(ProbeGridPreset, QualityGrowsWithThePreset) {
   const auto d = IrradianceProbeGrid::preset(Preset::Draft), m = IrradianceProbeGrid::preset(Preset::Medium),
              h = IrradianceProbeGrid::preset(Preset::High);
   EXPECT_LT(d.samples_per_node * d.rays_per_sample, m.samples_per_node * m.rays_per_sample);
   EXPECT_LT(m.samples_per_node * m.rays_per_sample, h.samples_per_node * h.rays_per_sample);
-  EXPECT_GT(d.spacing, m.spacing);
-  EXPECT_GT(m.spacing, h.spacing);
+  EXPECT_LT(d.cells, m.cells);
+  EXPECT_LT(m.cells, h.cells);
+  EXPECT_GT(d.truncation, m.truncation);
+  EXPECT_GT(m.truncation, h.truncation);
   EXPECT_EQ(d.sampling, ProbeSampling::Supersampled);
   EXPECT_EQ(m.sampling, ProbeSampling::Fitted);
   EXPECT_EQ(h.sampling, ProbeSampling::Fitted);

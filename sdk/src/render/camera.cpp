@@ -31,7 +31,7 @@ CameraView camera_view(const World& world, Entity camera, float aspect) {
   const glm::mat4 camera_to_world = wt ? wt->matrix : glm::mat4(1.0f);
   v.position = glm::vec3(camera_to_world[3]);
   v.view = glm::affineInverse(camera_to_world);
-  v.projection = vulkan_perspective(c.yfov, c.aspect > 0.0f ? c.aspect : aspect, c.znear, c.zfar);
+  v.projection = vulkan_perspective(c.yfov, aspect, c.znear, c.zfar);  // the target's aspect wins over the stored one
   return v;
 }
 

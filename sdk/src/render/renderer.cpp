@@ -634,6 +634,8 @@ void Renderer::Impl::plan_shadows(const std::vector<WorldLight>& world_lights) {
     g.color = glm::vec4(l.color * l.intensity, area);
     g.cone_shadow = glm::vec4(std::cos(l.outer_cone_angle), std::cos(l.inner_cone_angle),
                               float(shadow_matrices.size()), 1.0f);
+    g.half_x = glm::vec4(wl.half_x, 0.0f);
+    g.half_y = glm::vec4(wl.half_y, 0.0f);
     const glm::vec3 up = std::abs(dir.y) > 0.99f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
     if (type == PENUMBRA_LIGHT_DIRECTIONAL) {
       const glm::vec3 eye = centre - dir * (radius * 1.05f);
@@ -991,6 +993,7 @@ Status Renderer::sync(World& world) {
         ++r.stats.vertex_ao_uploads;
       }
       d.ao = b.buffer.buffer;
+      d.push.draw.w = ao->static_occluders ? 1u : 0u;
     }
     DrawFeatureValues values;
     for (const auto& f : r.features) f->draw_values(world, e, values);

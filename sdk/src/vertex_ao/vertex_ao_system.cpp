@@ -21,11 +21,9 @@ Status attach_vertex_ao(World& world, const BakeChunk& chunk, const EntityKeys& 
       return make_error(ErrorCode::NotFound, "chunk 'VXAO': entity '" + entry.key + "' has no mesh of " +
                                                  std::to_string(entry.ao.size()) +
                                                  " vertices in this World; re-bake the scene");
-    if (world.has<VertexAO>(*e)) {
-      world.patch<VertexAO>(*e).ao = std::move(entry.ao);
-    } else {
-      world.add<VertexAO>(*e, VertexAO{std::move(entry.ao)});
-    }
+    VertexAO& out = world.has<VertexAO>(*e) ? world.patch<VertexAO>(*e) : world.add<VertexAO>(*e);
+    out.ao = std::move(entry.ao);
+    out.static_occluders = true;
   }
   return {};
 }

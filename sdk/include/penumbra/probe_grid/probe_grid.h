@@ -79,9 +79,12 @@ struct IrradianceProbeGrid {
   // World-space box. Empty (the default): the unit cube [-0.5, 0.5]^3 through the entity's
   // WorldTransform (so the Transform's scale is the box size, and the grid may be rotated).
   Aabb box;
-  // Nodes per axis (each >= 2). (0, 0, 0): derived from `spacing` as ceil(size / spacing) + 1.
+  // Nodes per axis (each >= 2). (0, 0, 0): derived from the spacing as ceil(size / spacing) + 1.
   glm::uvec3 resolution{0u};
-  float spacing = 1.0f;  // metres between nodes when `resolution` is zero
+  // Metres between nodes when `resolution` is zero. 0: follows the box's scale, `cells` cells
+  // across its smallest side, and at most kMaxDerivedCells along any side.
+  float spacing = 0.0f;
+  std::uint32_t cells = 6;
 
   ProbeShOrder sh_order = ProbeShOrder::L2;
   ProbeSampling sampling = ProbeSampling::Supersampled;
@@ -90,8 +93,14 @@ struct IrradianceProbeGrid {
   std::uint32_t samples_per_node = 32;
   std::uint32_t rays_per_sample = 16;
   // Light bounces before reaching a node: 0 = direct light and emitters seen from the node; k =
-  // surfaces hit by the node's rays are lit with k - 1 bounces; kProbeAllBounces = all.
+  // surfaces hit by the node's rays are lit with k - 1 bounces; kProbeAllBounces = all. Used when
+  // `truncation` is 0.
   std::uint32_t bounces = 2;
+  // When > 0 the bounce count follows the scene instead: the fewest k with rho_max^k <=
+  // truncation (probe_bounces), which bounds the fraction of the indirect light that stopping
+  // after k bounces leaves out (each bounce keeps at most rho_max of the last). 0: `bounces` as
+  // given; the presets set a truncation.
+  float truncation = 0.0f;
   std::uint32_t hit_samples = 2;  // irradiance paths at each ray hit (>= 2)
   // What the nodes store (lighting/settings.h, LightingContent). Indirect (the default, and every
   // preset's): only light that reflected at least once (no lights' direct light, no emission seen
@@ -118,11 +127,22 @@ struct IrradianceProbeGrid {
   // The baked data (set by the baker or attach_bake(), penumbra/runtime.h); null until baked.
   std::shared_ptr<const ProbeGridData> data;
 
-  // Quality presets: draft S=8, 16 rays, 1 bounce, spacing 2 m, supersampled; medium S=32, 16 rays,
-  // 2 bounces, spacing 1 m, fitted; high S=64, 32 rays, 3 bounces, spacing 0.5 m, fitted (fitted
-  // had 0.7-0.9x the supersampled RMSE on every probe-grid bench row, for a fixed solve cost).
+  // Quality presets, by error rather than by counts: draft S=8, 16 rays, truncation 20 %, 3 cells
+  // across the box's smallest side, supersampled; medium S=32, 16 rays, truncation 5 %, 6 cells,
+  // fitted; high S=64, 32 rays, truncation 1 %, 12 cells, fitted (fitted had 0.7-0.9x the
+  // supersampled RMSE on every probe-grid bench row, for a fixed solve cost).
   static IrradianceProbeGrid preset(Preset preset);
 };
+
+// Cells along any side of a derived spacing (IrradianceProbeGrid::spacing 0), at most.
+inline constexpr std::uint32_t kMaxDerivedCells = 96;
+// Bounces derived from a truncation, at most (rho_max near 1 would ask for very many).
+inline constexpr std::uint32_t kMaxDerivedBounces = 32;
+
+// The bounce count a grid bakes with: `bounces` when truncation is 0; else the fewest k >= 1 with
+// max_albedo^k <= truncation (max_albedo: the brightest albedo channel of the geometry baked,
+// RayScene::max_albedo), at most kMaxDerivedBounces. O(1).
+std::uint32_t probe_bounces(const IrradianceProbeGrid& grid, float max_albedo);
 
 // Receiver component: an entity (character, moving prop) lit by the probe grids. Written by the
 // probe-grid system when the entity moved or a grid changed.

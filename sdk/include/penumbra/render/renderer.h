@@ -17,16 +17,22 @@
 // view, shadow taps, light count, whether the ambient image exists) specialises the pipelines.
 //
 // Light models (as bake/light_sampling.h): directional illuminance, point/spot intensity with the
-// KHR_lights_punctual range window and smooth cone; a Rect light of radiance L and area A is drawn
-// as a Lambertian point emitter at its centre, intensity L A cos(theta) towards its front, with a
-// six-face (cube) shadow map, so its shadows are hard-edged where the real area light's are soft.
+// KHR_lights_punctual range window and smooth cone; a Rect light's irradiance is the exact
+// unshadowed one (Lambert's polygon formula over the rect clipped to the receiver's horizon), its
+// visibility one six-face (cube) shadow map from its centre, so its shadows are hard-edged where the
+// real area light's are soft. The emitter itself is not drawn (it is a light, not geometry).
 // Shadow maps: directional orthographic over the bounds of every mesh, spot perspective over the
 // outer cone, point and rect six 90-degree faces; PCF over the 2x2 comparison filter (a 3x3 tent
 // of four taps, or one tap: RenderSettings::shadow_taps). Emissive meshes cast no shadows (an
 // emitter would occlude its own light).
 // Indirect: L = albedo / pi x E x AO, E the ambient image's irradiance (its sources: the probe
 // grid's feature), AO = VertexAO x the ambient image's open fraction (its occluders: the AO-field
-// casters) x the draw's entity-wide open fraction (DrawFeatureValues::open).
+// casters) x the draw's entity-wide open fraction (DrawFeatureValues::open). Composition rule:
+// each occlusion is counted once. A source's bake already shadows its light by the static
+// geometry, so a VertexAO of static occluders (VertexAO::static_occluders: a vertex-AO bake) is
+// left out of E's product (it darkened the Cornell box's indirect light to 0.72x the reference:
+// penumbra bench image-accuracy); the occluders no bake saw (AO-field casters, pose-AO of
+// characters) multiply it. The "ao" view shows every term.
 // Tone mapping: exposure, then the ACES filmic fit of Narkowicz (2015), then sRGB.
 //
 // sync() and render_image() take a mutable World (views need one; nothing is written). One frame
@@ -57,7 +63,8 @@ struct CameraView {
   glm::mat4 projection{1.0f};  // camera -> clip, Vulkan conventions (y down, depth 0..1)
   glm::vec3 position{0.0f};    // world-space eye
 };
-// The CameraView of a Camera entity at its WorldTransform, for a target of the given aspect.
+// The CameraView of a Camera entity at its WorldTransform, for a target of the given aspect (width /
+// height), which wins over Camera::aspect: the image is never stretched; the vertical field is yfov.
 CameraView camera_view(const World& world, Entity camera, float aspect);
 // A camera that frames every mesh as posed now (posed_bounds: skinned meshes by their skinned
 // vertices), looking from the front and above. Run after the skinning system.

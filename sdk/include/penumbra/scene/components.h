@@ -99,7 +99,7 @@ struct Light {
 
 struct Camera {
   float yfov = 0.8f;   // radians
-  float aspect = 0.0f; // 0: from the render target
+  float aspect = 0.0f; // as authored (glTF aspectRatio; 0: none), kept for export: views take the target's, with yfov
   float znear = 0.05f;
   float zfar = 1000.0f;
 };
@@ -116,12 +116,17 @@ struct SkinPose {
 
 // Per-vertex ambient occlusion of a Mesh entity, the one per-vertex AO concept: ao[v] in [0, 1]
 // (1 = open) for vertex v of its MeshData, multiplied into the ambient (indirect) light by the
-// renderer; ignored when the size does not match the mesh. Written by whoever computes it: a
-// loaded vertex-AO bake (static meshes, vertex_ao/vertex_ao.h), PoseAOSystem every frame the pose
-// changed (skinned meshes, pose_ao_system.h). Write it with World::patch: readers (the renderer's
-// upload) redo work only when its change tick moved.
+// renderer (the composition rule, render/renderer.h); ignored when the size does not match the
+// mesh. Written by whoever computes it: a loaded vertex-AO bake (static meshes,
+// vertex_ao/vertex_ao.h), PoseAOSystem every frame the pose changed (skinned meshes,
+// pose_ao_system.h). Write it with World::patch: readers (the renderer's upload) redo work only
+// when its change tick moved.
 struct VertexAO {
   std::vector<float> ao;
+  // The occluders are the static geometry (a vertex-AO bake), which every baked ambient source
+  // (the probe grid) already shadows its light by: the renderer then leaves it out of their light
+  // and shows it only in the "ao" view. False: moving occluders no source saw (pose-AO).
+  bool static_occluders = false;
 };
 
 // Animation clips (an asset): keyframe channels targeting entities' Transforms.

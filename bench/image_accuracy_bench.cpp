@@ -1,0 +1,270 @@
+// `penumbra bench image-accuracy`: the real-time renderer's lit, direct and indirect views against
+// an offline reference of the same frame, per large region of the image.
+//
+// For each built-in scene (the Cornell box, the courtyard) at the default preset (medium, seed 1):
+// the default lighting components of `penumbra render`, every baker, the bake attached; the frame
+// of the scene's camera rendered into a float target (linear radiance, no tone mapping) in the
+// views lit, direct, indirect, and the data views albedo, position and normal. The reference is
+// computed at each pixel's own position and normal (the position and normal views), by the
+// irradiance integrators (bake/integrators.h): direct = next-event estimation with bounces 0
+// (area lights sampled over their area), indirect = the unbiased reference (Russian roulette, no
+// bounce limit, content Indirect); radiance = albedo / pi x E (the pixel's albedo from the albedo
+// view, so textures cancel out), plus the hit surface's emission in the lit view.
+//
+// A pixel counts when a CPU ray through its centre (RayScene, the same camera) hits a surface
+// within 0.5 % of its distance from the renderer's position (edges and background left out); its
+// region is the hit entity's name and the axis its geometric normal faces most ("floor +y",
+// "short_block +x"). Per scene, view and region: mean luminance of the real-time view and of the
+// reference, their ratio, the median per-pixel relative error |rt - ref| / max(ref, 5 % of the
+// view's mean reference), the region mean's relative standard error (ref_stderr) and the median
+// per-pixel one. Regions under 2 % of the counted pixels are listed but not judged ("large" 0).
+// Goal (issue "The real-time image agrees with a path tracer"): every large region's ratio within
+// 5 % and its median relative error at most 5 %. Images: OUT/image-accuracy-SCENE-VIEW-{realtime,
+// reference}.png (tone mapped as the renderer does) and .exr (linear).
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <glm/mat4x4.hpp>
+
+#include "bench.h"
+#include "penumbra/bake/baker.h"
+#include "penumbra/bake/integrators.h"
+#include "penumbra/bake/ray_scene.h"
+#include "penumbra/bakers.h"
+#include "penumbra/core/jobs.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/runtime.h"
+#include "penumbra/scene/builtin.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra::bench {
+namespace {
+
+constexpr float kPi = 3.14159265358979323846f;
+
+float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
+
+glm::vec3 pixel(const Image& image, std::size_t i) {
+  return {image.rgba32f[4 * i], image.rgba32f[4 * i + 1], image.rgba32f[4 * i + 2]};
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// The ACES filmic fit and sRGB transfer of shaders/output.glsl, for the PNG previews.
+std::uint8_t display(float x) {
+  x = std::max(x, 0.0f);
+  float t = std::clamp((x * (2.51f * x + 0.03f)) / (x * (2.43f * x + 0.59f) + 0.14f), 0.0f, 1.0f);
+  t = t <= 0.0031308f ? 12.92f * t : 1.055f * std::pow(t, 1.0f / 2.4f) - 0.055f;
+  return static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(t, 0.0f, 1.0f)));
+}
+
+Status write_pair(const Options& options, const std::string& stem, const Image& linear) {
+  if (options.out_dir.empty()) return {};
+  Image png = linear;
+  png.rgba8.resize(linear.rgba32f.size());
+  for (std::size_t i = 0; i < linear.rgba32f.size(); ++i)
+    png.rgba8[i] = (i % 4 == 3) ? 255 : display(linear.rgba32f[i]);
+  const std::string base = options.out_dir + "/" + stem;
+  PENUMBRA_TRY(write_image(png, base + ".png"));
+  return write_image(linear, base + ".exr");
+}
+
+std::string axis_name(glm::vec3 n) {
+  const glm::vec3 a = glm::abs(n);
+  const int k = (a.x >= a.y && a.x >= a.z) ? 0 : (a.y >= a.z ? 1 : 2);
+  return std::string(n[k] >= 0.0f ? "+" : "-") + "xyz"[k];
+}
+
+struct RegionSums {
+  std::size_t pixels = 0;
+  double rt = 0.0, ref = 0.0, ref_var = 0.0;
+  std::vector<double> rel_err, pixel_rel_stderr;
+};
+
+// One scene's rows: the frame rendered, the reference computed, the regions compared.
+Status measure(const Options& options, const std::string& scene, std::uint32_t width, std::uint32_t height,
+               std::uint32_t samples, Device& device, Report& report, std::vector<std::string>& failures) {
+  World world;
+  register_lighting(world);
+  register_bakers(world);
+  auto loaded = load_builtin(world, scene);
+  if (!loaded) return loaded.error();
+  world.update(0.0);
+  PENUMBRA_TRY(add_default_lighting(world, Preset::Medium, false));
+  ThreadPool pool(options.threads);
+  JobContext jobs(&pool);
+  BakeSettings bake;  // the default preset and seed of `penumbra bake`
+  auto baked = bake_world(world, {}, bake, jobs);
+  if (!baked) return baked.error();
+  world.update(0.0);
+
+  const float aspect = float(width) / float(height);
+  const CameraView camera = loaded->camera ? camera_view(world, loaded->camera, aspect) : framing_camera_view(world, aspect);
+  auto renderer = Renderer::create(device);
+  if (!renderer) return renderer.error();
+  std::map<std::string, Image> views;
+  for (const char* view : {"lit", "direct", "indirect", "albedo", "position", "normal"}) {
+    RenderSettings settings;
+    settings.view = view;
+    auto image = (*renderer)->render_image(world, camera, width, height, settings, true);
+    if (!image) return image.error();
+    views[view] = std::move(*image);
+  }
+
+  // Which pixels count, and their regions: a CPU ray through each pixel's centre.
+  auto rays = RayScene::build(world);
+  if (!rays) return rays.error();
+  const glm::mat4 clip_to_world = glm::inverse(camera.projection * camera.view);
+  const std::size_t count = std::size_t(width) * height;
+  std::vector<int> region_of(count, -1);
+  std::vector<std::string> region_names;
+  std::map<std::string, int> region_index;
+  std::vector<SurfacePoint> points;
+  std::vector<std::size_t> point_pixel;
+  std::vector<glm::vec3> emission;
+  for (std::uint32_t y = 0; y < height; ++y) {
+    for (std::uint32_t x = 0; x < width; ++x) {
+      const std::size_t i = std::size_t(y) * width + x;
+      const glm::vec2 ndc(2.0f * (float(x) + 0.5f) / float(width) - 1.0f, 2.0f * (float(y) + 0.5f) / float(height) - 1.0f);
+      const glm::vec4 near = clip_to_world * glm::vec4(ndc, 0.0f, 1.0f);
+      const glm::vec4 far = clip_to_world * glm::vec4(ndc, 1.0f, 1.0f);
+      const glm::vec3 origin = glm::vec3(near) / near.w;
+      const glm::vec3 dir = glm::normalize(glm::vec3(far) / far.w - origin);
+      Hit hit;
+      if (!rays->intersect(Ray{origin, 0.0f, dir}, hit)) continue;
+      const glm::vec3 p = pixel(views["position"], i);
+      const glm::vec3 q = origin + hit.t * dir;
+      if (!(glm::distance(p, q) <= 0.005f * glm::distance(origin, q))) continue;
+      glm::vec3 n = pixel(views["normal"], i);
+      if (!(glm::length(n) > 0.5f)) continue;
+      n = glm::normalize(n);
+      const auto* name = world.try_get<Name>(hit.entity);
+      const std::string region =
+          (name && !name->value.empty() ? name->value : "entity " + std::to_string(hit.entity.index)) + " " +
+          axis_name(hit.back_face ? -hit.normal : hit.normal);
+      auto [it, added] = region_index.emplace(region, int(region_names.size()));
+      if (added) region_names.push_back(region);
+      region_of[i] = it->second;
+      points.push_back({p, n});
+      point_pixel.push_back(i);
+      emission.push_back(hit.material.emissive);
+    }
+  }
+  if (points.empty()) return Error{ErrorCode::Internal, scene + ": no pixel of the frame hits a surface"};
+
+  // The reference at each counted pixel.
+  std::vector<Estimate> direct(points.size()), indirect(points.size());
+  IrradianceSettings d;
+  d.samples = samples;
+  d.bounces = 0;
+  d.seed = 11;
+  PENUMBRA_TRY(irradiance(*rays, gather_lights(world), points, d, direct, jobs));
+  IrradianceSettings ind = d;
+  ind.reference = true;
+  ind.content = LightingContent::Indirect;
+  ind.rect_light_samples = 4;
+  ind.seed = 12;
+  PENUMBRA_TRY(irradiance(*rays, gather_lights(world), points, ind, indirect, jobs));
+
+  for (const char* view : {"lit", "direct", "indirect"}) {
+    const std::string v = view;
+    const Image& rt = views[v];
+    Image ref;
+    ref.width = width;
+    ref.height = height;
+    ref.rgba32f.assign(4 * count, 0.0f);
+    std::vector<float> ref_lum(points.size()), ref_se(points.size()), rt_lum(points.size());
+    double mean_ref = 0.0;
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      const std::size_t i = point_pixel[k];
+      const glm::vec3 albedo = pixel(views["albedo"], i) / kPi;
+      glm::vec3 e(0.0f), se2(0.0f);
+      if (v != "indirect") e += direct[k].value, se2 += direct[k].std_error * direct[k].std_error;
+      if (v != "direct") e += indirect[k].value, se2 += indirect[k].std_error * indirect[k].std_error;
+      glm::vec3 radiance = albedo * e;
+      if (v == "lit") radiance += emission[k];
+      for (int c = 0; c < 3; ++c) ref.rgba32f[4 * i + c] = radiance[c];
+      ref.rgba32f[4 * i + 3] = 1.0f;
+      ref_lum[k] = luminance(radiance);
+      ref_se[k] = luminance(albedo * glm::sqrt(se2));
+      rt_lum[k] = luminance(pixel(rt, i));
+      mean_ref += ref_lum[k];
+    }
+    mean_ref /= double(points.size());
+    std::vector<RegionSums> sums(region_names.size() + 1);  // the last: the whole frame
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      const double floor = std::max(double(ref_lum[k]), 0.05 * mean_ref);
+      for (RegionSums* s : {&sums[std::size_t(region_of[point_pixel[k]])], &sums.back()}) {
+        ++s->pixels;
+        s->rt += rt_lum[k];
+        s->ref += ref_lum[k];
+        s->ref_var += double(ref_se[k]) * ref_se[k];
+        s->rel_err.push_back(std::abs(double(rt_lum[k]) - ref_lum[k]) / floor);
+        s->pixel_rel_stderr.push_back(ref_se[k] / floor);
+      }
+    }
+    for (std::size_t r = 0; r < sums.size(); ++r) {
+      const RegionSums& s = sums[r];
+      const bool whole = r + 1 == sums.size();
+      const std::string name = whole ? "frame" : region_names[r];
+      const bool large = !whole && s.pixels * 50 >= points.size();
+      const double ratio = s.ref > 0.0 ? s.rt / s.ref : 0.0;
+      const double rel_err = median(s.rel_err);
+      report.rows.push_back({scene, v, name, std::to_string(s.pixels), large ? "1" : "0", fmt(s.rt / double(s.pixels)),
+                             fmt(s.ref / double(s.pixels)), fmt(ratio, 4), fmt(rel_err, 3),
+                             fmt(s.ref > 0.0 ? std::sqrt(s.ref_var) / s.ref : 0.0, 3),
+                             fmt(median(s.pixel_rel_stderr), 3)});
+      if (large && (std::abs(ratio - 1.0) > 0.05 || rel_err > 0.05))
+        failures.push_back(scene + " " + v + " " + name + " (ratio " + fmt(ratio, 3) + ", rel_err " + fmt(rel_err, 3) + ")");
+    }
+    PENUMBRA_TRY(write_pair(options, "image-accuracy-" + scene + "-" + v + "-realtime", rt));
+    PENUMBRA_TRY(write_pair(options, "image-accuracy-" + scene + "-" + v + "-reference", ref));
+  }
+  return {};
+}
+
+Result<Report> run(const Options& options) {
+  const std::uint32_t width = options.quick ? 96 : 256, height = options.quick ? 54 : 144;
+  const std::uint32_t samples = options.quick ? 64 : 2048;
+  auto device = Device::create(DeviceOptions{});
+  if (!device) return device.error();
+  Report report;
+  report.columns = {"scene", "view", "region", "pixels", "large", "realtime", "reference", "ratio", "rel_err",
+                    "ref_stderr", "pixel_ref_stderr"};
+  std::vector<std::string> failures;
+  for (const char* scene : {"cornell", "courtyard"})
+    PENUMBRA_TRY(measure(options, scene, width, height, samples, **device, report, failures));
+  for (std::size_t i = 0; i < report.rows.size(); ++i) report.rows[i].push_back(std::to_string(i));
+  report.columns.push_back("row");
+  report.plot = {"real-time / reference mean luminance per region", "row (scene, view, region: see the CSV)",
+                 "ratio", 11, 7, 1, false, false, true};
+  report.notes.push_back(std::to_string(width) + "x" + std::to_string(height) + ", preset medium, seed 1; reference: " +
+                         std::to_string(samples) + " paths per pixel for direct and for indirect light (ref_stderr: "
+                         "relative standard error of the region's reference mean; pixel_ref_stderr: the median "
+                         "pixel's, which bounds how small rel_err can be)");
+  report.notes.push_back(failures.empty()
+                             ? "goal (every large region: ratio within 5 %, median rel_err <= 5 %): met"
+                             : "goal (every large region: ratio within 5 %, median rel_err <= 5 %): NOT met by " +
+                                   std::to_string(failures.size()) + " region views");
+  for (const std::string& f : failures) report.notes.push_back("  " + f);
+  return report;
+}
+
+}  // namespace
+
+PENUMBRA_BENCH("image-accuracy",
+               "real-time lit/direct/indirect views of the Cornell box and courtyard against the irradiance "
+               "reference at each pixel, per region",
+               run);
+
+}  // namespace penumbra::bench
