@@ -39,6 +39,9 @@ layout(constant_id = 2) const uint kShadowTaps = 4u;
 // lights is unrolled and every light's data is read at a constant offset, which llvmpipe loads
 // once per draw instead of per pixel; 0: the count is frame.params.y.
 layout(constant_id = 3) const uint kLightCount = 0u;
+// Some light is a rect: else the polygon irradiance is compiled out (llvmpipe would run it masked
+// for every light of every pixel).
+layout(constant_id = 4) const bool kRectLights = false;
 
 const float kPi = 3.14159265358979323846;
 
@@ -125,12 +128,12 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
         float scale = 1.0 / max(0.001, light.cone_shadow.y - light.cone_shadow.x);
         float a = clamp((cos_l - light.cone_shadow.x) * scale, 0.0, 1.0);
         falloff *= a * a;
-      } else if (type == PENUMBRA_LIGHT_RECT) {  // one-sided: nothing behind its plane
+      } else if (kRectLights && type == PENUMBRA_LIGHT_RECT) {  // one-sided: nothing behind its plane
         falloff = cos_l > 0.0 ? rect_irradiance(p, n, light.position_type.xyz, light.half_x.xyz, light.half_y.xyz) : 0.0;
       }
       power *= falloff;
     }
-    float cos_x = type == PENUMBRA_LIGHT_RECT ? 1.0 : dot(n, l);  // the rect's E already holds the cosine
+    float cos_x = (kRectLights && type == PENUMBRA_LIGHT_RECT) ? 1.0 : dot(n, l);  // the rect's E already holds the cosine
     if (cos_x <= 0.0 || all(equal(power, vec3(0.0)))) continue;
     float visible = 1.0;
     if (kShadowTaps != 0u && light.cone_shadow.z >= 0.0) {

@@ -216,6 +216,7 @@ struct ProbeFinishSettings {
   std::uint8_t sh_order = 0, sampling = 0, lighting = 0, leak_guard = 0;
   std::uint32_t samples_per_node = 0;
   float deringing_window = 0.0f;
+  std::uint32_t bounces = 0;  // as baked (probe_bounces): kept in the chunk for its report
 };
 
 // A grid as a group of nodes, node n drawing from Rng::stream(seed, n): prepare(), run() over
@@ -229,6 +230,7 @@ class ProbeBake {
                                                     const RayScene& scene, std::vector<WorldLight> lights,
                                                     std::uint64_t seed, MemoryBudget& budget, std::string_view context);
   const ProbeGridLayout& layout() const { return layout_; }
+  ProbeFinishSettings finish() const;  // the grid's, with the bounces resolved
   std::vector<std::byte> header() const;
   // Rays per node, roughly: samples x rays x (1 + hit paths when hits are shaded).
   double node_cost() const {
@@ -259,8 +261,10 @@ std::size_t node_result_bytes(const ProbeFinishSettings& f) {
 ProbeFinishSettings finish_settings(const IrradianceProbeGrid& g) {
   return {static_cast<std::uint8_t>(g.sh_order), static_cast<std::uint8_t>(g.sampling),
           static_cast<std::uint8_t>(g.lighting), static_cast<std::uint8_t>(g.leak_guard ? 1 : 0), g.samples_per_node,
-          g.deringing_window};
+          g.deringing_window, g.bounces};
 }
+
+ProbeFinishSettings ProbeBake::finish() const { return finish_settings(grid_); }
 
 Result<std::shared_ptr<ProbeBake>> ProbeBake::prepare(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
                                                       const RayScene& scene, std::vector<WorldLight> lights,
@@ -451,6 +455,7 @@ Result<ProbeGridData> finish_probe_grid(const ProbeGridLayout& layout, const Pro
   data.sh_order = static_cast<ProbeShOrder>(f.sh_order);
   data.sampling = sampling;
   data.lighting = static_cast<LightingContent>(f.lighting);
+  data.bounces = f.bounces;
   std::vector<SH9rgb> radiance(nodes);
   data.validity.assign(nodes, 0.0f);
   data.filled.assign(nodes, 0);
@@ -549,7 +554,7 @@ Result<ProbeGridData> bake_probe_grid(const IrradianceProbeGrid& grid, const glm
   if (!bake) return bake.error();
   auto results = (*bake)->run(0, (*bake)->layout().node_count(), jobs);
   if (!results) return results.error();
-  return finish_probe_grid((*bake)->layout(), finish_settings(grid), *results, jobs, context);
+  return finish_probe_grid((*bake)->layout(), (*bake)->finish(), *results, jobs, context);
 }
 
 namespace {

@@ -20,6 +20,7 @@ BakeChunk write_probe_grid_chunk(const ProbeGridData& data) {
   w.write(static_cast<std::uint32_t>(data.sh_order));
   w.write(static_cast<std::uint32_t>(data.sampling));
   w.write(static_cast<std::uint32_t>(data.lighting));
+  w.write(data.bounces);
   w.write_vector(data.coefficients);
   w.write_vector(data.validity);
   w.write_vector(data.filled);
@@ -42,6 +43,7 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(order));
   PENUMBRA_TRY(r.read(sampling));
   PENUMBRA_TRY(r.read(lighting));
+  PENUMBRA_TRY(r.read(data.bounces));
   const glm::uvec3 res = data.layout.resolution;
   if (res.x < 2 || res.y < 2 || res.z < 2 || std::uint64_t{res.x} * res.y * res.z > kMaxProbeNodes)
     return bad("resolution " + std::to_string(res.x) + "x" + std::to_string(res.y) + "x" + std::to_string(res.z) +
@@ -88,10 +90,12 @@ std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk) {
   const glm::uvec3 r = data->layout.resolution;
   const auto filled = std::count(data->filled.begin(), data->filled.end(), std::uint8_t{1});
   char line[240];
-  std::snprintf(line, sizeof line, "grid %ux%ux%u (%zu nodes), spacing %.3g x %.3g x %.3g m, %s, %s, %s lighting", r.x,
-                r.y, r.z, data->node_count(), static_cast<double>(data->layout.spacing.x),
+  const std::string bounces = data->bounces == kProbeAllBounces ? "all" : std::to_string(data->bounces);
+  std::snprintf(line, sizeof line,
+                "grid %ux%ux%u (%zu nodes), spacing %.3g x %.3g x %.3g m, %s, %s, %s lighting, %s bounces", r.x, r.y,
+                r.z, data->node_count(), static_cast<double>(data->layout.spacing.x),
                 static_cast<double>(data->layout.spacing.y), static_cast<double>(data->layout.spacing.z),
-                to_string(data->sh_order), to_string(data->sampling), to_string(data->lighting));
+                to_string(data->sh_order), to_string(data->sampling), to_string(data->lighting), bounces.c_str());
   std::vector<std::string> out{line};
   std::snprintf(line, sizeof line,
                 "valid %.1f%% of nodes, %ld filled from neighbours, leak guard %s, %s (%llu B per node)",

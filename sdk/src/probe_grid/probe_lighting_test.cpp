@@ -208,6 +208,7 @@ ProbeGridData small_data(LightingContent lighting) {
   d.sh_order = ProbeShOrder::L1;
   d.sampling = ProbeSampling::Fitted;
   d.lighting = lighting;
+  d.bounces = 10;
   for (int i = 0; i < 8 * 4; ++i) d.coefficients.push_back(glm::vec3(float(i), 0.5f, -float(i) * 0.25f));
   d.validity.assign(8, 1.0f);
   d.filled.assign(8, 0);
@@ -229,8 +230,9 @@ TEST(ProbeLighting, ChunkRoundTripsAndOtherVersionsAreRefused) {
       EXPECT_EQ(back->lighting, lighting);
       EXPECT_EQ(back->coefficients, d.coefficients);
       EXPECT_EQ(back->reach, d.reach);
+      EXPECT_EQ(back->bounces, 10u);
       const std::vector<std::string> info = describe_probe_grid_chunk(chunk);
-      EXPECT_NE(info[0].find(std::string(to_string(lighting)) + " lighting"), std::string::npos) << info[0];
+      EXPECT_NE(info[0].find(std::string(to_string(lighting)) + " lighting, 10 bounces"), std::string::npos) << info[0];
       EXPECT_NE(info[1].find(guard ? "leak guard on" : "leak guard off"), std::string::npos) << info[1];
     }
   }
@@ -243,7 +245,7 @@ TEST(ProbeLighting, ChunkRoundTripsAndOtherVersionsAreRefused) {
   // Chunks keyed by bake-time entity index (versions 1 to 3) and future versions are refused,
   // naming both versions and asking for a re-bake.
   const ProbeGridData d = small_data(LightingContent::Indirect);
-  for (std::uint32_t version : {3u, kProbeGridChunkVersion + 1}) {
+  for (std::uint32_t version : {4u, kProbeGridChunkVersion + 1}) {
     BakeChunk other = write_probe_grid_chunk(d);
     other.version = version;
     auto f = read_probe_grid_chunk(other);

@@ -171,7 +171,7 @@ struct Renderer::Impl final : RenderContext {
   // The graphics pipelines by pass, colour format, view, flag, shadow taps and light count (see
   // pipeline()).
   enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AmbientKey, Forward };
-  std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t>, VkPipeline> pipelines;
+  std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t, bool>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
   VkSampler texture_sampler = VK_NULL_HANDLE, linear_clamp_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE,
@@ -261,7 +261,7 @@ struct Renderer::Impl final : RenderContext {
   Result<VkPipeline> pipeline(const FeaturePipeline& p) override;
 
   Result<VkPipeline> pipeline(Pass pass, VkFormat format, std::uint32_t view = 0, bool flag = false,
-                              std::uint32_t shadow_taps = 0, std::uint32_t light_count = 0);
+                              std::uint32_t shadow_taps = 0, std::uint32_t light_count = 0, bool rect_lights = false);
   Status upload_buffer(Buffer& dst, const void* data, VkDeviceSize size, VkBufferUsageFlags usage);
   Result<GpuTexture*> texture(const std::shared_ptr<const Texture>& tex);
   Result<const GpuMesh*> mesh(const std::shared_ptr<const MeshData>& data);
@@ -796,13 +796,15 @@ void Renderer::Impl::write_descriptors() {
 //                   (depth EQUAL, no depth writes): each pixel runs the costly fragment stage once
 //                   whatever the overdraw; specialised on the debug view (constant_id 0), in
 //                   `flag` on whether the ambient image was drawn (constant_id 1), on the shadow
-//                   taps (constant_id 2; 0 without shadows) and on the light count (constant_id
-//                   3; 0: not fixed).
+//                   taps (constant_id 2; 0 without shadows), on the light count (constant_id
+//                   3; 0: not fixed) and on whether any light is a rect (constant_id 4: the
+//                   polygon irradiance is compiled out without one; on llvmpipe it made a frame
+//                   of the courtyard, which has none, 3.4x slower).
 Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag,
-                                            std::uint32_t shadow_taps, std::uint32_t light_count) {
-  if (pass != Pass::Forward) view = shadow_taps = light_count = 0, flag = false;
+                                            std::uint32_t shadow_taps, std::uint32_t light_count, bool rect_lights) {
+  if (pass != Pass::Forward) view = shadow_taps = light_count = 0, flag = rect_lights = false;
   if (pass == Pass::Shadow) format = VK_FORMAT_UNDEFINED;
-  const auto key = std::tuple{pass, format, view, flag, shadow_taps, light_count};
+  const auto key = std::tuple{pass, format, view, flag, shadow_taps, light_count, rect_lights};
   if (auto it = pipelines.find(key); it != pipelines.end()) return it->second;
   const bool shadow = pass == Pass::Shadow, forward = pass == Pass::Forward, screen = pass == Pass::AmbientKey;
   const bool depth_writes = pass == Pass::Shadow || pass == Pass::DepthPrepass || pass == Pass::GBufferPrepass;
@@ -812,12 +814,14 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
     VkBool32 flag;
     std::uint32_t shadow_taps;
     std::uint32_t light_count;
-  } forward_constants{view, flag ? VK_TRUE : VK_FALSE, shadow_taps, light_count};
+    VkBool32 rect_lights;
+  } forward_constants{view, flag ? VK_TRUE : VK_FALSE, shadow_taps, light_count, rect_lights ? VK_TRUE : VK_FALSE};
   const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(std::uint32_t)},
                                               {1, sizeof(std::uint32_t), sizeof(VkBool32)},
                                               {2, sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)},
-                                              {3, 2 * sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)}};
-  const VkSpecializationInfo specialization{4, entries, sizeof forward_constants, &forward_constants};
+                                              {3, 2 * sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(std::uint32_t)},
+                                              {4, 3 * sizeof(std::uint32_t) + sizeof(VkBool32), sizeof(VkBool32)}};
+  const VkSpecializationInfo specialization{5, entries, sizeof forward_constants, &forward_constants};
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
@@ -1073,9 +1077,12 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   const bool gbuffer_pass = ambient_pass || view_feature != nullptr;
   const bool shadows = settings.shadows && !shadow_matrices.empty() && !view_feature;
   const auto light_count = static_cast<std::uint32_t>(lights.size());
+  const bool rect_lights = std::any_of(lights.begin(), lights.end(), [](const gpu::GpuLight& l) {
+    return l.position_type.w == float(PENUMBRA_LIGHT_RECT);
+  });
   auto forward = pipeline(Pass::Forward, target.format, static_cast<std::uint32_t>(std::max(own_view, 0)), ambient_pass,
                           shadows ? settings.shadow_taps : 0,
-                          light_count <= PENUMBRA_UNROLLED_LIGHTS ? light_count : 0);
+                          light_count <= PENUMBRA_UNROLLED_LIGHTS ? light_count : 0, rect_lights);
   if (!forward) return forward.error();
   auto prepass =
       gbuffer_pass ? pipeline(Pass::GBufferPrepass, kGBufferFormat) : pipeline(Pass::DepthPrepass, target.format);

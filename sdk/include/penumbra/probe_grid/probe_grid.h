@@ -191,6 +191,7 @@ struct ProbeGridData {
   ProbeShOrder sh_order = ProbeShOrder::L2;
   ProbeSampling sampling = ProbeSampling::Supersampled;
   LightingContent lighting = LightingContent::All;  // what the coefficients hold
+  std::uint32_t bounces = 0;  // the bounces baked (kProbeAllBounces: all), as probe_bounces chose them
   // Node n's coefficient c is coefficients[n * sh_coefficients(sh_order) + c] (RGB).
   std::vector<glm::vec3> coefficients;
   // In-domain coverage per node in [0, 1]: the fraction of its samples in the domain of interest
@@ -240,7 +241,7 @@ glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n);
 // The "PRBG" chunk of one grid (label "probe-grid:<key>") and its reader. read() checks the
 // version, sizes, resolution and that every value is finite, and names the chunk in its errors.
 inline constexpr std::uint32_t kProbeGridChunkType = fourcc("PRBG");
-inline constexpr std::uint32_t kProbeGridChunkVersion = 4;  // 4: keyed by the grid's entity key
+inline constexpr std::uint32_t kProbeGridChunkVersion = 5;  // 5: the bounces baked
 BakeChunk write_probe_grid_chunk(const ProbeGridData& data);
 Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk);
 // Lines for `penumbra info`: grid size, order, mode, lighting, valid fraction, filled nodes, bytes.
