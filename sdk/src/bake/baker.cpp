@@ -93,6 +93,7 @@ void hash_scene(World& world, Hasher& h) {
       if (m->base_color_texture) h.add(m->base_color_texture->rgba8);
     }
   }
+  h.add(environment_radiance(world));
   for (Entity e : world.view<Light>().sorted_entities()) {
     h.add(std::string_view(entity_key(world, e)));
     const Light& l = world.get<Light>(e);

@@ -74,7 +74,10 @@ glm::vec3 irradiance_sample(const RayScene& scene, std::span<const WorldLight> l
     const glm::vec3 dir = to_world(pn, cosine_hemisphere({u0, u1}));
     const Ray ray{p + scene.ray_epsilon(p) * pn, 0.0f, dir, kInf};
     Hit hit;
-    if (!scene.intersect(ray, hit)) break;
+    if (!scene.intersect(ray, hit)) {  // the sky (pi L, as emission below); ambient: counted in Indirect too
+      sum += throughput * (kPi * scene.sky(dir));
+      break;
+    }
     // Emission of the surface hit (front side, or both when double sided).
     if ((depth > 0 || direct) && (!hit.back_face || hit.material.double_sided))
       sum += throughput * (kPi * hit.material.emissive);

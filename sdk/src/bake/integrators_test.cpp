@@ -207,6 +207,40 @@ TEST(Integrators, BuiltinFurnaceReference) {
 
 // --- (4) Direct light from each light type ------------------------------------------------------
 
+// A uniform sky of radiance L over an open floor of albedo rho: facing up E = pi L exactly (every
+// path leaves at once: no variance); facing the floor from just above it, E = pi rho L (the floor,
+// lit by the sky, is all it sees), up to the floor's finite size; in Indirect content the same
+// (the sky is ambient light); without a sky, nothing.
+TEST(Integrators, SkyLightsByItsClosedForms) {
+  World world;
+  const float rho = 0.6f;
+  add_mesh(world, make_quad(2000.0f, 2000.0f), floor_at({0.0f, 0.0f, 0.0f}), glm::vec3(rho));
+  const glm::vec3 sky(0.2f, 0.3f, 0.5f);
+  world.add<Environment>(world.create(), Environment{sky});
+  auto scene = RayScene::build(world);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  EXPECT_EQ(scene->sky({0.0f, 1.0f, 0.0f}), sky);
+  IrradianceSettings s;
+  s.samples = 4096;
+  s.reference = true;
+  for (LightingContent content : {LightingContent::All, LightingContent::Indirect}) {
+    s.content = content;
+    Rng rng = Rng::stream(5, 0);
+    const Estimate up = irradiance(*scene, {}, {0.0f, 0.01f, 0.0f}, {0.0f, 1.0f, 0.0f}, s, rng);
+    EXPECT_LT(glm::length(up.value - kPi * sky), 1e-5f);
+    EXPECT_EQ(up.std_error, glm::vec3(0.0f));
+    const Estimate down = irradiance(*scene, {}, {0.0f, 0.01f, 0.0f}, {0.0f, -1.0f, 0.0f}, s, rng);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(down.value[c], kPi * rho * sky[c], 4.0f * down.std_error[c] + 1e-3f * kPi * sky[c]) << c;
+  }
+  World dark;
+  add_mesh(dark, make_quad(2000.0f, 2000.0f), floor_at({0.0f, 0.0f, 0.0f}), glm::vec3(rho));
+  auto none = RayScene::build(dark);
+  ASSERT_TRUE(none.ok());
+  Rng rng = Rng::stream(5, 0);
+  EXPECT_EQ(irradiance(*none, {}, {0.0f, 0.01f, 0.0f}, {0.0f, 1.0f, 0.0f}, s, rng).value, glm::vec3(0.0f));
+}
+
 TEST(Integrators, DirectLightClosedForms) {
   World world;
   add_mesh(world, make_quad(50.0f, 50.0f), floor_at({0.0f, 0.0f, 0.0f}), glm::vec3(0.0f));  // black floor

@@ -91,9 +91,13 @@ PointSample sample_point(const RayScene& scene, std::span<const WorldLight> ligh
   if (!out.in_domain && s.skip_outside) return out;
 
   for (std::uint32_t i = 0; i < s.rays; ++i) {
-    if (!all_mask[i]) continue;  // no sky: an escaping ray brings nothing
-    const Hit& h = all_hits[i];
     const glm::vec3 dir = uniform_sphere(sobol_2d(i, scramble));
+    if (!all_mask[i]) {  // the sky, which the renderer draws no light of: in Indirect grids too
+      const glm::vec3 sky = scene.sky(dir);
+      if (sky != glm::vec3(0.0f)) sh_add_sample(out.radiance, dir, sky * weight);
+      continue;
+    }
+    const Hit& h = all_hits[i];
     glm::vec3 radiance(0.0f);
     if (s.direct && (!h.back_face || h.material.double_sided)) radiance += h.material.emissive;
     if (s.shade_hits && h.material.albedo != glm::vec3(0.0f)) {

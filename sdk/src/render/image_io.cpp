@@ -1,5 +1,7 @@
 // write_image: PNG through stb_image_write, OpenEXR (32-bit float RGBA) through OpenEXR; both
 // written to a temporary file that is renamed over the destination.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -46,6 +48,18 @@ Status write_exr(const Image& image, const std::string& path) {
 }
 
 }  // namespace
+
+glm::vec3 display_colour(glm::vec3 radiance, float exposure, bool encode_srgb) {
+  glm::vec3 out;
+  for (int c = 0; c < 3; ++c) {
+    const float v = radiance[c] * exposure;
+    const float x = v > 0.0f ? v : 0.0f;  // NaN and negatives: 0
+    float t = std::clamp((x * (2.51f * x + 0.03f)) / (x * (2.43f * x + 0.59f) + 0.14f), 0.0f, 1.0f);
+    if (encode_srgb) t = t <= 0.0031308f ? 12.92f * t : 1.055f * std::pow(t, 1.0f / 2.4f) - 0.055f;
+    out[c] = std::clamp(t, 0.0f, 1.0f);
+  }
+  return out;
+}
 
 Status write_image(const Image& image, const std::string& path) {
   const bool png = ends_with(path, ".png"), exr = ends_with(path, ".exr");

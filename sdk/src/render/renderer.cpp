@@ -171,6 +171,7 @@ struct Renderer::Impl final : RenderContext {
   // The graphics pipelines by pass, colour format, view, flag, shadow taps and light count (see
   // pipeline()).
   enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AmbientKey, Forward };
+  glm::vec3 sky{0.0f};  // the World's environment radiance at the last sync (the lit view's background)
   std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t, bool>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
@@ -946,6 +947,7 @@ Status Renderer::sync(World& world) {
   r.draws.clear();
   r.joints.clear();
   r.bounds = Aabb{};
+  r.sky = environment_radiance(world);
   r.stats.vertex_ao_uploads = 0;
   r.stats.counters.clear();
   std::uint32_t max_vertices = 0;
@@ -1203,7 +1205,13 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, 0,
                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
   color_attachment.imageView = target.view;
-  color_attachment.clearValue.color = {{0.0f, 0.0f, 0.0f, 1.0f}};
+  // The background: the sky in the lit view (exposed and tone mapped as the forward pass does), else black.
+  glm::vec3 background(0.0f);
+  if (own_view == PENUMBRA_VIEW_LIT && !view_feature)
+    background = is_float_format(target.format)
+                     ? sky * settings.exposure
+                     : display_colour(sky, settings.exposure, is_unorm_format(target.format));
+  color_attachment.clearValue.color = {{background.r, background.g, background.b, 1.0f}};
   info.pDepthAttachment = view_feature ? nullptr : &depth_attachment;
   vkCmdBeginRendering(cmd, &info);
   set_viewport(cmd, target.width, target.height);

@@ -375,6 +375,8 @@ LoadedScene build_courtyard(World& world) {
   lamp.color = {1.0f, 0.8f, 0.6f};
   lamp.range = 12.0f;
   world.add<Light>(b.node("lamp", at({-2.0f, 2.5f, 3.0f})), lamp);
+  // A clear sky: uniform radiance giving an open floor pi L = 0.57-1.0 W/m^2, a quarter of the sun's.
+  world.add<Environment>(b.node("sky", at({0, 0, 0})), Environment{{0.18f, 0.23f, 0.32f}});
 
   add_character(b, {2.0f, 0.0f, 4.0f});
 

@@ -5,7 +5,8 @@
 // E(x, n) = \int L(x, w) max(0, w.n) dw, in W/m^2 per RGB channel. Surfaces are Lambertian with the
 // hit's SurfaceMaterial; emissive surfaces radiate from their front side (both sides when double
 // sided); rect lights are not geometry, so light reaches a point either from a light (next-event
-// estimation) or from an emissive surface (when a path hits it), never both.
+// estimation) or from an emissive surface (when a path hits it), never both. A path that leaves
+// the scene brings the sky (RayScene::sky).
 //
 // Every estimate returns its standard error (sample standard deviation / sqrt(samples)), so a
 // caller can judge whether a difference is noise. Determinism: the batch APIs draw point i's
@@ -110,7 +111,9 @@ struct IrradianceSettings {
 // rect: stratified area sampling of L cos_x cos_l / d^2 dA) plus indirect light by cosine-sampled
 // paths with next-event estimation at every vertex and emission of surfaces they hit.
 // With content Indirect the next-event estimation at x and the emission of the first hit are left
-// out (All - Indirect is then the direct part, up to both estimates' noise).
+// out (All - Indirect is then the lights' and emitters' direct part, up to both estimates' noise);
+// the sky is ambient light, which a renderer does not draw itself: counted in both, also where x
+// sees it directly.
 // Precondition: n unit length, settings.samples >= 2. Cost: samples x (bounces + 1) x (lights +
 // rect samples) rays. Thread-safe.
 Estimate irradiance(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,

@@ -105,6 +105,11 @@ struct RenderTarget {
   VkImageLayout final_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
 };
 
+// The display colour the renderer writes for scene-referred radiance into 8-bit targets
+// (shaders/output.glsl): radiance x exposure through the ACES filmic fit of Narkowicz (2015), then
+// the sRGB transfer when `encode_srgb` (UNORM targets; sRGB formats encode in hardware). O(1).
+glm::vec3 display_colour(glm::vec3 radiance, float exposure, bool encode_srgb);
+
 // A CPU image read back from a target: RGBA, 8-bit sRGB or 32-bit float linear.
 struct Image {
   std::uint32_t width = 0, height = 0;

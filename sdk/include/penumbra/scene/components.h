@@ -97,6 +97,17 @@ struct Light {
   glm::vec2 size{1.0f};           // rect: width (local X) and height (local Y) in metres
 };
 
+// The sky: the radiance a ray that leaves the scene sees, uniform over every direction
+// (W/(m^2 sr) per channel; a constant sky colour). The World's environment is the first entity
+// with one, in entity order; none: black. It lights the scene through the bakes (every escaping
+// ray of the integrators and the probe grid brings it), and the renderer draws it as the
+// background.
+struct Environment {
+  glm::vec3 radiance{0.0f};
+};
+// The World's environment radiance (above): the first Environment's, else black. O(entities with one).
+glm::vec3 environment_radiance(World& world);
+
 struct Camera {
   float yfov = 0.8f;   // radians
   float aspect = 0.0f; // as authored (glTF aspectRatio; 0: none), kept for export: views take the target's, with yfov
