@@ -82,6 +82,10 @@ std::vector<FieldDesc> build_fields() {
   t.push_back(described(member("size", FieldKind::Vec2, &Light::size, 0.0, kBig, 0.01f), "m",
                         "rect: width (local X) and height (local Y)"));
 
+  // Environment (scene): the sky.
+  t.push_back(described(member("radiance", FieldKind::Color, &Environment::radiance, 0.0, kBig), "W/(m^2 sr)",
+                        "sky radiance, uniform over directions; lights the scene through the bakes"));
+
   // Material (scene): base colour split into RGB and alpha.
   {
     FieldDesc f;
@@ -114,7 +118,7 @@ std::vector<FieldDesc> build_fields() {
   // Camera (scene).
   t.push_back(described(member("yfov", FieldKind::Float, &Camera::yfov, 0.01, 3.1, 0.005f), "rad", "vertical field of view"));
   t.push_back(described(member("aspect", FieldKind::Float, &Camera::aspect, 0.0, 100.0), "",
-                        "width / height; 0 follows the window"));
+                        "as authored (width / height); views use the window's"));
   t.push_back(described(member("znear", FieldKind::Float, &Camera::znear, 1e-6, kBig, 0.001f), "m", "near clip distance"));
   t.push_back(described(member("zfar", FieldKind::Float, &Camera::zfar, 1e-5, kBig, 1.0f), "m", "far clip distance"));
 
