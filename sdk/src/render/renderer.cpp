@@ -19,6 +19,7 @@
 #include "penumbra/bake/integrators.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
+#include "penumbra/scene/mesh.h"
 #include "shared/layout.h"
 #include "spirv.h"
 #include "penumbra/render/vk_util.h"
@@ -172,6 +173,7 @@ struct Renderer::Impl final : RenderContext {
   // pipeline()).
   enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AmbientKey, Forward };
   glm::vec3 sky{0.0f};  // the World's environment radiance at the last sync (the lit view's background)
+  std::shared_ptr<const MeshData> emitter_quad;  // a unit quad: every rect light's emitter
   std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t, bool>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
@@ -1009,6 +1011,34 @@ Status Renderer::sync(World& world) {
     r.draws.push_back(d);
   }
 
+  // Rect lights' emitters: a quad of the light's radiance where the light is (a light, not geometry:
+  // it casts no shadow and the bakes do not see it), moved off its plane along where it shines by
+  // 0.5 % of its diagonal, so that a light mounted on a surface does not fight it for depth; seen
+  // from both sides (no culling).
+  const std::vector<WorldLight> world_lights = gather_lights(world);
+  for (const WorldLight& wl : world_lights) {
+    if (wl.light.type != Light::Type::Rect) continue;
+    if (!r.emitter_quad) r.emitter_quad = std::make_shared<const MeshData>(make_quad(1.0f, 1.0f, "rect light"));
+    auto gm = r.mesh(r.emitter_quad);
+    if (!gm) return gm.error();
+    auto tex = r.texture(nullptr);
+    if (!tex) return tex.error();
+    const glm::vec3 dir = glm::normalize(wl.direction);
+    const float lift = 0.005f * 2.0f * glm::length(wl.half_x + wl.half_y);
+    Draw d;
+    d.mesh = *gm;
+    d.material = (*tex)->set;
+    d.push.model = glm::mat4(glm::vec4(2.0f * wl.half_x, 0.0f), glm::vec4(2.0f * wl.half_y, 0.0f), glm::vec4(dir, 0.0f),
+                             glm::vec4(wl.position + lift * dir, 1.0f));
+    d.push.base_color = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+    d.push.emissive = glm::vec4(wl.light.color * wl.light.intensity, 0.0f);
+    d.push.feature = glm::vec4(0.0f, 1.0f, 0.0f, 0.0f);
+    d.casts_shadow = false;
+    max_vertices = std::max(max_vertices, d.mesh->vertex_count);
+    extend_by_box(d.world_bounds, r.emitter_quad->bounds, d.push.model);
+    r.draws.push_back(d);
+  }
+
   // The shared AO = 1 attribute, long enough for the largest mesh.
   if (r.ones.size < VkDeviceSize{max_vertices} * sizeof(float)) {
     PENUMBRA_TRY(r.ensure_host_buffer(r.ones, max_vertices * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT));
@@ -1018,7 +1048,7 @@ Status Renderer::sync(World& world) {
     if (!d.ao) d.ao = r.ones.buffer;
   }
 
-  r.plan_shadows(gather_lights(world));
+  r.plan_shadows(world_lights);
   r.stats.draws = static_cast<std::uint32_t>(r.draws.size());
   r.stats.cpu_record_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return {};

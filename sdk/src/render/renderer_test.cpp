@@ -331,6 +331,49 @@ TEST_F(RendererTest, SkinningMovesTheWalkerOnTheGpu) {
   expect_golden(*second, "courtyard_walker_t04");
 }
 
+// The Cornell box's rect light is drawn as its emitter: the lit view at its centre shows its
+// radiance (linear, exact), the direct view there is no light at all (the emitter reflects
+// nothing), and a sky gives the lit view's background its radiance, leaving the direct one black.
+TEST_F(RendererTest, RectLightEmittersAndTheSkyAreDrawn) {
+  auto s = bake_scene("cornell");
+  ASSERT_TRUE(s);
+  const CameraView cam = camera(*s);
+  const std::vector<WorldLight> lights = gather_lights(s->world);
+  ASSERT_EQ(lights.size(), 1u);
+  const WorldLight& light = lights[0];
+  const glm::vec4 clip = cam.projection * cam.view * glm::vec4(light.position, 1.0f);
+  const glm::vec2 ndc = glm::vec2(clip) / clip.w;
+  const auto px = static_cast<std::size_t>((ndc.x * 0.5f + 0.5f) * float(kWidth));
+  const auto py = static_cast<std::size_t>((ndc.y * 0.5f + 0.5f) * float(kHeight));
+  ASSERT_LT(px, kWidth);
+  ASSERT_LT(py, kHeight);
+  const std::size_t at = 4 * (py * kWidth + px);
+  const glm::vec3 radiance = light.light.color * light.light.intensity;
+  const auto lit = linear_view(s->world, cam, kWidth, kHeight, "lit", 2);
+  const auto direct = linear_view(s->world, cam, kWidth, kHeight, "direct", 2);
+  ASSERT_FALSE(lit.empty() || direct.empty());
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(lit[at + c], radiance[c], 1e-4f * radiance[c]) << c;
+    EXPECT_EQ(direct[at + c], 0.0f) << c;
+  }
+  // The top-left corner sees past the box: black without a sky, the sky's radiance with one.
+  EXPECT_EQ(lit[0], 0.0f);
+  const Entity sky = s->world.create();
+  s->world.add<Environment>(sky, Environment{{0.1f, 0.2f, 0.3f}});
+  const auto with_sky = linear_view(s->world, cam, kWidth, kHeight, "lit", 2);
+  const auto direct_sky = linear_view(s->world, cam, kWidth, kHeight, "direct", 2);
+  s->world.destroy(sky);
+  ASSERT_FALSE(with_sky.empty() || direct_sky.empty());
+  EXPECT_NEAR(with_sky[0], 0.1f, 1e-6f);
+  EXPECT_NEAR(with_sky[1], 0.2f, 1e-6f);
+  EXPECT_NEAR(with_sky[2], 0.3f, 1e-6f);
+  EXPECT_EQ(direct_sky[0], 0.0f);
+  // 8-bit targets get the same colour through display_colour (exposure, ACES, sRGB).
+  const glm::vec3 shown = display_colour({0.1f, 0.2f, 0.3f}, 1.0f, true);
+  EXPECT_GT(shown.b, shown.g);
+  EXPECT_GT(shown.g, shown.r);
+}
+
 // Up to PENUMBRA_UNROLLED_LIGHTS lights the forward pipeline is specialised on their count; more
 // loop over the frame's count. Cornell with its light and with eight more point lights that reach
 // nothing it sees (range 1 cm, 50 m away): 1 and 9 lights, the two paths, the same image.

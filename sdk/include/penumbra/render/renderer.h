@@ -20,7 +20,9 @@
 // KHR_lights_punctual range window and smooth cone; a Rect light's irradiance is the exact
 // unshadowed one (Lambert's polygon formula over the rect clipped to the receiver's horizon), its
 // visibility one six-face (cube) shadow map from its centre, so its shadows are hard-edged where the
-// real area light's are soft. The emitter itself is not drawn (it is a light, not geometry).
+// real area light's are soft. Its emitter is drawn as a quad of its radiance (a light, not geometry:
+// it casts no shadow and no bake sees it). The World's Environment (the sky) is the lit view's
+// background.
 // Shadow maps: directional orthographic over the bounds of every mesh, spot perspective over the
 // outer cone, point and rect six 90-degree faces; PCF over the 2x2 comparison filter (a 3x3 tent
 // of four taps, or one tap: RenderSettings::shadow_taps). Emissive meshes cast no shadows (an
