@@ -47,7 +47,8 @@ struct VertexAoHeader {
 // A group per static mesh, its vertices the elements (one float of AO each). Vertex v of the
 // scene's concatenated vertices (meshes in entity order) draws from Rng::stream(seed, v).
 Result<BakeWork> plan_vertex_ao(BakeInputs& in) {
-  const VertexAoSettings settings = VertexAoSettings::preset(in.settings.preset);
+  VertexAoSettings settings = VertexAoSettings::preset(in.settings.preset);
+  settings.max_distance = vertex_ao_distance(settings, glm::length(in.rays.bounds_max() - in.rays.bounds_min()));
   const std::vector<Entity> entities = static_meshes(in.world);
   auto keys = bake_keys(in, entities, "vertex-AO mesh");
   if (!keys) return keys.error();

@@ -18,10 +18,17 @@
 namespace penumbra {
 
 struct VertexAoSettings {
-  float max_distance = 1.0f;  // metres; occluders farther away do not darken
+  // Metres; occluders farther away do not darken. 0: follows the scene's scale,
+  // kVertexAoDistanceFraction of the diagonal of the static geometry's bounds (vertex_ao_distance).
+  float max_distance = 0.0f;
   std::uint32_t rays = 256;   // per vertex
-  static VertexAoSettings preset(Preset preset);  // draft 64, medium 256, high 1024 rays
+  static VertexAoSettings preset(Preset preset);  // draft 64, medium 256, high 1024 rays; distance 0
 };
+
+inline constexpr float kVertexAoDistanceFraction = 0.05f;
+// The distance a bake uses: max_distance, or (0) kVertexAoDistanceFraction x `scene_diagonal`
+// (1 m for an empty or degenerate scene). O(1).
+float vertex_ao_distance(const VertexAoSettings& settings, float scene_diagonal);
 
 // The baked data: one AO value per vertex for each baked entity.
 struct VertexAoData {
