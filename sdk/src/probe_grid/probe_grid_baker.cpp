@@ -18,7 +18,6 @@
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
-#include "penumbra/core/log.h"
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
 #include "penumbra/core/sh.h"
@@ -302,15 +301,6 @@ Result<std::shared_ptr<ProbeBake>> ProbeBake::prepare(const IrradianceProbeGrid&
   bake->grid_.data.reset();
   bake->grid_.bounces = probe_bounces(grid, scene.max_albedo());
   bake->grid_.truncation = 0.0f;
-  // The values the presets chose from the scene, reported (the chunk keeps the layout).
-  if (grid.truncation > 0.0f || (grid.spacing == 0.0f && grid.resolution == glm::uvec3(0u))) {
-    char line[240];
-    std::snprintf(line, sizeof line, "%.*s: %u bounces (max albedo %.3g, truncation %.3g), spacing %.3g m%s",
-                  int(context.size()), context.data(), bake->grid_.bounces, double(scene.max_albedo()),
-                  double(grid.truncation), double(layout->spacing.x),
-                  grid.spacing == 0.0f ? " (from the box's size)" : "");
-    log(LogLevel::Info, line);
-  }
   bake->layout_ = *layout;
   bake->scene_ = &scene;
   bake->lights_ = std::move(lights);

@@ -169,11 +169,11 @@ struct Renderer::Impl final : RenderContext {
   VkPipelineLayout renderer_layout = VK_NULL_HANDLE;
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE,
                  gbuffer_frag = VK_NULL_HANDLE, screen_vert = VK_NULL_HANDLE, ambient_key_frag = VK_NULL_HANDLE;
-  // The graphics pipelines by pass, colour format, view, flag, shadow taps and light count (see
-  // pipeline()).
-  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AmbientKey, Forward };
   glm::vec3 sky{0.0f};  // the World's environment radiance at the last sync (the lit view's background)
   std::shared_ptr<const MeshData> emitter_quad;  // a unit quad: every rect light's emitter
+  // The graphics pipelines by pass, colour format, view, flag, shadow taps, light count and
+  // whether a light is a rect (see pipeline()).
+  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AmbientKey, Forward };
   std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t, bool>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
