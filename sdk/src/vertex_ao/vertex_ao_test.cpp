@@ -39,6 +39,13 @@ Result<BakeResult> bake(World& world, const BakeSettings& settings, unsigned thr
   return bake_world(world, {"vertex-ao"}, settings, jobs);
 }
 
+// A draft vertex-AO bake of `world` on two threads.
+Result<BakeResult> draft_bake(World& world) {
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  return bake(world, settings, 2);
+}
+
 TEST(VertexAo, FurnaceMatchesTheChordClosedForm) {
   // Inside a sphere of radius R a ray leaving the wall at angle theta to the normal travels the
   // chord 2 R cos(theta). It is unoccluded within D when cos(theta) > D / (2R), so for cosine-
@@ -78,12 +85,10 @@ TEST(VertexAo, DistanceFollowsTheSceneScale) {
     auto rays = RayScene::build(world, options);
     ASSERT_TRUE(rays.ok());
     const float diagonal = glm::length(rays->bounds_max() - rays->bounds_min());
-    BakeSettings settings;
-    settings.preset = Preset::Draft;
-    auto result = bake(world, settings, 2);
+    auto result = draft_bake(world);
     ASSERT_TRUE(result.ok()) << result.error().message;
     auto data = read_vertex_ao_chunk(result->file.chunks[0]);
-    ASSERT_TRUE(data.ok());
+    ASSERT_TRUE(data.ok()) << data.error().message;
     EXPECT_FLOAT_EQ(data->max_distance, kVertexAoDistanceFraction * diagonal) << name;
   }
   VertexAoSettings explicit_distance;
@@ -168,9 +173,7 @@ TEST(VertexAo, ChunkRoundTripsAndRejectsDamage) {
 // meshes. A key that matches nothing, or a mesh of another size, is a NotFound naming the key.
 TEST(VertexAo, AttachFindsTheBakedEntitiesByKeyWhateverTheirIndex) {
   World world = scene_world("courtyard");
-  BakeSettings settings;
-  settings.preset = Preset::Draft;
-  auto result = bake(world, settings, 2);
+  auto result = draft_bake(world);
   ASSERT_TRUE(result.ok()) << result.error().message;
   auto data = read_vertex_ao_chunk(result->file.chunks[0]);
   ASSERT_TRUE(data.ok());
