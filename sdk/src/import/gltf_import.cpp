@@ -682,11 +682,33 @@ Status Importer::read_lighting_extension(std::size_t ni, const nlohmann::json& e
                     std::to_string(kLightingExtensionVersion));
   }
   for (const auto& [key, value] : ext.items())
-    if (key != "version" && key != "components")
-      return fail(ErrorCode::InvalidInput, where, "unknown key \"" + key + "\" (version, components)");
+    if (key != "version" && key != "components" && key != "environment")
+      return fail(ErrorCode::InvalidInput, where, "unknown key \"" + key + "\" (version, components, environment)");
+  // "environment": {"radiance": [r, g, b]}, the sky (scene/components.h, Environment) on the node.
+  if (const auto sky = ext.find("environment"); sky != ext.end()) {
+    const std::string swhere = where + ".environment";
+    if (!sky->is_object()) return fail(ErrorCode::InvalidInput, swhere, "is not an object; give {\"radiance\": [r, g, b]}");
+    for (const auto& [key, value] : sky->items())
+      if (key != "radiance") return fail(ErrorCode::InvalidInput, swhere, "unknown key \"" + key + "\" (radiance)");
+    const auto radiance = sky->find("radiance");
+    if (radiance == sky->end() || !radiance->is_array() || radiance->size() != 3)
+      return fail(ErrorCode::InvalidInput, swhere, "\"radiance\" is missing or not 3 numbers; give linear RGB in "
+                                                   "W/(m^2 sr), e.g. [0.2, 0.25, 0.35]");
+    Environment env;
+    for (std::size_t c = 0; c < 3; ++c) {
+      const nlohmann::json& v = (*radiance)[c];
+      const double x = v.is_number() ? v.get<double>() : -1.0;
+      if (!(std::isfinite(x) && x >= 0.0 && x <= 3.0e38))
+        return fail(ErrorCode::InvalidInput, swhere + ".radiance",
+                    "element " + std::to_string(c) + " is not a finite number >= 0; give linear RGB in W/(m^2 sr)");
+      env.radiance[static_cast<int>(c)] = static_cast<float>(x);
+    }
+    world_.add<Environment>(out_.nodes[ni], env);
+    if (!ext.contains("components")) return {};
+  }
   if (!ext.contains("components") || !ext["components"].is_object())
     return fail(ErrorCode::InvalidInput, where, "\"components\" is missing or not an object of component name -> "
-                                                "fields");
+                                                "fields (or give an \"environment\")");
   AuthoredLighting authored;
   authored.source = file_ + ": " + where;
   authored.meshes = std::move(meshes);

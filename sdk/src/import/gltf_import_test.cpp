@@ -361,6 +361,19 @@ TEST(GltfImport, LightingExtensionIsKeptPerNodeAndItsShapeChecked) {
          j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["components"]["IrradianceProbeGrid"]["resolution"] = {"x"};
        },
        ErrorCode::InvalidInput, {"IrradianceProbeGrid.resolution", "element 0 is not a number"}},
+      {"sky of two channels",
+       [](nlohmann::json& j) { j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"]["radiance"] = {0.1, 0.2}; },
+       ErrorCode::InvalidInput, {"nodes[3] 'probes'.extensions.PENUMBRA_lighting.environment", "not 3 numbers"}},
+      {"negative sky",
+       [](nlohmann::json& j) {
+         j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"]["radiance"] = {0.1, -0.2, 0.3};
+       },
+       ErrorCode::InvalidInput, {"environment.radiance", "element 1 is not a finite number >= 0"}},
+      {"sky with an unknown key",
+       [](nlohmann::json& j) {
+         j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"] = {{"radiance", {0, 0, 0}}, {"map", "sky.exr"}};
+       },
+       ErrorCode::InvalidInput, {"environment", "unknown key \"map\" (radiance)"}},
   };
   const std::filesystem::path path =
       std::filesystem::temp_directory_path() / ("penumbra_lighting_ext_" + std::to_string(::getpid()) + ".gltf");
@@ -377,6 +390,20 @@ TEST(GltfImport, LightingExtensionIsKeptPerNodeAndItsShapeChecked) {
       if (n.value == "crate") components = a.components.size();
     });
     EXPECT_EQ(components, 2u);
+  }
+  // A sky on a node: "environment" alone (no components) gives the node's entity an Environment.
+  {
+    nlohmann::json j = base;
+    j["nodes"][3]["extensions"]["PENUMBRA_lighting"] = {{"version", 1},
+                                                         {"environment", {{"radiance", {0.2, 0.25, 0.35}}}}};
+    std::ofstream(path) << j.dump();
+    World w;
+    auto r = import_gltf(w, path);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(environment_radiance(w), glm::vec3(0.2f, 0.25f, 0.35f));
+    std::size_t declared = 0;
+    w.each<AuthoredLighting>([&](Entity, AuthoredLighting&) { ++declared; });
+    EXPECT_EQ(declared, 1u);  // the crate's; the sky's node declares no components
   }
   for (const Mutation& m : mutations) {
     nlohmann::json j = base;

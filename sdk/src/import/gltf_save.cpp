@@ -196,7 +196,7 @@ Status save_gltf(const std::filesystem::path& source, const std::filesystem::pat
     // PENUMBRA_lighting, written whole (or removed).
     if (node.contains("extensions") && !node["extensions"].is_object())
       return make_error(ErrorCode::InvalidInput, where + ": extensions is not an object");
-    if (edit.lighting.empty()) {
+    if (edit.lighting.empty() && !edit.environment) {
       if (node.contains("extensions")) {
         node["extensions"].erase("PENUMBRA_lighting");
         if (node["extensions"].empty()) node.erase("extensions");
@@ -209,7 +209,15 @@ Status save_gltf(const std::filesystem::path& source, const std::filesystem::pat
         for (const auto& [name, value] : c.fields) body[name] = to_json(value);
         components[c.type] = std::move(body);
       }
-      node["extensions"]["PENUMBRA_lighting"] = {{"version", kLightingExtensionVersion}, {"components", components}};
+      nlohmann::ordered_json ext = {{"version", kLightingExtensionVersion}};
+      if (!edit.lighting.empty()) ext["components"] = std::move(components);
+      if (edit.environment) {
+        const glm::vec3 l = edit.environment->radiance;
+        if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z) && l.x >= 0.0f && l.y >= 0.0f && l.z >= 0.0f))
+          return make_error(ErrorCode::InvalidArgument, where + ": the sky's radiance is negative or not finite");
+        ext["environment"] = {{"radiance", {l.x, l.y, l.z}}};
+      }
+      node["extensions"]["PENUMBRA_lighting"] = std::move(ext);
     }
   }
 

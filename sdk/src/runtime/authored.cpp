@@ -144,6 +144,7 @@ std::vector<GltfNodeEdit> gltf_node_edits(World& world) {
       for (Entity k : kids->entities)
         if (world.has<Mesh>(k) && !world.has<GltfNode>(k)) meshes.push_back(k);
     edit.lighting = authored_components(world, e, meshes);
+    if (const Environment* sky = world.try_get<Environment>(e)) edit.environment = *sky;
     edits.push_back(std::move(edit));
   });
   std::sort(edits.begin(), edits.end(), [](const GltfNodeEdit& a, const GltfNodeEdit& b) { return a.node < b.node; });

@@ -132,6 +132,7 @@ TEST(AuthoredLighting, SavedGltfReopensWithTheEditsAndKeepsTheRest) {
   world.patch<IrradianceProbeGrid>(named(world, "probes")).spacing = 2.0f;
   world.patch<Transform>(named(world, "probes")).translation = {1.0f, 1.5f, -1.0f};
   world.patch<Light>(named(world, "sun")).intensity = 5.0f;
+  world.add<Environment>(named(world, "sun"), Environment{{0.1f, 0.2f, 0.3f}});  // a sky, saved on its node
   const auto out = std::filesystem::temp_directory_path() / ("penumbra_saved_" + std::to_string(::getpid()) + ".gltf");
   const std::vector<GltfNodeEdit> edits = gltf_node_edits(world);
   ASSERT_TRUE(save_gltf(kCases / "lighting_extension.gltf", out, edits).ok());
@@ -141,6 +142,7 @@ TEST(AuthoredLighting, SavedGltfReopensWithTheEditsAndKeepsTheRest) {
   EXPECT_EQ(reopened.get<IrradianceProbeGrid>(named(reopened, "probes")).sh_order, ProbeShOrder::L1);
   EXPECT_EQ(reopened.get<Transform>(named(reopened, "probes")).translation, glm::vec3(1.0f, 1.5f, -1.0f));
   EXPECT_EQ(reopened.get<Light>(named(reopened, "sun")).intensity, 5.0f);
+  EXPECT_EQ(environment_radiance(reopened), glm::vec3(0.1f, 0.2f, 0.3f));
   std::size_t casters = 0;
   reopened.each<AOFieldCaster>([&](Entity, AOFieldCaster& c) {
     ++casters;

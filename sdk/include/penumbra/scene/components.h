@@ -200,8 +200,10 @@ struct GltfNodeEdit {
   std::uint32_t node = 0;              // index into the file's nodes
   std::optional<Transform> transform;  // written as translation/rotation/scale when it changed
   std::optional<Light> light;          // the node's KHR_lights_punctual light (not a Rect)
-  // Its PENUMBRA_lighting components (runtime.h: authored_components); empty removes the extension.
+  // Its PENUMBRA_lighting components (runtime.h: authored_components) and sky ("environment");
+  // neither removes the extension.
   std::vector<AuthoredComponent> lighting;
+  std::optional<Environment> environment;
 };
 
 }  // namespace penumbra
