@@ -13,7 +13,9 @@
 // view, so textures cancel out), plus the hit surface's emission in the lit view.
 //
 // A pixel counts when a CPU ray through its centre (RayScene, the same camera) hits a surface
-// within 0.5 % of its distance from the renderer's position (edges and background left out); its
+// within 0.5 % of its distance from the renderer's position (edges and background left out) and
+// the renderer's albedo there is not black (a rect light's emitter is drawn, but it is not
+// geometry the reference sees; a black surface reflects nothing to judge); its
 // region is the hit entity's name and the axis its geometric normal faces most ("floor +y",
 // "short_block +x"). Per scene, view and region: mean luminance of the real-time view and of the
 // reference, their ratio, the median per-pixel relative error |rt - ref| / max(ref, 5 % of the
@@ -145,6 +147,7 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
       if (!(glm::distance(p, q) <= 0.005f * glm::distance(origin, q))) continue;
       glm::vec3 n = pixel(views["normal"], i);
       if (!(glm::length(n) > 0.5f)) continue;
+      if (pixel(views["albedo"], i) == glm::vec3(0.0f)) continue;  // reflects nothing, or a rect light's emitter
       n = glm::normalize(n);
       const auto* name = world.try_get<Name>(hit.entity);
       const std::string region =
