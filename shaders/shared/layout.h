@@ -78,7 +78,7 @@ struct FrameUniforms {
 struct GpuLight {
   vec4 position_type;   // xyz position (point, spot, rect centre), w type
   vec4 direction_range; // xyz unit direction light travels (directional, spot, rect normal), w range (0: infinite)
-  vec4 color;           // rgb colour x intensity, w rect area (m^2)
+  vec4 color;           // rgb colour x intensity, w unused
   vec4 cone_shadow;     // x cos outer, y cos inner (spot), z first shadow layer (-1: none), w layer count (1 or 6)
   vec4 half_x;          // rect: xyz half-size vector along its local X (world space)
   vec4 half_y;          // rect: xyz half-size vector along its local Y

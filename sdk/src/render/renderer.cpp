@@ -622,19 +622,15 @@ void Renderer::Impl::plan_shadows(const std::vector<WorldLight>& world_lights) {
     gpu::GpuLight g{};
     const glm::vec3 dir = glm::normalize(wl.direction);
     int type = PENUMBRA_LIGHT_POINT;
-    float area = 0.0f;
     switch (l.type) {
       case Light::Type::Directional: type = PENUMBRA_LIGHT_DIRECTIONAL; break;
       case Light::Type::Point: type = PENUMBRA_LIGHT_POINT; break;
       case Light::Type::Spot: type = PENUMBRA_LIGHT_SPOT; break;
-      case Light::Type::Rect:
-        type = PENUMBRA_LIGHT_RECT;
-        area = 4.0f * glm::length(glm::cross(wl.half_x, wl.half_y));
-        break;
+      case Light::Type::Rect: type = PENUMBRA_LIGHT_RECT; break;
     }
     g.position_type = glm::vec4(wl.position, float(type));
     g.direction_range = glm::vec4(dir, l.range);
-    g.color = glm::vec4(l.color * l.intensity, area);
+    g.color = glm::vec4(l.color * l.intensity, 0.0f);
     g.cone_shadow = glm::vec4(std::cos(l.outer_cone_angle), std::cos(l.inner_cone_angle),
                               float(shadow_matrices.size()), 1.0f);
     g.half_x = glm::vec4(wl.half_x, 0.0f);

@@ -201,7 +201,7 @@ struct GltfNodeEdit {
   std::optional<Transform> transform;  // written as translation/rotation/scale when it changed
   std::optional<Light> light;          // the node's KHR_lights_punctual light (not a Rect)
   // Its PENUMBRA_lighting components (runtime.h: authored_components) and sky ("environment");
-  // neither removes the extension.
+  // with neither, the extension is removed.
   std::vector<AuthoredComponent> lighting;
   std::optional<Environment> environment;
 };
