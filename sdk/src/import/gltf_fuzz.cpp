@@ -1,8 +1,10 @@
 // Fuzz target "gltf": the glTF importer (import_gltf) on any bytes, as .gltf or .glb (the first
 // byte of the input chooses, the rest is the file), then the lighting components its
-// PENUMBRA_lighting declares (apply_authored_lighting). Invariants: an import succeeds with valid
-// meshes, or fails with an error that starts with the file's path and leaves no entity behind;
-// applying the declarations succeeds or fails naming the file.
+// PENUMBRA_lighting declares (apply_authored_lighting), then save_gltf of what was imported.
+// Invariants: an import succeeds with valid meshes, or fails with an error that starts with the
+// file's path and leaves no entity behind; applying the declarations succeeds or fails naming the
+// file; a file that imported saves (or fails with an error, never a crash) and what it saves
+// imports again.
 #include "fuzz/fuzz.h"
 #include "penumbra/import/gltf.h"
 #include "penumbra/runtime.h"
@@ -25,6 +27,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const Status applied = apply_authored_lighting(world);
     fuzz::require(applied || applied.error().message.rfind(path.string(), 0) == 0,
                   "a lighting declaration's error that does not name the file");
+    std::filesystem::path saved = path;
+    saved.replace_filename(path.stem().string() + "-saved" + path.extension().string());
+    if (save_gltf(path, saved, gltf_node_edits(world))) {
+      World again;
+      auto reimported = import_gltf(again, saved, options);
+      fuzz::require(reimported.ok(), "a saved file that does not import again");
+    }
+    std::error_code ec;
+    std::filesystem::remove(saved, ec);
   } else {
     fuzz::require(imported.error().message.rfind(path.string(), 0) == 0, "an error that does not name the file");
     std::size_t left = 0;
