@@ -135,11 +135,7 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
   for (std::uint32_t y = 0; y < height; ++y) {
     for (std::uint32_t x = 0; x < width; ++x) {
       const std::size_t i = std::size_t(y) * width + x;
-      const glm::vec2 ndc(2.0f * (float(x) + 0.5f) / float(width) - 1.0f, 2.0f * (float(y) + 0.5f) / float(height) - 1.0f);
-      const glm::vec4 near = clip_to_world * glm::vec4(ndc, 0.0f, 1.0f);
-      const glm::vec4 far = clip_to_world * glm::vec4(ndc, 1.0f, 1.0f);
-      const glm::vec3 origin = glm::vec3(near) / near.w;
-      const glm::vec3 dir = glm::normalize(glm::vec3(far) / far.w - origin);
+      const auto [origin, dir] = camera_ray(clip_to_world, {float(x) + 0.5f, float(y) + 0.5f}, width, height);
       Hit hit;
       if (!rays->intersect(Ray{origin, 0.0f, dir}, hit)) continue;
       const glm::vec3 p = pixel(views["position"], i);

@@ -1,8 +1,10 @@
 // penumbra render SCENE [--bake FILE] -o OUT.png|OUT.exr [--width W] [--height H] [--camera NAME]
 //                       [--time T] [--frames N [--animate]] [--view V] [--exposure E]
 //                       [--shadow-map S] [--shadow-taps 1|4] [--ambient-step 1|2]
+//                       [--offline MODE [--spp N | --seconds S] [--std-error E.exr] [--threads N]]
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -10,6 +12,7 @@
 #include "cli.h"
 #include "penumbra/core/log.h"
 #include "penumbra/core/pbake.h"
+#include "penumbra/offline/offline_renderer.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
@@ -36,6 +39,113 @@ double percentile(std::vector<double> sorted, double q) {
   return i + 1 < sorted.size() ? sorted[i] * (1.0 - f) + sorted[i + 1] * f : sorted[i];
 }
 
+CancelToken g_render_cancel;
+void on_render_interrupt(int) { g_render_cancel.cancel(); }
+
+// The share of pixels that are not black (an all-black image is a failure to see anything).
+double lit_share(const Image& image, bool exr) {
+  std::size_t lit = 0;
+  const std::size_t pixels = std::size_t{image.width} * image.height;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    bool any = false;
+    for (std::size_t c = 0; c < 3; ++c)
+      any = any || (exr ? image.rgba32f[4 * i + c] > 0.0f : image.rgba8[4 * i + c] > 0);
+    lit += any;
+  }
+  return double(lit) / double(pixels);
+}
+
+// An offline view as an image: linear RGBA floats for EXR, display colours for PNG.
+Image to_image(const std::vector<glm::vec3>& radiance, std::uint32_t width, std::uint32_t height, bool exr,
+               float exposure) {
+  Image image;
+  image.width = width;
+  image.height = height;
+  if (exr) {
+    image.rgba32f.resize(radiance.size() * 4);
+    for (std::size_t i = 0; i < radiance.size(); ++i) {
+      for (int c = 0; c < 3; ++c) image.rgba32f[4 * i + c] = radiance[i][c];
+      image.rgba32f[4 * i + 3] = 1.0f;
+    }
+  } else {
+    image.rgba8.resize(radiance.size() * 4);
+    for (std::size_t i = 0; i < radiance.size(); ++i) {
+      const glm::vec3 d = display_colour(radiance[i], exposure, true);
+      for (int c = 0; c < 3; ++c)
+        image.rgba8[4 * i + c] = static_cast<std::uint8_t>(std::lround(std::clamp(d[c], 0.0f, 1.0f) * 255.0f));
+      image.rgba8[4 * i + 3] = 255;
+    }
+  }
+  return image;
+}
+
+struct OfflineArgs {
+  OfflineMode mode;
+  std::optional<std::uint32_t> spp;
+  std::optional<double> seconds;
+  std::optional<std::string> std_error;
+  unsigned threads = 0;
+};
+
+// penumbra render --offline: the CPU renderer (offline/offline_renderer.h) of the same frame.
+int render_offline_image(World& world, const std::string& scene, const CameraView& view, std::uint32_t width,
+                         std::uint32_t height, const std::string& view_name, float exposure, const std::string& out,
+                         bool exr, const OfflineArgs& o) {
+  if (view_name != "lit" && view_name != "direct" && view_name != "indirect" && view_name != "albedo")
+    return fail(kUsage, "--view " + view_name + ": the offline renderer has the views lit, direct, indirect, albedo");
+  RaySceneOptions options;
+  options.include_dynamic = true;
+  auto rays = RayScene::build(world, options);
+  if (!rays) return fail(kFailure, scene + ": " + rays.error().message);
+  const std::vector<WorldLight> lights = gather_lights(world);
+  OfflineSettings settings;
+  settings.mode = o.mode;
+  settings.width = width;
+  settings.height = height;
+  if (o.mode == OfflineMode::Reference) settings.spp = 256;
+  if (o.spp) settings.spp = *o.spp;
+  ThreadPool pool(o.threads);
+  std::signal(SIGINT, on_render_interrupt);
+  JobContext jobs(&pool, terminal_progress(), &g_render_cancel);
+  if (o.seconds) {
+    // A time budget: time the mode at its fewest rays, then take the ray count that fits (the image
+    // is then the deterministic one of that count, printed below).
+    OfflineSettings probe = settings;
+    probe.spp = o.mode == OfflineMode::Reference ? 2 : 1;
+    JobContext quiet(&pool, {}, &g_render_cancel);
+    auto first = render_offline(*rays, lights, view, probe, quiet);
+    if (!first) return fail(kFailure, scene + ": " + first.error().message);
+    const double per_spp = first->seconds / double(probe.spp);
+    settings.spp = static_cast<std::uint32_t>(std::clamp(*o.seconds / std::max(per_spp, 1e-9), double(probe.spp), 65536.0));
+  }
+  auto image = render_offline(*rays, lights, view, settings, jobs);
+  std::signal(SIGINT, SIG_DFL);
+  if (!image) return fail(kFailure, scene + ": " + image.error().message);
+  const std::vector<glm::vec3>& radiance = view_name == "direct"     ? image->direct
+                                           : view_name == "indirect" ? image->indirect
+                                           : view_name == "albedo"   ? image->albedo
+                                                                     : image->lit;
+  const Image written = to_image(radiance, width, height, exr, exposure);
+  if (Status s = write_image(written, out); !s) return fail(kFailure, s.error().message);
+  if (o.std_error) {
+    if (Status s = write_image(to_image(image->lit_std_error, width, height, true, 1.0f), *o.std_error); !s)
+      return fail(kFailure, s.error().message);
+  }
+  const double share = lit_share(written, exr);
+  if (share == 0.0)
+    return fail(kFailure, out + ": the image is black (" + view_name + " view, offline " + std::string(to_string(o.mode)) +
+                              "): nothing in view gives it light; check the camera (--camera, or none to frame the "
+                              "scene) and the scene's lights");
+  const double per_pixel = image->covered_pixels ? double(image->indirect_samples) / double(image->covered_pixels) : 0.0;
+  std::printf("rendered %s offline (%s, spp %u: %.1f indirect paths per covered pixel, %llu dropped as non-finite) "
+              "in %.2f s (%s view) -> %s (%ux%u, %.1f%% of the pixels not black)%s%s\n",
+              scene.c_str(), std::string(to_string(o.mode)).c_str(), settings.spp, per_pixel,
+              static_cast<unsigned long long>(image->nonfinite_samples), image->seconds, view_name.c_str(), out.c_str(),
+              width, height, 100.0 * share, o.std_error ? ", standard error -> " : "",
+              o.std_error ? o.std_error->c_str() : "");
+  return kSuccess;
+}
+
 }  // namespace
 
 int cmd_render(Args args) {
@@ -51,6 +161,11 @@ int cmd_render(Args args) {
   auto shadow_text = args.take("--shadow-map");
   auto taps_text = args.take("--shadow-taps");
   auto step_text = args.take("--ambient-step");
+  auto offline_text = args.take("--offline");
+  auto spp_text = args.take("--spp");
+  auto seconds_text = args.take("--seconds");
+  auto std_error_text = args.take("--std-error");
+  auto threads_text = args.take("--threads");
   const bool animate = args.take_flag("--animate");
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
   if (args.rest().size() != 1 || args.rest()[0].starts_with("-")) {
@@ -104,6 +219,34 @@ int cmd_render(Args args) {
     settings.exposure = static_cast<float>(*v);
   }
 
+  std::optional<OfflineArgs> offline;
+  if (offline_text) {
+    const auto mode = parse_offline_mode(*offline_text);
+    if (!mode) return fail(kUsage, "--offline " + *offline_text + ": use one of " + std::string(offline_mode_names()));
+    offline = OfflineArgs{*mode, {}, {}, std_error_text, 0};
+    if (spp_text && seconds_text) return fail(kUsage, "--spp and --seconds: give one of them");
+    if (spp_text) {
+      auto v = parse_count("--spp", *spp_text);
+      if (!v || *v == 0 || *v > 65536) return fail(kUsage, "--spp must be in 1..65536");
+      offline->spp = static_cast<std::uint32_t>(*v);
+    }
+    if (seconds_text) {
+      auto v = parse_number(*seconds_text);
+      if (!v || *v <= 0.0) return fail(kUsage, "--seconds must be a positive number");
+      offline->seconds = *v;
+    }
+    if (std_error_text && (*mode != OfflineMode::Reference || !std_error_text->ends_with(".exr")))
+      return fail(kUsage, "--std-error E.exr writes the reference's standard error: use it with --offline reference");
+    const auto threads = parse_threads(threads_text);
+    if (!threads) return kUsage;
+    offline->threads = *threads;
+    if (frames > 0 || bake || shadow_text || taps_text || step_text)
+      return fail(kUsage, "--offline renders on the CPU: --frames, --bake, --shadow-map, --shadow-taps and "
+                          "--ambient-step are the real-time renderer's");
+  } else if (spp_text || seconds_text || std_error_text || threads_text) {
+    return fail(kUsage, "--spp, --seconds, --std-error and --threads are options of --offline MODE");
+  }
+
   // Scene, baked data, animation time.
   const std::string& scene = args.rest()[0];
   World world;
@@ -134,6 +277,8 @@ int cmd_render(Args args) {
                               (names.empty() ? "; the scene has no cameras" : "; cameras: " + list));
   }
   const CameraView view = camera ? camera_view(world, camera, aspect) : framing_camera_view(world, aspect);
+  if (offline)
+    return render_offline_image(world, scene, view, width, height, settings.view, settings.exposure, *out, exr, *offline);
 
   DeviceOptions device_options;
   auto device = Device::create(device_options);
@@ -171,22 +316,15 @@ int cmd_render(Args args) {
   auto image = (*renderer)->render_image(world, view, width, height, settings, exr);
   if (!image) return fail(kFailure, image.error().message);
   if (Status s = write_image(*image, *out); !s) return fail(kFailure, s.error().message);
-  // The share of pixels that are not black: an all-black image is a failure to see anything
-  // (camera inside or away from the geometry, nothing lit), never a success.
-  std::size_t lit = 0;
-  const std::size_t pixels = std::size_t{width} * height;
-  for (std::size_t i = 0; i < pixels; ++i) {
-    bool any = false;
-    for (std::size_t c = 0; c < 3; ++c)
-      any = any || (exr ? image->rgba32f[4 * i + c] > 0.0f : image->rgba8[4 * i + c] > 0);
-    lit += any;
-  }
-  if (lit == 0)
+  // An all-black image is a failure to see anything (camera inside or away from the geometry,
+  // nothing lit), never a success.
+  const double share = lit_share(*image, exr);
+  if (share == 0.0)
     return fail(kFailure, *out + ": the image is black (" + settings.view +
                               " view): nothing in view gives it light; check the camera (--camera, or none to frame "
                               "the scene), the scene's lights, and for the views of baked lighting the --bake file");
   std::printf("rendered %s (%s view) -> %s (%ux%u, %.1f%% of the pixels not black)\n", scene.c_str(),
-              settings.view.c_str(), out->c_str(), width, height, 100.0 * double(lit) / double(pixels));
+              settings.view.c_str(), out->c_str(), width, height, 100.0 * share);
   return kSuccess;
 }
 

@@ -1,5 +1,4 @@
-// penumbra: the command-line face of the SDK (bake, inspect and benchmark; render arrives with the
-// renderer).
+// penumbra: the command-line face of the SDK (bake, inspect, render and benchmark).
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -32,7 +31,7 @@ Commands:
       Show the file's version, input hash, chunks, their sizes and what they hold.
   render SCENE [--bake FILE] -o OUT.png|OUT.exr [--width W] [--height H] [--camera NAME] [--time T]
          [--frames N [--animate]] [--view V] [--exposure E] [--shadow-map S] [--shadow-taps 1|4]
-         [--ambient-step 1|2]
+         [--ambient-step 1|2] [--offline MODE [--spp N | --seconds S] [--std-error E.exr] [--threads N]]
       Render SCENE with the Vulkan renderer (lavapipe without a GPU) at W x H (default 1280x720),
       with the lighting data of FILE.pbake, at animation time T seconds. --frames N first renders N
       frames and prints the median, 5th and 95th percentile frame time; --animate advances the scene
@@ -42,6 +41,12 @@ Commands:
       --shadow-taps 1 filters shadows bilinearly instead of over 3x3 texels; --ambient-step 1
       evaluates the ambient image (the render features' indirect light and AO) at every pixel instead
       of every second one per axis.
+      --offline MODE renders the same frame on the CPU instead (offline/offline_renderer.h): soft
+      area-light shadows and unbiased indirect light; MODE mc (plain Monte Carlo), irradiance-filter
+      (irradiance filtering, the default choice for a clean image) or reference (converged, with
+      --std-error E.exr for each pixel's standard error). --spp N indirect rays per pixel (16;
+      reference 256), or --seconds S to pick the N that fits S seconds; --threads N. Views: lit,
+      direct, indirect, albedo. Deterministic for a given N at any thread count.
   validate FILE
       Check FILE (.gltf, .glb or .pbake) without baking: every check the importer or the chunk
       readers make; exit 1 naming the first problem.

@@ -59,9 +59,18 @@ glm::vec3 direct_light(const RayScene& scene, std::span<const WorldLight> lights
   return e;
 }
 
-// One sample of E(x, n): next-event estimation at x plus one cosine-sampled path. Each vertex adds
-// the emission it sees (pi Le, the cosine-sampling estimator of \int Le cos) and, after the albedo
-// is folded into the throughput, its own direct light.
+Status check_points(std::size_t points, std::size_t out, const char* what) {
+  if (points == out) return {};
+  return make_error(ErrorCode::InvalidArgument, std::string(what) + ": " + std::to_string(points) +
+                                                    " points but room for " + std::to_string(out) +
+                                                    " results; size the output like the points");
+}
+
+}  // namespace
+
+// Next-event estimation at x plus one cosine-sampled path. Each vertex adds the emission it sees
+// (pi Le, the cosine-sampling estimator of \int Le cos) and, after the albedo is folded into the
+// throughput, its own direct light.
 glm::vec3 irradiance_sample(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
                             const IrradianceSettings& s, Rng& rng) {
   // Light arriving straight at x (the lights' and, below, the first hit's emission) is direct.
@@ -96,15 +105,6 @@ glm::vec3 irradiance_sample(const RayScene& scene, std::span<const WorldLight> l
   }
   return sum;
 }
-
-Status check_points(std::size_t points, std::size_t out, const char* what) {
-  if (points == out) return {};
-  return make_error(ErrorCode::InvalidArgument, std::string(what) + ": " + std::to_string(points) +
-                                                    " points but room for " + std::to_string(out) +
-                                                    " results; size the output like the points");
-}
-
-}  // namespace
 
 AoEstimate ambient_occlusion(const RayScene& scene, glm::vec3 x, glm::vec3 n, float max_distance,
                              std::uint32_t rays, Rng& rng, AoSampling sampling) {

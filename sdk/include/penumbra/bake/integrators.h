@@ -119,6 +119,11 @@ struct IrradianceSettings {
 Estimate irradiance(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
                     const IrradianceSettings& settings, Rng& rng);
 
+// One sample of irradiance() (the mean of `samples` of these): for estimators that combine the
+// samples themselves. settings.samples is not read. Cost: one path. Thread-safe.
+glm::vec3 irradiance_sample(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
+                            const IrradianceSettings& settings, Rng& rng);
+
 // Irradiance at every point, point i from Rng::stream(settings.seed, i), in parallel on `jobs`
 // (one progress stage, "irradiance"). Fails with InvalidArgument for samples < 2, Cancelled when
 // the host cancels. out.size() must equal points.size().

@@ -57,20 +57,9 @@
 #include "penumbra/ecs/world.h"
 #include "penumbra/render/device.h"
 #include "penumbra/render/feature.h"
+#include "penumbra/scene/camera.h"
 
 namespace penumbra {
-
-struct CameraView {
-  glm::mat4 view{1.0f};        // world -> camera
-  glm::mat4 projection{1.0f};  // camera -> clip, Vulkan conventions (y down, depth 0..1)
-  glm::vec3 position{0.0f};    // world-space eye
-};
-// The CameraView of a Camera entity at its WorldTransform, for a target of the given aspect (width /
-// height), which wins over Camera::aspect: the image is never stretched; the vertical field is yfov.
-CameraView camera_view(const World& world, Entity camera, float aspect);
-// A camera that frames every mesh as posed now (posed_bounds: skinned meshes by their skinned
-// vertices), looking from the front and above. Run after the skinning system.
-CameraView framing_camera_view(World& world, float aspect);
 
 struct RenderSettings {
   // The debug view by name (Renderer::views()): the renderer's own "lit" (direct + indirect, AO

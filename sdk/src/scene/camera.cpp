@@ -1,13 +1,14 @@
-// Camera views (Vulkan clip conventions: y down, depth 0..1).
+// Camera views and primary rays (Vulkan clip conventions: y down, depth 0..1).
+#include "penumbra/scene/camera.h"
+
 #include <cmath>
-#include <string>
 
 #include <glm/ext/matrix_clip_space.hpp>
 #include <glm/ext/matrix_transform.hpp>
+#include <glm/geometric.hpp>
 #include <glm/gtc/matrix_inverse.hpp>
 
 #include "penumbra/ecs/transform.h"
-#include "penumbra/render/renderer.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
 
@@ -49,6 +50,16 @@ CameraView framing_camera_view(World& world, float aspect) {
   v.view = glm::lookAtRH(eye, centre, glm::vec3(0.0f, 1.0f, 0.0f));
   v.projection = vulkan_perspective(yfov, aspect, distance * 0.01f, distance + 2.0f * radius);
   return v;
+}
+
+CameraRay camera_ray(const glm::mat4& clip_to_world, glm::vec2 pixel, std::uint32_t width, std::uint32_t height) {
+  const glm::vec2 ndc(2.0f * pixel.x / float(width) - 1.0f, 2.0f * pixel.y / float(height) - 1.0f);
+  const glm::vec4 near = clip_to_world * glm::vec4(ndc, 0.0f, 1.0f);
+  const glm::vec4 far = clip_to_world * glm::vec4(ndc, 1.0f, 1.0f);
+  CameraRay r;
+  r.origin = glm::vec3(near) / near.w;
+  r.direction = glm::normalize(glm::vec3(far) / far.w - r.origin);
+  return r;
 }
 
 }  // namespace penumbra

@@ -1,0 +1,60 @@
+// Irradiance filtering (Kontkanen, Räsänen & Keller 2004; thesis section 3.1): a spatially varying
+// low-pass filter over noisy per-pixel indirect irradiance, driven by the predictor of irradiance
+// caching (Ward 1988).
+//
+// Each pixel p holds its primary hit x_p (normal n_p), a noisy estimate Ê_p from N_p rays and the
+// harmonic mean distance m_p = N_p / sum(1 / d_k) of those rays (misses count as infinitely far).
+// The filtered irradiance is
+//   Ē_p = sum_q K(ε_pq / a) N_q Ê_q / sum_q K(ε_pq / a) N_q,
+//   ε_pq = |x_p - x_q| / m_p + sqrt(1 - n_p . n_q)   (Ward's distance),  K(t) = exp(-t^2), 0 for t > 2,
+// gathered over the screen window that covers the world-space radius 2 a m_p around x_p. Weighting
+// by N_q averages every ray in the kernel once, so pixels given more rays (adaptive sampling) count
+// more. Where the predictor expects fast change (small m_p: corners, contacts) the kernel shrinks
+// to the pixel itself; on open surfaces it spans many pixels. The filter is biased (pixels sample
+// world space unevenly and the predictor can miss detail) and never creates light: every output
+// is a convex combination of inputs, so a scene without indirect light filters to zero.
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+#include <glm/vec3.hpp>
+
+#include "penumbra/core/result.h"
+
+namespace penumbra {
+
+class JobContext;
+
+// What the filter reads of one pixel.
+struct FilterPixel {
+  glm::vec3 position{0.0f};   // primary hit x_p
+  glm::vec3 normal{0.0f};     // unit, on the side the camera sees
+  float footprint = 0.0f;     // world-space width of the pixel at x_p (> 0)
+  glm::vec3 irradiance{0.0f}; // noisy Ê_p, finite
+  float harmonic_distance = 0.0f;  // m_p (> 0; +inf when every ray escaped)
+  std::uint32_t samples = 0;  // N_p; 0: no surface (not filtered, never gathered)
+};
+
+struct IrradianceFilterSettings {
+  // The kernel's reconstruction radius a (the paper uses about 0.1-0.3): larger is smoother and more
+  // biased near changes of irradiance.
+  float a = 0.2f;
+  // The gather window's largest half-width in pixels (the cost per pixel is (2 r + 1)^2 taps).
+  std::uint32_t max_radius = 24;
+};
+
+// The filter's support at each pixel: sum_q K(ε_pq / a) over its window (1 for a kernel that
+// holds only the pixel itself; 0 where samples == 0). What adaptive sampling sizes the rays by: a
+// pixel whose kernel holds few neighbours needs more rays of its own. Preconditions:
+// pixels.size() == out.size() == width * height, a > 0. Cost: O(pixels x window taps) in parallel
+// on `jobs` (stage "filter support"). Cancelled when the host cancels.
+Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
+                                 const IrradianceFilterSettings& settings, std::span<float> out, JobContext& jobs);
+
+// Ē at every pixel (0 where samples == 0). Same preconditions and cost (stage "irradiance filter").
+// Deterministic: each output is a fixed-order sum over its window.
+Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
+                         const IrradianceFilterSettings& settings, std::span<glm::vec3> out, JobContext& jobs);
+
+}  // namespace penumbra
