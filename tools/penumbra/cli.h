@@ -50,6 +50,7 @@ int cmd_bake(Args args);
 int cmd_merge(Args args);
 int cmd_bench(Args args);
 int cmd_render(Args args);
+int cmd_compare(Args args);
 int cmd_validate(Args args);
 
 }  // namespace penumbra::cli

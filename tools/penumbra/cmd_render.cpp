@@ -55,9 +55,10 @@ double lit_share(const Image& image, bool exr) {
   return double(lit) / double(pixels);
 }
 
-// An offline view as an image: linear RGBA floats for EXR, display colours for PNG.
-Image to_image(const std::vector<glm::vec3>& radiance, std::uint32_t width, std::uint32_t height, bool exr,
-               float exposure) {
+// An offline view as an image: linear RGBA floats for EXR (alpha: 1 where a surface is seen, so
+// that penumbra compare judges only those pixels), display colours for PNG.
+Image to_image(const std::vector<glm::vec3>& radiance, const std::vector<std::uint8_t>& covered, std::uint32_t width,
+               std::uint32_t height, bool exr, float exposure) {
   Image image;
   image.width = width;
   image.height = height;
@@ -65,7 +66,7 @@ Image to_image(const std::vector<glm::vec3>& radiance, std::uint32_t width, std:
     image.rgba32f.resize(radiance.size() * 4);
     for (std::size_t i = 0; i < radiance.size(); ++i) {
       for (int c = 0; c < 3; ++c) image.rgba32f[4 * i + c] = radiance[i][c];
-      image.rgba32f[4 * i + 3] = 1.0f;
+      image.rgba32f[4 * i + 3] = covered[i] ? 1.0f : 0.0f;
     }
   } else {
     image.rgba8.resize(radiance.size() * 4);
@@ -125,10 +126,10 @@ int render_offline_image(World& world, const std::string& scene, const CameraVie
                                            : view_name == "indirect" ? image->indirect
                                            : view_name == "albedo"   ? image->albedo
                                                                      : image->lit;
-  const Image written = to_image(radiance, width, height, exr, exposure);
+  const Image written = to_image(radiance, image->covered, width, height, exr, exposure);
   if (Status s = write_image(written, out); !s) return fail(kFailure, s.error().message);
   if (o.std_error) {
-    if (Status s = write_image(to_image(image->lit_std_error, width, height, true, 1.0f), *o.std_error); !s)
+    if (Status s = write_image(to_image(image->lit_std_error, image->covered, width, height, true, 1.0f), *o.std_error); !s)
       return fail(kFailure, s.error().message);
   }
   const double share = lit_share(written, exr);

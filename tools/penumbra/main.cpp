@@ -47,6 +47,11 @@ Commands:
       --std-error E.exr for each pixel's standard error). --spp N indirect rays per pixel (16;
       reference 256), or --seconds S to pick the N that fits S seconds; --threads N. Views: lit,
       direct, indirect, albedo. Deterministic for a given N at any thread count.
+  compare IMAGE.exr REFERENCE.exr [--reference-error E.exr] [-o DIFF.png]
+      Judge IMAGE against REFERENCE (same size; e.g. 'render --view indirect' of both paths) over
+      the pixels both cover (alpha > 0): relative RMSE, mean signed error, SSIM of the luminance,
+      with E.exr (render --offline reference --std-error) the reference's own relative error; -o
+      writes a false-colour map of the relative difference.
   validate FILE
       Check FILE (.gltf, .glb or .pbake) without baking: every check the importer or the chunk
       readers make; exit 1 naming the first problem.
@@ -102,6 +107,7 @@ int main(int argc, char** argv) {
   if (command == "info") return penumbra::cli::cmd_info(std::move(args));
   if (command == "bench") return penumbra::cli::cmd_bench(std::move(args));
   if (command == "render") return penumbra::cli::cmd_render(std::move(args));
+  if (command == "compare") return penumbra::cli::cmd_compare(std::move(args));
   if (command == "validate") return penumbra::cli::cmd_validate(std::move(args));
   std::fprintf(stderr, "penumbra: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return penumbra::cli::kUsage;

@@ -56,6 +56,7 @@
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
 #include "penumbra/render/device.h"
+#include "penumbra/image/image.h"
 #include "penumbra/render/feature.h"
 #include "penumbra/scene/camera.h"
 
@@ -95,22 +96,6 @@ struct RenderTarget {
   VkImageLayout layout = VK_IMAGE_LAYOUT_UNDEFINED;
   VkImageLayout final_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
 };
-
-// The display colour the renderer writes for scene-referred radiance into 8-bit targets
-// (shaders/output.glsl): radiance x exposure through the ACES filmic fit of Narkowicz (2015), then
-// the sRGB transfer when `encode_srgb` (UNORM targets; sRGB formats encode in hardware). O(1).
-glm::vec3 display_colour(glm::vec3 radiance, float exposure, bool encode_srgb);
-
-// A CPU image read back from a target: RGBA, 8-bit sRGB or 32-bit float linear.
-struct Image {
-  std::uint32_t width = 0, height = 0;
-  std::vector<std::uint8_t> rgba8;  // when read as 8-bit
-  std::vector<float> rgba32f;       // when read as float
-};
-// PNG (8-bit; from rgba8) or OpenEXR (32-bit float RGBA; from rgba32f) by the extension of `path`;
-// atomic (temporary file, then rename). Errors name the path and the fix (unknown extension, the
-// image lacks the pixels the format needs, the directory is not writable).
-Status write_image(const Image& image, const std::string& path);
 
 struct FrameStats {
   double cpu_record_ms = 0.0;   // sync + record on the CPU

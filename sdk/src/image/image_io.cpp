@@ -1,5 +1,7 @@
 // write_image: PNG through stb_image_write, OpenEXR (32-bit float RGBA) through OpenEXR; both
-// written to a temporary file that is renamed over the destination.
+// written to a temporary file that is renamed over the destination. read_exr: OpenEXR, checked.
+#include "penumbra/image/image.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -10,9 +12,8 @@
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
+#include <ImfInputFile.h>
 #include <ImfOutputFile.h>
-
-#include "penumbra/render/renderer.h"
 
 #include "stb_image_write.h"  // implementation in Debian's libstb
 
@@ -97,6 +98,45 @@ Status write_image(const Image& image, const std::string& path) {
     return make_error(ErrorCode::Io, path + ": cannot replace the file (" + ec.message() + ")");
   }
   return {};
+}
+
+Result<Image> read_exr(const std::string& path) {
+  constexpr std::int64_t kMaxSide = 16384, kMaxPixels = std::int64_t{1} << 26;
+  try {
+    Imf::InputFile file(path.c_str());
+    const Imath::Box2i window = file.header().dataWindow();
+    const std::int64_t w = std::int64_t(window.max.x) - window.min.x + 1, h = std::int64_t(window.max.y) - window.min.y + 1;
+    if (w < 1 || h < 1 || w > kMaxSide || h > kMaxSide || w * h > kMaxPixels)
+      return make_error(ErrorCode::InvalidInput, path + ": the image's data window is " + std::to_string(w) + "x" +
+                                                     std::to_string(h) + "; an image of 1..16384 pixels per side and "
+                                                     "at most 2^26 pixels is expected");
+    const Imf::ChannelList& channels = file.header().channels();
+    for (const char* c : {"R", "G", "B"})
+      if (!channels.findChannel(c))
+        return make_error(ErrorCode::InvalidInput, path + ": the image has no " + std::string(c) +
+                                                       " channel; write R, G and B (an RGB or RGBA OpenEXR)");
+    for (auto it = channels.begin(); it != channels.end(); ++it)
+      if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
+        return make_error(ErrorCode::InvalidInput, path + ": channel " + std::string(it.name()) +
+                                                       " is subsampled; write full-resolution channels");
+    Image image;
+    image.width = static_cast<std::uint32_t>(w);
+    image.height = static_cast<std::uint32_t>(h);
+    image.rgba32f.assign(std::size_t(w * h) * 4, 1.0f);  // A stays 1 when the file has none
+    Imf::FrameBuffer fb;
+    const char* names[4] = {"R", "G", "B", "A"};
+    for (std::size_t c = 0; c < 4; ++c) {
+      // Slice::Make places the data window's corner at the buffer's start without out-of-range pointers.
+      fb.insert(names[c], Imf::Slice::Make(Imf::FLOAT, image.rgba32f.data() + c, window, 4 * sizeof(float),
+                                           std::size_t(w) * 4 * sizeof(float), 1, 1, c == 3 ? 1.0 : 0.0));
+    }
+    file.setFrameBuffer(fb);
+    file.readPixels(window.min.y, window.max.y);
+    return image;
+  } catch (const std::exception& e) {
+    return make_error(ErrorCode::InvalidInput, path + ": cannot read it as OpenEXR (" + e.what() +
+                                                   "); write the image again, as a scanline or tiled OpenEXR");
+  }
 }
 
 }  // namespace penumbra
