@@ -129,7 +129,12 @@ int render_offline_image(World& world, const std::string& scene, const CameraVie
   const Image written = to_image(radiance, image->covered, width, height, exr, exposure);
   if (Status s = write_image(written, out); !s) return fail(kFailure, s.error().message);
   if (o.std_error) {
-    if (Status s = write_image(to_image(image->lit_std_error, image->covered, width, height, true, 1.0f), *o.std_error); !s)
+    // The standard error of the view written (the albedo view has none: zeros).
+    const std::vector<glm::vec3>& error = view_name == "direct"     ? image->direct_std_error
+                                          : view_name == "indirect" ? image->indirect_std_error
+                                          : view_name == "albedo"   ? std::vector<glm::vec3>(radiance.size())
+                                                                    : image->lit_std_error;
+    if (Status s = write_image(to_image(error, image->covered, width, height, true, 1.0f), *o.std_error); !s)
       return fail(kFailure, s.error().message);
   }
   const double share = lit_share(written, exr);

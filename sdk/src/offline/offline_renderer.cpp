@@ -275,7 +275,11 @@ Result<OfflineImage> render_offline(const RayScene& scene, std::span<const World
   image.indirect.assign(count, glm::vec3(0.0f));
   image.albedo.assign(count, glm::vec3(0.0f));
   image.covered.assign(count, 0);
-  if (reference) image.lit_std_error.assign(count, glm::vec3(0.0f));
+  if (reference) {
+    image.lit_std_error.assign(count, glm::vec3(0.0f));
+    image.direct_std_error.assign(count, glm::vec3(0.0f));
+    image.indirect_std_error.assign(count, glm::vec3(0.0f));
+  }
   for (std::size_t i = 0; i < count; ++i) {
     const Primary& pr = primary[i];
     image.indirect_samples += indirect[i].n + indirect[i].nonfinite;
@@ -292,8 +296,10 @@ Result<OfflineImage> render_offline(const RayScene& scene, std::span<const World
     image.indirect[i] = brdf * irradiance[i];
     image.lit[i] = pr.emission + image.direct[i] + image.indirect[i];
     if (reference) {
-      const glm::vec3 sd = direct[i].std_error(), si = indirect[i].std_error();
-      image.lit_std_error[i] = brdf * glm::sqrt(sd * sd + si * si);
+      const glm::vec3 sd = brdf * direct[i].std_error(), si = brdf * indirect[i].std_error();
+      image.direct_std_error[i] = sd;
+      image.indirect_std_error[i] = si;
+      image.lit_std_error[i] = glm::sqrt(sd * sd + si * si);
     }
   }
   image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

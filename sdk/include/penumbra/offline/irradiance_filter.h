@@ -41,7 +41,7 @@ struct IrradianceFilterSettings {
   // biased near changes of irradiance.
   float a = 0.2f;
   // The gather window's largest half-width in pixels (the cost per pixel is (2 r + 1)^2 taps).
-  std::uint32_t max_radius = 24;
+  std::uint32_t max_radius = 12;
 };
 
 // The filter's support at each pixel: sum_q K(ε_pq / a) over its window (1 for a kernel that

@@ -19,8 +19,8 @@
 //   IrradianceFilter  spp rays per pixel, then (adaptive) more rays where the filter's support is
 //                     small (irradiance_filter_support below target_support), up to max_boost x
 //                     spp, then filter_irradiance; the albedo multiplies the filtered irradiance.
-//   Reference         spp independent rays and spp direct estimates per pixel, with the standard
-//                     error of every pixel (lit_std_error).
+//   Reference         spp independent rays and max(direct_samples, spp) direct estimates per
+//                     pixel, with the standard error of every pixel of each view.
 //
 // Determinism: pixel i draws from Rng::stream(seed, i) in each pass (and the filter is a fixed-
 // order gather), so the image is bit-identical at any thread count. Samples that come out
@@ -72,8 +72,8 @@ struct OfflineImage {
   std::uint32_t width = 0, height = 0;
   // Linear radiance per pixel, row-major from the top-left.
   std::vector<glm::vec3> lit, direct, indirect, albedo;
-  // Reference: the standard error of `lit` (per channel); other modes: empty.
-  std::vector<glm::vec3> lit_std_error;
+  // Reference: the standard error of `lit`, `direct` and `indirect` (per channel); other modes: empty.
+  std::vector<glm::vec3> lit_std_error, direct_std_error, indirect_std_error;
   std::vector<std::uint8_t> covered;  // 1 where the pixel's ray hit a surface
   std::uint64_t covered_pixels = 0;
   std::uint64_t indirect_samples = 0;   // paths traced for E_i, all pixels
