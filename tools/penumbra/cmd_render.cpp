@@ -103,7 +103,7 @@ int render_offline_image(World& world, const std::string& scene, const CameraVie
   settings.mode = o.mode;
   settings.width = width;
   settings.height = height;
-  if (o.mode == OfflineMode::Reference) settings.spp = 256;
+  if (o.mode == OfflineMode::Reference || o.mode == OfflineMode::IrradianceCache) settings.spp = 256;
   if (o.spp) settings.spp = *o.spp;
   ThreadPool pool(o.threads);
   std::signal(SIGINT, on_render_interrupt);
@@ -112,7 +112,7 @@ int render_offline_image(World& world, const std::string& scene, const CameraVie
     // A time budget: time the mode at its fewest rays, then take the ray count that fits (the image
     // is then the deterministic one of that count, printed below).
     OfflineSettings probe = settings;
-    probe.spp = o.mode == OfflineMode::Reference ? 2 : 1;
+    probe.spp = o.mode == OfflineMode::Reference ? 2 : o.mode == OfflineMode::IrradianceCache ? 6 : 1;
     JobContext quiet(&pool, {}, &g_render_cancel);
     auto first = render_offline(*rays, lights, view, probe, quiet);
     if (!first) return fail(kFailure, scene + ": " + first.error().message);

@@ -43,10 +43,12 @@ Commands:
       of every second one per axis.
       --offline MODE renders the same frame on the CPU instead (offline/offline_renderer.h): soft
       area-light shadows and unbiased indirect light; MODE mc (plain Monte Carlo), irradiance-filter
-      (irradiance filtering, the default choice for a clean image) or reference (converged, with
-      --std-error E.exr for each pixel's standard error). --spp N indirect rays per pixel (16;
-      reference 256), or --seconds S to pick the N that fits S seconds; --threads N. Views: lit,
-      direct, indirect, albedo. Deterministic for a given N at any thread count.
+      (irradiance filtering, the default choice for a clean image), irradiance-cache (Ward's
+      irradiance caching with gradients; N is the rays per record) or reference (converged, with
+      --std-error E.exr for each pixel's standard error of the view). --spp N indirect rays per pixel
+      (16; reference and irradiance-cache 256), or --seconds S to pick the N that fits S seconds;
+      --threads N. Views: lit, direct, indirect, albedo. Deterministic for a given N at any thread
+      count.
   compare IMAGE.exr REFERENCE.exr [--reference-error E.exr] [-o DIFF.png]
       Judge IMAGE against REFERENCE (same size; e.g. 'render --view indirect' of both paths) over
       the pixels both cover (alpha > 0): relative RMSE, mean signed error, SSIM of the luminance,

@@ -1,5 +1,6 @@
 // The offline renderer's passes (offline/offline_renderer.h): primary hits, direct light, indirect
-// irradiance (with the adaptive second pass and the filter of irradiance filtering), composition.
+// irradiance (per pixel, with the adaptive second pass and the filter of irradiance filtering, or
+// from the irradiance cache), composition.
 #include "penumbra/offline/offline_renderer.h"
 
 #include <algorithm>
@@ -64,6 +65,11 @@ Status check(const OfflineSettings& s) {
     return bad("the image is " + std::to_string(s.width) + "x" + std::to_string(s.height) + "; use 1..16384 per side");
   if (s.spp == 0 || s.spp > (1u << 20)) return bad("spp is " + std::to_string(s.spp) + "; use 1..1048576");
   if (s.mode == OfflineMode::Reference && s.spp < 2) return bad("the reference needs spp >= 2 for its standard error");
+  if (s.mode == OfflineMode::IrradianceCache && s.spp < 6)
+    return bad("the irradiance cache needs spp >= 6 rays per record (2 x 3 strata)");
+  if (!(s.cache.accuracy > 0.0f) || !std::isfinite(s.cache.accuracy) || !(s.cache.min_radius > 0.0f) ||
+      !(s.cache.max_radius >= s.cache.min_radius) || !std::isfinite(s.cache.max_radius))
+    return bad("the cache's accuracy must be positive and 0 < min_radius <= max_radius");
   if (s.direct_samples == 0 || s.rect_light_samples == 0 || s.path_rect_light_samples == 0)
     return bad("direct_samples, rect_light_samples and path_rect_light_samples must be at least 1");
   if (!(s.filter.a > 0.0f) || !std::isfinite(s.filter.a) || s.filter.max_radius > 256)
@@ -73,34 +79,35 @@ Status check(const OfflineSettings& s) {
   return {};
 }
 
-// Indirect samples `first`..`first + count - 1` at (x, n): a cosine-distributed direction (from the
-// pixel's scrambled Sobol' net, or independent when qmc is null), then pi x the radiance leaving
-// what it hits: emission (front side, or both when double sided) plus albedo x one sample of the
-// irradiance there (All content, unbiased paths), or pi x the sky when it escapes.
+// pi x the radiance arriving at x (unit normal n) along unit `dir`: the radiance leaving what it
+// hits (emission on the front side, or both when double sided, plus albedo x one sample of the
+// irradiance there: All content, unbiased paths) or the sky when it escapes; and the distance.
+IncidentSample incident(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
+                        glm::vec3 dir, const IrradianceSettings& path, Rng& rng) {
+  const glm::vec3 origin = x + scene.ray_epsilon(x) * n;
+  Hit hit;
+  if (!scene.intersect(Ray{origin, 0.0f, dir, kInf}, hit)) return {kPi * scene.sky(dir), kInf};
+  const glm::vec3 p = origin + hit.t * dir;
+  const glm::vec3 pn = hit.back_face ? -hit.normal : hit.normal;
+  glm::vec3 value = hit.material.albedo * irradiance_sample(scene, lights, p, pn, path, rng);
+  if (!hit.back_face || hit.material.double_sided) value += kPi * hit.material.emissive;
+  return {value, hit.t};
+}
+
+// Indirect samples `first`..`first + count - 1` at (x, n): cosine-distributed directions from the
+// pixel's scrambled Sobol' net (or independent when qmc is null), each traced by incident().
 void sample_indirect(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
                      const Sobol2D* qmc, std::uint32_t first, std::uint32_t count, const IrradianceSettings& path,
                      Rng& rng, Accumulator& acc) {
-  const glm::vec3 origin = x + scene.ray_epsilon(x) * n;
   for (std::uint32_t k = first; k < first + count; ++k) {
     const glm::vec2 u = qmc ? (*qmc)(k) : glm::vec2(rng.next_float(), rng.next_float());
-    const glm::vec3 dir = to_world(n, cosine_hemisphere(u));
-    Hit hit;
-    glm::vec3 value;
-    float inverse_distance = 0.0f;
-    if (!scene.intersect(Ray{origin, 0.0f, dir, kInf}, hit)) {
-      value = kPi * scene.sky(dir);
-    } else {
-      const glm::vec3 p = origin + hit.t * dir;
-      const glm::vec3 pn = hit.back_face ? -hit.normal : hit.normal;
-      value = hit.material.albedo * irradiance_sample(scene, lights, p, pn, path, rng);
-      if (!hit.back_face || hit.material.double_sided) value += kPi * hit.material.emissive;
-      inverse_distance = 1.0f / std::max(hit.t, 1e-30f);
-    }
-    if (!finite(value) || !std::isfinite(inverse_distance)) {
+    const IncidentSample s = incident(scene, lights, x, n, to_world(n, cosine_hemisphere(u)), path, rng);
+    const float inverse_distance = std::isfinite(s.distance) ? 1.0f / std::max(s.distance, 1e-30f) : 0.0f;
+    if (!finite(s.value) || !std::isfinite(inverse_distance)) {
       ++acc.nonfinite;
       continue;
     }
-    acc.add(value);
+    acc.add(s.value);
     acc.inverse_distance += inverse_distance;
   }
 }
@@ -132,17 +139,19 @@ std::string_view to_string(OfflineMode mode) {
     case OfflineMode::MonteCarlo: return "mc";
     case OfflineMode::IrradianceFilter: return "irradiance-filter";
     case OfflineMode::Reference: return "reference";
+    case OfflineMode::IrradianceCache: return "irradiance-cache";
   }
   return "unknown";
 }
 
 std::optional<OfflineMode> parse_offline_mode(std::string_view name) {
-  for (const OfflineMode m : {OfflineMode::MonteCarlo, OfflineMode::IrradianceFilter, OfflineMode::Reference})
+  for (const OfflineMode m :
+       {OfflineMode::MonteCarlo, OfflineMode::IrradianceFilter, OfflineMode::IrradianceCache, OfflineMode::Reference})
     if (name == to_string(m)) return m;
   return std::nullopt;
 }
 
-std::string_view offline_mode_names() { return "mc, irradiance-filter, reference"; }
+std::string_view offline_mode_names() { return "mc, irradiance-filter, irradiance-cache, reference"; }
 
 Result<OfflineImage> render_offline(const RayScene& scene, std::span<const WorldLight> lights, const CameraView& camera,
                                     const OfflineSettings& s, JobContext& jobs) {
@@ -152,7 +161,8 @@ Result<OfflineImage> render_offline(const RayScene& scene, std::span<const World
   const std::size_t count = std::size_t(width) * height;
   const bool filtered = s.mode == OfflineMode::IrradianceFilter;
   const bool reference = s.mode == OfflineMode::Reference;
-  jobs.set_stage_count(filtered ? 6 : 3);
+  const bool cached = s.mode == OfflineMode::IrradianceCache;
+  jobs.set_stage_count(filtered ? 6 : cached ? 4 : 3);
 
   // Primary hits: one ray through each pixel's centre, as the real-time renderer samples it.
   const glm::mat4 clip_to_world = glm::inverse(camera.projection * camera.view);
@@ -230,10 +240,29 @@ Result<OfflineImage> render_offline(const RayScene& scene, std::span<const World
       }
     });
   };
-  jobs.begin_stage("indirect", count);
-  PENUMBRA_TRY(indirect_pass(kIndirect, nullptr));
-
   std::vector<glm::vec3> irradiance(count, glm::vec3(0.0f));
+  std::uint64_t cache_rays = 0, cache_nonfinite = 0, cache_records = 0;
+  if (cached) {
+    // Irradiance caching: records of spp rays where no record covers a pixel, interpolated.
+    std::vector<CachePixel> pixels(count);
+    for (std::size_t i = 0; i < count; ++i)
+      pixels[i] = {primary[i].position, primary[i].normal, primary[i].footprint, primary[i].hit};
+    IrradianceCacheSettings cache = s.cache;
+    cache.rays = s.spp;
+    cache.seed = s.seed;
+    IrradianceCacheStats stats;
+    const IncidentFn trace = [&](glm::vec3 x, glm::vec3 n, glm::vec3 dir, Rng& rng) {
+      return incident(scene, lights, x, n, dir, path, rng);
+    };
+    PENUMBRA_TRY(irradiance_cache(pixels, width, height, cache, trace, irradiance, stats, jobs));
+    cache_rays = stats.rays;
+    cache_nonfinite = stats.nonfinite;
+    cache_records = stats.records;
+  } else {
+    jobs.begin_stage("indirect", count);
+    PENUMBRA_TRY(indirect_pass(kIndirect, nullptr));
+  }
+
   if (filtered) {
     std::vector<FilterPixel> pixels(count);
     const auto fill = [&] {
@@ -262,7 +291,7 @@ Result<OfflineImage> render_offline(const RayScene& scene, std::span<const World
     PENUMBRA_TRY(indirect_pass(kAdaptive, &extra));
     fill();
     PENUMBRA_TRY(filter_irradiance(pixels, width, height, s.filter, irradiance, jobs));
-  } else {
+  } else if (!cached) {
     for (std::size_t i = 0; i < count; ++i) irradiance[i] = indirect[i].mean();
   }
 
@@ -302,6 +331,9 @@ Result<OfflineImage> render_offline(const RayScene& scene, std::span<const World
       image.lit_std_error[i] = glm::sqrt(sd * sd + si * si);
     }
   }
+  image.indirect_samples += cache_rays;
+  image.nonfinite_samples += cache_nonfinite;
+  image.cache_records = cache_records;
   image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return image;
 }

@@ -76,11 +76,12 @@ TEST(OfflineRenderer, FurnaceEveryModeReachesTheClosedForm) {
   update_world_transforms(world);
   const CameraView camera = look_at(glm::vec3(0.1f, 0.2f, 0.0f), glm::vec3(0.0f, -0.3f, -1.0f), 1.0f);
   const float expected = kFurnaceRadiance / (1.0f - kFurnaceAlbedo);
-  for (const OfflineMode mode : {OfflineMode::Reference, OfflineMode::MonteCarlo, OfflineMode::IrradianceFilter}) {
+  for (const OfflineMode mode : {OfflineMode::Reference, OfflineMode::MonteCarlo, OfflineMode::IrradianceFilter,
+                                 OfflineMode::IrradianceCache}) {
     OfflineSettings s;
     s.mode = mode;
     s.width = s.height = 12;
-    s.spp = mode == OfflineMode::Reference ? 256 : 16;
+    s.spp = mode == OfflineMode::Reference ? 256 : mode == OfflineMode::IrradianceCache ? 64 : 16;
     const OfflineImage image = render(world, camera, s);
     ASSERT_EQ(image.covered_pixels, 144u) << to_string(mode);
     EXPECT_EQ(image.nonfinite_samples, 0u);
@@ -137,12 +138,13 @@ TEST(OfflineRenderer, OpenFloorUnderSunAndSkyIsExactInEveryMode) {
   world.add<WorldTransform>(sun, WorldTransform{glm::rotate(glm::mat4(1.0f), glm::radians(-30.0f), glm::vec3(1, 0, 0))});
   world.add<Environment>(world.create(), Environment{sky});
   const CameraView camera = look_at(glm::vec3(0.0f, 2.0f, 0.0f), glm::vec3(0.0f, 0.0f, -1.5f), 1.5f);
-  for (const OfflineMode mode : {OfflineMode::MonteCarlo, OfflineMode::IrradianceFilter, OfflineMode::Reference}) {
+  for (const OfflineMode mode : {OfflineMode::MonteCarlo, OfflineMode::IrradianceFilter, OfflineMode::IrradianceCache,
+                                 OfflineMode::Reference}) {
     OfflineSettings s;
     s.mode = mode;
     s.width = 24;
     s.height = 16;
-    s.spp = 4;
+    s.spp = mode == OfflineMode::IrradianceCache ? 16 : 4;
     const OfflineImage image = render(world, camera, s);
     ASSERT_GT(image.covered_pixels, 0u);
     for (std::size_t i = 0; i < image.lit.size(); ++i) {
@@ -175,11 +177,98 @@ TEST(OfflineRenderer, ThreadCountDoesNotChangeABit) {
   OfflineSettings s;
   s.width = s.height = 20;
   s.spp = 4;
-  const OfflineImage one = render(world, camera, s, 1), two = render(world, camera, s, 2);
-  ASSERT_GT(one.covered_pixels, 150u);
-  ASSERT_EQ(one.lit.size(), two.lit.size());
-  EXPECT_EQ(std::memcmp(one.lit.data(), two.lit.data(), one.lit.size() * sizeof(glm::vec3)), 0);
-  EXPECT_EQ(one.indirect_samples, two.indirect_samples);
+  for (const OfflineMode mode : {OfflineMode::IrradianceFilter, OfflineMode::IrradianceCache}) {
+    s.mode = mode;
+    s.spp = mode == OfflineMode::IrradianceCache ? 32 : 4;
+    const OfflineImage one = render(world, camera, s, 1), two = render(world, camera, s, 2);
+    ASSERT_GT(one.covered_pixels, 150u);
+    ASSERT_EQ(one.lit.size(), two.lit.size());
+    EXPECT_EQ(std::memcmp(one.lit.data(), two.lit.data(), one.lit.size() * sizeof(glm::vec3)), 0) << to_string(mode);
+    EXPECT_EQ(one.indirect_samples, two.indirect_samples);
+    EXPECT_EQ(one.cache_records, two.cache_records);
+  }
+}
+
+// Irradiance gradients (Ward & Heckbert 1992) predict how a record's irradiance changes: on a
+// floor beside a bright wall under a dark sky, E rises towards the wall; the translational
+// gradient's prediction over a short step agrees with records made there, and the rotational one
+// with records whose normal tilts towards the wall.
+TEST(IrradianceCache, GradientsPredictNearbyRecords) {
+  World world;
+  add_mesh(world, make_quad(40.0f, 40.0f),
+           glm::rotate(glm::mat4(1.0f), glm::radians(-90.0f), glm::vec3(1.0f, 0.0f, 0.0f)), glm::vec3(0.5f));
+  // An emissive wall at x = 2 facing -X.
+  add_mesh(world, make_quad(40.0f, 10.0f),
+           glm::rotate(glm::translate(glm::mat4(1.0f), glm::vec3(2.0f, 0.0f, 0.0f)), glm::radians(-90.0f),
+                       glm::vec3(0.0f, 1.0f, 0.0f)),
+           glm::vec3(0.0f), glm::vec3(1.0f));
+  auto scene = RayScene::build(world);
+  ASSERT_TRUE(scene.ok());
+  IrradianceSettings path;
+  path.reference = true;
+  const IncidentFn incident = [&](glm::vec3 x, glm::vec3 n, glm::vec3 dir, Rng& rng) {
+    const glm::vec3 origin = x + scene->ray_epsilon(x) * n;
+    Hit hit;
+    if (!scene->intersect(Ray{origin, 0.0f, dir}, hit)) return IncidentSample{glm::vec3(0.0f), INFINITY};
+    glm::vec3 v = hit.material.albedo * irradiance_sample(*scene, {}, origin + hit.t * dir,
+                                                          hit.back_face ? -hit.normal : hit.normal, path, rng);
+    if (!hit.back_face) v += kPi * hit.material.emissive;
+    return IncidentSample{v, hit.t};
+  };
+  const glm::vec3 up(0.0f, 1.0f, 0.0f);
+  const auto record = [&](glm::vec3 x, glm::vec3 n) {
+    Rng rng = Rng::stream(3, 0);
+    return make_cache_record(x, n, 16384, rng, incident);
+  };
+  const CacheRecord r = record(glm::vec3(0.0f), up);
+  EXPECT_GT(r.irradiance.x, 0.1f);
+  // The harmonic mean counts the escaping rays as infinitely far: the wall 2-3 m away, met by a
+  // fraction of the rays, gives a few times its distance.
+  EXPECT_GT(r.radius, 2.0f);
+  EXPECT_LT(r.radius, 30.0f);
+  EXPECT_GT(r.translational[0].x, 0.0f) << "E grows towards the wall";
+  EXPECT_NEAR(r.translational[0].z, 0.0f, 0.02f * r.translational[0].x) << "the wall is uniform along z";
+  EXPECT_NEAR(r.translational[0].y, 0.0f, 1e-6f) << "the gradient lies in the tangent plane";
+  for (const float step : {0.1f, -0.1f}) {
+    const CacheRecord moved = record(glm::vec3(step, 0.0f, 0.0f), up);
+    const float predicted = cache_extrapolate(r, glm::vec3(step, 0.0f, 0.0f), up).x;
+    EXPECT_NEAR(predicted, moved.irradiance.x, 0.15f * std::abs(moved.irradiance.x - r.irradiance.x) + 0.003f)
+        << "step " << step;
+  }
+  const glm::vec3 tilted = glm::normalize(glm::vec3(0.1f, 1.0f, 0.0f));
+  const float predicted = cache_extrapolate(r, glm::vec3(0.0f), tilted).x;
+  EXPECT_NEAR(predicted, record(glm::vec3(0.0f), tilted).irradiance.x,
+              0.2f * std::abs(record(glm::vec3(0.0f), tilted).irradiance.x - r.irradiance.x) + 0.003f);
+}
+
+// The cache converges: on the Cornell box, a tighter accuracy with more rays per record is closer to
+// the reference, and every surface pixel gets a value.
+TEST(IrradianceCache, ErrorShrinksWithAccuracyOnTheCornellBox) {
+  World world;
+  ASSERT_TRUE(load_builtin(world, "cornell").ok());
+  update_world_transforms(world);
+  const CameraView camera = camera_view(world, world.view<const Camera>().sorted_entities().front(), 1.0f);
+  OfflineSettings s;
+  s.width = s.height = 32;
+  s.mode = OfflineMode::Reference;
+  s.spp = 1024;
+  const OfflineImage ref = render(world, camera, s);
+  s.mode = OfflineMode::IrradianceCache;
+  s.spp = 64;
+  s.cache.accuracy = 0.5f;
+  const OfflineImage coarse = render(world, camera, s);
+  s.spp = 512;
+  s.cache.accuracy = 0.15f;
+  const OfflineImage fine = render(world, camera, s);
+  EXPECT_GT(fine.cache_records, coarse.cache_records);
+  const double e_coarse = relative_rmse(coarse.indirect, ref.indirect, ref.covered);
+  const double e_fine = relative_rmse(fine.indirect, ref.indirect, ref.covered);
+  EXPECT_LT(e_fine, 0.7 * e_coarse) << "coarse " << e_coarse << " fine " << e_fine;
+  for (std::size_t i = 0; i < fine.indirect.size(); ++i) {
+    if (fine.covered[i]) {
+      EXPECT_GT(fine.indirect[i].x + fine.indirect[i].y + fine.indirect[i].z, 0.0f) << i;
+    }
+  }
 }
 
 // On the Cornell box: plain Monte Carlo converges (4x the rays, about half the error), and

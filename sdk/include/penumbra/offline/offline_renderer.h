@@ -19,6 +19,8 @@
 //   IrradianceFilter  spp rays per pixel, then (adaptive) more rays where the filter's support is
 //                     small (irradiance_filter_support below target_support), up to max_boost x
 //                     spp, then filter_irradiance; the albedo multiplies the filtered irradiance.
+//   IrradianceCache   records of spp stratified rays with gradients where no record covers a
+//                     pixel, interpolated (offline/irradiance_cache.h; the paper's baseline).
 //   Reference         spp independent rays and max(direct_samples, spp) direct estimates per
 //                     pixel, with the standard error of every pixel of each view.
 //
@@ -39,13 +41,14 @@
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/result.h"
+#include "penumbra/offline/irradiance_cache.h"
 #include "penumbra/offline/irradiance_filter.h"
 #include "penumbra/scene/camera.h"
 
 namespace penumbra {
 
-enum class OfflineMode : std::uint8_t { MonteCarlo, IrradianceFilter, Reference };
-// "mc", "irradiance-filter", "reference".
+enum class OfflineMode : std::uint8_t { MonteCarlo, IrradianceFilter, IrradianceCache, Reference };
+// "mc", "irradiance-filter", "irradiance-cache", "reference".
 std::string_view to_string(OfflineMode mode);
 std::optional<OfflineMode> parse_offline_mode(std::string_view name);
 // Every mode's name, comma separated (for usage messages).
@@ -55,7 +58,8 @@ struct OfflineSettings {
   OfflineMode mode = OfflineMode::IrradianceFilter;
   std::uint32_t width = 640, height = 360;
   // Indirect rays per pixel: the count for MonteCarlo and Reference, the first pass of
-  // IrradianceFilter. At least 1 (2 for Reference, which needs a spread).
+  // IrradianceFilter, the rays per record of IrradianceCache. At least 1 (2 for Reference, which
+  // needs a spread; 6 for IrradianceCache, 2 x 3 strata).
   std::uint32_t spp = 16;
   // Direct-light estimates per pixel (each with rect_light_samples points per rect light);
   // Reference takes max(this, spp).
@@ -65,6 +69,7 @@ struct OfflineSettings {
   IrradianceFilterSettings filter;
   float target_support = 32.0f;   // IrradianceFilter: the support below which a pixel gets more rays
   std::uint32_t max_boost = 16;   // IrradianceFilter: at most this x spp rays in a pixel
+  IrradianceCacheSettings cache;  // IrradianceCache: accuracy and radius bounds (rays = spp, seed = seed)
   std::uint64_t seed = 1;
 };
 
@@ -77,6 +82,7 @@ struct OfflineImage {
   std::vector<std::uint8_t> covered;  // 1 where the pixel's ray hit a surface
   std::uint64_t covered_pixels = 0;
   std::uint64_t indirect_samples = 0;   // paths traced for E_i, all pixels
+  std::uint64_t cache_records = 0;      // IrradianceCache: records made
   std::uint64_t nonfinite_samples = 0;  // dropped
   double seconds = 0.0;                 // wall-clock time of render_offline
 };
