@@ -5,12 +5,12 @@
 // the default lighting components of `penumbra render`, every baker, the bake attached; the frame
 // of the scene's camera rendered into a float target (linear radiance, no tone mapping) in the
 // views lit, direct, indirect, and the data views albedo, position and normal. The reference is
-// computed at each pixel's own position and normal (the position and normal views), by the
-// light models of the bakes (bake/light_sampling.h, bake/integrators.h): direct = the lights'
+// the offline renderer's converged frame of the same camera (offline/offline_renderer.h, mode
+// reference: one ray through each pixel's centre, the bakes' light models): direct = the lights'
 // light by next-event estimation (area lights sampled over their area; what the renderer draws
-// itself), indirect = the unbiased reference (Russian roulette, no bounce limit, content Indirect:
-// bounced light and the sky); radiance = albedo / pi x E (the pixel's albedo from the albedo
-// view, so textures cancel out), plus the hit surface's emission in the lit view.
+// itself), indirect = the unbiased paths (Russian roulette, no bounce limit: bounced light, the
+// sky, emissive surfaces); radiance = albedo / pi x E with the surface's mean albedo, plus its
+// emission in the lit view; each pixel's standard error per view.
 //
 // A pixel counts when a CPU ray through its centre (RayScene, the same camera) hits a surface
 // within 0.5 % of its distance from the renderer's position (edges and background left out) and
@@ -37,11 +37,10 @@
 
 #include "bench.h"
 #include "penumbra/bake/baker.h"
-#include "penumbra/bake/integrators.h"
-#include "penumbra/bake/light_sampling.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/bakers.h"
 #include "penumbra/core/jobs.h"
+#include "penumbra/offline/offline_renderer.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/runtime.h"
 #include "penumbra/scene/builtin.h"
@@ -50,7 +49,6 @@
 namespace penumbra::bench {
 namespace {
 
-constexpr float kPi = 3.14159265358979323846f;
 
 float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
@@ -129,9 +127,7 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
   std::vector<int> region_of(count, -1);
   std::vector<std::string> region_names;
   std::map<std::string, int> region_index;
-  std::vector<SurfacePoint> points;
-  std::vector<std::size_t> point_pixel;
-  std::vector<glm::vec3> emission;
+  std::vector<std::size_t> counted;  // the pixels that count, in order
   for (std::uint32_t y = 0; y < height; ++y) {
     for (std::uint32_t x = 0; x < width; ++x) {
       const std::size_t i = std::size_t(y) * width + x;
@@ -141,10 +137,8 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
       const glm::vec3 p = pixel(views["position"], i);
       const glm::vec3 q = origin + hit.t * dir;
       if (!(glm::distance(p, q) <= 0.005f * glm::distance(origin, q))) continue;
-      glm::vec3 n = pixel(views["normal"], i);
-      if (!(glm::length(n) > 0.5f)) continue;
+      if (!(glm::length(pixel(views["normal"], i)) > 0.5f)) continue;
       if (pixel(views["albedo"], i) == glm::vec3(0.0f)) continue;  // reflects nothing, or a rect light's emitter
-      n = glm::normalize(n);
       const auto* name = world.try_get<Name>(hit.entity);
       const std::string region =
           (name && !name->value.empty() ? name->value : "entity " + std::to_string(hit.entity.index)) + " " +
@@ -152,42 +146,21 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
       auto [it, added] = region_index.emplace(region, int(region_names.size()));
       if (added) region_names.push_back(region);
       region_of[i] = it->second;
-      points.push_back({p, n});
-      point_pixel.push_back(i);
-      emission.push_back(hit.material.emissive);
+      counted.push_back(i);
     }
   }
-  if (points.empty()) return Error{ErrorCode::Internal, scene + ": no pixel of the frame hits a surface"};
+  if (counted.empty()) return Error{ErrorCode::Internal, scene + ": no pixel of the frame hits a surface"};
 
-  // The reference at each counted pixel: the lights' direct light (next-event estimation, 16
-  // rect-light samples per estimate, as many estimates as paths below) and the indirect light.
-  const std::vector<WorldLight> lights = gather_lights(world);
-  std::vector<Estimate> direct(points.size()), indirect(points.size());
-  PENUMBRA_TRY(jobs.parallel_for(points.size(), 16, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t k = begin; k < end; ++k) {
-      Rng rng = Rng::stream(11, k);
-      const SurfacePoint& x = points[k];
-      const glm::vec3 origin = x.position + rays->ray_epsilon(x.position) * x.normal;
-      glm::dvec3 sum(0.0), sum2(0.0);
-      for (std::uint32_t s = 0; s < samples; ++s) {
-        glm::vec3 e(0.0f);
-        for_each_light_sample(*rays, lights, x.position, origin, x.normal, 16, rng,
-                              [&](glm::vec3 l, glm::vec3 e_normal) { e += e_normal * glm::dot(x.normal, l); });
-        sum += glm::dvec3(e);
-        sum2 += glm::dvec3(e) * glm::dvec3(e);
-      }
-      const glm::dvec3 mean = sum / double(samples);
-      const glm::dvec3 var = glm::max(sum2 / double(samples) - mean * mean, glm::dvec3(0.0)) / double(samples - 1);
-      direct[k] = {glm::vec3(mean), glm::vec3(glm::sqrt(var)), samples};
-    }
-  }));
-  IrradianceSettings ind;
-  ind.samples = samples;
-  ind.reference = true;
-  ind.content = LightingContent::Indirect;
-  ind.rect_light_samples = 4;
-  ind.seed = 12;
-  PENUMBRA_TRY(irradiance(*rays, lights, points, ind, indirect, jobs));
+  // The reference: the offline renderer's converged frame (offline/offline_renderer.h) of the same
+  // camera, `samples` paths and direct estimates per pixel.
+  OfflineSettings reference;
+  reference.mode = OfflineMode::Reference;
+  reference.width = width;
+  reference.height = height;
+  reference.spp = samples;
+  reference.seed = 11;
+  auto offline = render_offline(*rays, gather_lights(world), camera, reference, jobs);
+  if (!offline) return offline.error();
 
   for (const char* view : {"lit", "direct", "indirect"}) {
     const std::string v = view;
@@ -196,28 +169,25 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
     ref.width = width;
     ref.height = height;
     ref.rgba32f.assign(4 * count, 0.0f);
-    std::vector<float> ref_lum(points.size()), ref_se(points.size()), rt_lum(points.size());
+    const std::vector<glm::vec3>& ref_view = v == "lit" ? offline->lit : v == "direct" ? offline->direct : offline->indirect;
+    const std::vector<glm::vec3>& ref_error =
+        v == "lit" ? offline->lit_std_error : v == "direct" ? offline->direct_std_error : offline->indirect_std_error;
+    std::vector<float> ref_lum(counted.size()), ref_se(counted.size()), rt_lum(counted.size());
     double mean_ref = 0.0;
-    for (std::size_t k = 0; k < points.size(); ++k) {
-      const std::size_t i = point_pixel[k];
-      const glm::vec3 albedo = pixel(views["albedo"], i) / kPi;
-      glm::vec3 e(0.0f), se2(0.0f);
-      if (v != "indirect") e += direct[k].value, se2 += direct[k].std_error * direct[k].std_error;
-      if (v != "direct") e += indirect[k].value, se2 += indirect[k].std_error * indirect[k].std_error;
-      glm::vec3 radiance = albedo * e;
-      if (v == "lit") radiance += emission[k];
-      for (int c = 0; c < 3; ++c) ref.rgba32f[4 * i + c] = radiance[c];
+    for (std::size_t k = 0; k < counted.size(); ++k) {
+      const std::size_t i = counted[k];
+      for (int c = 0; c < 3; ++c) ref.rgba32f[4 * i + c] = ref_view[i][c];
       ref.rgba32f[4 * i + 3] = 1.0f;
-      ref_lum[k] = luminance(radiance);
-      ref_se[k] = luminance(albedo * glm::sqrt(se2));
+      ref_lum[k] = luminance(ref_view[i]);
+      ref_se[k] = luminance(ref_error[i]);
       rt_lum[k] = luminance(pixel(rt, i));
       mean_ref += ref_lum[k];
     }
-    mean_ref /= double(points.size());
+    mean_ref /= double(counted.size());
     std::vector<RegionSums> sums(region_names.size() + 1);  // the last: the whole frame
-    for (std::size_t k = 0; k < points.size(); ++k) {
+    for (std::size_t k = 0; k < counted.size(); ++k) {
       const double floor = std::max(double(ref_lum[k]), 0.05 * mean_ref);
-      for (RegionSums* s : {&sums[std::size_t(region_of[point_pixel[k]])], &sums.back()}) {
+      for (RegionSums* s : {&sums[std::size_t(region_of[counted[k]])], &sums.back()}) {
         ++s->pixels;
         s->rt += rt_lum[k];
         s->ref += ref_lum[k];
@@ -230,7 +200,7 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
       const RegionSums& s = sums[r];
       const bool whole = r + 1 == sums.size();
       const std::string name = whole ? "frame" : region_names[r];
-      const bool large = !whole && s.pixels * 50 >= points.size();
+      const bool large = !whole && s.pixels * 50 >= counted.size();
       // A region this view leaves dark in both images (a face no light reaches directly) has no
       // ratio to judge: "nan", and it passes; light where the reference has none fails.
       const double dark = 1e-3 * mean_ref * double(s.pixels);

@@ -46,8 +46,11 @@ void gather(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint3
       const std::size_t q = std::size_t(y) * width + std::size_t(x);
       const FilterPixel& o = pixels[q];
       if (o.samples == 0) continue;
-      // Ward's distance: the change predicted by moving along the surface and by turning.
-      const float eps = glm::distance(c.position, o.position) * inv_m +
+      // Ward's distance: the change predicted by moving along the surface and by turning, the
+      // surface term by the nearer geometry of the two pixels (a corner's pixel does not blur
+      // into an open neighbour's kernel, nor the open one into the corner's).
+      const float inv_mq = std::isfinite(o.harmonic_distance) ? 1.0f / o.harmonic_distance : 0.0f;
+      const float eps = glm::distance(c.position, o.position) * std::max(inv_m, inv_mq) +
                         std::sqrt(std::max(0.0f, 1.0f - glm::dot(c.normal, o.normal)));
       const float t = eps * inv_a;
       if (!(t <= 2.0f)) continue;
