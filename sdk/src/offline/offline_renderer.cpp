@@ -32,7 +32,7 @@ struct Primary {
   bool hit = false;
   glm::vec3 position{0.0f}, normal{0.0f}, albedo{0.0f}, emission{0.0f};
   float footprint = 0.0f;
-  glm::vec3 background{0.0f};  // what a miss sees (the sky)
+  glm::vec3 background{0.0f};  // what a pixel without a surface shows: the sky, or a rect light's radiance
 };
 
 // Mean and spread of a pixel's samples (sums in double), with the harmonic mean distance's sum.
