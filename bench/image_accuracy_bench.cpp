@@ -9,7 +9,7 @@
 // reference: one ray through each pixel's centre, the bakes' light models): direct = the lights'
 // light by next-event estimation (area lights sampled over their area; what the renderer draws
 // itself), indirect = the unbiased paths (Russian roulette, no bounce limit: bounced light, the
-// sky, emissive surfaces); radiance = albedo / pi x E with the surface's mean albedo, plus its
+// sky, emissive surfaces); radiance = albedo / pi x E with the surface's textured albedo, plus its
 // emission in the lit view; each pixel's standard error per view.
 //
 // A pixel counts when a CPU ray through its centre (RayScene, the same camera) hits a surface
@@ -159,7 +159,8 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
   reference.height = height;
   reference.spp = samples;
   reference.seed = 11;
-  auto offline = render_offline(*rays, gather_lights(world), camera, reference, jobs);
+  const SurfaceTextures textures = SurfaceTextures::gather(world);
+  auto offline = render_offline(*rays, gather_lights(world), camera, reference, jobs, &textures);
   if (!offline) return offline.error();
 
   for (const char* view : {"lit", "direct", "indirect"}) {

@@ -108,18 +108,19 @@ int render_offline_image(World& world, const std::string& scene, const CameraVie
   ThreadPool pool(o.threads);
   std::signal(SIGINT, on_render_interrupt);
   JobContext jobs(&pool, terminal_progress(), &g_render_cancel);
+  const SurfaceTextures textures = SurfaceTextures::gather(world);
   if (o.seconds) {
     // A time budget: time the mode at its fewest rays, then take the ray count that fits (the image
     // is then the deterministic one of that count, printed below).
     OfflineSettings probe = settings;
     probe.spp = o.mode == OfflineMode::Reference ? 2 : o.mode == OfflineMode::IrradianceCache ? 6 : 1;
     JobContext quiet(&pool, {}, &g_render_cancel);
-    auto first = render_offline(*rays, lights, view, probe, quiet);
+    auto first = render_offline(*rays, lights, view, probe, quiet, &textures);
     if (!first) return fail(kFailure, scene + ": " + first.error().message);
     const double per_spp = first->seconds / double(probe.spp);
     settings.spp = static_cast<std::uint32_t>(std::clamp(*o.seconds / std::max(per_spp, 1e-9), double(probe.spp), 65536.0));
   }
-  auto image = render_offline(*rays, lights, view, settings, jobs);
+  auto image = render_offline(*rays, lights, view, settings, jobs, &textures);
   std::signal(SIGINT, SIG_DFL);
   if (!image) return fail(kFailure, scene + ": " + image.error().message);
   const std::vector<glm::vec3>& radiance = view_name == "direct"     ? image->direct

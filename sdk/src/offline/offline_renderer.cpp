@@ -154,7 +154,7 @@ std::optional<OfflineMode> parse_offline_mode(std::string_view name) {
 std::string_view offline_mode_names() { return "mc, irradiance-filter, irradiance-cache, reference"; }
 
 Result<OfflineImage> render_offline(const RayScene& scene, std::span<const WorldLight> lights, const CameraView& camera,
-                                    const OfflineSettings& s, JobContext& jobs) {
+                                    const OfflineSettings& s, JobContext& jobs, const SurfaceTextures* textures) {
   PENUMBRA_TRY(check(s));
   const auto start = std::chrono::steady_clock::now();
   const std::uint32_t width = s.width, height = s.height;
@@ -186,7 +186,7 @@ Result<OfflineImage> render_offline(const RayScene& scene, std::span<const World
       pr.hit = true;
       pr.position = ray.origin + hit.t * ray.direction;
       pr.normal = hit.back_face ? -hit.normal : hit.normal;
-      pr.albedo = hit.material.albedo;
+      pr.albedo = textures ? textures->albedo(hit) : hit.material.albedo;
       if (!hit.back_face || hit.material.double_sided) pr.emission = hit.material.emissive;
       // The pixel's width where it meets the surface: distance x the angle between neighbouring rays.
       const CameraRay next = camera_ray(clip_to_world, centre + glm::vec2(1.0f, 0.0f), width, height);

@@ -11,8 +11,9 @@
 // distributed paths with next-event estimation at every vertex and Russian roulette (unbiased;
 // bake/integrators.h). Radiance: lit = Le + albedo / pi (E_d + E_i); the views "direct" and
 // "indirect" hold albedo / pi E_d and albedo / pi E_i, as the real-time views of those names.
-// Albedo is the RayScene's per-surface albedo (the texture's mean colour) and the normal the
-// geometric one, so smooth-shaded and textured meshes come out flat-shaded and untextured.
+// The albedo at the primary hit is textured when `textures` are given (offline/surface_textures.h;
+// deeper path vertices take the surface's mean albedo, as the bakes do); the normal is the
+// geometric one, so smooth-shaded meshes come out flat-shaded.
 //
 // Indirect modes:
 //   MonteCarlo        spp cosine rays per pixel (a scrambled Sobol' net per pixel), averaged.
@@ -43,6 +44,7 @@
 #include "penumbra/core/result.h"
 #include "penumbra/offline/irradiance_cache.h"
 #include "penumbra/offline/irradiance_filter.h"
+#include "penumbra/offline/surface_textures.h"
 #include "penumbra/scene/camera.h"
 
 namespace penumbra {
@@ -94,6 +96,7 @@ struct OfflineImage {
 // rays; IrradianceFilter adds at most (max_boost - 1) x spp rays where its support is small and
 // O(pixels x window) for the filter. Thread-safe on a const scene.
 Result<OfflineImage> render_offline(const RayScene& scene, std::span<const WorldLight> lights, const CameraView& camera,
-                                    const OfflineSettings& settings, JobContext& jobs);
+                                    const OfflineSettings& settings, JobContext& jobs,
+                                    const SurfaceTextures* textures = nullptr);
 
 }  // namespace penumbra
