@@ -1,5 +1,5 @@
 // Built-in scenes: the Cornell Box, a courtyard with a procedural skinned character, and the
-// white furnace. See builtin.h for what each contains and why.
+// white furnace, a maze of large quads. See builtin.h for what each contains and why.
 #include "penumbra/scene/builtin.h"
 
 #include <array>
@@ -386,14 +386,116 @@ LoadedScene build_courtyard(World& world) {
   return b.finish();
 }
 
+// ---------------------------------------------------------------------------------------------
+// Maze: the kind of scene wavelet radiance transport was shown on (Kontkanen et al. 2006): large
+// quads only, a 12 x 8 m room 2.5 m tall cut into corridors by three coloured interior walls
+// (20 cm thick boxes), and a warm point light that an Animator carries along a path through the
+// gaps and back (a 12 s loop).
+constexpr float kMazeHeight = 2.5f;
+
+// An axis-aligned wall box of thickness 0.2 m from (x0, z0) to (x1, z1) (one of them equal),
+// floor to ceiling, in millimetres for quads_mesh; `caps` adds the end faces.
+std::vector<Quad> maze_wall(float x0, float z0, float x1, float z1, bool cap_start, bool cap_end) {
+  const float h = kMazeHeight * 1000.0f, t = 100.0f;
+  const bool along_z = x0 == x1;
+  std::vector<Quad> q;
+  const auto mm = [](float v) { return v * 1000.0f; };
+  if (along_z) {
+    const float x = mm(x0), a = mm(z0), b = mm(z1);
+    q.push_back({{{x - t, 0, a}, {x - t, 0, b}, {x - t, h, b}, {x - t, h, a}}});
+    q.push_back({{{x + t, 0, a}, {x + t, h, a}, {x + t, h, b}, {x + t, 0, b}}});
+    if (cap_start) q.push_back({{{x - t, 0, a}, {x - t, h, a}, {x + t, h, a}, {x + t, 0, a}}});
+    if (cap_end) q.push_back({{{x - t, 0, b}, {x + t, 0, b}, {x + t, h, b}, {x - t, h, b}}});
+  } else {
+    const float z = mm(z0), a = mm(x0), b = mm(x1);
+    q.push_back({{{a, 0, z - t}, {a, h, z - t}, {b, h, z - t}, {b, 0, z - t}}});
+    q.push_back({{{a, 0, z + t}, {b, 0, z + t}, {b, h, z + t}, {a, h, z + t}}});
+    if (cap_start) q.push_back({{{a, 0, z - t}, {a, 0, z + t}, {a, h, z + t}, {a, h, z - t}}});
+    if (cap_end) q.push_back({{{b, 0, z - t}, {b, h, z - t}, {b, h, z + t}, {b, 0, z + t}}});
+  }
+  return q;
+}
+
+LoadedScene build_maze(World& world) {
+  SceneBuilder b(world, "maze");
+  const float w = 12000.0f, d = 8000.0f, h = kMazeHeight * 1000.0f;
+  const glm::vec3 centre(6.0f, 1.25f, 4.0f);
+  auto inward = [&](glm::vec3 c) { return centre - c; };
+  b.mesh("floor", quads_mesh("floor", {{{{0, 0, 0}, {0, 0, d}, {w, 0, d}, {w, 0, 0}}}}, inward),
+         lambert({0.60f, 0.55f, 0.50f}));
+  b.mesh("ceiling", quads_mesh("ceiling", {{{{0, h, 0}, {w, h, 0}, {w, h, d}, {0, h, d}}}}, inward),
+         lambert({0.80f, 0.80f, 0.80f}));
+  b.mesh("outer_walls",
+         quads_mesh("outer_walls",
+                    {{{{0, 0, 0}, {w, 0, 0}, {w, h, 0}, {0, h, 0}}},
+                     {{{0, 0, d}, {0, h, d}, {w, h, d}, {w, 0, d}}},
+                     {{{0, 0, 0}, {0, h, 0}, {0, h, d}, {0, 0, d}}},
+                     {{{w, 0, 0}, {w, 0, d}, {w, h, d}, {w, h, 0}}}},
+                    inward),
+         lambert({0.75f, 0.75f, 0.75f}));
+  const auto wall = [&](std::string name, float x0, float z0, float x1, float z1, bool cap_start, bool cap_end,
+                        glm::vec3 albedo) {
+    const glm::vec3 axis(0.5f * (x0 + x1), 1.25f, 0.5f * (z0 + z1));
+    auto outward = [axis, x0, x1](glm::vec3 c) {
+      // Away from the wall's mid-plane; end caps away from its middle.
+      glm::vec3 v = c - axis;
+      v.y = 0.0f;
+      if (x0 == x1 && std::abs(c.x - axis.x) < 0.05f) v.x = 0.0f;
+      if (x0 != x1 && std::abs(c.z - axis.z) < 0.05f) v.z = 0.0f;
+      return v;
+    };
+    b.mesh(name, quads_mesh(name, maze_wall(x0, z0, x1, z1, cap_start, cap_end), outward), lambert(albedo));
+  };
+  wall("red_wall", 4.0f, 0.0f, 4.0f, 5.0f, false, true, {0.70f, 0.12f, 0.08f});
+  wall("green_wall", 8.0f, 3.0f, 8.0f, 8.0f, true, false, {0.12f, 0.60f, 0.15f});
+  wall("blue_wall", 0.0f, 5.5f, 1.6f, 5.5f, false, true, {0.12f, 0.18f, 0.70f});
+
+  // The lantern: a point light carried through the corridors and back.
+  Light light;
+  light.type = Light::Type::Point;
+  light.color = glm::vec3(1.0f, 0.85f, 0.6f);
+  light.intensity = 20.0f;
+  const std::array<glm::vec3, 6> path = {glm::vec3(2.0f, 1.6f, 2.0f),  glm::vec3(2.4f, 1.6f, 6.8f),
+                                         glm::vec3(6.0f, 1.6f, 6.8f),  glm::vec3(6.0f, 1.6f, 1.5f),
+                                         glm::vec3(10.0f, 1.6f, 1.5f), glm::vec3(10.0f, 1.6f, 6.5f)};
+  const Entity lantern = b.node("lantern", at(path[0]));
+  world.add<Light>(lantern, light);
+  AnimationClip clip;
+  clip.name = "patrol";
+  clip.duration = 12.0f;
+  clip.targets = {lantern};
+  AnimationChannel channel;
+  channel.path = AnimationChannel::Path::Translation;
+  for (int k = 0; k <= 10; ++k) {  // out along the path and back: 0 1 2 3 4 5 4 3 2 1 0
+    const std::size_t i = static_cast<std::size_t>(k <= 5 ? k : 10 - k);
+    channel.times.push_back(1.2f * static_cast<float>(k));
+    channel.values.push_back(glm::vec4(path[i], 0.0f));
+  }
+  clip.channels.push_back(std::move(channel));
+  auto clips = std::make_shared<std::vector<AnimationClip>>();
+  clips->push_back(std::move(clip));
+  Animator animator;
+  animator.clips = std::move(clips);
+  world.add<Animator>(lantern, std::move(animator));
+
+  Camera camera;
+  camera.yfov = 1.1f;
+  camera.znear = 0.05f;
+  camera.zfar = 50.0f;
+  const glm::vec3 eye(0.6f, 1.7f, 0.6f), target(7.0f, 1.0f, 5.0f);
+  b.camera(at(eye, glm::quatLookAt(glm::normalize(target - eye), glm::vec3(0, 1, 0))), camera);
+  return b.finish();
+}
+
 }  // namespace
 
-std::vector<std::string> builtin_scene_names() { return {"cornell", "courtyard", "furnace"}; }
+std::vector<std::string> builtin_scene_names() { return {"cornell", "courtyard", "furnace", "maze"}; }
 
 Result<LoadedScene> load_builtin(World& world, std::string_view name) {
   if (name == "cornell") return build_cornell(world);
   if (name == "courtyard") return build_courtyard(world);
   if (name == "furnace") return build_furnace(world);
+  if (name == "maze") return build_maze(world);
   std::string valid;
   for (const std::string& n : builtin_scene_names()) valid += (valid.empty() ? "" : ", ") + n;
   return make_error(ErrorCode::NotFound,

@@ -32,7 +32,7 @@ Entity find(World& world, std::string_view name) {
 }
 
 TEST(BuiltinScenes, NamesAndUnknownNameError) {
-  EXPECT_EQ(builtin_scene_names(), (std::vector<std::string>{"cornell", "courtyard", "furnace"}));
+  EXPECT_EQ(builtin_scene_names(), (std::vector<std::string>{"cornell", "courtyard", "furnace", "maze"}));
   World world;
   auto r = load_scene(world, "builtin:nowhere");
   ASSERT_FALSE(r.ok());

@@ -13,6 +13,10 @@
 //              kFurnaceAlbedo and emitted radiance kFurnaceRadiance: at every interior point and
 //              for every normal the irradiance is pi * Le / (1 - rho) (all bounces), i.e.
 //              kFurnaceIrradiance; 5,120 triangles.
+//   maze       a 12 x 8 x 2.5 m room of large quads cut into corridors by a red, a green and a blue
+//              wall, with a point light ("lantern") that an Animator carries along a path through
+//              the corridors and back every 12 s, and a camera; 30 triangles. The indirect
+//              transport's scene (moving local light, planar receivers).
 // All static geometry carries the Static tag. Thread safety: each call mutates its World only.
 #pragma once
 
@@ -47,7 +51,7 @@ struct LoadedScene {
 };
 using BuiltinScene = LoadedScene;
 
-// Names accepted by load_builtin ("cornell", "courtyard", "furnace").
+// Names accepted by load_builtin ("cornell", "courtyard", "furnace", "maze").
 std::vector<std::string> builtin_scene_names();
 
 // Builds the named scene into `world`. NotFound (listing the valid names) for an unknown name.

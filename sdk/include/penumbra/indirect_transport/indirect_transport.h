@@ -1,0 +1,172 @@
+// Indirect transport (module "indirect-transport"): bounce light from moving local lights over
+// static geometry, by wavelet radiance transport (Kontkanen, Turquin, Holzschuch & Sillion, EGSR
+// 2006; the thesis, sec. 3.3). Diffuse transport.
+//
+// The level's receivers (Static meshes with an IndirectReceiver) are cut into planar rectangular
+// patches, each with a quadtree of 2^L x 2^L leaf texels and the orthonormal 2D Haar basis over it
+// (per patch: one scaling function and three wavelets per quadtree node above the leaves, 4^L
+// functions). Irradiance is the transported quantity: the direct transport operator T takes the
+// irradiance E on every surface to the irradiance one bounce later, T E(x) = \int rho(y) E(y)
+// G(x, y) V(x, y) dA_y with G = cos_x cos_y / (pi r^2), so the indirect irradiance of direct
+// irradiance E_d is E_ind = G E_d with the global transport operator G = sum_{k>=1} T^k. Both are
+// sparse matrices in the product of the receivers' and the senders' Haar bases (the standard
+// operator decomposition: applying one needs no push-pull). The baker builds T by hierarchical
+// refinement and G by a truncated Neumann series; each time a DynamicLight moves the system turns
+// its direct irradiance at the leaves into indirect irradiance with one sparse product
+// (indirect_transport_system.h). The renderer multiplies E_ind by albedo / pi.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "penumbra/core/pbake.h"
+#include "penumbra/core/result.h"
+#include "penumbra/lighting/fields.h"
+#include "penumbra/lighting/settings.h"
+
+namespace penumbra {
+
+struct TransportData;
+
+// On a Static mesh: it receives bounce light and passes it on. Its triangles are grouped into
+// planar charts (coplanar, edge-connected triangles), each chart's bounding rectangle in its plane
+// cut into patches of at most patch_size metres a side.
+struct IndirectReceiver {
+  // Metres; 0: kPatchSizeFraction x the diagonal of the receivers' bounds (scale-free).
+  float patch_size = 0.0f;
+  static IndirectReceiver preset(Preset preset);  // patch_size 0 at every preset
+};
+inline constexpr float kPatchSizeFraction = 0.12f;
+
+// On one entity of the scene: the transport's settings and, once baked, its operator.
+struct IndirectTransport {
+  // Oracle threshold: a link is refined while its error estimate (the sender's largest albedo x the
+  // spread of the point-to-element form factor over the link's sample pairs; form factors are
+  // dimensionless, so the threshold is scale-free) exceeds it.
+  float refinement_threshold = 0.02f;
+  std::uint32_t finest_level = 3;  // quadtree levels per patch: 2^L x 2^L leaf texels (0..6)
+  // The Neumann series stops when the last term's Frobenius norm is below bounce_tolerance x the
+  // sum's, or after max_bounces terms (reported).
+  float bounce_tolerance = 1e-3f;
+  std::uint32_t max_bounces = 64;
+  // After each product, coefficients below drop_threshold x the largest coefficient of T are dropped.
+  float drop_threshold = 1e-5f;
+  // A directional (glossy) part per patch: not implemented; a bake with it on fails Unsupported.
+  bool glossy = false;
+
+  std::shared_ptr<const TransportData> data;  // set by the baker or attach_bake(); null until baked
+
+  // Draft: level 2, threshold 0.05; medium: level 3, 0.02; high: level 4, 0.01.
+  static IndirectTransport preset(Preset preset);
+};
+
+// On a Light (point, spot or rect): it may move, and its bounce light comes from the transport.
+// Directional lights are not local lights; the system ignores them (and says so once).
+struct DynamicLight {
+  bool enabled = true;
+};
+
+// The indirect irradiance at every leaf texel (W/m^2 per channel), patch after patch, leaf (i, j)
+// of a patch at i + j 2^L: written by the indirect-transport system on the IndirectTransport
+// entity whenever a dynamic light changed.
+struct IndirectLightmap {
+  std::vector<glm::vec3> irradiance;
+  std::vector<glm::vec3> direct;  // the direct irradiance it came from (the debug view)
+  std::uint64_t updated_tick = 0;
+  std::uint32_t kept_coefficients = 0;  // significant direct coefficients multiplied in the update
+};
+
+const ComponentInfo& indirect_receiver_info();
+const ComponentInfo& indirect_transport_info();
+const ComponentInfo& dynamic_light_info();
+
+// One patch: the rectangle origin + s edge_u + t edge_v (s, t in [0, 1]) of the receiver `key`,
+// facing `normal` (edge_u x edge_v), with one albedo. Leaf (i, j) covers s in [i, i+1) / 2^level,
+// t in [j, j+1) / 2^level; coverage[i + j 2^level] is the fraction of the leaf inside the mesh's
+// triangles (0: a hole of the chart, no light sent or received).
+struct TransportPatch {
+  std::string key;
+  glm::vec3 origin{0.0f}, edge_u{1.0f, 0.0f, 0.0f}, edge_v{0.0f, 1.0f, 0.0f}, normal{0.0f, 0.0f, 1.0f};
+  glm::vec3 albedo{0.0f};
+  std::uint32_t level = 0;
+  std::vector<float> coverage;
+  std::uint32_t first = 0;  // index of its first leaf (and Haar coefficient) in the whole scene
+
+  std::uint32_t side() const { return 1u << level; }
+  std::uint32_t leaves() const { return side() * side(); }
+  float area() const;       // |edge_u x edge_v|
+  float leaf_area() const;  // area() / leaves()
+  glm::vec3 leaf_centre(std::uint32_t i, std::uint32_t j) const;
+};
+
+// A sparse matrix over the scene's Haar coefficients, RGB values, compressed by column: column j
+// (a sender coefficient) holds rows row[begin[j] .. begin[j+1]) with values value[...].
+struct SparseTransport {
+  std::uint32_t size = 0;
+  std::vector<std::uint64_t> begin{0};
+  std::vector<std::uint32_t> row;
+  std::vector<glm::vec3> value;
+
+  std::uint64_t nonzeros() const { return row.size(); }
+  std::uint64_t bytes() const;
+  double frobenius() const;  // sqrt of the sum of squares over all channels
+};
+
+// The baked transport of a scene.
+struct TransportData {
+  std::vector<TransportPatch> patches;
+  SparseTransport global;  // G, in the patches' orthonormal Haar bases
+  // What the bake did (reported by `penumbra info` and the bench).
+  float refinement_threshold = 0.0f;
+  std::uint32_t finest_level = 0;
+  std::uint64_t links = 0;              // links of the hierarchical direct operator
+  std::uint64_t direct_nonzeros = 0;    // coefficients of T in the Haar bases
+  std::uint32_t terms = 0;              // Neumann terms summed
+  float last_term_ratio = 0.0f;         // |T^terms|_F / |G|_F: below the tolerance when converged
+  bool converged = false;
+
+  std::uint32_t leaf_count() const;  // the scene's leaves = Haar coefficients
+  std::uint64_t bytes() const;
+};
+
+// The orthonormal 2D Haar transform of one patch's 2^level x 2^level leaf values (leaf (i, j) at
+// i + j 2^level), in place and scaled by sqrt(leaf_area) so that the coefficients' sum of squares
+// is the integral of the square over the patch. Layout: [0] the scaling coefficient, then three
+// wavelets per quadtree node above the leaves, nodes level by level (node (l, i, j) at
+// (4^l - 1) / 3 + i + j 2^l, its wavelets at 1 + 3 node + t: t = 0 splits along t (j), 1 along s
+// (i), 2 the diagonal). haar_synthesise is its inverse. Cost: O(4^level).
+void haar_analyse(std::span<glm::vec3> values, std::uint32_t level, float leaf_area);
+void haar_synthesise(std::span<glm::vec3> values, std::uint32_t level, float leaf_area);
+
+// What an update did.
+struct TransportUpdate {
+  std::uint32_t kept = 0;         // direct coefficients above the keep threshold
+  std::uint64_t multiplies = 0;   // operator entries touched
+};
+
+// E_ind = G E_d on the CPU: Haar analysis of `direct` (one value per leaf, patch after patch),
+// keeping the coefficients whose largest channel is at least keep_threshold x the largest, the
+// sparse product with data.global, the inverse transform into `indirect`. Preconditions: both
+// spans have data.leaf_count() entries; leaves outside their chart (coverage 0) should be 0 in
+// `direct` and come out 0. Cost: O(leaves + entries of G in the kept columns).
+TransportUpdate apply_transport(const TransportData& data, std::span<const glm::vec3> direct,
+                                std::span<glm::vec3> indirect, float keep_threshold = 1e-4f);
+
+inline constexpr std::uint32_t kTransportChunkType = fourcc("WRTO");
+inline constexpr std::uint32_t kTransportChunkVersion = 1;
+
+// The "WRTO" chunk: one per bake (label "indirect-transport:<transport entity key>"). The reader
+// checks every size, index and value and names the chunk in its errors.
+BakeChunk write_transport_chunk(const std::string& key, const TransportData& data);
+struct TransportChunk {
+  std::string key;
+  TransportData data;
+};
+Result<TransportChunk> read_transport_chunk(const BakeChunk& chunk);
+
+}  // namespace penumbra

@@ -1,0 +1,85 @@
+// The indirect-transport bake (Kontkanen et al. 2006): patches from the receivers, the direct
+// transport operator T by hierarchical refinement, the global operator G by a truncated Neumann
+// series, one WRTO chunk.
+//
+// Refinement (per receiver patch, so a shard bakes some receivers): every pair of patches that face
+// each other starts as one link between their roots. A link is evaluated at 2 x 2 jittered points
+// on each side: each receiver point's exact form factor to the sender node (Lambert's
+// point-to-polygon formula, the node clipped to the point's half space: exact as the distance goes
+// to zero at shared edges) times the fraction of its 4 shadow rays to the sender points that
+// arrive (16 rays). The oracle's error is the sender's largest albedo x the spread (max - min) of
+// point form factor x pair visibility over the pairs: variation of the kernel over the receiver
+// and partial visibility. While it exceeds the refinement threshold the larger of the two nodes
+// (by area; the other at the finest level) is split into its four children. An accepted link
+// keeps the mean: the transfer from the sender node's mean irradiance to the receiver node's.
+//
+// Standard decomposition: each link (receiver node r, sender node s) is the rank-one operator
+// F rho_s 1_r 1_s^T / n_s on leaf values, projected onto the receivers' and senders' orthonormal
+// Haar bases, where the box of a node is the scaling function and its ancestors' wavelets; the
+// projections of all links are summed into T (compressed by column).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "penumbra/bake/baker.h"
+#include "penumbra/bake/ray_scene.h"
+#include "penumbra/indirect_transport/indirect_transport.h"
+
+namespace penumbra {
+
+// The receivers' patches: every Static mesh with an IndirectReceiver, in entity order; its
+// triangles (world space) grouped into charts of coplanar (normals within 1 degree, on the plane
+// within 1e-4 of its size), edge-connected triangles; each chart's bounding rectangle (along its
+// longest edge) cut into patches of at most patch_size a side (0: kPatchSizeFraction x the
+// receivers' diagonal), each at finest_level (fewer levels for a patch much smaller than that
+// size, so texels stay about patch_size / 2^level wide). `warnings` gets one line per receiver
+// whose triangles partly fall in charts under one texel (not parameterisable: curved or
+// fragmented geometry), naming the mesh. InvalidInput naming the receiver when none of its
+// triangles form a usable chart, or when a patch would exceed 2^30 leaves in all.
+Result<std::vector<TransportPatch>> build_transport_patches(World& world, const IndirectTransport& settings,
+                                                            std::vector<std::string>& warnings);
+
+// A link of the hierarchical direct operator: receiver node -> sender node (nodes numbered per
+// patch (4^l - 1) / 3 + i + j 2^l), the mean kernel (form factor) and the rays it took.
+struct TransportLink {
+  std::uint32_t receiver_node = 0;
+  std::uint32_t sender_patch = 0;
+  std::uint32_t sender_node = 0;
+  float form_factor = 0.0f;
+};
+
+// The links of receiver patch `receiver` by the refinement above. Deterministic (jitter from
+// `seed` and the nodes' indices). `rays` gets the shadow rays traced. Thread-safe.
+std::vector<TransportLink> refine_receiver(const RayScene& scene, const std::vector<TransportPatch>& patches,
+                                           std::uint32_t receiver, float threshold, std::uint64_t seed,
+                                           std::uint64_t& rays);
+
+// T in the Haar bases from every receiver's links (links[r] those of patch r). O(links x levels^2).
+SparseTransport direct_operator(const std::vector<TransportPatch>& patches,
+                                const std::vector<std::vector<TransportLink>>& links);
+
+// The dense baseline (the approach the paper improves on): every leaf-to-leaf link, each evaluated
+// with the same 16-ray estimator, projected onto the Haar bases, then truncated to the `keep`
+// largest coefficients (0: keep all). `rays` and `peak_bytes` report its cost. Cost: O(leaves^2)
+// links; InvalidInput when the dense matrix would exceed `memory_limit` bytes.
+Result<SparseTransport> dense_direct_operator(const RayScene& scene, const std::vector<TransportPatch>& patches,
+                                              std::uint64_t seed, std::uint64_t keep, std::uint64_t memory_limit,
+                                              JobContext& jobs, std::uint64_t& rays, std::uint64_t& peak_bytes);
+
+// G = sum_{k=1..K} T^k: P_1 = T, P_{k+1} = T P_k with coefficients below drop_threshold x max|T|
+// dropped, stopping when |P_k|_F <= tolerance |G|_F (converged) or after max_terms terms.
+struct NeumannResult {
+  SparseTransport global;
+  std::uint32_t terms = 0;
+  float last_term_ratio = 0.0f;
+  bool converged = false;
+};
+Result<NeumannResult> neumann_series(const SparseTransport& direct, float tolerance, std::uint32_t max_terms,
+                                     float drop_threshold, std::uint64_t memory_limit, JobContext& jobs);
+
+// Adds the "indirect-transport" baker to world.resource<BakerRegistry>() (penumbra/bake/baker.h).
+void register_indirect_transport_baker(World& world);
+
+}  // namespace penumbra

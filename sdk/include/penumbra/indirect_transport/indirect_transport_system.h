@@ -1,0 +1,85 @@
+// The runtime half of indirect transport: direct light from the dynamic lights at the leaf texels,
+// the update that turns it into indirect light (IndirectLightmap), the system that runs it only
+// when a dynamic light changed, default components and the module descriptor.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "penumbra/ecs/world.h"
+#include "penumbra/indirect_transport/indirect_transport.h"
+#include "penumbra/lighting/module.h"
+#include "penumbra/scene/components.h"
+
+namespace penumbra {
+
+// A dynamic light in world space (Light + WorldTransform, as the bakers see lights).
+struct RuntimeLight {
+  Light light;
+  glm::vec3 position{0.0f};
+  glm::vec3 direction{0.0f, 0.0f, -1.0f};  // unit, where the light goes (local -Z)
+  glm::vec3 half_x{0.5f, 0.0f, 0.0f}, half_y{0.0f, 0.5f, 0.0f};  // rect half-size vectors
+};
+
+// The enabled DynamicLight point, spot and rect lights with a WorldTransform, in entity order.
+// InvalidInput naming the light ("light 'lantern' (entity 7)") when its position, direction, size
+// or intensity is not finite, or a rect has zero area: fix its Transform or Light. O(lights).
+Result<std::vector<RuntimeLight>> dynamic_lights(World& world);
+
+// The static geometry that shadows the dynamic lights at runtime: every Static mesh's triangles in
+// world space in a bounding volume hierarchy (median splits, 4 triangles per leaf). Built in
+// O(n log n); queries are const and thread-safe.
+class TransportOccluders {
+ public:
+  static TransportOccluders build(World& world);
+  // True when a triangle crosses the open segment from `from` to `to`. O(log n) on average.
+  bool occluded(glm::vec3 from, glm::vec3 to) const;
+  std::size_t triangle_count() const { return triangles_.size(); }
+
+ private:
+  struct Triangle {
+    glm::vec3 a, e1, e2;
+  };
+  struct Node {
+    glm::vec3 lo, hi;
+    std::uint32_t first = 0, count = 0;  // leaf: triangles [first, first + count); inner: count 0, left child first
+  };
+  void build_node(std::uint32_t node, std::vector<glm::vec3>& centres, std::uint32_t first, std::uint32_t count);
+  std::vector<Triangle> triangles_;
+  std::vector<Node> nodes_;
+};
+
+// The mean direct irradiance (W/m^2 per channel) of every leaf texel of `data` from `lights`:
+// point and spot lights by the leaf's exact solid angle seen from the light (I Omega / A, finite
+// for a light touching the wall), the spot cone and range window at the leaf's centre; rect lights
+// as 4 x 4 point sources over their area; one shadow ray per leaf and light, to the light's centre,
+// when `occluders` is given. Leaves outside their chart get 0. Cost: O(leaves x lights x log n).
+void direct_irradiance(const TransportData& data, std::span<const RuntimeLight> lights,
+                       const TransportOccluders* occluders, std::span<glm::vec3> out);
+
+// One update: when the first IndirectTransport entity with data (in entity order) has no
+// IndirectLightmap yet, or its data, or any enabled dynamic light (its Light, WorldTransform or
+// DynamicLight) changed since the previous update, recomputes its IndirectLightmap (written with
+// World::patch). Returns true when it recomputed, false when nothing changed or nothing is baked;
+// InvalidInput from dynamic_lights (the lightmap is then left as it was). Cost: nothing but a
+// hash of the dynamic lights when none changed.
+Result<bool> update_indirect_transport(World& world);
+
+// Registers system "indirect-transport" in Phase::Lighting (reads Light, WorldTransform,
+// DynamicLight, IndirectTransport; writes IndirectLightmap), calling update_indirect_transport and
+// logging a rejected light once per change.
+void register_indirect_transport_system(World& world);
+
+// Gives a built-in scene its transport when it has a moving light: every point, spot or rect
+// light that an Animator's clip targets becomes a DynamicLight and, when there is one, every
+// Static mesh an IndirectReceiver and the scene's root (the first receiver's topmost ancestor)
+// IndirectTransport::preset(preset). Scenes without moving lights get nothing. O(entities).
+std::size_t add_default_indirect_transport(World& world, Preset preset);
+
+const LightingModule& indirect_transport_module();
+
+}  // namespace penumbra

@@ -1,0 +1,149 @@
+// Indirect-transport settings, patches, the Haar transform and the CPU update (see
+// indirect_transport.h).
+#include "penumbra/indirect_transport/indirect_transport.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+namespace penumbra {
+
+IndirectReceiver IndirectReceiver::preset(Preset) { return IndirectReceiver{}; }
+
+IndirectTransport IndirectTransport::preset(Preset preset) {
+  IndirectTransport t;
+  switch (preset) {
+    case Preset::Draft: t.finest_level = 2; t.refinement_threshold = 0.05f; break;
+    case Preset::Medium: t.finest_level = 3; t.refinement_threshold = 0.02f; break;
+    case Preset::High: t.finest_level = 4; t.refinement_threshold = 0.01f; break;
+  }
+  return t;
+}
+
+float TransportPatch::area() const { return glm::length(glm::cross(edge_u, edge_v)); }
+float TransportPatch::leaf_area() const { return area() / static_cast<float>(leaves()); }
+glm::vec3 TransportPatch::leaf_centre(std::uint32_t i, std::uint32_t j) const {
+  const float inv = 1.0f / static_cast<float>(side());
+  return origin + (static_cast<float>(i) + 0.5f) * inv * edge_u + (static_cast<float>(j) + 0.5f) * inv * edge_v;
+}
+
+std::uint64_t SparseTransport::bytes() const {
+  return sizeof(*this) + begin.capacity() * sizeof(std::uint64_t) + row.capacity() * sizeof(std::uint32_t) +
+         value.capacity() * sizeof(glm::vec3);
+}
+
+double SparseTransport::frobenius() const {
+  double sum = 0.0;
+  for (const glm::vec3& v : value) sum += double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z;
+  return std::sqrt(sum);
+}
+
+std::uint32_t TransportData::leaf_count() const {
+  return patches.empty() ? 0u : patches.back().first + patches.back().leaves();
+}
+
+std::uint64_t TransportData::bytes() const {
+  std::uint64_t n = sizeof(*this) + global.bytes();
+  for (const TransportPatch& p : patches) n += sizeof(p) + p.key.capacity() + p.coverage.capacity() * sizeof(float);
+  return n;
+}
+
+namespace {
+
+std::uint32_t node_offset(std::uint32_t level) { return ((1u << (2 * level)) - 1u) / 3u; }
+
+// Two grids of up to 4^level values, reused by every transform on this thread.
+std::vector<glm::vec3>& scratch(int which, std::size_t size) {
+  thread_local std::vector<glm::vec3> buffers[2];
+  std::vector<glm::vec3>& b = buffers[which];
+  if (b.size() < size) b.resize(size);
+  return b;
+}
+
+}  // namespace
+
+void haar_analyse(std::span<glm::vec3> values, std::uint32_t level, float leaf_area) {
+  const std::size_t n_leaves = std::size_t{1} << (2 * level);
+  std::vector<glm::vec3>& fine = scratch(0, n_leaves);
+  std::vector<glm::vec3>& coarse = scratch(1, n_leaves);
+  std::copy(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(n_leaves), fine.begin());
+  // Pyramid from the leaves up: each node's scaling coefficient and three wavelets from its four
+  // children (a = (2i, 2j), b = (2i+1, 2j), c = (2i, 2j+1), d = (2i+1, 2j+1)), orthonormal.
+  for (std::uint32_t l = level; l-- > 0;) {
+    const std::uint32_t n = 1u << l, w = 2 * n;
+    for (std::uint32_t j = 0; j < n; ++j)
+      for (std::uint32_t i = 0; i < n; ++i) {
+        const glm::vec3 a = fine[2 * i + 2 * j * w], b = fine[2 * i + 1 + 2 * j * w];
+        const glm::vec3 c = fine[2 * i + (2 * j + 1) * w], d = fine[2 * i + 1 + (2 * j + 1) * w];
+        coarse[i + j * n] = 0.5f * (a + b + c + d);
+        const std::size_t k = 1 + 3 * (node_offset(l) + i + j * n);
+        values[k] = 0.5f * (a + b - c - d);
+        values[k + 1] = 0.5f * (a - b + c - d);
+        values[k + 2] = 0.5f * (a - b - c + d);
+      }
+    std::swap(fine, coarse);
+  }
+  values[0] = fine[0];
+  const float scale = std::sqrt(leaf_area);
+  for (std::size_t k = 0; k < n_leaves; ++k) values[k] *= scale;
+}
+
+void haar_synthesise(std::span<glm::vec3> values, std::uint32_t level, float leaf_area) {
+  const std::size_t n_leaves = std::size_t{1} << (2 * level);
+  std::vector<glm::vec3>& coarse = scratch(0, n_leaves);
+  std::vector<glm::vec3>& fine = scratch(1, n_leaves);
+  const float scale = leaf_area > 0.0f ? 1.0f / std::sqrt(leaf_area) : 0.0f;
+  coarse[0] = values[0] * scale;
+  // The pyramid's inverse, from the root down (the 4x4 transform is its own inverse).
+  for (std::uint32_t l = 0; l < level; ++l) {
+    const std::uint32_t n = 1u << l, w = 2 * n;
+    for (std::uint32_t j = 0; j < n; ++j)
+      for (std::uint32_t i = 0; i < n; ++i) {
+        const std::size_t k = 1 + 3 * (node_offset(l) + i + j * n);
+        const glm::vec3 s = coarse[i + j * n], w0 = values[k] * scale, w1 = values[k + 1] * scale,
+                        w2 = values[k + 2] * scale;
+        fine[2 * i + 2 * j * w] = 0.5f * (s + w0 + w1 + w2);
+        fine[2 * i + 1 + 2 * j * w] = 0.5f * (s + w0 - w1 - w2);
+        fine[2 * i + (2 * j + 1) * w] = 0.5f * (s - w0 + w1 - w2);
+        fine[2 * i + 1 + (2 * j + 1) * w] = 0.5f * (s - w0 - w1 + w2);
+      }
+    std::swap(fine, coarse);
+  }
+  std::copy(coarse.begin(), coarse.begin() + static_cast<std::ptrdiff_t>(n_leaves), values.begin());
+}
+
+TransportUpdate apply_transport(const TransportData& data, std::span<const glm::vec3> direct,
+                                std::span<glm::vec3> indirect, float keep_threshold) {
+  TransportUpdate stats;
+  const std::uint32_t n = data.leaf_count();
+  std::vector<glm::vec3> coefficients(direct.begin(), direct.begin() + n);
+  // Haar analysis of each patch's direct irradiance.
+  for (const TransportPatch& p : data.patches)
+    haar_analyse(std::span<glm::vec3>(coefficients).subspan(p.first, p.leaves()), p.level, p.leaf_area());
+  float largest = 0.0f;
+  for (const glm::vec3& c : coefficients)
+    largest = std::max(largest, std::max(std::abs(c.x), std::max(std::abs(c.y), std::abs(c.z))));
+  // The sparse product with G over the significant coefficients (columns of G).
+  std::fill(indirect.begin(), indirect.begin() + n, glm::vec3(0.0f));
+  const float keep = keep_threshold * largest;
+  const SparseTransport& g = data.global;
+  for (std::uint32_t j = 0; j < n && largest > 0.0f; ++j) {
+    const glm::vec3 c = coefficients[j];
+    if (std::max(std::abs(c.x), std::max(std::abs(c.y), std::abs(c.z))) < keep) continue;
+    ++stats.kept;
+    const std::uint64_t end = g.begin[j + 1];
+    for (std::uint64_t k = g.begin[j]; k < end; ++k) indirect[g.row[k]] += g.value[k] * c;
+    stats.multiplies += end - g.begin[j];
+  }
+  // The inverse transform into leaf irradiance; holes of a chart stay dark.
+  for (const TransportPatch& p : data.patches) {
+    std::span<glm::vec3> leaves = indirect.subspan(p.first, p.leaves());
+    haar_synthesise(leaves, p.level, p.leaf_area());
+    for (std::uint32_t k = 0; k < p.leaves(); ++k)
+      if (!(p.coverage[k] > 0.0f)) leaves[k] = glm::vec3(0.0f);
+  }
+  return stats;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,879 @@
+// The indirect-transport bake (see indirect_transport_baker.h).
+#include "penumbra/indirect_transport/indirect_transport_baker.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <numbers>
+#include <numeric>
+#include <tuple>
+#include <unordered_map>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include "penumbra/core/log.h"
+#include "penumbra/core/random.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/indirect_transport/indirect_transport_system.h"
+#include "penumbra/scene/components.h"
+#include "penumbra/scene/entity_key.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr float kPi = std::numbers::pi_v<float>;
+constexpr std::uint32_t kMaxLevel = 6;
+constexpr std::uint64_t kMaxLeaves = 1ull << 30;
+
+std::uint32_t node_offset(std::uint32_t level) { return ((1u << (2 * level)) - 1u) / 3u; }
+
+struct Node {
+  std::uint32_t level, i, j;
+};
+std::uint32_t node_id(Node n) { return node_offset(n.level) + n.i + (n.j << n.level); }
+Node node_of(std::uint32_t id) {
+  std::uint32_t l = 0;
+  while (node_offset(l + 1) <= id) ++l;
+  const std::uint32_t k = id - node_offset(l);
+  return {l, k & ((1u << l) - 1u), k >> l};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Patches.
+
+struct WorldTriangle {
+  std::array<glm::vec3, 3> p;
+  glm::vec3 normal;
+  float area;
+};
+
+// Charts of one mesh: union-find over triangles sharing a welded edge and lying in one plane.
+std::vector<std::vector<std::uint32_t>> charts_of(const std::vector<WorldTriangle>& tris,
+                                                  const std::vector<std::array<std::uint32_t, 3>>& ids, float tol) {
+  std::vector<std::uint32_t> parent(tris.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  const auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>> edges;
+  for (std::uint32_t t = 0; t < tris.size(); ++t)
+    for (int e = 0; e < 3; ++e) {
+      std::uint32_t a = ids[t][static_cast<std::size_t>(e)], b = ids[t][static_cast<std::size_t>((e + 1) % 3)];
+      if (a > b) std::swap(a, b);
+      edges[{a, b}].push_back(t);
+    }
+  constexpr float kCosOneDegree = 0.99985f;
+  for (const auto& [edge, list] : edges)
+    for (std::size_t x = 0; x + 1 < list.size(); ++x)
+      for (std::size_t y = x + 1; y < list.size(); ++y) {
+        const WorldTriangle &a = tris[list[x]], &b = tris[list[y]];
+        if (glm::dot(a.normal, b.normal) < kCosOneDegree) continue;
+        bool on_plane = true;
+        for (const glm::vec3& q : b.p) on_plane = on_plane && std::abs(glm::dot(a.normal, q - a.p[0])) <= tol;
+        if (on_plane) parent[find(list[x])] = find(list[y]);
+      }
+  std::map<std::uint32_t, std::vector<std::uint32_t>> groups;
+  for (std::uint32_t t = 0; t < tris.size(); ++t) groups[find(t)].push_back(t);
+  std::vector<std::vector<std::uint32_t>> out;
+  for (auto& [root, list] : groups) out.push_back(std::move(list));
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.front() < b.front(); });
+  return out;
+}
+
+bool inside(glm::vec2 p, glm::vec2 a, glm::vec2 b, glm::vec2 c) {
+  const auto cross = [](glm::vec2 u, glm::vec2 v) { return u.x * v.y - u.y * v.x; };
+  const float d1 = cross(b - a, p - a), d2 = cross(c - b, p - b), d3 = cross(a - c, p - c);
+  const bool neg = d1 < 0.0f || d2 < 0.0f || d3 < 0.0f, pos = d1 > 0.0f || d2 > 0.0f || d3 > 0.0f;
+  return !(neg && pos);
+}
+
+}  // namespace
+
+Result<std::vector<TransportPatch>> build_transport_patches(World& world, const IndirectTransport& settings,
+                                                            std::vector<std::string>& warnings) {
+  std::vector<TransportPatch> patches;
+  const std::vector<Entity> receivers = world.view<IndirectReceiver, Static, Mesh, WorldTransform>().sorted_entities();
+  Aabb bounds;
+  for (Entity e : receivers) {
+    const Mesh& mesh = world.get<Mesh>(e);
+    if (!mesh.data) continue;
+    const glm::mat4& m = world.get<WorldTransform>(e).matrix;
+    for (const glm::vec3& p : mesh.data->positions) bounds.extend(glm::vec3(m * glm::vec4(p, 1.0f)));
+  }
+  const float diagonal = bounds.empty() ? 1.0f : glm::length(bounds.extent());
+  const std::uint32_t finest = std::min(settings.finest_level, kMaxLevel);
+  std::uint64_t leaves = 0;
+  for (Entity e : receivers) {
+    const Mesh& mesh = world.get<Mesh>(e);
+    if (!mesh.data || mesh.data->indices.empty()) continue;
+    const std::string key = entity_key(world, e);
+    const std::string what = "indirect receiver '" + (key.empty() ? std::to_string(e.index) : key) + "'";
+    const float patch_size = world.get<IndirectReceiver>(e).patch_size > 0.0f
+                                 ? world.get<IndirectReceiver>(e).patch_size
+                                 : (diagonal > 0.0f && std::isfinite(diagonal) ? kPatchSizeFraction * diagonal : 1.0f);
+    const float texel = patch_size / static_cast<float>(1u << finest);
+    const float tol = 1e-4f * patch_size;
+    // World-space triangles with vertices welded on a grid of tol / 4.
+    const MeshData& d = *mesh.data;
+    const glm::mat4& m = world.get<WorldTransform>(e).matrix;
+    std::vector<WorldTriangle> tris;
+    std::vector<std::array<std::uint32_t, 3>> ids;
+    std::map<std::tuple<long long, long long, long long>, std::uint32_t> weld;
+    const float q = tol / 4.0f;
+    for (std::size_t t = 0; t + 2 < d.indices.size(); t += 3) {
+      WorldTriangle w;
+      std::array<std::uint32_t, 3> id;
+      for (int k = 0; k < 3; ++k) {
+        const glm::vec3 p = glm::vec3(m * glm::vec4(d.positions[d.indices[t + static_cast<std::size_t>(k)]], 1.0f));
+        w.p[static_cast<std::size_t>(k)] = p;
+        const auto cell = std::make_tuple(std::llround(p.x / q), std::llround(p.y / q), std::llround(p.z / q));
+        id[static_cast<std::size_t>(k)] = weld.emplace(cell, static_cast<std::uint32_t>(weld.size())).first->second;
+      }
+      const glm::vec3 c = glm::cross(w.p[1] - w.p[0], w.p[2] - w.p[0]);
+      w.area = 0.5f * glm::length(c);
+      if (!(w.area > 0.0f) || !std::isfinite(w.area)) continue;
+      w.normal = c / (2.0f * w.area);
+      tris.push_back(w);
+      ids.push_back(id);
+    }
+    const Material* material = world.try_get<Material>(e);
+    glm::vec3 albedo(1.0f);
+    if (material != nullptr) {
+      albedo = glm::vec3(material->base_color);
+      if (material->base_color_texture) albedo *= material->base_color_texture->average_linear;
+    }
+    albedo = glm::clamp(albedo, glm::vec3(0.0f), glm::vec3(1.0f));
+    std::size_t unusable = 0, used_charts = 0;
+    for (const std::vector<std::uint32_t>& chart : charts_of(tris, ids, tol)) {
+      // The chart's plane, and its axes: along the edge whose direction gives the smallest
+      // bounding rectangle (exact for rectangles and axis-aligned polygons).
+      glm::vec3 n(0.0f);
+      float area = 0.0f;
+      for (std::uint32_t t : chart) {
+        n += tris[t].normal * tris[t].area;
+        area += tris[t].area;
+      }
+      if (area < texel * texel || !(glm::length(n) > 0.0f)) {
+        unusable += chart.size();
+        continue;
+      }
+      n = glm::normalize(n);
+      const glm::vec3 p0 = tris[chart.front()].p[0];
+      glm::vec3 u_axis(0.0f);
+      float best = std::numeric_limits<float>::max();
+      constexpr std::size_t kCandidates = 64;  // edges tried, of the first triangles
+      for (std::size_t c = 0; c < std::min(chart.size(), kCandidates / 3 + 1); ++c)
+        for (int k = 0; k < 3; ++k) {
+          const WorldTriangle& t = tris[chart[c]];
+          glm::vec3 axis = t.p[static_cast<std::size_t>((k + 1) % 3)] - t.p[static_cast<std::size_t>(k)];
+          axis -= glm::dot(axis, n) * n;
+          if (!(glm::length(axis) > 0.0f)) continue;
+          axis = glm::normalize(axis);
+          const glm::vec3 other = glm::cross(n, axis);
+          glm::vec2 a_lo(std::numeric_limits<float>::max()), a_hi(-std::numeric_limits<float>::max());
+          for (std::uint32_t tt : chart)
+            for (const glm::vec3& q : tris[tt].p) {
+              const glm::vec2 f(glm::dot(q - p0, axis), glm::dot(q - p0, other));
+              a_lo = glm::min(a_lo, f);
+              a_hi = glm::max(a_hi, f);
+            }
+          const float rect = (a_hi.x - a_lo.x) * (a_hi.y - a_lo.y);
+          if (rect < best * (1.0f - 1e-4f)) {
+            best = rect;
+            u_axis = axis;
+          }
+        }
+      const glm::vec3 v_axis = glm::cross(n, u_axis);
+      glm::vec2 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+      std::vector<std::array<glm::vec2, 3>> flat;
+      for (std::uint32_t t : chart) {
+        std::array<glm::vec2, 3> f;
+        for (int k = 0; k < 3; ++k) {
+          const glm::vec3 r = tris[t].p[static_cast<std::size_t>(k)] - p0;
+          f[static_cast<std::size_t>(k)] = glm::vec2(glm::dot(r, u_axis), glm::dot(r, v_axis));
+          lo = glm::min(lo, f[static_cast<std::size_t>(k)]);
+          hi = glm::max(hi, f[static_cast<std::size_t>(k)]);
+        }
+        flat.push_back(f);
+      }
+      const glm::vec2 size = hi - lo;
+      const auto tiles_u = static_cast<std::uint32_t>(std::max(1.0f, std::ceil(size.x / patch_size - 1e-4f)));
+      const auto tiles_v = static_cast<std::uint32_t>(std::max(1.0f, std::ceil(size.y / patch_size - 1e-4f)));
+      const glm::vec2 tile(size.x / float(tiles_u), size.y / float(tiles_v));
+      std::uint32_t level = finest;
+      while (level > 0 && std::max(tile.x, tile.y) / float(1u << (level - 1)) <= texel * 1.001f) --level;
+      ++used_charts;
+      for (std::uint32_t tv = 0; tv < tiles_v; ++tv)
+        for (std::uint32_t tu = 0; tu < tiles_u; ++tu) {
+          TransportPatch p;
+          p.key = key;
+          p.level = level;
+          const glm::vec2 corner = lo + glm::vec2(float(tu) * tile.x, float(tv) * tile.y);
+          p.origin = p0 + corner.x * u_axis + corner.y * v_axis;
+          p.edge_u = tile.x * u_axis;
+          p.edge_v = tile.y * v_axis;
+          p.normal = n;
+          p.albedo = albedo;
+          // Coverage: 4 x 4 points per leaf inside any of the chart's triangles.
+          const std::uint32_t side = p.side(), samples = 4 * side;
+          std::vector<std::uint8_t> covered(std::size_t{samples} * samples, 0);
+          const glm::vec2 step = tile / float(samples);
+          for (const auto& f : flat) {
+            const glm::vec2 flo = glm::min(f[0], glm::min(f[1], f[2])) - corner,
+                            fhi = glm::max(f[0], glm::max(f[1], f[2])) - corner;
+            const int i0 = std::max(0, int(std::floor(flo.x / step.x - 0.5f))),
+                      i1 = std::min(int(samples) - 1, int(std::ceil(fhi.x / step.x)));
+            const int j0 = std::max(0, int(std::floor(flo.y / step.y - 0.5f))),
+                      j1 = std::min(int(samples) - 1, int(std::ceil(fhi.y / step.y)));
+            for (int j = j0; j <= j1; ++j)
+              for (int i = i0; i <= i1; ++i) {
+                const glm::vec2 s = corner + glm::vec2((float(i) + 0.5f) * step.x, (float(j) + 0.5f) * step.y);
+                if (inside(s, f[0], f[1], f[2])) covered[std::size_t(i) + std::size_t(j) * samples] = 1;
+              }
+          }
+          p.coverage.assign(p.leaves(), 0.0f);
+          float total = 0.0f;
+          for (std::uint32_t j = 0; j < samples; ++j)
+            for (std::uint32_t i = 0; i < samples; ++i)
+              if (covered[i + std::size_t(j) * samples]) p.coverage[(i / 4) + (j / 4) * side] += 1.0f / 16.0f;
+          for (float c : p.coverage) total += c;
+          if (!(total > 0.0f)) continue;  // a tile of the rectangle outside the chart
+          p.first = static_cast<std::uint32_t>(leaves);
+          leaves += p.leaves();
+          if (leaves > kMaxLeaves)
+            return make_error(ErrorCode::InvalidInput, what + ": the receivers need more than 2^30 leaf texels; raise "
+                                                              "patch_size or lower finest_level");
+          patches.push_back(std::move(p));
+        }
+    }
+    if (used_charts == 0)
+      return make_error(ErrorCode::InvalidInput,
+                        what + ": none of its " + std::to_string(tris.size()) +
+                            " triangles form a planar chart of at least one texel (" + std::to_string(texel) +
+                            " m); the transport needs large planar surfaces: remove its IndirectReceiver or raise "
+                            "patch_size");
+    if (unusable > 0)
+      warnings.push_back(what + ": " + std::to_string(unusable) + " of its " + std::to_string(tris.size()) +
+                         " triangles lie in charts smaller than one texel (curved or fragmented geometry) and neither "
+                         "receive nor pass on bounce light");
+  }
+  return patches;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Refinement.
+
+namespace {
+
+// Per patch and node: whether any leaf below has coverage (nodes with none are never linked).
+std::vector<std::uint8_t> node_coverage(const TransportPatch& p) {
+  std::vector<std::uint8_t> out(node_offset(p.level + 1), 0);
+  for (std::uint32_t j = 0; j < p.side(); ++j)
+    for (std::uint32_t i = 0; i < p.side(); ++i)
+      if (p.coverage[i + j * p.side()] > 0.0f)
+        for (std::uint32_t l = 0; l <= p.level; ++l) {
+          const std::uint32_t shift = p.level - l;
+          out[node_id({l, i >> shift, j >> shift})] = 1;
+        }
+  return out;
+}
+
+// Node area and a point at parameter (a, b) in [0, 1]^2 of the node.
+float node_area(const TransportPatch& p, Node n) { return p.area() / float(1u << (2 * n.level)); }
+glm::vec3 node_point(const TransportPatch& p, Node n, float a, float b) {
+  const float inv = 1.0f / float(1u << n.level);
+  return p.origin + (float(n.i) + a) * inv * p.edge_u + (float(n.j) + b) * inv * p.edge_v;
+}
+bool point_covered(const TransportPatch& p, Node n, float a, float b) {
+  const float inv = 1.0f / float(1u << n.level);
+  const auto i = std::min(p.side() - 1, static_cast<std::uint32_t>((float(n.i) + a) * inv * float(p.side())));
+  const auto j = std::min(p.side() - 1, static_cast<std::uint32_t>((float(n.j) + b) * inv * float(p.side())));
+  return p.coverage[i + j * p.side()] > 0.0f;
+}
+
+// Does any corner of `s` lie strictly in front of the plane of `r` (and vice versa)?
+bool faces(const TransportPatch& r, const TransportPatch& s) {
+  const auto in_front = [](const TransportPatch& plane, const TransportPatch& q) {
+    const float tol = 1e-5f * std::sqrt(plane.area());
+    for (const glm::vec3 c : {q.origin, q.origin + q.edge_u, q.origin + q.edge_v, q.origin + q.edge_u + q.edge_v})
+      if (glm::dot(plane.normal, c - plane.origin) > tol) return true;
+    return false;
+  };
+  return in_front(r, s) && in_front(s, r);
+}
+
+struct Evaluation {
+  float form_factor = 0.0f;  // mean over the receiver points of their visible form factor
+  float spread = 0.0f;       // max - min over the pairs of (point form factor x pair visibility)
+  bool any = false;          // any covered point on both sides
+};
+
+// The form factor from a point x with normal n to the polygon `q` (Lambert's formula for the
+// unoccluded point-to-polygon form factor: (1 / 2 pi) sum_i theta_i n . unit(R_i x R_i+1)), the
+// polygon first clipped to the half space in front of x. Exact as the polygon touches x's plane.
+float point_to_polygon(glm::vec3 x, glm::vec3 n, const std::array<glm::vec3, 4>& q) {
+  std::array<glm::vec3, 8> c;
+  int count = 0;
+  for (int k = 0; k < 4; ++k) {  // Sutherland-Hodgman against dot(n, p - x) >= 0
+    const glm::vec3 a = q[static_cast<std::size_t>(k)] - x, b = q[static_cast<std::size_t>((k + 1) % 4)] - x;
+    const float da = glm::dot(n, a), db = glm::dot(n, b);
+    if (da >= 0.0f) c[static_cast<std::size_t>(count++)] = a;
+    if ((da >= 0.0f) != (db >= 0.0f)) c[static_cast<std::size_t>(count++)] = a + (da / (da - db)) * (b - a);
+  }
+  if (count < 3) return 0.0f;
+  float sum = 0.0f;
+  for (int k = 0; k < count; ++k) {
+    const glm::vec3 a = c[static_cast<std::size_t>(k)], b = c[static_cast<std::size_t>((k + 1) % count)];
+    const float la = glm::length(a), lb = glm::length(b);
+    if (!(la > 0.0f) || !(lb > 0.0f)) continue;
+    const glm::vec3 cr = glm::cross(a, b);
+    const float lc = glm::length(cr);
+    if (!(lc > 0.0f)) continue;
+    const float theta = std::atan2(lc, glm::dot(a, b));
+    sum += theta * glm::dot(n, cr) / lc;
+  }
+  return std::min(1.0f, std::abs(sum) / (2.0f * kPi));
+}
+
+// 2 x 2 jittered points per side: each receiver point's exact form factor to the sender node,
+// times the fraction of its shadow rays to the sender points that arrive (16 rays, one packet).
+Evaluation evaluate_link(const RayScene& scene, const TransportPatch& rp, Node r, const TransportPatch& sp, Node s,
+                         std::uint64_t seed, std::uint64_t& rays) {
+  Rng rng = Rng::stream(seed, mix64((std::uint64_t{node_id(r)} << 32) ^ node_id(s)) ^ mix64(rp.first) ^
+                                  (std::uint64_t{sp.first} << 20));
+  std::array<glm::vec3, 4> xs, ys;
+  std::array<bool, 4> xok, yok;
+  for (int k = 0; k < 4; ++k) {
+    const float a = (float(k % 2) + rng.next_float()) * 0.5f, b = (float(k / 2) + rng.next_float()) * 0.5f;
+    xok[static_cast<std::size_t>(k)] = point_covered(rp, r, a, b);
+    xs[static_cast<std::size_t>(k)] = node_point(rp, r, a, b);
+    const float c = (float(k % 2) + rng.next_float()) * 0.5f, d = (float(k / 2) + rng.next_float()) * 0.5f;
+    yok[static_cast<std::size_t>(k)] = point_covered(sp, s, c, d);
+    ys[static_cast<std::size_t>(k)] = node_point(sp, s, c, d);
+  }
+  const std::array<glm::vec3, 4> polygon = {node_point(sp, s, 0, 0), node_point(sp, s, 1, 0), node_point(sp, s, 1, 1),
+                                            node_point(sp, s, 0, 1)};
+  std::array<float, 4> point_ff{};
+  std::array<Ray, 16> batch;
+  std::array<int, 16> owner{};
+  std::array<std::uint8_t, 16> blocked{};
+  int count = 0, receivers = 0;
+  bool any_sender = false;
+  for (int b = 0; b < 4; ++b) any_sender = any_sender || yok[static_cast<std::size_t>(b)];
+  for (int a = 0; a < 4; ++a) {
+    if (!xok[static_cast<std::size_t>(a)]) continue;
+    ++receivers;
+    const glm::vec3 x = xs[static_cast<std::size_t>(a)];
+    if (!(glm::dot(sp.normal, x - sp.origin) > 0.0f)) continue;  // behind the sender: it sees its back
+    point_ff[static_cast<std::size_t>(a)] = point_to_polygon(x, rp.normal, polygon);
+    if (!(point_ff[static_cast<std::size_t>(a)] > 0.0f)) continue;
+    for (int b = 0; b < 4; ++b) {
+      const glm::vec3 y = ys[static_cast<std::size_t>(b)];
+      if (!yok[static_cast<std::size_t>(b)] || !(glm::dot(rp.normal, y - x) > 0.0f)) continue;  // facing pairs
+      const glm::vec3 ox = x + scene.ray_epsilon(x) * rp.normal, oy = y + scene.ray_epsilon(y) * sp.normal;
+      batch[static_cast<std::size_t>(count)] = Ray{ox, 0.0f, oy - ox, 1.0f};
+      owner[static_cast<std::size_t>(count)] = a;
+      ++count;
+    }
+  }
+  Evaluation ev;
+  ev.any = receivers > 0 && any_sender;
+  if (count == 0 || !ev.any) return ev;
+  scene.occluded(std::span<const Ray>(batch.data(), static_cast<std::size_t>(count)),
+                 std::span<std::uint8_t>(blocked.data(), static_cast<std::size_t>(count)));
+  rays += static_cast<std::uint64_t>(count);
+  std::array<int, 4> seen{}, tried{};
+  float lo = std::numeric_limits<float>::max(), hi = 0.0f;
+  for (int k = 0; k < count; ++k) {
+    const auto a = static_cast<std::size_t>(owner[static_cast<std::size_t>(k)]);
+    ++tried[a];
+    const bool open = !blocked[static_cast<std::size_t>(k)];
+    if (open) ++seen[a];
+    const float w = open ? point_ff[a] : 0.0f;
+    lo = std::min(lo, w);
+    hi = std::max(hi, w);
+  }
+  float sum = 0.0f;
+  for (std::size_t a = 0; a < 4; ++a) {
+    if (!xok[a]) continue;
+    if (tried[a] == 0) lo = 0.0f;  // a covered point that sees none of the sender
+    else sum += point_ff[a] * float(seen[a]) / float(tried[a]);
+  }
+  ev.form_factor = sum / float(receivers);
+  ev.spread = hi - lo;
+  return ev;
+}
+
+}  // namespace
+
+std::vector<TransportLink> refine_receiver(const RayScene& scene, const std::vector<TransportPatch>& patches,
+                                           std::uint32_t receiver, float threshold, std::uint64_t seed,
+                                           std::uint64_t& rays) {
+  std::vector<TransportLink> links;
+  const TransportPatch& rp = patches[receiver];
+  const std::vector<std::uint8_t> r_cov = node_coverage(rp);
+  struct Pending {
+    Node r, s;
+  };
+  for (std::uint32_t sender = 0; sender < patches.size(); ++sender) {
+    if (sender == receiver) continue;
+    const TransportPatch& sp = patches[sender];
+    if (!faces(rp, sp)) continue;
+    const float rho = std::max(sp.albedo.x, std::max(sp.albedo.y, sp.albedo.z));
+    if (!(rho > 0.0f)) continue;  // a black sender passes nothing on
+    const std::vector<std::uint8_t> s_cov = node_coverage(sp);
+    std::vector<Pending> stack{{{0, 0, 0}, {0, 0, 0}}};
+    while (!stack.empty()) {
+      const Pending link = stack.back();
+      stack.pop_back();
+      const Evaluation ev = evaluate_link(scene, rp, link.r, sp, link.s, seed, rays);
+      if (!ev.any) continue;
+      const bool r_leaf = link.r.level == rp.level, s_leaf = link.s.level == sp.level;
+      if (rho * ev.spread > threshold && !(r_leaf && s_leaf)) {
+        // Refine the larger side (by area), the other when it is already a leaf; children pushed in
+        // reverse so that they are evaluated in index order.
+        const bool split_receiver = s_leaf || (!r_leaf && node_area(rp, link.r) >= node_area(sp, link.s));
+        for (int c = 3; c >= 0; --c) {
+          Pending child = link;
+          Node& n = split_receiver ? child.r : child.s;
+          n = {n.level + 1, 2 * n.i + std::uint32_t(c % 2), 2 * n.j + std::uint32_t(c / 2)};
+          if ((split_receiver ? r_cov : s_cov)[node_id(n)]) stack.push_back(child);
+        }
+        continue;
+      }
+      if (ev.form_factor > 0.0f) links.push_back({node_id(link.r), sender, node_id(link.s), ev.form_factor});
+    }
+  }
+  return links;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The operator in the Haar bases.
+
+namespace {
+
+// The Haar coefficients of a node's box (1 on its leaves) divided by `divide`: the scaling
+// coefficient n / sqrt(N) and, for each ancestor a, its three wavelets +-n / sqrt(n_a).
+void box_coefficients(const TransportPatch& p, Node n, float divide,
+                      std::vector<std::pair<std::uint32_t, float>>& out) {
+  out.clear();
+  const float leaves_below = float(1u << (2 * (p.level - n.level)));
+  out.push_back({0u, leaves_below / float(p.side()) / divide});
+  for (std::uint32_t l = 0; l < n.level; ++l) {
+    const std::uint32_t shift = n.level - l;
+    const std::uint32_t ai = n.i >> shift, aj = n.j >> shift;
+    const std::uint32_t qx = (n.i >> (shift - 1)) & 1u, qy = (n.j >> (shift - 1)) & 1u;
+    const float magnitude = leaves_below / float(1u << (p.level - l)) / divide;
+    const std::uint32_t k = 1 + 3 * (node_offset(l) + ai + (aj << l));
+    out.push_back({k, qy == 0 ? magnitude : -magnitude});
+    out.push_back({k + 1, qx == 0 ? magnitude : -magnitude});
+    out.push_back({k + 2, qx == qy ? magnitude : -magnitude});
+  }
+}
+
+struct Triple {
+  std::uint32_t col, row;
+  glm::vec3 value;
+};
+
+// Sums equal (col, row) entries of a sorted list.
+void merge_sorted(std::vector<Triple>& t) {
+  std::sort(t.begin(), t.end(), [](const Triple& a, const Triple& b) {
+    return a.col < b.col || (a.col == b.col && a.row < b.row);
+  });
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if (w > 0 && t[w - 1].col == t[i].col && t[w - 1].row == t[i].row) t[w - 1].value += t[i].value;
+    else t[w++] = t[i];
+  }
+  t.resize(w);
+}
+
+// A CSC matrix of size n from triples sorted by (col, row), per-receiver lists in row order.
+SparseTransport from_triples(std::uint32_t n, const std::vector<std::vector<Triple>>& lists) {
+  SparseTransport m;
+  m.size = n;
+  m.begin.assign(std::size_t{n} + 1, 0);
+  std::uint64_t total = 0;
+  for (const auto& list : lists)
+    for (const Triple& t : list) ++m.begin[t.col + 1];
+  for (std::uint32_t j = 0; j < n; ++j) m.begin[j + 1] += m.begin[j];
+  total = m.begin[n];
+  m.row.resize(total);
+  m.value.resize(total);
+  std::vector<std::uint64_t> next(m.begin.begin(), m.begin.end() - 1);
+  for (const auto& list : lists)
+    for (const Triple& t : list) {
+      m.row[next[t.col]] = t.row;
+      m.value[next[t.col]++] = t.value;
+    }
+  return m;
+}
+
+float max_abs(glm::vec3 v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
+
+}  // namespace
+
+SparseTransport direct_operator(const std::vector<TransportPatch>& patches,
+                                const std::vector<std::vector<TransportLink>>& links) {
+  const std::uint32_t n = patches.empty() ? 0u : patches.back().first + patches.back().leaves();
+  std::vector<std::vector<Triple>> lists(patches.size());
+  std::vector<std::pair<std::uint32_t, float>> u, v;
+  for (std::size_t r = 0; r < patches.size(); ++r) {
+    const TransportPatch& rp = patches[r];
+    std::vector<Triple>& out = lists[r];
+    for (const TransportLink& link : links[r]) {
+      const TransportPatch& sp = patches[link.sender_patch];
+      const Node rn = node_of(link.receiver_node), sn = node_of(link.sender_node);
+      // W = sqrt(A_r / A_s) (H_r 1_r) (H_s 1_s)^T F rho_s / n_s, A the leaf areas.
+      box_coefficients(rp, rn, 1.0f, u);
+      box_coefficients(sp, sn, float(1u << (2 * (sp.level - sn.level))), v);
+      const glm::vec3 scale = std::sqrt(rp.leaf_area() / sp.leaf_area()) * link.form_factor * sp.albedo;
+      for (const auto& [ru, uu] : u)
+        for (const auto& [sv, vv] : v) out.push_back({sp.first + sv, rp.first + ru, scale * (uu * vv)});
+    }
+    merge_sorted(out);
+  }
+  return from_triples(n, lists);
+}
+
+Result<SparseTransport> dense_direct_operator(const RayScene& scene, const std::vector<TransportPatch>& patches,
+                                              std::uint64_t seed, std::uint64_t keep, std::uint64_t memory_limit,
+                                              JobContext& jobs, std::uint64_t& rays, std::uint64_t& peak_bytes) {
+  const std::uint32_t n = patches.empty() ? 0u : patches.back().first + patches.back().leaves();
+  peak_bytes = std::uint64_t{n} * n * sizeof(glm::vec3);
+  if (memory_limit > 0 && peak_bytes > memory_limit)
+    return make_error(ErrorCode::InvalidInput, "dense transport: " + std::to_string(n) + " leaves need a " +
+                                                   std::to_string(peak_bytes / 1000000) + " MB matrix, over the limit");
+  // Leaf-to-leaf kernels with the refinement's estimator, one receiver patch per task.
+  std::vector<glm::vec3> dense(std::size_t{n} * n, glm::vec3(0.0f));  // dense[col * n + row]
+  std::vector<std::uint64_t> patch_rays(patches.size(), 0);
+  jobs.begin_stage("dense links", patches.size());
+  PENUMBRA_TRY(jobs.parallel_for(patches.size(), 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t r = begin; r < end; ++r) {
+      const TransportPatch& rp = patches[r];
+      for (std::size_t s = 0; s < patches.size(); ++s) {
+        const TransportPatch& sp = patches[s];
+        if (s == r || !faces(rp, sp)) continue;
+        for (std::uint32_t ri = 0; ri < rp.leaves(); ++ri) {
+          if (!(rp.coverage[ri] > 0.0f)) continue;
+          const Node rn{rp.level, ri % rp.side(), ri / rp.side()};
+          for (std::uint32_t si = 0; si < sp.leaves(); ++si) {
+            if (!(sp.coverage[si] > 0.0f)) continue;
+            const Node sn{sp.level, si % sp.side(), si / sp.side()};
+            const Evaluation ev = evaluate_link(scene, rp, rn, sp, sn, seed, patch_rays[r]);
+            dense[std::size_t{sp.first + si} * n + rp.first + ri] = ev.form_factor * sp.albedo;
+          }
+        }
+      }
+      jobs.advance(1);
+    }
+  }));
+  rays = std::accumulate(patch_rays.begin(), patch_rays.end(), std::uint64_t{0});
+  // Standard decomposition: the receivers' transform down each column, then the senders' along
+  // each row (the scale sqrt(A_r / A_s) of the Haar bases' normalisation).
+  std::vector<glm::vec3> line;
+  for (std::uint32_t c = 0; c < n; ++c)
+    for (const TransportPatch& p : patches)
+      haar_analyse(std::span<glm::vec3>(dense).subspan(std::size_t{c} * n + p.first, p.leaves()), p.level,
+                   p.leaf_area());
+  for (std::uint32_t row = 0; row < n; ++row)
+    for (const TransportPatch& p : patches) {
+      line.resize(p.leaves());
+      for (std::uint32_t k = 0; k < p.leaves(); ++k) line[k] = dense[std::size_t{p.first + k} * n + row];
+      haar_analyse(line, p.level, 1.0f / p.leaf_area());  // H_s^T / sqrt(A_s) on the sender side
+      for (std::uint32_t k = 0; k < p.leaves(); ++k) dense[std::size_t{p.first + k} * n + row] = line[k];
+    }
+  // Truncation to the `keep` largest coefficients.
+  float cut = 0.0f;
+  if (keep > 0 && keep < dense.size()) {
+    std::vector<float> mags(dense.size());
+    for (std::size_t k = 0; k < dense.size(); ++k) mags[k] = max_abs(dense[k]);
+    std::nth_element(mags.begin(), mags.begin() + static_cast<std::ptrdiff_t>(mags.size() - keep), mags.end());
+    cut = mags[mags.size() - keep];
+  }
+  std::vector<std::vector<Triple>> lists(1);
+  for (std::uint32_t c = 0; c < n; ++c)
+    for (std::uint32_t row = 0; row < n; ++row) {
+      const glm::vec3 v = dense[std::size_t{c} * n + row];
+      const float mag = max_abs(v);
+      if (mag > 0.0f && mag >= cut) lists[0].push_back({c, row, v});
+    }
+  return from_triples(n, lists);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The Neumann series.
+
+namespace {
+
+// C = A B, both CSC, coefficients with max channel below `drop` left out. Parallel over columns
+// of B, each column's entries in row order: deterministic.
+Result<SparseTransport> multiply(const SparseTransport& a, const SparseTransport& b, float drop, JobContext& jobs) {
+  const std::uint32_t n = b.size;
+  std::vector<std::vector<std::uint32_t>> rows(n);
+  std::vector<std::vector<glm::vec3>> values(n);
+  const std::size_t grain = 64;
+  PENUMBRA_TRY(jobs.parallel_for(n, grain, [&](std::size_t begin, std::size_t end) {
+    std::vector<glm::vec3> acc(a.size, glm::vec3(0.0f));
+    std::vector<std::uint8_t> mark(a.size, 0);
+    std::vector<std::uint32_t> touched;
+    for (std::size_t j = begin; j < end; ++j) {
+      touched.clear();
+      for (std::uint64_t kb = b.begin[j]; kb < b.begin[j + 1]; ++kb) {
+        const std::uint32_t k = b.row[kb];
+        const glm::vec3 bv = b.value[kb];
+        for (std::uint64_t ka = a.begin[k]; ka < a.begin[k + 1]; ++ka) {
+          const std::uint32_t i = a.row[ka];
+          if (!mark[i]) {
+            mark[i] = 1;
+            touched.push_back(i);
+          }
+          acc[i] += a.value[ka] * bv;
+        }
+      }
+      std::sort(touched.begin(), touched.end());
+      for (std::uint32_t i : touched) {
+        if (max_abs(acc[i]) >= drop && max_abs(acc[i]) > 0.0f) {
+          rows[j].push_back(i);
+          values[j].push_back(acc[i]);
+        }
+        acc[i] = glm::vec3(0.0f);
+        mark[i] = 0;
+      }
+    }
+  }));
+  SparseTransport c;
+  c.size = n;
+  c.begin.assign(std::size_t{n} + 1, 0);
+  for (std::uint32_t j = 0; j < n; ++j) c.begin[j + 1] = c.begin[j] + rows[j].size();
+  c.row.reserve(c.begin[n]);
+  c.value.reserve(c.begin[n]);
+  for (std::uint32_t j = 0; j < n; ++j) {
+    c.row.insert(c.row.end(), rows[j].begin(), rows[j].end());
+    c.value.insert(c.value.end(), values[j].begin(), values[j].end());
+  }
+  return c;
+}
+
+// A + B, both CSC with rows sorted in each column.
+SparseTransport add(const SparseTransport& a, const SparseTransport& b) {
+  SparseTransport c;
+  c.size = a.size;
+  c.begin.assign(std::size_t{a.size} + 1, 0);
+  c.row.reserve(a.row.size() + b.row.size());
+  c.value.reserve(a.row.size() + b.row.size());
+  for (std::uint32_t j = 0; j < a.size; ++j) {
+    std::uint64_t x = a.begin[j], y = b.begin[j];
+    while (x < a.begin[j + 1] || y < b.begin[j + 1]) {
+      if (y == b.begin[j + 1] || (x < a.begin[j + 1] && a.row[x] < b.row[y])) {
+        c.row.push_back(a.row[x]);
+        c.value.push_back(a.value[x++]);
+      } else if (x == a.begin[j + 1] || b.row[y] < a.row[x]) {
+        c.row.push_back(b.row[y]);
+        c.value.push_back(b.value[y++]);
+      } else {
+        c.row.push_back(a.row[x]);
+        c.value.push_back(a.value[x++] + b.value[y++]);
+      }
+    }
+    c.begin[j + 1] = c.row.size();
+  }
+  return c;
+}
+
+}  // namespace
+
+Result<NeumannResult> neumann_series(const SparseTransport& direct, float tolerance, std::uint32_t max_terms,
+                                     float drop_threshold, std::uint64_t memory_limit, JobContext& jobs) {
+  NeumannResult out;
+  float largest = 0.0f;
+  for (const glm::vec3& v : direct.value) largest = std::max(largest, max_abs(v));
+  const float drop = drop_threshold * largest;
+  out.global = direct;
+  out.terms = 1;
+  SparseTransport term = direct;
+  jobs.begin_stage("Neumann series", max_terms);
+  jobs.advance(1);
+  out.last_term_ratio = direct.nonzeros() > 0 ? 1.0f : 0.0f;
+  out.converged = direct.nonzeros() == 0;
+  while (!out.converged && out.terms < max_terms) {
+    if (jobs.cancelled()) return make_error(ErrorCode::Cancelled, "indirect transport: cancelled");
+    auto next = multiply(direct, term, drop, jobs);
+    if (!next) return next.error();
+    term = std::move(*next);
+    out.global = add(out.global, term);
+    ++out.terms;
+    jobs.advance(1);
+    const double g = out.global.frobenius();
+    out.last_term_ratio = g > 0.0 ? static_cast<float>(term.frobenius() / g) : 0.0f;
+    out.converged = !(out.last_term_ratio > tolerance);
+    if (memory_limit > 0 && out.global.bytes() + term.bytes() > memory_limit)
+      return make_error(ErrorCode::InvalidInput,
+                        "indirect transport: the global operator needs " + std::to_string(out.global.bytes() / 1000000) +
+                            " MB after " + std::to_string(out.terms) +
+                            " terms, over the memory limit; raise drop_threshold or refinement_threshold");
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The baker.
+
+namespace {
+
+constexpr std::uint64_t kPatchBlock = 4;  // receiver patches per work item
+
+struct Header {
+  float refinement_threshold, bounce_tolerance, drop_threshold;
+  std::uint32_t finest_level, max_bounces;
+  std::uint64_t seed, memory_limit;
+};
+
+std::vector<std::byte> write_header(const Header& h, const std::vector<TransportPatch>& patches) {
+  TransportData data;
+  data.patches = patches;
+  data.global.size = data.leaf_count();
+  data.global.begin.assign(std::size_t{data.global.size} + 1, 0);
+  ByteWriter w;
+  w.write(h);
+  const BakeChunk geometry = write_transport_chunk("", data);  // the patches, with the chunk's checks on read
+  w.write_vector(std::span<const std::byte>(geometry.payload));
+  return w.take();
+}
+
+Result<std::pair<Header, std::vector<TransportPatch>>> read_header(std::span<const std::byte> bytes,
+                                                                   const std::string& context) {
+  ByteReader r(bytes, context);
+  Header h;
+  std::vector<std::byte> payload;
+  PENUMBRA_TRY(r.read(h));
+  PENUMBRA_TRY(r.read_vector(payload));
+  PENUMBRA_TRY(r.finish());
+  auto geometry = read_transport_chunk(BakeChunk{kTransportChunkType, kTransportChunkVersion, "", payload});
+  if (!geometry) return geometry.error();
+  return std::make_pair(h, std::move(geometry->data.patches));
+}
+
+Entity transport_entity(World& world) {
+  const std::vector<Entity> all = world.view<IndirectTransport>().sorted_entities();
+  return all.empty() ? Entity::null() : all.front();
+}
+
+Result<BakeWork> plan_transport(BakeInputs& in) {
+  BakeWork work;
+  const Entity owner = transport_entity(in.world);
+  if (!owner) return work;
+  const IndirectTransport& settings = in.world.get<IndirectTransport>(owner);
+  const std::string what = "indirect transport '" + entity_key(in.world, owner) + "'";
+  PENUMBRA_TRY(check_fields(indirect_transport_info(), &settings, what));
+  if (settings.glossy)
+    return make_error(ErrorCode::Unsupported, what + ": glossy transport is not implemented; set glossy to false");
+  auto key = bake_key(in, owner, what);
+  if (!key) return key.error();
+  std::vector<std::string> warnings;
+  auto patches = build_transport_patches(in.world, settings, warnings);
+  if (!patches) return patches.error();
+  for (const std::string& w : warnings) log(LogLevel::Warning, w);
+  if (patches->empty()) return work;
+  const Header h{settings.refinement_threshold, settings.bounce_tolerance, settings.drop_threshold,
+                 settings.finest_level, settings.max_bounces, in.settings.seed, in.settings.memory_limit_bytes};
+  auto shared = std::make_shared<std::vector<TransportPatch>>(std::move(*patches));
+  work.groups.push_back(BakeGroup{std::move(*key), shared->size(), kPatchBlock, 1000.0, write_header(h, *shared)});
+  work.run = [&in, shared, h](std::size_t, std::uint64_t begin, std::uint64_t end,
+                              JobContext& jobs) -> Result<std::vector<std::byte>> {
+    const std::size_t count = static_cast<std::size_t>(end - begin);
+    std::vector<std::vector<TransportLink>> links(count);
+    jobs.begin_stage("transport links", count);
+    PENUMBRA_TRY(jobs.parallel_for(count, 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        std::uint64_t rays = 0;
+        links[i] = refine_receiver(in.rays, *shared, static_cast<std::uint32_t>(begin + i), h.refinement_threshold,
+                                   h.seed, rays);
+        jobs.advance(1);
+      }
+    }));
+    std::uint64_t total = 0;
+    for (const auto& l : links) total += l.size();
+    PENUMBRA_TRY(in.budget.reserve("transport links", total * sizeof(TransportLink)));
+    ByteWriter out;
+    for (const auto& l : links) out.write_vector(l);
+    in.budget.release(total * sizeof(TransportLink));
+    return out.take();
+  };
+  return work;
+}
+
+Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> groups, JobContext& jobs) {
+  std::vector<BakeChunk> chunks;
+  for (const BakedGroup& g : groups) {
+    const std::string context = "indirect transport '" + g.group->name + "'";
+    auto header = read_header(g.group->header, context + " header");
+    if (!header) return header.error();
+    const auto& [h, patches] = *header;
+    std::vector<std::vector<TransportLink>> links(patches.size());
+    ByteReader r(g.results, context + " results");
+    std::uint64_t link_count = 0;
+    for (std::size_t p = 0; p < patches.size(); ++p) {
+      PENUMBRA_TRY(r.read_vector(links[p]));
+      for (const TransportLink& l : links[p])
+        if (l.sender_patch >= patches.size() || l.receiver_node >= node_offset(patches[p].level + 1) ||
+            l.sender_node >= node_offset(patches[l.sender_patch].level + 1) || !std::isfinite(l.form_factor))
+          return make_error(ErrorCode::InvalidInput, context + " results: a link of patch " + std::to_string(p) +
+                                                         " is out of range; re-bake the part");
+      link_count += links[p].size();
+    }
+    PENUMBRA_TRY(r.finish());
+    jobs.begin_stage("direct operator", 1);
+    const SparseTransport direct = direct_operator(patches, links);
+    jobs.advance(1);
+    auto series = neumann_series(direct, h.bounce_tolerance, h.max_bounces, h.drop_threshold, h.memory_limit, jobs);
+    if (!series) return series.error();
+    TransportData data;
+    data.patches = patches;
+    data.global = std::move(series->global);
+    data.refinement_threshold = h.refinement_threshold;
+    data.finest_level = h.finest_level;
+    data.links = link_count;
+    data.direct_nonzeros = direct.nonzeros();
+    data.terms = series->terms;
+    data.last_term_ratio = series->last_term_ratio;
+    data.converged = series->converged;
+    if (!data.converged)
+      log(LogLevel::Warning, context + ": the Neumann series did not converge in " + std::to_string(data.terms) +
+                                 " terms (last term " + std::to_string(data.last_term_ratio) +
+                                 " of the sum); the indirect light is short by the missing bounces: raise max_bounces");
+    chunks.push_back(write_transport_chunk(g.group->name, data));
+  }
+  return chunks;
+}
+
+void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
+  h.add(kTransportChunkVersion);
+  const Entity owner = transport_entity(world);
+  if (!owner) return;
+  h.add(std::string_view(entity_key(world, owner)));
+  hash_fields(indirect_transport_info(), &world.get<IndirectTransport>(owner), h);
+  for (Entity e : world.view<IndirectReceiver>().sorted_entities()) {
+    h.add(std::string_view(entity_key(world, e)));
+    hash_fields(indirect_receiver_info(), &world.get<IndirectReceiver>(e), h);
+  }
+}
+
+}  // namespace
+
+void register_indirect_transport_baker(World& world) {
+  Baker b = baker_for(indirect_transport_module());
+  b.stages = 4;
+  b.hash_inputs = hash_inputs;
+  b.plan = plan_transport;
+  b.finish = finish_transport;
+  world.resource<BakerRegistry>().add(std::move(b));
+}
+
+}  // namespace penumbra

@@ -1,0 +1,113 @@
+// The WRTO chunk of indirect transport (see indirect_transport.h).
+#include <cmath>
+#include <string>
+
+#include "penumbra/indirect_transport/indirect_transport.h"
+#include "penumbra/lighting/module.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr std::uint32_t kMaxLevel = 6;
+constexpr std::uint32_t kMaxPatches = 1u << 20;
+
+bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+}  // namespace
+
+BakeChunk write_transport_chunk(const std::string& key, const TransportData& data) {
+  ByteWriter w;
+  w.write_string(key);
+  w.write(data.refinement_threshold);
+  w.write(data.finest_level);
+  w.write(data.links);
+  w.write(data.direct_nonzeros);
+  w.write(data.terms);
+  w.write(data.last_term_ratio);
+  w.write(static_cast<std::uint8_t>(data.converged ? 1 : 0));
+  w.write(static_cast<std::uint32_t>(data.patches.size()));
+  for (const TransportPatch& p : data.patches) {
+    w.write_string(p.key);
+    w.write(p.origin);
+    w.write(p.edge_u);
+    w.write(p.edge_v);
+    w.write(p.normal);
+    w.write(p.albedo);
+    w.write(p.level);
+    w.write_vector(p.coverage);
+  }
+  w.write(data.global.size);
+  w.write_vector(data.global.begin);
+  w.write_vector(data.global.row);
+  w.write_vector(data.global.value);
+  return BakeChunk{kTransportChunkType, kTransportChunkVersion, chunk_label("indirect-transport", key), w.take()};
+}
+
+Result<TransportChunk> read_transport_chunk(const BakeChunk& chunk) {
+  const std::string context = "chunk 'WRTO'";
+  PENUMBRA_TRY(check_chunk(chunk, kTransportChunkType, kTransportChunkVersion, context));
+  ByteReader r(chunk.payload, context);
+  TransportChunk out;
+  TransportData& d = out.data;
+  std::uint8_t converged = 0;
+  std::uint32_t count = 0;
+  PENUMBRA_TRY(r.read_string(out.key));
+  PENUMBRA_TRY(r.read(d.refinement_threshold));
+  PENUMBRA_TRY(r.read(d.finest_level));
+  PENUMBRA_TRY(r.read(d.links));
+  PENUMBRA_TRY(r.read(d.direct_nonzeros));
+  PENUMBRA_TRY(r.read(d.terms));
+  PENUMBRA_TRY(r.read(d.last_term_ratio));
+  PENUMBRA_TRY(r.read(converged));
+  PENUMBRA_TRY(r.read(count));
+  d.converged = converged != 0;
+  const auto bad = [&](const std::string& what) {
+    return make_error(ErrorCode::InvalidInput, context + " '" + out.key + "': " + what + "; re-bake");
+  };
+  if (count > kMaxPatches) return bad(std::to_string(count) + " patches is more than a bake makes");
+  std::uint64_t first = 0;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    TransportPatch p;
+    PENUMBRA_TRY(r.read_string(p.key));
+    PENUMBRA_TRY(r.read(p.origin));
+    PENUMBRA_TRY(r.read(p.edge_u));
+    PENUMBRA_TRY(r.read(p.edge_v));
+    PENUMBRA_TRY(r.read(p.normal));
+    PENUMBRA_TRY(r.read(p.albedo));
+    PENUMBRA_TRY(r.read(p.level));
+    const std::string where = "patch " + std::to_string(i) + " (receiver '" + p.key + "')";
+    if (p.level > kMaxLevel) return bad(where + ": level " + std::to_string(p.level) + " exceeds 6");
+    PENUMBRA_TRY(r.read_vector(p.coverage, p.leaves()));
+    if (p.coverage.size() != p.leaves()) return bad(where + ": coverage does not have one value per leaf");
+    if (!finite(p.origin) || !finite(p.edge_u) || !finite(p.edge_v) || !finite(p.normal) || !(p.area() > 0.0f))
+      return bad(where + ": non-finite or zero-area rectangle");
+    for (int c = 0; c < 3; ++c)
+      if (!(p.albedo[c] >= 0.0f && p.albedo[c] <= 1.0f)) return bad(where + ": albedo outside [0, 1]");
+    for (float f : p.coverage)
+      if (!(f >= 0.0f && f <= 1.0f)) return bad(where + ": leaf coverage outside [0, 1]");
+    p.first = static_cast<std::uint32_t>(first);
+    first += p.leaves();
+    if (first > (1u << 30)) return bad("more leaves than a bake makes");
+    d.patches.push_back(std::move(p));
+  }
+  SparseTransport& g = d.global;
+  PENUMBRA_TRY(r.read(g.size));
+  if (g.size != first) return bad("operator of size " + std::to_string(g.size) + " for " + std::to_string(first) +
+                                  " leaves");
+  PENUMBRA_TRY(r.read_vector(g.begin, std::uint64_t{g.size} + 1));
+  PENUMBRA_TRY(r.read_vector(g.row));
+  PENUMBRA_TRY(r.read_vector(g.value, g.row.size()));
+  PENUMBRA_TRY(r.finish());
+  if (g.begin.size() != std::size_t{g.size} + 1 || g.begin.front() != 0 || g.begin.back() != g.row.size() ||
+      g.value.size() != g.row.size())
+    return bad("operator columns do not match its entries");
+  for (std::size_t j = 0; j + 1 < g.begin.size(); ++j)
+    if (g.begin[j] > g.begin[j + 1]) return bad("operator column " + std::to_string(j) + " ends before it begins");
+  for (std::size_t k = 0; k < g.row.size(); ++k)
+    if (g.row[k] >= g.size || !finite(g.value[k]))
+      return bad("operator entry " + std::to_string(k) + " has a row out of range or a non-finite value");
+  return out;
+}
+
+}  // namespace penumbra
