@@ -9,14 +9,12 @@
 
 namespace penumbra {
 
-IndirectReceiver IndirectReceiver::preset(Preset) { return IndirectReceiver{}; }
-
 IndirectTransport IndirectTransport::preset(Preset preset) {
   IndirectTransport t;
   switch (preset) {
-    case Preset::Draft: t.finest_level = 2; t.refinement_threshold = 0.05f; break;
-    case Preset::Medium: t.finest_level = 3; t.refinement_threshold = 0.02f; break;
-    case Preset::High: t.finest_level = 4; t.refinement_threshold = 0.01f; break;
+    case Preset::Draft: t.finest_level = 2; t.refinement_threshold = 0.02f; break;
+    case Preset::Medium: t.finest_level = 3; t.refinement_threshold = 0.004f; break;
+    case Preset::High: t.finest_level = 4; t.refinement_threshold = 0.002f; break;
   }
   return t;
 }
@@ -114,35 +112,61 @@ void haar_synthesise(std::span<glm::vec3> values, std::uint32_t level, float lea
 }
 
 TransportUpdate apply_transport(const TransportData& data, std::span<const glm::vec3> direct,
-                                std::span<glm::vec3> indirect, float keep_threshold) {
+                                std::span<glm::vec3> indirect, float keep_threshold, TaskScheduler* scheduler) {
   TransportUpdate stats;
+  JobContext jobs(scheduler);
   const std::uint32_t n = data.leaf_count();
   std::vector<glm::vec3> coefficients(direct.begin(), direct.begin() + n);
   // Haar analysis of each patch's direct irradiance.
-  for (const TransportPatch& p : data.patches)
-    haar_analyse(std::span<glm::vec3>(coefficients).subspan(p.first, p.leaves()), p.level, p.leaf_area());
+  (void)jobs.parallel_for(data.patches.size(), 8, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const TransportPatch& p = data.patches[i];
+      haar_analyse(std::span<glm::vec3>(coefficients).subspan(p.first, p.leaves()), p.level, p.leaf_area());
+    }
+  });
   float largest = 0.0f;
   for (const glm::vec3& c : coefficients)
     largest = std::max(largest, std::max(std::abs(c.x), std::max(std::abs(c.y), std::abs(c.z))));
-  // The sparse product with G over the significant coefficients (columns of G).
-  std::fill(indirect.begin(), indirect.begin() + n, glm::vec3(0.0f));
+  // The sparse product with G over the significant coefficients (columns of G), in kSlices fixed
+  // column ranges summed separately and then in order: the same bits at any thread count.
+  constexpr std::size_t kSlices = 4;
   const float keep = keep_threshold * largest;
   const SparseTransport& g = data.global;
-  for (std::uint32_t j = 0; j < n && largest > 0.0f; ++j) {
-    const glm::vec3 c = coefficients[j];
-    if (std::max(std::abs(c.x), std::max(std::abs(c.y), std::abs(c.z))) < keep) continue;
-    ++stats.kept;
-    const std::uint64_t end = g.begin[j + 1];
-    for (std::uint64_t k = g.begin[j]; k < end; ++k) indirect[g.row[k]] += g.value[k] * c;
-    stats.multiplies += end - g.begin[j];
+  std::vector<std::vector<glm::vec3>> partial(kSlices);
+  std::vector<TransportUpdate> slice_stats(kSlices);
+  (void)jobs.parallel_for(kSlices, 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t slice = begin; slice < end; ++slice) {
+      std::vector<glm::vec3>& out = partial[slice];
+      out.assign(n, glm::vec3(0.0f));
+      const std::uint32_t first = static_cast<std::uint32_t>(std::uint64_t{n} * slice / kSlices);
+      const std::uint32_t last = static_cast<std::uint32_t>(std::uint64_t{n} * (slice + 1) / kSlices);
+      for (std::uint32_t j = first; j < last && largest > 0.0f; ++j) {
+        const glm::vec3 c = coefficients[j];
+        if (std::max(std::abs(c.x), std::max(std::abs(c.y), std::abs(c.z))) < keep) continue;
+        ++slice_stats[slice].kept;
+        const std::uint64_t stop = g.begin[j + 1];
+        for (std::uint64_t k = g.begin[j]; k < stop; ++k) out[g.row[k]] += g.value[k] * c;
+        slice_stats[slice].multiplies += stop - g.begin[j];
+      }
+    }
+  });
+  std::copy(partial[0].begin(), partial[0].end(), indirect.begin());
+  for (std::size_t slice = 1; slice < kSlices; ++slice)
+    for (std::uint32_t i = 0; i < n; ++i) indirect[i] += partial[slice][i];
+  for (const TransportUpdate& t : slice_stats) {
+    stats.kept += t.kept;
+    stats.multiplies += t.multiplies;
   }
   // The inverse transform into leaf irradiance; holes of a chart stay dark.
-  for (const TransportPatch& p : data.patches) {
-    std::span<glm::vec3> leaves = indirect.subspan(p.first, p.leaves());
-    haar_synthesise(leaves, p.level, p.leaf_area());
-    for (std::uint32_t k = 0; k < p.leaves(); ++k)
-      if (!(p.coverage[k] > 0.0f)) leaves[k] = glm::vec3(0.0f);
-  }
+  (void)jobs.parallel_for(data.patches.size(), 8, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const TransportPatch& p = data.patches[i];
+      std::span<glm::vec3> leaves = indirect.subspan(p.first, p.leaves());
+      haar_synthesise(leaves, p.level, p.leaf_area());
+      for (std::uint32_t k = 0; k < p.leaves(); ++k)
+        if (!(p.coverage[k] > 0.0f)) leaves[k] = glm::vec3(0.0f);
+    }
+  });
   return stats;
 }
 

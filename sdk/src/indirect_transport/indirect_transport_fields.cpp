@@ -21,7 +21,7 @@ const IndirectTransport kTransportDefaults{};
 constexpr FieldInfo kTransportFields[] = {
     member<&IndirectTransport::refinement_threshold>(
         {.name = "refinement_threshold", .type = T::Float, .min = 1e-6, .max = 1,
-         .help = "form-factor error a link may keep; 0.02 is a good start, lower is finer", .preset = true,
+         .help = "form-factor error a link may keep; 0.004 is a good start, lower is finer", .preset = true,
          .hashed = true, .speed = 1e-3f}),
     member<&IndirectTransport::finest_level>({.name = "finest_level", .type = T::Count, .min = 0, .max = 6,
                                               .unit = "levels",
@@ -34,7 +34,7 @@ constexpr FieldInfo kTransportFields[] = {
                                              .unit = "bounces", .help = "Neumann terms at most; 64",
                                              .hashed = true, .speed = 0.1f}),
     member<&IndirectTransport::drop_threshold>({.name = "drop_threshold", .type = T::Float, .min = 0, .max = 1,
-                                                .help = "relative size of coefficients dropped after a product; 1e-5",
+                                                .help = "relative size of coefficients dropped from T and after each product; 1e-4",
                                                 .hashed = true, .speed = 1e-6f}),
     member<&IndirectTransport::glossy>({.name = "glossy", .type = T::Bool, .min = 0, .max = 1,
                                         .help = "directional transport (not implemented: the bake refuses it)",
@@ -56,7 +56,6 @@ const ComponentInfo& indirect_receiver_info() {
                                   .find = fields::find_in<IndirectReceiver>,
                                   .patch = fields::patch_in<IndirectReceiver>,
                                   .copy = fields::copy_in<IndirectReceiver>,
-                                  .set_preset_fields = fields::preset_fields<IndirectReceiver>,
                                   .emplace = fields::emplace_in<IndirectReceiver>,
                                   .erase = fields::erase_in<IndirectReceiver>,
                                   .on_mesh = true};

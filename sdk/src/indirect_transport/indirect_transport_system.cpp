@@ -210,57 +210,64 @@ float punctual_falloff(const RuntimeLight& rl, glm::vec3 l, float dist) {
   return f;
 }
 
+// The leaves of one patch (see direct_irradiance).
+void direct_irradiance_of(const TransportPatch& p, std::span<const RuntimeLight> lights,
+                          const TransportOccluders* occluders, std::span<glm::vec3> out) {
+  std::fill(out.begin() + p.first, out.begin() + p.first + p.leaves(), glm::vec3(0.0f));
+  const float inv = 1.0f / static_cast<float>(p.side());
+  const glm::vec3 du = p.edge_u * inv, dv = p.edge_v * inv;
+  const float leaf_area = p.leaf_area();
+  const float offset = 1e-4f * std::sqrt(p.area());
+  for (const RuntimeLight& rl : lights) {
+    // Point sources: one for a point or spot light, 4 x 4 over a rect light's area (intensity
+    // L A_k cos_l towards the patch).
+    std::array<glm::vec3, 16> where;
+    int sources = 1;
+    where[0] = rl.position;
+    if (rl.light.type == Light::Type::Rect) {
+      sources = 16;
+      for (int k = 0; k < 16; ++k)
+        where[static_cast<std::size_t>(k)] = rl.position + ((2.0f * float(k % 4) + 1.0f) / 4.0f - 1.0f) * rl.half_x +
+                                             ((2.0f * float(k / 4) + 1.0f) / 4.0f - 1.0f) * rl.half_y;
+    }
+    const glm::vec3 power = rl.light.color * rl.light.intensity;
+    const float sub_area = 4.0f * glm::length(glm::cross(rl.half_x, rl.half_y)) / 16.0f;
+    for (std::uint32_t j = 0; j < p.side(); ++j)
+      for (std::uint32_t i = 0; i < p.side(); ++i) {
+        const std::uint32_t k = i + j * p.side();
+        if (!(p.coverage[k] > 0.0f)) continue;
+        const glm::vec3 c0 = p.origin + float(i) * du + float(j) * dv;
+        const glm::vec3 centre = c0 + 0.5f * (du + dv);
+        float e = 0.0f;
+        for (int s = 0; s < sources; ++s) {
+          const glm::vec3 src = where[static_cast<std::size_t>(s)];
+          const glm::vec3 to = src - centre;
+          const float dist = glm::length(to);
+          if (!(glm::dot(src - p.origin, p.normal) > 0.0f) || !(dist > 0.0f)) continue;  // behind the patch
+          const glm::vec3 l = to / dist;
+          float weight = punctual_falloff(rl, l, dist);
+          if (rl.light.type == Light::Type::Rect) weight = std::max(0.0f, -glm::dot(rl.direction, l)) * sub_area;
+          if (!(weight > 0.0f)) continue;
+          // Mean of I cos_x / r^2 over the leaf = I Omega(leaf) / A (exact for a bare point source).
+          const glm::vec3 a = c0 - src, b = a + du, c = a + du + dv, d = a + dv;
+          const float omega = triangle_solid_angle(a, b, c) + triangle_solid_angle(a, c, d);
+          e += weight * omega / leaf_area;
+        }
+        if (!(e > 0.0f)) continue;
+        if (occluders != nullptr && occluders->occluded(centre + offset * p.normal, rl.position)) continue;
+        out[p.first + k] += power * e;
+      }
+  }
+}
+
 }  // namespace
 
 void direct_irradiance(const TransportData& data, std::span<const RuntimeLight> lights,
-                       const TransportOccluders* occluders, std::span<glm::vec3> out) {
-  std::fill(out.begin(), out.begin() + data.leaf_count(), glm::vec3(0.0f));
-  for (const TransportPatch& p : data.patches) {
-    const float inv = 1.0f / static_cast<float>(p.side());
-    const glm::vec3 du = p.edge_u * inv, dv = p.edge_v * inv;
-    const float leaf_area = p.leaf_area();
-    const float offset = 1e-4f * std::sqrt(p.area());
-    for (const RuntimeLight& rl : lights) {
-      // Point sources: one for a point or spot light, 4 x 4 over a rect light's area (intensity
-      // L A_k cos_l towards the patch).
-      std::array<glm::vec3, 16> where;
-      int sources = 1;
-      where[0] = rl.position;
-      if (rl.light.type == Light::Type::Rect) {
-        sources = 16;
-        for (int k = 0; k < 16; ++k)
-          where[static_cast<std::size_t>(k)] = rl.position + ((2.0f * float(k % 4) + 1.0f) / 4.0f - 1.0f) * rl.half_x +
-                                               ((2.0f * float(k / 4) + 1.0f) / 4.0f - 1.0f) * rl.half_y;
-      }
-      const glm::vec3 power = rl.light.color * rl.light.intensity;
-      const float sub_area = 4.0f * glm::length(glm::cross(rl.half_x, rl.half_y)) / 16.0f;
-      for (std::uint32_t j = 0; j < p.side(); ++j)
-        for (std::uint32_t i = 0; i < p.side(); ++i) {
-          const std::uint32_t k = i + j * p.side();
-          if (!(p.coverage[k] > 0.0f)) continue;
-          const glm::vec3 c0 = p.origin + float(i) * du + float(j) * dv;
-          const glm::vec3 centre = c0 + 0.5f * (du + dv);
-          float e = 0.0f;
-          for (int s = 0; s < sources; ++s) {
-            const glm::vec3 src = where[static_cast<std::size_t>(s)];
-            const glm::vec3 to = src - centre;
-            const float dist = glm::length(to);
-            if (!(glm::dot(src - p.origin, p.normal) > 0.0f) || !(dist > 0.0f)) continue;  // behind the patch
-            const glm::vec3 l = to / dist;
-            float weight = punctual_falloff(rl, l, dist);
-            if (rl.light.type == Light::Type::Rect) weight = std::max(0.0f, -glm::dot(rl.direction, l)) * sub_area;
-            if (!(weight > 0.0f)) continue;
-            // Mean of I cos_x / r^2 over the leaf = I Omega(leaf) / A (exact for a bare point source).
-            const glm::vec3 a = c0 - src, b = a + du, c = a + du + dv, d = a + dv;
-            const float omega = triangle_solid_angle(a, b, c) + triangle_solid_angle(a, c, d);
-            e += weight * omega / leaf_area;
-          }
-          if (!(e > 0.0f)) continue;
-          if (occluders != nullptr && occluders->occluded(centre + offset * p.normal, rl.position)) continue;
-          out[p.first + k] += power * e;
-        }
-    }
-  }
+                       const TransportOccluders* occluders, std::span<glm::vec3> out, TaskScheduler* scheduler) {
+  JobContext jobs(scheduler);
+  (void)jobs.parallel_for(data.patches.size(), 4, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t pi = begin; pi < end; ++pi) direct_irradiance_of(data.patches[pi], lights, occluders, out);
+  });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -272,6 +279,7 @@ struct TransportState {
   const TransportData* data = nullptr;  // what the occluders were built for
   std::uint64_t lights_hash = 0;
   std::shared_ptr<TransportOccluders> occluders;
+  std::shared_ptr<ThreadPool> pool = std::make_shared<ThreadPool>(2);  // the updates' two threads
   std::string last_error;
 };
 
@@ -319,8 +327,8 @@ Result<bool> update_indirect_transport(World& world) {
                                                              : world.add<IndirectLightmap>(owner);
   map.direct.resize(data->leaf_count());
   map.irradiance.resize(data->leaf_count());
-  direct_irradiance(*data, *lights, state.occluders.get(), map.direct);
-  map.kept_coefficients = apply_transport(*data, map.direct, map.irradiance).kept;
+  direct_irradiance(*data, *lights, state.occluders.get(), map.direct, state.pool.get());
+  map.kept_coefficients = apply_transport(*data, map.direct, map.irradiance, 1e-4f, state.pool.get()).kept;
   map.updated_tick = world.tick();
   return true;
 }
@@ -345,9 +353,35 @@ void register_indirect_transport_system(World& world) {
   world.add_system(std::move(desc));
 }
 
+namespace {
+
+// At most six distinct face directions: floors, walls, boxes (what the transport's planar charts
+// parameterise well); curved meshes have more.
+bool planar_faced(const MeshData& mesh) {
+  std::vector<glm::vec3> directions;
+  for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    const glm::vec3 a = mesh.positions[mesh.indices[t]], b = mesh.positions[mesh.indices[t + 1]],
+                    c = mesh.positions[mesh.indices[t + 2]];
+    const glm::vec3 n = glm::cross(b - a, c - a);
+    if (!(glm::length(n) > 0.0f)) continue;
+    const glm::vec3 u = glm::normalize(n);
+    if (std::none_of(directions.begin(), directions.end(), [&](glm::vec3 d) { return glm::dot(d, u) > 0.9998f; })) {
+      directions.push_back(u);
+      if (directions.size() > 6) return false;
+    }
+  }
+  return !directions.empty();
+}
+
+}  // namespace
+
 std::size_t add_default_indirect_transport(World& world, Preset preset) {
-  // Lights an Animator moves.
+  // The lights a game moves: point and spot lights (lanterns, torches), and any light an Animator
+  // carries.
   std::vector<Entity> moving;
+  world.view<Light>().each([&](Entity e, Light& light) {
+    if (light.type == Light::Type::Point || light.type == Light::Type::Spot) moving.push_back(e);
+  });
   world.view<Animator>().each([&](Entity, Animator& animator) {
     if (!animator.clips) return;
     for (const AnimationClip& clip : *animator.clips)
@@ -364,7 +398,9 @@ std::size_t add_default_indirect_transport(World& world, Preset preset) {
   Entity root = Entity::null();
   std::size_t receivers = 0;
   for (Entity e : world.view<Static, Mesh>().sorted_entities()) {
-    if (!world.has<IndirectReceiver>(e)) world.add<IndirectReceiver>(e, IndirectReceiver::preset(preset));
+    const Mesh& mesh = world.get<Mesh>(e);
+    if (!mesh.data || !planar_faced(*mesh.data)) continue;
+    if (!world.has<IndirectReceiver>(e)) world.add<IndirectReceiver>(e);
     ++receivers;
     if (!root) {
       root = e;

@@ -153,7 +153,8 @@ TEST(IndirectTransportOperator, OneLinkInTheHaarBasesIsTheBoxToBoxTransfer) {
   links[0] = {{r_node, 1, s_leaf, 0.3f}, {0, 1, s_root, 0.1f}};
   TransportData data;
   data.patches = patches;
-  data.global = direct_operator(patches, links);
+  JobContext jobs;
+  data.global = direct_operator(patches, links, jobs);
   std::vector<glm::vec3> direct(32, glm::vec3(0.0f)), indirect(32);
   Rng rng = Rng::stream(9, 1);
   double sender_sum = 0.0;
@@ -255,9 +256,58 @@ TEST(IndirectTransportBake, IsBitIdenticalAtAnyThreadCountAndScaleFree) {
     auto a = read_transport_chunk(BakeChunk{kTransportChunkType, kTransportChunkVersion, "", one});
     auto b = read_transport_chunk(BakeChunk{kTransportChunkType, kTransportChunkVersion, "", scaled});
     ASSERT_TRUE(a.ok() && b.ok());
-    EXPECT_NEAR(double(b->data.links), double(a->data.links), 0.02 * double(a->data.links)) << scale;
     EXPECT_EQ(b->data.leaf_count(), a->data.leaf_count()) << scale;
+    // Decisions at the threshold flip with rounding (a few percent of the links); the light they
+    // carry does not change.
+    EXPECT_NEAR(double(b->data.links), double(a->data.links), 0.06 * double(a->data.links)) << scale;
+    EXPECT_NEAR(covered_mean_of_uniform(b->data), covered_mean_of_uniform(a->data),
+                0.01 * covered_mean_of_uniform(a->data))
+        << scale;
   }
+}
+
+// Slivers, coplanar overlaps (a T-junction's pieces) and patches that see each other's backs: a
+// warning names the sliver, the rest bakes to finite light with no transfer between coplanar or
+// back-to-back surfaces.
+TEST(IndirectTransportBake, DegenerateAndBackFacingGeometry) {
+  World world;
+  register_lighting(world);
+  quad(world, "sliver", {0, 0, 2}, {2, 0, 2}, {2, 1e-5f, 2}, {0, 1e-5f, 2}, glm::vec3(0.5f));
+  quad(world, "floor_a", {0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}, glm::vec3(0.5f));
+  quad(world, "floor_b", {0.5f, 0, 0}, {0.5f, 0, 1}, {1.5f, 0, 1}, {1.5f, 0, 0}, glm::vec3(0.5f));  // overlaps a
+  quad(world, "back", {0, 1, 0}, {0, 1, 1}, {1, 1, 1}, {1, 1, 0}, glm::vec3(0.5f));  // faces up, away from the floor
+  const Entity t = transport(world, 2, 0.02f);
+  update_world_transforms(world);
+  std::vector<std::string> warnings;
+  auto patches = build_transport_patches(world, world.get<IndirectTransport>(t), warnings);
+  ASSERT_TRUE(patches.ok()) << patches.error().message;
+  ASSERT_FALSE(warnings.empty());
+  EXPECT_NE(warnings[0].find("'sliver'"), std::string::npos) << warnings[0];
+  auto data = baked(world);
+  ASSERT_TRUE(data);
+  EXPECT_EQ(data->links, 0u);  // coplanar floors and a back-to-back ceiling exchange nothing
+  std::vector<glm::vec3> direct(data->leaf_count(), glm::vec3(1.0f)), indirect(data->leaf_count());
+  apply_transport(*data, direct, indirect, 0.0f);
+  for (const glm::vec3& e : indirect) EXPECT_EQ(e, glm::vec3(0.0f));
+}
+
+TEST(IndirectTransportRuntime, UpdateIsBitIdenticalAtAnyThreadCount) {
+  World world;
+  register_lighting(world);
+  closed_box(world, glm::vec3(0.6f));
+  transport(world, 3, 0.01f);
+  auto data = baked(world);
+  ASSERT_TRUE(data);
+  std::vector<glm::vec3> direct(data->leaf_count());
+  Rng rng = Rng::stream(5, 5);
+  for (glm::vec3& d : direct) d = glm::vec3(rng.next_float(), rng.next_float(), rng.next_float());
+  std::vector<glm::vec3> serial(data->leaf_count()), one(data->leaf_count()), two(data->leaf_count());
+  apply_transport(*data, direct, serial);
+  ThreadPool p1(1), p2(2);
+  apply_transport(*data, direct, one, 1e-4f, &p1);
+  apply_transport(*data, direct, two, 1e-4f, &p2);
+  EXPECT_EQ(serial, one);
+  EXPECT_EQ(serial, two);
 }
 
 TEST(IndirectTransportChunk, RoundTripsAndRejectsDamage) {

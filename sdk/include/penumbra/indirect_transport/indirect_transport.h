@@ -24,6 +24,7 @@
 
 #include <glm/vec3.hpp>
 
+#include "penumbra/core/jobs.h"
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
 #include "penumbra/lighting/fields.h"
@@ -39,29 +40,28 @@ struct TransportData;
 struct IndirectReceiver {
   // Metres; 0: kPatchSizeFraction x the diagonal of the receivers' bounds (scale-free).
   float patch_size = 0.0f;
-  static IndirectReceiver preset(Preset preset);  // patch_size 0 at every preset
 };
 inline constexpr float kPatchSizeFraction = 0.12f;
 
 // On one entity of the scene: the transport's settings and, once baked, its operator.
 struct IndirectTransport {
   // Oracle threshold: a link is refined while its error estimate (the sender's largest albedo x the
-  // spread of the point-to-element form factor over the link's sample pairs; form factors are
-  // dimensionless, so the threshold is scale-free) exceeds it.
-  float refinement_threshold = 0.02f;
+  // spread of form factors over the link's sample pairs, indirect_transport_baker.h; form factors
+  // are dimensionless, so the threshold is scale-free) exceeds it.
+  float refinement_threshold = 0.004f;
   std::uint32_t finest_level = 3;  // quadtree levels per patch: 2^L x 2^L leaf texels (0..6)
   // The Neumann series stops when the last term's Frobenius norm is below bounce_tolerance x the
   // sum's, or after max_bounces terms (reported).
   float bounce_tolerance = 1e-3f;
   std::uint32_t max_bounces = 64;
   // After each product, coefficients below drop_threshold x the largest coefficient of T are dropped.
-  float drop_threshold = 1e-5f;
+  float drop_threshold = 1e-4f;
   // A directional (glossy) part per patch: not implemented; a bake with it on fails Unsupported.
   bool glossy = false;
 
   std::shared_ptr<const TransportData> data;  // set by the baker or attach_bake(); null until baked
 
-  // Draft: level 2, threshold 0.05; medium: level 3, 0.02; high: level 4, 0.01.
+  // Draft: level 2, threshold 0.02; medium: level 3, 0.004; high: level 4, 0.002.
   static IndirectTransport preset(Preset preset);
 };
 
@@ -153,9 +153,12 @@ struct TransportUpdate {
 // keeping the coefficients whose largest channel is at least keep_threshold x the largest, the
 // sparse product with data.global, the inverse transform into `indirect`. Preconditions: both
 // spans have data.leaf_count() entries; leaves outside their chart (coverage 0) should be 0 in
-// `direct` and come out 0. Cost: O(leaves + entries of G in the kept columns).
+// `direct` and come out 0. Runs on `scheduler` when given (null: the calling thread), with the
+// same bits at any thread count. Cost: O(leaves + entries of G in the kept columns): on the maze
+// at the medium preset about 2 million multiply-adds.
 TransportUpdate apply_transport(const TransportData& data, std::span<const glm::vec3> direct,
-                                std::span<glm::vec3> indirect, float keep_threshold = 1e-4f);
+                                std::span<glm::vec3> indirect, float keep_threshold = 1e-4f,
+                                TaskScheduler* scheduler = nullptr);
 
 inline constexpr std::uint32_t kTransportChunkType = fourcc("WRTO");
 inline constexpr std::uint32_t kTransportChunkVersion = 1;

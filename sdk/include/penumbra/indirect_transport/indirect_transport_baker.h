@@ -7,9 +7,11 @@
 // on each side: each receiver point's exact form factor to the sender node (Lambert's
 // point-to-polygon formula, the node clipped to the point's half space: exact as the distance goes
 // to zero at shared edges) times the fraction of its 4 shadow rays to the sender points that
-// arrive (16 rays). The oracle's error is the sender's largest albedo x the spread (max - min) of
-// point form factor x pair visibility over the pairs: variation of the kernel over the receiver
-// and partial visibility. While it exceeds the refinement threshold the larger of the two nodes
+// arrive (16 rays). The oracle's error is the sender's largest albedo x the larger of 4 x the
+// spread (max - min) of point form factor x pair visibility over the pairs (variation over the
+// receiver and partial visibility) and the spread of the point-to-point kernel x the sender's area
+// over the sender seen from one receiver point. A link where one node's plane cuts the other is
+// always refined (its points may all fall on one side). While it exceeds the refinement threshold the larger of the two nodes
 // (by area; the other at the finest level) is split into its four children. An accepted link
 // keeps the mean: the transfer from the sender node's mean irradiance to the receiver node's.
 //
@@ -35,9 +37,9 @@ namespace penumbra {
 // longest edge) cut into patches of at most patch_size a side (0: kPatchSizeFraction x the
 // receivers' diagonal), each at finest_level (fewer levels for a patch much smaller than that
 // size, so texels stay about patch_size / 2^level wide). `warnings` gets one line per receiver
-// whose triangles partly fall in charts under one texel (not parameterisable: curved or
-// fragmented geometry), naming the mesh. InvalidInput naming the receiver when none of its
-// triangles form a usable chart, or when a patch would exceed 2^30 leaves in all.
+// whose triangles fall, in part or all, in charts under one texel (not parameterisable: curved,
+// fragmented or small geometry; those triangles are left out), naming the mesh. InvalidInput
+// naming the receiver when the patches would exceed 2^30 leaves in all.
 Result<std::vector<TransportPatch>> build_transport_patches(World& world, const IndirectTransport& settings,
                                                             std::vector<std::string>& warnings);
 
@@ -56,9 +58,10 @@ std::vector<TransportLink> refine_receiver(const RayScene& scene, const std::vec
                                            std::uint32_t receiver, float threshold, std::uint64_t seed,
                                            std::uint64_t& rays);
 
-// T in the Haar bases from every receiver's links (links[r] those of patch r). O(links x levels^2).
+// T in the Haar bases from every receiver's links (links[r] those of patch r), receivers in
+// parallel on `jobs`. O(links x levels^2 + receiver x linked sender coefficients).
 SparseTransport direct_operator(const std::vector<TransportPatch>& patches,
-                                const std::vector<std::vector<TransportLink>>& links);
+                                const std::vector<std::vector<TransportLink>>& links, JobContext& jobs);
 
 // The dense baseline (the approach the paper improves on): every leaf-to-leaf link, each evaluated
 // with the same 16-ray estimator, projected onto the Haar bases, then truncated to the `keep`
@@ -68,8 +71,8 @@ Result<SparseTransport> dense_direct_operator(const RayScene& scene, const std::
                                               std::uint64_t seed, std::uint64_t keep, std::uint64_t memory_limit,
                                               JobContext& jobs, std::uint64_t& rays, std::uint64_t& peak_bytes);
 
-// G = sum_{k=1..K} T^k: P_1 = T, P_{k+1} = T P_k with coefficients below drop_threshold x max|T|
-// dropped, stopping when |P_k|_F <= tolerance |G|_F (converged) or after max_terms terms.
+// G = sum_{k=1..K} T^k: P_1 = T, P_{k+1} = T P_k, with coefficients below drop_threshold x max|T|
+// dropped from T and from every product, stopping when |P_k|_F <= tolerance |G|_F (converged) or after max_terms terms.
 struct NeumannResult {
   SparseTransport global;
   std::uint32_t terms = 0;

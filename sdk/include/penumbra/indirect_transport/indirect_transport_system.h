@@ -57,14 +57,16 @@ class TransportOccluders {
 // point and spot lights by the leaf's exact solid angle seen from the light (I Omega / A, finite
 // for a light touching the wall), the spot cone and range window at the leaf's centre; rect lights
 // as 4 x 4 point sources over their area; one shadow ray per leaf and light, to the light's centre,
-// when `occluders` is given. Leaves outside their chart get 0. Cost: O(leaves x lights x log n).
+// when `occluders` is given. Leaves outside their chart get 0. Runs on `scheduler` when given
+// (null: the calling thread). Cost: O(leaves x lights x log n).
 void direct_irradiance(const TransportData& data, std::span<const RuntimeLight> lights,
-                       const TransportOccluders* occluders, std::span<glm::vec3> out);
+                       const TransportOccluders* occluders, std::span<glm::vec3> out,
+                       TaskScheduler* scheduler = nullptr);
 
 // One update: when the first IndirectTransport entity with data (in entity order) has no
 // IndirectLightmap yet, or its data, or any enabled dynamic light (its Light, WorldTransform or
 // DynamicLight) changed since the previous update, recomputes its IndirectLightmap (written with
-// World::patch). Returns true when it recomputed, false when nothing changed or nothing is baked;
+// World::patch) on two threads of its own. Returns true when it recomputed, false when nothing changed or nothing is baked;
 // InvalidInput from dynamic_lights (the lightmap is then left as it was). Cost: nothing but a
 // hash of the dynamic lights when none changed.
 Result<bool> update_indirect_transport(World& world);
@@ -74,10 +76,11 @@ Result<bool> update_indirect_transport(World& world);
 // logging a rejected light once per change.
 void register_indirect_transport_system(World& world);
 
-// Gives a built-in scene its transport when it has a moving light: every point, spot or rect
-// light that an Animator's clip targets becomes a DynamicLight and, when there is one, every
-// Static mesh an IndirectReceiver and the scene's root (the first receiver's topmost ancestor)
-// IndirectTransport::preset(preset). Scenes without moving lights get nothing. O(entities).
+// Gives a built-in scene its transport: its point and spot lights (the lights a game moves:
+// lanterns, torches) and any light an Animator's clip targets become DynamicLights and, when there
+// is one, every Static mesh made of at most six face directions (floors, walls, boxes; curved
+// meshes are left out) an IndirectReceiver, and the scene's root (the first receiver's topmost
+// ancestor) IndirectTransport::preset(preset). Returns the number of receivers. O(triangles).
 std::size_t add_default_indirect_transport(World& world, Preset preset);
 
 const LightingModule& indirect_transport_module();
