@@ -105,6 +105,8 @@ void hash_scene(World& world, Hasher& h) {
     h.add(l.outer_cone_angle);
     h.add(l.size);
     if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
+    const DynamicLight* d = world.try_get<DynamicLight>(e);
+    h.add(static_cast<std::uint8_t>(d == nullptr ? 0 : d->enabled ? 1 : 2));
   }
 }
 

@@ -224,6 +224,15 @@ std::vector<WorldLight> gather_lights(World& world) {
   return lights;
 }
 
+std::vector<WorldLight> baked_lights(World& world) {
+  std::vector<WorldLight> lights = gather_lights(world);
+  std::erase_if(lights, [&](const WorldLight& l) {
+    const DynamicLight* d = world.try_get<DynamicLight>(l.entity);
+    return d != nullptr && d->enabled;
+  });
+  return lights;
+}
+
 Estimate irradiance(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 x, glm::vec3 n,
                     const IrradianceSettings& settings, Rng& rng) {
   Accumulator acc;

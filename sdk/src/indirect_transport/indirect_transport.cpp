@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 
 namespace penumbra {
 
@@ -45,6 +47,43 @@ std::uint64_t TransportData::bytes() const {
   std::uint64_t n = sizeof(*this) + global.bytes();
   for (const TransportPatch& p : patches) n += sizeof(p) + p.key.capacity() + p.coverage.capacity() * sizeof(float);
   return n;
+}
+
+float patch_plane_tolerance(const TransportPatch& p) {
+  const glm::vec3 o = glm::abs(p.origin);
+  return 0.05f * std::sqrt(p.area()) + 1e-5f * std::max(o.x, std::max(o.y, o.z));
+}
+
+glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const glm::vec3> irradiance, glm::vec3 x,
+                                     glm::vec3 n) {
+  const TransportPatch* best = nullptr;
+  float best_d = 0.0f;
+  for (const TransportPatch& p : data.patches) {
+    const glm::vec3 r = x - p.origin;
+    const float d = std::abs(glm::dot(r, p.normal));
+    if (d > patch_plane_tolerance(p) || glm::dot(n, p.normal) < 0.5f || (best != nullptr && d >= best_d)) continue;
+    const float s = glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u);
+    const float t = glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v);
+    const float m = kTransportMargin;
+    if (!(s >= -m && s <= 1.0f + m && t >= -m && t <= 1.0f + m)) continue;
+    best = &p;
+    best_d = d;
+  }
+  if (best != nullptr) {
+    const TransportPatch& p = *best;
+    const glm::vec3 r = x - p.origin;
+    const float s = glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u);
+    const float t = glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v);
+    const float side = static_cast<float>(p.side());
+    const glm::vec2 f = glm::clamp(glm::vec2(s, t) * side - 0.5f, glm::vec2(0.0f), glm::vec2(side - 1.0f));
+    const glm::vec2 f0 = glm::floor(f), w = f - f0;
+    const auto s0 = static_cast<std::uint32_t>(f0.x), t0 = static_cast<std::uint32_t>(f0.y), last = p.side() - 1;
+    const std::uint32_t s1 = std::min(s0 + 1, last), t1 = std::min(t0 + 1, last), row = p.side();
+    const glm::vec3 a = irradiance[p.first + s0 + t0 * row], b = irradiance[p.first + s1 + t0 * row];
+    const glm::vec3 c = irradiance[p.first + s0 + t1 * row], d = irradiance[p.first + s1 + t1 * row];
+    return glm::mix(glm::mix(a, b, w.x), glm::mix(c, d, w.x), w.y);
+  }
+  return glm::vec3(0.0f);
 }
 
 namespace {

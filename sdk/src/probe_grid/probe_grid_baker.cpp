@@ -571,7 +571,7 @@ Result<BakeWork> plan_probes(BakeInputs& in) {
   const std::vector<Entity> entities = grid_entities(in.world);
   auto keys = bake_keys(in, entities, "probe grid");
   if (!keys) return keys.error();
-  const std::vector<WorldLight> lights = entities.empty() ? std::vector<WorldLight>{} : gather_lights(in.world);
+  const std::vector<WorldLight> lights = entities.empty() ? std::vector<WorldLight>{} : baked_lights(in.world);
   BakeWork work;
   auto bakes = std::make_shared<std::vector<std::shared_ptr<ProbeBake>>>();
   for (std::size_t i = 0; i < entities.size(); ++i) {

@@ -267,7 +267,7 @@ Result<Report> run_probe_grid_bench(const Options& options) {
     ro.include_dynamic = false;
     auto scene = RayScene::build(world, ro);
     if (!scene) return scene.error();
-    const std::vector<WorldLight> lights = gather_lights(world);
+    const std::vector<WorldLight> lights = baked_lights(world);
 
     const Aabb box = sc.box;
     auto receivers = make_receivers(*scene, lights, receiver_count, ref_samples, 101, [&](Rng& rng) {

@@ -43,7 +43,7 @@ Result<Scene> gather(World& world) {
   options.include_dynamic = false;  // the bake's view of the scene
   auto rays = RayScene::build(world, options);
   if (!rays) return rays.error();
-  return Scene{std::move(*rays), gather_lights(world), std::move(grids)};
+  return Scene{std::move(*rays), baked_lights(world), std::move(grids)};
 }
 
 Result<ErrorMap> compute(const Scene& scene, const ErrorMapRequest& request, JobContext& jobs) {

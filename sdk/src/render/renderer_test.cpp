@@ -23,6 +23,8 @@
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/log.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/indirect_transport/indirect_transport_baker.h"
+#include "penumbra/indirect_transport/indirect_transport_system.h"
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/pose_ao/pose_ao_baker.h"
 #include "penumbra/pose_ao/pose_ao_system.h"
@@ -654,6 +656,75 @@ TEST_F(RendererTest, OverlappingProbeGridsBlendAsOnTheCpu) {
   EXPECT_GE(fading, 10);
   s.world.destroy(second);
   s.world.update(0.0);
+}
+
+// The maze with a draft indirect transport (the only light is the moving lantern, so the probe
+// grid has nothing to bake): the bounce light follows the lantern. Goldens of the lit view at two
+// lantern positions, and the lightmap view against the CPU lookup at the pixels' points.
+TEST_F(RendererTest, IndirectTransportFollowsTheLanternAndMatchesTheCpu) {
+  BakedScene s;
+  register_scene_systems(s.world);
+  register_indirect_transport_system(s.world);
+  register_indirect_transport_baker(s.world);
+  auto loaded = load_builtin(s.world, "maze");
+  ASSERT_TRUE(loaded.ok());
+  s.camera = loaded->camera;
+  s.world.update(0.0);
+  ASSERT_GT(add_default_indirect_transport(s.world, Preset::Draft), 0u);
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  JobContext jobs;
+  auto baked = bake_world(s.world, {"indirect-transport"}, settings, jobs);
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  Entity lantern, owner;
+  for (Entity e : s.world.view<DynamicLight>().sorted_entities()) lantern = e;
+  for (Entity e : s.world.view<IndirectTransport>().sorted_entities()) owner = e;
+  ASSERT_TRUE(lantern && owner);
+  s.world.remove<Animator>(lantern);
+  std::vector<std::vector<float>> lightmaps;
+  for (const glm::vec3 at : {glm::vec3(2.0f, 1.6f, 2.0f), glm::vec3(6.0f, 1.6f, 6.8f)}) {
+    s.world.patch<Transform>(lantern).translation = at;
+    s.world.update(0.0);
+    ASSERT_TRUE(s.world.has<IndirectLightmap>(owner));
+    RenderSettings lit;
+    lit.shadow_map_size = 512;
+    auto image = renderer_->render_image(s.world, camera(s), kWidth, kHeight, lit);
+    ASSERT_TRUE(image.ok()) << image.error().message;
+    expect_golden(*image, "maze_lit_" + std::to_string(lightmaps.size()));
+    EXPECT_GT(renderer_->stats().counter("indirect-transport.patches"), 0u);
+    lightmaps.push_back(linear_view(s.world, camera(s), kWidth, kHeight, "lightmap", 1));
+    // CPU/GPU: the lookup at the pixels' points and normals.
+    const auto position = linear_view(s.world, camera(s), kWidth, kHeight, "position", 1);
+    const auto normal = linear_view(s.world, camera(s), kWidth, kHeight, "normal", 1);
+    const TransportData& data = *s.world.get<IndirectTransport>(owner).data;
+    const IndirectLightmap& map = s.world.get<IndirectLightmap>(owner);
+    int checked = 0, close = 0;
+    for (std::uint32_t y = 2; y < kHeight; y += 4)
+      for (std::uint32_t x = 3; x < kWidth; x += 4) {
+        const std::size_t p = (std::size_t{y} * kWidth + x) * 4;
+        const glm::vec3 n(normal[p], normal[p + 1], normal[p + 2]);
+        if (glm::length(n) < 0.5f) continue;
+        const glm::vec3 cpu = sample_indirect_irradiance(data, map.irradiance,
+                                                         glm::vec3(position[p], position[p + 1], position[p + 2]),
+                                                         glm::normalize(n));
+        const std::vector<float>& gpu = lightmaps.back();
+        const float scale = std::max({cpu.x, cpu.y, cpu.z, 1e-3f});
+        float worst = 0.0f;
+        for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(gpu[p + std::size_t(k)] - cpu[k]) / scale);
+        ++checked;
+        close += worst <= 0.01f;
+      }
+    EXPECT_GE(checked, 500);
+    EXPECT_GE(close, checked * 99 / 100) << "pixels within 1% of the CPU lookup";
+  }
+  // The lantern moved from the first corridor to the far one: the bounce light moved with it.
+  ASSERT_EQ(lightmaps[0].size(), lightmaps[1].size());
+  double moved = 0.0, total = 0.0;
+  for (std::size_t i = 0; i < lightmaps[0].size(); i += 4) {
+    moved += std::abs(lightmaps[0][i] - lightmaps[1][i]);
+    total += lightmaps[0][i];
+  }
+  EXPECT_GT(moved, 0.3 * total);
 }
 
 TEST_F(RendererTest, RejectsBadSizesAndReportsMemory) {

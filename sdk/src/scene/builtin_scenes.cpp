@@ -454,7 +454,7 @@ LoadedScene build_maze(World& world) {
   Light light;
   light.type = Light::Type::Point;
   light.color = glm::vec3(1.0f, 0.85f, 0.6f);
-  light.intensity = 20.0f;
+  light.intensity = 4.0f;
   const std::array<glm::vec3, 6> path = {glm::vec3(2.0f, 1.6f, 2.0f),  glm::vec3(2.4f, 1.6f, 6.8f),
                                          glm::vec3(6.0f, 1.6f, 6.8f),  glm::vec3(6.0f, 1.6f, 1.5f),
                                          glm::vec3(10.0f, 1.6f, 1.5f), glm::vec3(10.0f, 1.6f, 6.5f)};

@@ -93,6 +93,9 @@ struct WorldLight {
 // The lights of the World, in entity-index order. Lights with non-finite transforms or a zero-area
 // rect are skipped with a logged warning. Cost: O(lights).
 std::vector<WorldLight> gather_lights(World& world);
+// The lights a bake of fixed lighting takes: gather_lights() less the enabled DynamicLights
+// (scene/components.h), whose light moves.
+std::vector<WorldLight> baked_lights(World& world);
 
 struct IrradianceSettings {
   std::uint32_t samples = 64;             // paths per point (each also does next-event estimation at x)

@@ -65,12 +65,6 @@ struct IndirectTransport {
   static IndirectTransport preset(Preset preset);
 };
 
-// On a Light (point, spot or rect): it may move, and its bounce light comes from the transport.
-// Directional lights are not local lights; the system ignores them (and says so once).
-struct DynamicLight {
-  bool enabled = true;
-};
-
 // The indirect irradiance at every leaf texel (W/m^2 per channel), patch after patch, leaf (i, j)
 // of a patch at i + j 2^L: written by the indirect-transport system on the IndirectTransport
 // entity whenever a dynamic light changed.
@@ -159,6 +153,20 @@ struct TransportUpdate {
 TransportUpdate apply_transport(const TransportData& data, std::span<const glm::vec3> direct,
                                 std::span<glm::vec3> indirect, float keep_threshold = 1e-4f,
                                 TaskScheduler* scheduler = nullptr);
+
+// The indirect irradiance at world point x with unit normal n from a lightmap (`irradiance`, one
+// value per leaf, IndirectLightmap::irradiance): of the patches whose normal is within 60 degrees
+// of n, whose plane holds x (within patch_plane_tolerance) and whose rectangle, widened by
+// kTransportMargin of its size, contains x, the one nearest to x's plane gives the bilinear
+// interpolation of its leaf texels (centres at (k + 0.5) / 2^level, clamped to the patch); none
+// gives 0. The renderer's lookup is this one in GLSL
+// (shaders/indirect_transport.glsl). Cost: O(patches).
+glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const glm::vec3> irradiance, glm::vec3 x,
+                                     glm::vec3 n);
+// How far off a patch's plane a point may be and still be on it: 5% of the patch's size plus the
+// float error of its position (the renderer's points come from its depth buffer).
+float patch_plane_tolerance(const TransportPatch& patch);
+inline constexpr float kTransportMargin = 0.01f;
 
 inline constexpr std::uint32_t kTransportChunkType = fourcc("WRTO");
 inline constexpr std::uint32_t kTransportChunkVersion = 1;

@@ -166,6 +166,13 @@ struct Animator {
   bool playing = true;
 };
 
+// On a Light: it moves at runtime (a lantern, a torch, headlights). Bakes of fixed lighting (the
+// probe grid) leave it out; the indirect transport (indirect_transport/) carries its bounce light
+// onto the static surfaces. Directional lights are not local lights: the transport ignores them.
+struct DynamicLight {
+  bool enabled = true;
+};
+
 // Tag: the entity and its geometry never move (baked into the static BVH).
 struct Static {};
 

@@ -1,0 +1,210 @@
+// The indirect-transport render feature (indirect_transport_render.h).
+#include "penumbra/indirect_transport/indirect_transport_render.h"
+
+#include <algorithm>
+#include <cstring>
+#include <map>
+#include <tuple>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include "indirect_transport_layout.h"
+#include "penumbra/indirect_transport/indirect_transport.h"
+#include "penumbra/render/renderer.h"
+
+// The shader's seam margin is the CPU lookup's.
+static_assert(float(PENUMBRA_TRANSPORT_MARGIN) == penumbra::kTransportMargin);
+
+namespace penumbra {
+namespace shaders {
+std::span<const std::uint32_t> indirect_transport(std::string_view name);
+}
+
+using vk::vk_struct;
+
+namespace {
+
+constexpr ViewInfo kViews[] = {
+    {"lightmap", "the indirect transport's lightmap: bounce light of the moving lights in W/m^2, tone mapped"},
+    {"patches", "the indirect transport's patches, one colour each, over their leaf texels"},
+};
+
+class IndirectTransportRenderFeature final : public RenderFeature {
+ public:
+  std::string_view name() const override { return "indirect-transport"; }
+  AmbientRole role() const override { return AmbientRole::Source; }
+  std::span<const ViewInfo> views() const override { return kViews; }
+
+  Status init(RenderContext& gpu) override {
+    const VkDescriptorSetLayoutBinding bindings[] = {
+        {PENUMBRA_TRANSPORT_BINDING_PATCHES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
+         nullptr},
+        {PENUMBRA_TRANSPORT_BINDING_TEXELS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
+         nullptr},
+    };
+    auto set = gpu.feature_set(bindings);
+    if (!set) return set.error();
+    set_ = set->set;
+    layout_ = set->layout;
+    auto ambient = gpu.shader(shaders::indirect_transport("indirect_transport_ambient.frag"));
+    auto view = gpu.shader(shaders::indirect_transport("indirect_transport_view.frag"));
+    if (!ambient) return ambient.error();
+    if (!view) return view.error();
+    ambient_frag_ = *ambient;
+    view_frag_ = *view;
+    PENUMBRA_TRY(resize(gpu, 0, 0));
+    return {};
+  }
+
+  void release(RenderContext& gpu) override {
+    gpu.allocator().destroy(patches_);
+    gpu.allocator().destroy(texels_);
+  }
+
+  // The patches when the baked data changed; the texels of the lightmap that changed.
+  Status sync(World& world, RenderContext& gpu) override {
+    texels_uploaded_ = 0;
+    std::shared_ptr<const TransportData> data;
+    const IndirectLightmap* map = nullptr;
+    for (Entity e : world.view<IndirectTransport>().sorted_entities()) {
+      const IndirectTransport& t = world.get<IndirectTransport>(e);
+      if (!t.data) continue;
+      data = t.data;
+      map = world.try_get<IndirectLightmap>(e);
+      break;
+    }
+    const bool usable = data && map != nullptr && map->irradiance.size() == data->leaf_count();
+    if (!usable) {
+      if (data_) {
+        gpu.wait_idle();
+        data_.reset();
+        PENUMBRA_TRY(resize(gpu, 0, 0));
+      }
+      return {};
+    }
+    if (data != data_) {
+      gpu.wait_idle();
+      data_ = data;
+      PENUMBRA_TRY(resize(gpu, data->patches.size(), data->leaf_count()));
+      auto* out = static_cast<std::uint8_t*>(patches_.mapped);
+      const gpu::uvec4 count{static_cast<std::uint32_t>(data->patches.size()), 0u, 0u, 0u};
+      std::memcpy(out, &count, sizeof count);
+      for (std::size_t i = 0; i < data->patches.size(); ++i) {
+        const TransportPatch& p = data->patches[i];
+        gpu::TransportPatchGpu g{};
+        g.origin = glm::vec4(p.origin, float(p.side()));
+        g.axis_u = glm::vec4(p.edge_u / glm::dot(p.edge_u, p.edge_u), float(p.first));
+        g.axis_v = glm::vec4(p.edge_v / glm::dot(p.edge_v, p.edge_v), 0.0f);
+        g.plane = glm::vec4(p.normal, patch_plane_tolerance(p));
+        std::memcpy(out + sizeof count + i * sizeof g, &g, sizeof g);
+      }
+      shown_.assign(data->leaf_count(), glm::vec3(-1.0f));  // every texel differs from this
+      updated_tick_ = 0;
+    }
+    if (map->updated_tick == updated_tick_) return {};
+    updated_tick_ = map->updated_tick;
+    auto* texels = static_cast<glm::vec4*>(texels_.mapped);
+    bound_ = 0.0f;
+    for (std::size_t k = 0; k < map->irradiance.size(); ++k) {
+      const glm::vec3 e = map->irradiance[k];
+      bound_ = std::max({bound_, e.x, e.y, e.z});
+      if (e == shown_[k]) continue;
+      shown_[k] = e;
+      texels[k] = glm::vec4(e, 0.0f);
+      ++texels_uploaded_;
+    }
+    return {};
+  }
+
+  bool active() const override { return data_ != nullptr; }
+  float irradiance_bound() const override { return bound_; }
+
+  Status record_ambient(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame) override {
+    auto p = pipeline(gpu, true, frame.first_source ? 0 : 1, VK_FORMAT_UNDEFINED);
+    if (!p) return p.error();
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 2, 1, &set_, 0, nullptr);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *p);
+    vkCmdDraw(cmd, 3, 1, 0, 0);
+    return {};
+  }
+
+  Status record_view(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame, std::size_t view) override {
+    auto p = pipeline(gpu, false, static_cast<std::uint32_t>(view), frame.target_format);
+    if (!p) return p.error();
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 2, 1, &set_, 0, nullptr);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *p);
+    vkCmdDraw(cmd, 3, 1, 0, 0);
+    return {};
+  }
+
+  void add_counters(FrameStats& stats) const override {
+    stats.counters.emplace_back("indirect-transport.patches", data_ ? data_->patches.size() : 0);
+    stats.counters.emplace_back("indirect-transport.texels_uploaded", texels_uploaded_);
+  }
+
+ private:
+  // Host-visible buffers for `patches` patches and `texels` texels (at least one element each, so
+  // that the descriptors are valid without data), bound to the set.
+  Status resize(RenderContext& gpu, std::size_t patches, std::size_t texels) {
+    const VkDeviceSize patch_bytes = sizeof(gpu::uvec4) + std::max<std::size_t>(patches, 1) * sizeof(gpu::TransportPatchGpu);
+    const VkDeviceSize texel_bytes = std::max<std::size_t>(texels, 1) * sizeof(glm::vec4);
+    PENUMBRA_TRY(gpu.ensure_host_buffer(patches_, patch_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+    PENUMBRA_TRY(gpu.ensure_host_buffer(texels_, texel_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+    std::memset(patches_.mapped, 0, patch_bytes);
+    std::memset(texels_.mapped, 0, texel_bytes);
+    const VkDescriptorBufferInfo infos[2] = {{patches_.buffer, 0, patch_bytes}, {texels_.buffer, 0, texel_bytes}};
+    VkWriteDescriptorSet writes[2];
+    for (int i = 0; i < 2; ++i) {
+      writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+      writes[i].dstSet = set_;
+      writes[i].dstBinding = i == 0 ? PENUMBRA_TRANSPORT_BINDING_PATCHES : PENUMBRA_TRANSPORT_BINDING_TEXELS;
+      writes[i].descriptorCount = 1;
+      writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      writes[i].pBufferInfo = &infos[i];
+    }
+    vkUpdateDescriptorSets(gpu.device(), 2, writes, 0, nullptr);
+    bound_ = 0.0f;
+    return {};
+  }
+
+  // The ambient pass's pipeline (`view` 0: the first source, 1: after others) or view `view`'s for
+  // `format`, made on first use.
+  Result<VkPipeline> pipeline(RenderContext& gpu, bool ambient, std::uint32_t view, VkFormat format) {
+    const auto key = std::tuple{ambient, view, format};
+    if (auto it = pipelines_.find(key); it != pipelines_.end()) return it->second;
+    const VkSpecializationMapEntry entry{0, 0, 4};
+    const VkSpecializationInfo specialization{1, &entry, 4, &view};
+    FeaturePipeline p;
+    p.layout = layout_;
+    p.vertex = gpu.screen_vertex();
+    p.fragment = ambient ? ambient_frag_ : view_frag_;
+    p.specialization = ambient ? nullptr : &specialization;
+    p.ambient = ambient;
+    p.target_format = format;
+    p.role = AmbientRole::Source;
+    p.accumulate = ambient && view == 1;
+    auto made = gpu.pipeline(p);
+    if (made) pipelines_[key] = *made;
+    return made;
+  }
+
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+  VkPipelineLayout layout_ = VK_NULL_HANDLE;
+  VkShaderModule ambient_frag_ = VK_NULL_HANDLE, view_frag_ = VK_NULL_HANDLE;
+  std::map<std::tuple<bool, std::uint32_t, VkFormat>, VkPipeline> pipelines_;
+  vk::Buffer patches_, texels_;
+  std::shared_ptr<const TransportData> data_;
+  std::vector<glm::vec3> shown_;  // what texels_ holds
+  std::uint64_t updated_tick_ = 0;
+  float bound_ = 0.0f;
+  std::uint64_t texels_uploaded_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<RenderFeature> make_indirect_transport_render_feature() {
+  return std::make_unique<IndirectTransportRenderFeature>();
+}
+
+}  // namespace penumbra

@@ -1,0 +1,32 @@
+// The indirect-transport render feature's GPU interface, shared by its C++
+// (indirect_transport_render.cpp) and its GLSL (indirect_transport.glsl): descriptor set 2 of its
+// pipelines. Only vec4 and uvec4 members, as shaders/shared/layout.h.
+#ifndef PENUMBRA_INDIRECT_TRANSPORT_LAYOUT_H
+#define PENUMBRA_INDIRECT_TRANSPORT_LAYOUT_H
+
+#ifdef __cplusplus
+#include "shared/layout.h"  // penumbra::gpu's vec4, uvec4
+namespace penumbra::gpu {
+#endif
+
+// Set 2 bindings.
+#define PENUMBRA_TRANSPORT_BINDING_PATCHES 0  // buffer TransportPatches
+#define PENUMBRA_TRANSPORT_BINDING_TEXELS 1   // buffer TransportTexels
+
+// How far outside its rectangle (in its parameters) a point may be and still be a patch's: the
+// seams between patches have no gap (sample_indirect_irradiance, kTransportMargin).
+#define PENUMBRA_TRANSPORT_MARGIN 0.01
+
+// A patch in the lookup's terms (TransportPatch, indirect_transport.h).
+struct TransportPatchGpu {
+  vec4 origin;  // xyz the rectangle's corner, w its side in leaves (2^level)
+  vec4 axis_u;  // xyz edge_u / |edge_u|^2 (s = dot(x - origin, axis_u)), w the first leaf's index
+  vec4 axis_v;  // xyz edge_v / |edge_v|^2, w unused
+  vec4 plane;   // xyz the unit normal, w the distance from the plane a point may lie and still be on it
+};
+
+#ifdef __cplusplus
+}  // namespace penumbra::gpu
+#endif
+
+#endif  // PENUMBRA_INDIRECT_TRANSPORT_LAYOUT_H
