@@ -44,7 +44,8 @@ constexpr FieldInfo kTransportFields[] = {
 const DynamicLight kLightDefaults{};
 constexpr FieldInfo kLightFields[] = {
     member<&DynamicLight::enabled>({.name = "enabled", .type = T::Bool, .min = 0, .max = 1,
-                                    .help = "its bounce light comes from the indirect transport"}),
+                                    .help = "its bounce light comes from the indirect transport, not the probe grid",
+                                    .hashed = true}),
 };
 
 }  // namespace

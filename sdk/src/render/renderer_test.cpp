@@ -214,7 +214,7 @@ TEST_F(RendererTest, ViewsAreTheRenderersThenEachFeatures) {
   std::vector<std::string> names;
   for (const ViewInfo& v : renderer_->views()) names.emplace_back(v.name);
   EXPECT_EQ(names, (std::vector<std::string>{"lit", "direct", "indirect", "ao", "albedo", "position", "normal",
-                                             "validity", "irradiance"}));
+                                             "validity", "irradiance", "lightmap", "patches"}));
   BakedScene& s = scene("cornell");
   RenderSettings settings;
   settings.view = "shiny";
