@@ -15,8 +15,8 @@ IndirectTransport IndirectTransport::preset(Preset preset) {
   IndirectTransport t;
   switch (preset) {
     case Preset::Draft: t.finest_level = 2; t.refinement_threshold = 0.02f; break;
-    case Preset::Medium: t.finest_level = 3; t.refinement_threshold = 0.004f; break;
-    case Preset::High: t.finest_level = 4; t.refinement_threshold = 0.002f; break;
+    case Preset::Medium: t.finest_level = 3; t.refinement_threshold = 0.002f; break;
+    case Preset::High: t.finest_level = 4; t.refinement_threshold = 0.001f; break;
   }
   return t;
 }

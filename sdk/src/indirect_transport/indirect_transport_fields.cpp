@@ -21,7 +21,7 @@ const IndirectTransport kTransportDefaults{};
 constexpr FieldInfo kTransportFields[] = {
     member<&IndirectTransport::refinement_threshold>(
         {.name = "refinement_threshold", .type = T::Float, .min = 1e-6, .max = 1,
-         .help = "form-factor error a link may keep; 0.004 is a good start, lower is finer", .preset = true,
+         .help = "form-factor error a link may keep; 0.002 is a good start, lower is finer", .preset = true,
          .hashed = true, .speed = 1e-3f}),
     member<&IndirectTransport::finest_level>({.name = "finest_level", .type = T::Count, .min = 0, .max = 6,
                                               .unit = "levels",

@@ -3,10 +3,12 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <tuple>
 #include <vector>
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
 #include "indirect_transport_layout.h"
@@ -42,6 +44,8 @@ class IndirectTransportRenderFeature final : public RenderFeature {
          nullptr},
         {PENUMBRA_TRANSPORT_BINDING_TEXELS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
          nullptr},
+        {PENUMBRA_TRANSPORT_BINDING_CELLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
+         nullptr},
     };
     auto set = gpu.feature_set(bindings);
     if (!set) return set.error();
@@ -53,13 +57,14 @@ class IndirectTransportRenderFeature final : public RenderFeature {
     if (!view) return view.error();
     ambient_frag_ = *ambient;
     view_frag_ = *view;
-    PENUMBRA_TRY(resize(gpu, 0, 0));
+    PENUMBRA_TRY(resize(gpu, 0, 0, 0));
     return {};
   }
 
   void release(RenderContext& gpu) override {
     gpu.allocator().destroy(patches_);
     gpu.allocator().destroy(texels_);
+    gpu.allocator().destroy(cells_);
   }
 
   // The patches when the baked data changed; the texels of the lightmap that changed.
@@ -79,17 +84,19 @@ class IndirectTransportRenderFeature final : public RenderFeature {
       if (data_) {
         gpu.wait_idle();
         data_.reset();
-        PENUMBRA_TRY(resize(gpu, 0, 0));
+        PENUMBRA_TRY(resize(gpu, 0, 0, 0));
       }
       return {};
     }
     if (data != data_) {
       gpu.wait_idle();
       data_ = data;
-      PENUMBRA_TRY(resize(gpu, data->patches.size(), data->leaf_count()));
+      gpu::TransportGrid grid{};
+      const std::vector<std::uint32_t> cells = lookup_grid(*data, grid);
+      PENUMBRA_TRY(resize(gpu, data->patches.size(), data->leaf_count(), cells.size()));
       auto* out = static_cast<std::uint8_t*>(patches_.mapped);
-      const gpu::uvec4 count{static_cast<std::uint32_t>(data->patches.size()), 0u, 0u, 0u};
-      std::memcpy(out, &count, sizeof count);
+      std::memcpy(out, &grid, sizeof grid);
+      std::memcpy(cells_.mapped, cells.data(), cells.size() * sizeof(std::uint32_t));
       for (std::size_t i = 0; i < data->patches.size(); ++i) {
         const TransportPatch& p = data->patches[i];
         gpu::TransportPatchGpu g{};
@@ -97,7 +104,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
         g.axis_u = glm::vec4(p.edge_u / glm::dot(p.edge_u, p.edge_u), float(p.first));
         g.axis_v = glm::vec4(p.edge_v / glm::dot(p.edge_v, p.edge_v), 0.0f);
         g.plane = glm::vec4(p.normal, patch_plane_tolerance(p));
-        std::memcpy(out + sizeof count + i * sizeof g, &g, sizeof g);
+        std::memcpy(out + sizeof grid + i * sizeof g, &g, sizeof g);
       }
       shown_.assign(data->leaf_count(), glm::vec3(-1.0f));  // every texel differs from this
       updated_tick_ = 0;
@@ -144,26 +151,76 @@ class IndirectTransportRenderFeature final : public RenderFeature {
   }
 
  private:
-  // Host-visible buffers for `patches` patches and `texels` texels (at least one element each, so
-  // that the descriptors are valid without data), bound to the set.
-  Status resize(RenderContext& gpu, std::size_t patches, std::size_t texels) {
-    const VkDeviceSize patch_bytes = sizeof(gpu::uvec4) + std::max<std::size_t>(patches, 1) * sizeof(gpu::TransportPatchGpu);
+  // The lookup grid (indirect_transport_layout.h): cells about the median patch's size, at most
+  // 64 per axis; the cells' offsets, then their patch lists.
+  static std::vector<std::uint32_t> lookup_grid(const TransportData& data, gpu::TransportGrid& grid) {
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    std::vector<std::pair<glm::vec3, glm::vec3>> boxes;
+    std::vector<float> sizes;
+    for (const TransportPatch& p : data.patches) {
+      const float pad = patch_plane_tolerance(p);
+      const glm::vec3 a = p.origin - kTransportMargin * (p.edge_u + p.edge_v);
+      const glm::vec3 du = (1.0f + 2.0f * kTransportMargin) * p.edge_u, dv = (1.0f + 2.0f * kTransportMargin) * p.edge_v;
+      glm::vec3 blo = glm::min(glm::min(a, a + du), glm::min(a + dv, a + du + dv)) - glm::vec3(pad);
+      glm::vec3 bhi = glm::max(glm::max(a, a + du), glm::max(a + dv, a + du + dv)) + glm::vec3(pad);
+      boxes.push_back({blo, bhi});
+      lo = glm::min(lo, blo);
+      hi = glm::max(hi, bhi);
+      sizes.push_back(std::sqrt(p.area()));
+    }
+    std::nth_element(sizes.begin(), sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2), sizes.end());
+    const float cell = std::max(sizes[sizes.size() / 2], 1e-6f);
+    const glm::vec3 extent = glm::max(hi - lo, glm::vec3(cell * 1e-3f));
+    const glm::uvec3 n = glm::clamp(glm::uvec3(glm::ceil(extent / cell)), glm::uvec3(1u), glm::uvec3(64u));
+    grid.size = glm::uvec4(n, static_cast<std::uint32_t>(data.patches.size()));
+    grid.origin = glm::vec4(lo, 0.0f);
+    grid.scale = glm::vec4(glm::vec3(n) / extent, 0.0f);
+    const std::size_t count = std::size_t{n.x} * n.y * n.z;
+    std::vector<std::vector<std::uint32_t>> lists(count);
+    for (std::uint32_t i = 0; i < boxes.size(); ++i) {
+      const glm::uvec3 c0 = glm::min(glm::uvec3(glm::max((boxes[i].first - lo) * glm::vec3(grid.scale), glm::vec3(0.0f))), n - 1u);
+      const glm::uvec3 c1 = glm::min(glm::uvec3(glm::max((boxes[i].second - lo) * glm::vec3(grid.scale), glm::vec3(0.0f))), n - 1u);
+      for (std::uint32_t z = c0.z; z <= c1.z; ++z)
+        for (std::uint32_t y = c0.y; y <= c1.y; ++y)
+          for (std::uint32_t x = c0.x; x <= c1.x; ++x) lists[x + n.x * (y + n.y * std::size_t{z})].push_back(i);
+    }
+    std::vector<std::uint32_t> out(count + 1);
+    for (std::size_t c = 0; c < count; ++c) {
+      out[c] = static_cast<std::uint32_t>(out.size());
+      out.insert(out.end(), lists[c].begin(), lists[c].end());
+    }
+    out[count] = static_cast<std::uint32_t>(out.size());
+    return out;
+  }
+
+  // Host-visible buffers for `patches` patches, `texels` texels and `cells` lookup words (at least
+  // one element each, so that the descriptors are valid without data; zeros: an empty grid),
+  // bound to the set.
+  Status resize(RenderContext& gpu, std::size_t patches, std::size_t texels, std::size_t cells) {
+    const VkDeviceSize patch_bytes =
+        sizeof(gpu::TransportGrid) + std::max<std::size_t>(patches, 1) * sizeof(gpu::TransportPatchGpu);
     const VkDeviceSize texel_bytes = std::max<std::size_t>(texels, 1) * sizeof(glm::vec4);
+    const VkDeviceSize cell_bytes = std::max<std::size_t>(cells, 2) * sizeof(std::uint32_t);
     PENUMBRA_TRY(gpu.ensure_host_buffer(patches_, patch_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
     PENUMBRA_TRY(gpu.ensure_host_buffer(texels_, texel_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+    PENUMBRA_TRY(gpu.ensure_host_buffer(cells_, cell_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
     std::memset(patches_.mapped, 0, patch_bytes);
     std::memset(texels_.mapped, 0, texel_bytes);
-    const VkDescriptorBufferInfo infos[2] = {{patches_.buffer, 0, patch_bytes}, {texels_.buffer, 0, texel_bytes}};
-    VkWriteDescriptorSet writes[2];
-    for (int i = 0; i < 2; ++i) {
+    std::memset(cells_.mapped, 0, cell_bytes);
+    const VkDescriptorBufferInfo infos[3] = {
+        {patches_.buffer, 0, patch_bytes}, {texels_.buffer, 0, texel_bytes}, {cells_.buffer, 0, cell_bytes}};
+    const std::uint32_t bindings[3] = {PENUMBRA_TRANSPORT_BINDING_PATCHES, PENUMBRA_TRANSPORT_BINDING_TEXELS,
+                                       PENUMBRA_TRANSPORT_BINDING_CELLS};
+    VkWriteDescriptorSet writes[3];
+    for (int i = 0; i < 3; ++i) {
       writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       writes[i].dstSet = set_;
-      writes[i].dstBinding = i == 0 ? PENUMBRA_TRANSPORT_BINDING_PATCHES : PENUMBRA_TRANSPORT_BINDING_TEXELS;
+      writes[i].dstBinding = bindings[i];
       writes[i].descriptorCount = 1;
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       writes[i].pBufferInfo = &infos[i];
     }
-    vkUpdateDescriptorSets(gpu.device(), 2, writes, 0, nullptr);
+    vkUpdateDescriptorSets(gpu.device(), 3, writes, 0, nullptr);
     bound_ = 0.0f;
     return {};
   }
@@ -193,7 +250,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkShaderModule ambient_frag_ = VK_NULL_HANDLE, view_frag_ = VK_NULL_HANDLE;
   std::map<std::tuple<bool, std::uint32_t, VkFormat>, VkPipeline> pipelines_;
-  vk::Buffer patches_, texels_;
+  vk::Buffer patches_, texels_, cells_;
   std::shared_ptr<const TransportData> data_;
   std::vector<glm::vec3> shown_;  // what texels_ holds
   std::uint64_t updated_tick_ = 0;

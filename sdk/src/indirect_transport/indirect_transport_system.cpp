@@ -454,7 +454,7 @@ std::string explain_empty(World& world) {
   const std::size_t receivers = world.view<const IndirectReceiver>().count();
   if (transports == 0)
     return "indirect-transport bakes a scene with an IndirectTransport entity and this one has none (a built-in "
-           "scene gets one when a light moves; add it, IndirectReceiver on the static meshes and DynamicLight on "
+           "scene with a point, spot or animated light gets one; add it, IndirectReceiver on the static meshes and DynamicLight on "
            "the lights that move)";
   return "indirect-transport found " + std::to_string(transports) + " IndirectTransport entities but " +
          std::to_string(receivers) + " IndirectReceiver meshes with planar charts to bake";

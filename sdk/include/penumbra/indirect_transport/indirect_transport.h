@@ -48,7 +48,7 @@ struct IndirectTransport {
   // Oracle threshold: a link is refined while its error estimate (the sender's largest albedo x the
   // spread of form factors over the link's sample pairs, indirect_transport_baker.h; form factors
   // are dimensionless, so the threshold is scale-free) exceeds it.
-  float refinement_threshold = 0.004f;
+  float refinement_threshold = 0.002f;
   std::uint32_t finest_level = 3;  // quadtree levels per patch: 2^L x 2^L leaf texels (0..6)
   // The Neumann series stops when the last term's Frobenius norm is below bounce_tolerance x the
   // sum's, or after max_bounces terms (reported).
@@ -61,7 +61,7 @@ struct IndirectTransport {
 
   std::shared_ptr<const TransportData> data;  // set by the baker or attach_bake(); null until baked
 
-  // Draft: level 2, threshold 0.02; medium: level 3, 0.004; high: level 4, 0.002.
+  // Draft: level 2, threshold 0.02; medium: level 3, 0.002; high: level 4, 0.001.
   static IndirectTransport preset(Preset preset);
 };
 

@@ -3,9 +3,12 @@
 #include "indirect_transport_layout.h"
 
 layout(std430, set = 2, binding = PENUMBRA_TRANSPORT_BINDING_PATCHES) readonly buffer TransportPatches {
-  uvec4 count;  // x: patches
+  TransportGrid grid;
   TransportPatchGpu patches[];
 } transport;
+layout(std430, set = 2, binding = PENUMBRA_TRANSPORT_BINDING_CELLS) readonly buffer TransportCells {
+  uint data[];  // the cells' first entries (cells + 1 offsets into data), then the patch indices
+} cells;
 layout(std430, set = 2, binding = PENUMBRA_TRANSPORT_BINDING_TEXELS) readonly buffer TransportTexels {
   vec4 texels[];  // rgb: indirect irradiance (W/m^2)
 } lightmap;
@@ -15,7 +18,14 @@ layout(std430, set = 2, binding = PENUMBRA_TRANSPORT_BINDING_TEXELS) readonly bu
 int transport_patch(vec3 x, vec3 n) {
   int best = -1;
   float best_d = 0.0;
-  for (uint i = 0u; i < transport.count.x; ++i) {
+  uvec3 size = transport.grid.size.xyz;
+  if (size.x == 0u) return -1;
+  vec3 g = (x - transport.grid.origin.xyz) * transport.grid.scale.xyz;
+  if (any(lessThan(g, vec3(0.0))) || any(greaterThanEqual(g, vec3(size)))) return -1;
+  uvec3 c = uvec3(g);
+  uint cell = c.x + size.x * (c.y + size.y * c.z);
+  for (uint k = cells.data[cell]; k < cells.data[cell + 1u]; ++k) {
+    uint i = cells.data[k];
     TransportPatchGpu p = transport.patches[i];
     vec3 r = x - p.origin.xyz;
     float d = abs(dot(r, p.plane.xyz));

@@ -12,6 +12,7 @@ namespace penumbra::gpu {
 // Set 2 bindings.
 #define PENUMBRA_TRANSPORT_BINDING_PATCHES 0  // buffer TransportPatches
 #define PENUMBRA_TRANSPORT_BINDING_TEXELS 1   // buffer TransportTexels
+#define PENUMBRA_TRANSPORT_BINDING_CELLS 2    // buffer TransportCells: the lookup grid
 
 // How far outside its rectangle (in its parameters) a point may be and still be a patch's: the
 // seams between patches have no gap (sample_indirect_irradiance, kTransportMargin).
@@ -23,6 +24,14 @@ struct TransportPatchGpu {
   vec4 axis_u;  // xyz edge_u / |edge_u|^2 (s = dot(x - origin, axis_u)), w the first leaf's index
   vec4 axis_v;  // xyz edge_v / |edge_v|^2, w unused
   vec4 plane;   // xyz the unit normal, w the distance from the plane a point may lie and still be on it
+};
+
+// The lookup grid over the patches' bounds: cell (i, j, k) lists the patches whose rectangle,
+// widened by the plane tolerance and the seam margin, reaches into it, in patch order.
+struct TransportGrid {
+  uvec4 size;   // xyz cells per axis, w patches
+  vec4 origin;  // xyz the grid's corner
+  vec4 scale;   // xyz cells per metre
 };
 
 #ifdef __cplusplus
