@@ -196,27 +196,21 @@ Status ambient_occlusion(const RayScene& scene, std::span<const SurfacePoint> po
 std::vector<WorldLight> gather_lights(World& world) {
   std::vector<WorldLight> lights;
   world.view<Light, WorldTransform>().each([&](Entity e, Light& light, WorldTransform& wt) {
-    const glm::mat4& m = wt.matrix;
-    const glm::mat3 basis(m);
+    const LightFrame frame = light_frame(light, wt.matrix);
     WorldLight wl;
     wl.light = light;
     wl.entity = e;
-    wl.position = glm::vec3(m[3]);
-    const glm::vec3 forward = basis * glm::vec3(0.0f, 0.0f, -1.0f);
-    wl.half_x = basis * glm::vec3(0.5f * light.size.x, 0.0f, 0.0f);
-    wl.half_y = basis * glm::vec3(0.0f, 0.5f * light.size.y, 0.0f);
-    const float len = glm::length(forward);
-    const bool finite = std::isfinite(len) && std::isfinite(wl.position.x) && std::isfinite(wl.position.y) &&
-                        std::isfinite(wl.position.z) && std::isfinite(glm::length(wl.half_x)) &&
-                        std::isfinite(glm::length(wl.half_y));
-    const bool zero_rect = light.type == Light::Type::Rect && !(glm::length(glm::cross(wl.half_x, wl.half_y)) > 0.0f);
-    if (!finite || !(len > 0.0f) || zero_rect) {
+    wl.position = frame.position;
+    wl.half_x = frame.half_x;
+    wl.half_y = frame.half_y;
+    const bool zero_rect = frame.zero_rect;
+    if (!frame.valid || zero_rect) {
       log(LogLevel::Warning, "gather_lights: light entity " + std::to_string(e.index) +
                                  (zero_rect ? " is a rect of zero area" : " has a non-finite or singular transform") +
                                  "; it is skipped (fix its Transform or Light::size)");
       return;
     }
-    wl.direction = forward / len;
+    wl.direction = frame.direction;
     lights.push_back(wl);
   });
   std::sort(lights.begin(), lights.end(),

@@ -11,7 +11,6 @@
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
-#include <glm/mat3x3.hpp>
 
 #include "penumbra/core/hash.h"
 #include "penumbra/core/log.h"
@@ -38,24 +37,20 @@ Result<std::vector<RuntimeLight>> dynamic_lights(World& world) {
     if (!world.get<DynamicLight>(e).enabled) continue;
     const Light& light = world.get<Light>(e);
     if (light.type == Light::Type::Directional) continue;  // not a local light
-    const glm::mat4& m = world.get<WorldTransform>(e).matrix;
-    const glm::mat3 basis(m);
+    const LightFrame frame = light_frame(light, world.get<WorldTransform>(e).matrix);
     RuntimeLight rl;
     rl.light = light;
-    rl.position = glm::vec3(m[3]);
-    const glm::vec3 forward = basis * glm::vec3(0.0f, 0.0f, -1.0f);
-    rl.half_x = basis * glm::vec3(0.5f * light.size.x, 0.0f, 0.0f);
-    rl.half_y = basis * glm::vec3(0.0f, 0.5f * light.size.y, 0.0f);
-    const float len = glm::length(forward);
-    if (!finite(rl.position) || !(len > 0.0f) || !std::isfinite(len) || !finite(rl.half_x) || !finite(rl.half_y) ||
-        !std::isfinite(light.intensity) || !finite(light.color))
+    rl.position = frame.position;
+    rl.direction = frame.direction;
+    rl.half_x = frame.half_x;
+    rl.half_y = frame.half_y;
+    if (!frame.valid || !std::isfinite(light.intensity) || !finite(light.color))
       return make_error(ErrorCode::InvalidInput, "indirect transport: " + light_name(world, e) +
                                                      " has a non-finite position, direction, size or intensity; "
                                                      "fix its Transform or Light");
-    if (light.type == Light::Type::Rect && !(glm::length(glm::cross(rl.half_x, rl.half_y)) > 0.0f))
+    if (frame.zero_rect)
       return make_error(ErrorCode::InvalidInput, "indirect transport: " + light_name(world, e) +
                                                      " is a rect light of zero area; fix Light::size");
-    rl.direction = forward / len;
     out.push_back(rl);
   }
   return out;
@@ -192,24 +187,6 @@ float triangle_solid_angle(glm::vec3 a, glm::vec3 b, glm::vec3 c) {
   return 2.0f * std::atan2(num, den);
 }
 
-// KHR_lights_punctual range window and smooth spot cone at unit direction l (surface -> light).
-float punctual_falloff(const RuntimeLight& rl, glm::vec3 l, float dist) {
-  const Light& light = rl.light;
-  float f = 1.0f;
-  if (light.range > 0.0f) {
-    const float r = dist / light.range;
-    const float w = glm::clamp(1.0f - r * r * r * r, 0.0f, 1.0f);
-    f *= w * w;
-  }
-  if (light.type == Light::Type::Spot) {
-    const float cos_outer = std::cos(light.outer_cone_angle);
-    const float scale = 1.0f / std::max(0.001f, std::cos(light.inner_cone_angle) - cos_outer);
-    const float a = glm::clamp((glm::dot(rl.direction, -l) - cos_outer) * scale, 0.0f, 1.0f);
-    f *= a * a;
-  }
-  return f;
-}
-
 // The leaves of one patch (see direct_irradiance).
 void direct_irradiance_of(const TransportPatch& p, std::span<const RuntimeLight> lights,
                           const TransportOccluders* occluders, std::span<glm::vec3> out) {
@@ -245,7 +222,7 @@ void direct_irradiance_of(const TransportPatch& p, std::span<const RuntimeLight>
           const float dist = glm::length(to);
           if (!(glm::dot(src - p.origin, p.normal) > 0.0f) || !(dist > 0.0f)) continue;  // behind the patch
           const glm::vec3 l = to / dist;
-          float weight = punctual_falloff(rl, l, dist);
+          float weight = punctual_window(rl.light, rl.direction, l, dist);
           if (rl.light.type == Light::Type::Rect) weight = std::max(0.0f, -glm::dot(rl.direction, l)) * sub_area;
           if (!(weight > 0.0f)) continue;
           // Mean of I cos_x / r^2 over the leaf = I Omega(leaf) / A (exact for a bare point source).

@@ -47,19 +47,7 @@ void for_each_light_sample(const RayScene& scene, std::span<const WorldLight> li
         const float dist = std::sqrt(dist2);
         const glm::vec3 l = d / dist;
         if (!faces(l)) break;
-        float falloff = 1.0f / dist2;
-        if (light.range > 0.0f) {
-          const float r = dist / light.range;
-          const float w = glm::clamp(1.0f - r * r * r * r, 0.0f, 1.0f);
-          falloff *= w * w;
-        }
-        if (light.type == Light::Type::Spot) {
-          // Smooth cone: squared linear ramp in cos between the outer and inner angles.
-          const float cos_outer = std::cos(light.outer_cone_angle);
-          const float scale = 1.0f / std::max(0.001f, std::cos(light.inner_cone_angle) - cos_outer);
-          const float a = glm::clamp((glm::dot(wl.direction, -l) - cos_outer) * scale, 0.0f, 1.0f);
-          falloff *= a * a;
-        }
+        const float falloff = punctual_window(light, wl.direction, l, dist) / dist2;
         // The shadow ray's direction is the segment itself: t = 1 reaches the light.
         if (falloff > 0.0f && !scene.occluded(Ray{origin, 0.0f, wl.position - origin, 1.0f})) fn(l, power * falloff);
         break;

@@ -7,6 +7,8 @@
 // they are declared.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -19,6 +21,7 @@
 
 #include <glm/common.hpp>
 #include <glm/ext/vector_uint4_sized.hpp>
+#include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
@@ -96,6 +99,38 @@ struct Light {
   float outer_cone_angle = 0.7853981633974483f;  // spot, radians (pi/4)
   glm::vec2 size{1.0f};           // rect: width (local X) and height (local Y) in metres
 };
+
+// A light in world space, from its world matrix: its position (the rect's centre), the unit
+// direction it shines along (local -Z), the rect's half-size vectors (local X and Y x size / 2).
+// `valid` is false for a non-finite or singular matrix; `zero_rect` for a rect of no area. O(1).
+struct LightFrame {
+  glm::vec3 position{0.0f};
+  glm::vec3 direction{0.0f, 0.0f, -1.0f};
+  glm::vec3 half_x{0.5f, 0.0f, 0.0f}, half_y{0.0f, 0.5f, 0.0f};
+  bool valid = false;
+  bool zero_rect = false;
+};
+LightFrame light_frame(const Light& light, const glm::mat4& world);
+
+// What a point or spot light's inverse-square irradiance is multiplied by at distance `distance`
+// in unit direction `l` from the surface towards the light (`direction`: where the light shines):
+// KHR_lights_punctual's recommended range window (1 - (d / range)^4)^2 (none for range 0) and, for
+// a spot, the smooth cone (a squared linear ramp in cos between the outer and inner angles). O(1).
+inline float punctual_window(const Light& light, glm::vec3 direction, glm::vec3 l, float distance) {
+  float f = 1.0f;
+  if (light.range > 0.0f) {
+    const float r = distance / light.range;
+    const float w = glm::clamp(1.0f - r * r * r * r, 0.0f, 1.0f);
+    f *= w * w;
+  }
+  if (light.type == Light::Type::Spot) {
+    const float cos_outer = std::cos(light.outer_cone_angle);
+    const float scale = 1.0f / std::max(0.001f, std::cos(light.inner_cone_angle) - cos_outer);
+    const float a = glm::clamp((glm::dot(direction, -l) - cos_outer) * scale, 0.0f, 1.0f);
+    f *= a * a;
+  }
+  return f;
+}
 
 // The sky: the radiance a ray that leaves the scene sees, uniform over every direction
 // (W/(m^2 sr) per channel; a constant sky colour). The World's environment is the first entity
