@@ -70,7 +70,7 @@ struct IndirectTransport {
 // entity whenever a dynamic light changed.
 struct IndirectLightmap {
   std::vector<glm::vec3> irradiance;
-  std::vector<glm::vec3> direct;  // the direct irradiance it came from (the debug view)
+  std::vector<glm::vec3> direct;  // the direct irradiance it came from (for tools and tests)
   std::uint64_t updated_tick = 0;
   std::uint32_t kept_coefficients = 0;  // significant direct coefficients multiplied in the update
 };
