@@ -70,6 +70,11 @@ class SceneBuilder {
   }
 
   World& world() { return world_; }
+  // Counts a mesh entity made without mesh() (the character's).
+  void count_mesh(std::size_t triangles) {
+    scene_.triangles += triangles;
+    ++scene_.mesh_entities;
+  }
   Entity root() const { return scene_.root; }
   LoadedScene finish() { return std::move(scene_); }
 
@@ -300,32 +305,44 @@ AnimationClip walk_clip(const std::array<Entity, kJointCount>& joints) {
   return clip;
 }
 
-void add_character(SceneBuilder& b, glm::vec3 position) {
-  World& world = b.world();
-  const Entity character = b.node("character", at(position));
+}  // namespace
+
+Entity add_builtin_character(World& world, Entity parent, const Transform& transform, std::string_view name) {
+  const auto node = [&world](Entity up, std::string node_name, const Transform& t) {
+    const Entity e = world.create();
+    world.add<Name>(e, Name{std::move(node_name)});
+    world.add<Transform>(e, t);
+    if (up) set_parent(world, e, up);
+    return e;
+  };
+  const Entity character = node(parent, std::string(name), transform);
   // Joints: entities of the hierarchy with translations relative to their parent joint.
   std::array<Entity, kJointCount> joints;
   Skin skin;
   for (std::size_t j = 0; j < kJointCount; ++j) {
     const JointDef& def = kJoints[j];
-    const Entity parent = def.parent < 0 ? character : joints[static_cast<std::size_t>(def.parent)];
+    const Entity up = def.parent < 0 ? character : joints[static_cast<std::size_t>(def.parent)];
     const glm::vec3 parent_position = def.parent < 0 ? glm::vec3(0.0f) : kJoints[static_cast<std::size_t>(def.parent)].position;
-    joints[j] = b.node(parent, def.name, at(def.position - parent_position));
+    joints[j] = node(up, def.name, at(def.position - parent_position));
     skin.joints.push_back(joints[j]);
     // Bind pose has no rotation: the inverse bind matrix undoes the joint's bind translation.
     glm::mat4 inverse_bind(1.0f);
     inverse_bind[3] = glm::vec4(-def.position, 1.0f);
     skin.inverse_bind.push_back(inverse_bind);
   }
-  const Entity body = b.mesh(character, "character_mesh", std::make_shared<const MeshData>(character_mesh()),
-                             lambert({0.8f, 0.55f, 0.45f}), Transform{}, /*is_static=*/false);
+  const Entity body = node(character, "character_mesh", Transform{});
+  world.add<Mesh>(body, Mesh{std::make_shared<const MeshData>(character_mesh())});
+  world.add<Material>(body, lambert({0.8f, 0.55f, 0.45f}));
   world.add<Skin>(body, std::move(skin));
   auto clips = std::make_shared<std::vector<AnimationClip>>();
   clips->push_back(walk_clip(joints));
   Animator animator;
   animator.clips = std::move(clips);
   world.add<Animator>(character, std::move(animator));
+  return character;
 }
+
+namespace {
 
 LoadedScene build_courtyard(World& world) {
   SceneBuilder b(world, "courtyard");
@@ -378,7 +395,8 @@ LoadedScene build_courtyard(World& world) {
   // A clear sky: uniform radiance giving an open floor pi L = 0.57-1.0 W/m^2, a quarter of the sun's.
   world.add<Environment>(b.node("sky", at({0, 0, 0})), Environment{{0.18f, 0.23f, 0.32f}});
 
-  add_character(b, {2.0f, 0.0f, 4.0f});
+  add_builtin_character(world, b.root(), at({2.0f, 0.0f, 4.0f}));
+  b.count_mesh(character_mesh().triangle_count());
 
   Camera camera;
   camera.yfov = 1.0f;

@@ -45,10 +45,14 @@ CameraView framing_camera_view(World& world, float aspect) {
   // From the front (+Z) and above, far enough that the bounding sphere fits the vertical field.
   const float distance = radius / std::sin(0.5f * yfov);
   const glm::vec3 eye = centre + distance * glm::normalize(glm::vec3(0.0f, 0.45f, 1.0f));
+  return look_at_view(eye, centre, yfov, aspect, distance * 0.01f, distance + 2.0f * radius);
+}
+
+CameraView look_at_view(glm::vec3 eye, glm::vec3 target, float yfov, float aspect, float znear, float zfar) {
   CameraView v;
   v.position = eye;
-  v.view = glm::lookAtRH(eye, centre, glm::vec3(0.0f, 1.0f, 0.0f));
-  v.projection = vulkan_perspective(yfov, aspect, distance * 0.01f, distance + 2.0f * radius);
+  v.view = glm::lookAtRH(eye, target, glm::vec3(0.0f, 1.0f, 0.0f));
+  v.projection = vulkan_perspective(yfov, aspect, znear, zfar);
   return v;
 }
 

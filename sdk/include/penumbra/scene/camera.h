@@ -25,6 +25,10 @@ CameraView camera_view(const World& world, Entity camera, float aspect);
 // A camera that frames every mesh as posed now (posed_bounds: skinned meshes by their skinned
 // vertices), looking from the front and above. Run after the skinning system.
 CameraView framing_camera_view(World& world, float aspect);
+// A camera at `eye` looking at `target` with +Y up (a game's follow camera): vertical field `yfov`
+// radians, `aspect` width / height, depths znear..zfar metres. Preconditions: eye != target, the
+// view not straight up or down, 0 < znear < zfar. O(1).
+CameraView look_at_view(glm::vec3 eye, glm::vec3 target, float yfov, float aspect, float znear, float zfar);
 
 // The primary ray through point `pixel` of a width x height image (pixel (x, y)'s centre is
 // (x + 0.5, y + 0.5); y = 0 is the top row): from the near plane, unit direction. O(1) after the
