@@ -79,7 +79,7 @@ struct Character {
   penumbra::Entity root;
   glm::vec3 position{0.0f};
   float heading = 0.0f;        // radians about +Y; 0 faces the model's walking direction
-  float facing_offset = 0.0f;  // the model's own yaw so that heading 0 walks along +Z
+  float facing_offset = 0.0f;  // minus the yaw the model faces in its file (humanoids: from the feet)
   float speed = 1.4f;          // metres per second at full input
   float radius = 0.3f;         // for collisions
   std::string name;
