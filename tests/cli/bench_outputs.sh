@@ -1,7 +1,7 @@
 # penumbra bench prints a table with its ratios and writes NAME.csv and NAME.png.
 source "$(dirname "$0")/lib.sh"
 for name in ecs rays ao-noise probe-grid ao-field pose-ao render-ao shards image-accuracy irradiance-filter \
-    indirect-transport; do
+    indirect-transport characters; do
   expect_exit 0 "$PENUMBRA" bench "$name" --quick --out "$scratch"
   expect_output "goal"
   [ -s "$scratch/$name.csv" ] || fail "$name.csv missing or empty"
