@@ -7,7 +7,17 @@
 #include <set>
 #include <string>
 
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
 #include "penumbra/ao_field/ao_field.h"
+#include "penumbra/import/gltf.h"
+#include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/bake/baker.h"
 #include "penumbra/bakers.h"
 #include "penumbra/runtime.h"
@@ -217,6 +227,71 @@ TEST(LightingModules, AttachBakeRoutesChunksAndNamesMissingKeys) {
   ASSERT_FALSE(missing.ok());
   EXPECT_EQ(missing.error().code, ErrorCode::NotFound);
   EXPECT_NE(missing.error().message.find("no entity has the key 'crate'"), std::string::npos) << missing.error().message;
+}
+
+// A re-export that writes the nodes in another order (every node two places on, children lists
+// reversed) keeps
+// every node's name path, so a bake of the original attaches to it: the same fields on the same
+// named entities.
+TEST(LightingModules, ABakeAttachesToAReexportWithReorderedNodes) {
+  const std::filesystem::path source = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf/lighting_extension.gltf";
+  nlohmann::json doc = nlohmann::json::parse(std::ifstream(source));
+  const std::size_t n = doc["nodes"].size();
+  const auto moved = [n](std::size_t i) { return (i + 2) % n; };  // old index -> new
+  nlohmann::json nodes = nlohmann::json::array();
+  for (std::size_t i = 0; i < n; ++i) nodes.push_back(doc["nodes"][(i + n - 2) % n]);
+  for (auto& node : nodes)
+    if (node.contains("children")) {
+      nlohmann::json children = nlohmann::json::array();
+      for (auto it = node["children"].rbegin(); it != node["children"].rend(); ++it)
+        children.push_back(moved(it->get<std::size_t>()));
+      node["children"] = children;
+    }
+  doc["nodes"] = nodes;
+  for (auto& scene : doc["scenes"])
+    for (auto& root : scene["nodes"]) root = moved(root.get<std::size_t>());
+  for (auto& animation : doc["animations"])
+    for (auto& channel : animation["channels"]) channel["target"]["node"] = moved(channel["target"]["node"].get<std::size_t>());
+  const std::filesystem::path reexport = std::filesystem::temp_directory_path() /
+                                         ("penumbra_reordered_" + std::to_string(::getpid()) + ".gltf");
+  std::ofstream(reexport) << doc.dump();
+
+  const auto load = [](const std::filesystem::path& path) {
+    World w;
+    register_lighting(w);
+    register_bakers(w);
+    auto imported = import_gltf(w, path);
+    EXPECT_TRUE(imported.ok()) << imported.error().message;
+    w.update(0.0);
+    EXPECT_TRUE(add_default_lighting(w, Preset::Draft, /*authored=*/true).ok());
+    return w;
+  };
+  World original = load(source), reordered = load(reexport);
+  std::filesystem::remove(reexport);
+  JobContext jobs;
+  BakeSettings settings;
+  settings.preset = Preset::Draft;
+  auto baked = bake_world(original, {"ao-field", "probe-grid"}, settings, jobs);
+  ASSERT_TRUE(baked.ok()) << baked.error().message;
+  Status attached = attach_bake(reordered, baked->file);
+  ASSERT_TRUE(attached.ok()) << attached.error().message;
+  // The crate's field (the file's one caster, on the crate's primitive) and the grid arrived, equal
+  // to the original's.
+  const auto caster_of = [](World& w) {
+    std::shared_ptr<const AOFieldData> data;
+    w.view<const AOFieldCaster>().each([&](const AOFieldCaster& c) { data = c.data; });
+    return data;
+  };
+  const auto grid_of = [](World& w) {
+    std::shared_ptr<const ProbeGridData> data;
+    w.view<const IrradianceProbeGrid>().each([&](const IrradianceProbeGrid& g) { data = g.data; });
+    return data;
+  };
+  ASSERT_TRUE(caster_of(reordered) && grid_of(reordered));
+  const glm::vec3 x(0.9f, 0.05f, 0.3f), up(0.0f, 1.0f, 0.0f);
+  EXPECT_EQ(evaluate_local(*caster_of(reordered), x, up), evaluate_local(*caster_of(original), x, up));
+  EXPECT_EQ(evaluate(*grid_of(reordered), x, up), evaluate(*grid_of(original), x, up));
+  EXPECT_GT(evaluate_local(*caster_of(reordered), x, up), 0.0f);
 }
 
 }  // namespace
