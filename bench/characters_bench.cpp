@@ -8,7 +8,6 @@
 #include <filesystem>
 #include <map>
 #include <memory>
-#include <numbers>
 #include <string>
 #include <vector>
 
@@ -27,7 +26,6 @@
 namespace penumbra::bench {
 namespace {
 
-constexpr float kPi = std::numbers::pi_v<float>;
 
 void skinned_meshes(const World& world, Entity root, std::vector<Entity>& out) {
   if (world.has<Skin>(root) && world.has<Mesh>(root)) out.push_back(root);

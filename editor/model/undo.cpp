@@ -94,6 +94,7 @@ Status UndoStack::add_component(World& world, Entity entity, const ComponentInfo
     return make_error(ErrorCode::InvalidArgument, label + ": it belongs on a mesh; select an entity with a Mesh");
   info.emplace(world, entity);
   if (preset && info.set_preset_fields) info.set_preset_fields(info, info.patch(world, entity), *preset);
+  if (info.fit) info.fit(world, entity);
   Edit edit{entity, label, {}};
   edit.component = &info;
   edit.added = true;

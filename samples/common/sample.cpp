@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <map>
 #include <memory>
-#include <numbers>
 #include <unordered_map>
 
 #define GLFW_INCLUDE_VULKAN
@@ -44,7 +43,6 @@ using vk::vk_struct;
 namespace {
 
 constexpr double kAutoplayStep = 1.0 / 30.0;  // seconds per scripted frame
-constexpr float kPi = std::numbers::pi_v<float>;
 
 // Frame and system timings over the run, for the overlay and the exit summary.
 struct Timings {

@@ -1,6 +1,7 @@
 // The field lists of IrradianceProbeGrid and ProbeLit (fields.h).
 #include "penumbra/lighting/field_list.h"
 #include "penumbra/probe_grid/probe_grid.h"
+#include "penumbra/probe_grid/probe_grid_system.h"
 
 namespace penumbra {
 
@@ -96,7 +97,8 @@ const ComponentInfo& irradiance_probe_grid_info() {
                                   .copy = fields::copy_in<IrradianceProbeGrid>,
                                   .set_preset_fields = fields::preset_fields<IrradianceProbeGrid>,
                                   .emplace = fields::emplace_in<IrradianceProbeGrid>,
-                                  .erase = fields::erase_in<IrradianceProbeGrid>};
+                                  .erase = fields::erase_in<IrradianceProbeGrid>,
+                                  .fit = fit_probe_grid};
   return info;
 }
 

@@ -11,6 +11,7 @@
 
 #include "penumbra/ecs/transform.h"
 #include "penumbra/lighting/module.h"
+#include "penumbra/scene/animation.h"
 
 namespace penumbra {
 
@@ -123,13 +124,10 @@ void register_probe_grid_system(World& world) {
   world.add_system(std::move(desc));
 }
 
-Result<Entity> add_default_probe_grid(World& world, Preset preset) {
-  Entity existing;
-  world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid&) {
-    if (!existing || e.index < existing.index) existing = e;
-  });
-  if (existing) return existing;
-  // The static geometry's bounds, from the world-space corners of each mesh's local bounds.
+namespace {
+
+// The static geometry's bounds, from the world-space corners of each mesh's local bounds.
+Aabb static_bounds(World& world) {
   Aabb bounds;
   world.each<Static, Mesh, WorldTransform>([&](Static&, Mesh& m, WorldTransform& wt) {
     if (!m.data || m.data->bounds.empty()) return;
@@ -140,13 +138,50 @@ Result<Entity> add_default_probe_grid(World& world, Preset preset) {
       bounds.extend(glm::vec3(wt.matrix * glm::vec4(corner, 1.0f)));
     }
   });
+  return bounds;
+}
+
+// A level's bounds inset by 2% (at least 1 cm) per side, so that no node sits in a wall's surface.
+Aabb inset_box(const Aabb& bounds) {
+  const glm::vec3 inset = glm::max(0.02f * bounds.extent(), glm::vec3(0.01f));
+  Aabb box;
+  box.min = bounds.min + inset;
+  box.max = glm::max(bounds.max - inset, box.min + 0.01f);
+  return box;
+}
+
+}  // namespace
+
+void fit_probe_grid(World& world, Entity e) {
+  IrradianceProbeGrid* grid = world.try_get<IrradianceProbeGrid>(e);
+  if (!grid) return;
+  Aabb box = posed_bounds(world, e);
+  if (!box.empty()) {
+    const glm::vec3 grow = glm::max(0.1f * box.extent(), glm::vec3(0.05f));
+    box.min -= grow;
+    box.max += grow;
+  } else if (const Aabb level = static_bounds(world); !level.empty()) {
+    box = inset_box(level);
+  } else if (const Aabb all = posed_bounds(world); !all.empty()) {
+    box = inset_box(all);
+  } else {
+    return;
+  }
+  world.patch<IrradianceProbeGrid>(e).box = box;
+}
+
+Result<Entity> add_default_probe_grid(World& world, Preset preset) {
+  Entity existing;
+  world.view<IrradianceProbeGrid>().each([&](Entity e, IrradianceProbeGrid&) {
+    if (!existing || e.index < existing.index) existing = e;
+  });
+  if (existing) return existing;
+  const Aabb bounds = static_bounds(world);
   if (bounds.empty())
     return make_error(ErrorCode::InvalidInput, "add_default_probe_grid: the scene has no static geometry to cover; "
                                                "add a Static mesh or an IrradianceProbeGrid with an explicit box");
-  const glm::vec3 inset = glm::max(0.02f * bounds.extent(), glm::vec3(0.01f));
   IrradianceProbeGrid grid = IrradianceProbeGrid::preset(preset);
-  grid.box.min = bounds.min + inset;
-  grid.box.max = glm::max(bounds.max - inset, grid.box.min + 0.01f);
+  grid.box = inset_box(bounds);
   const Entity e = world.create();
   world.add<Name>(e, Name{"probe grid"});
   world.add<IrradianceProbeGrid>(e, std::move(grid));

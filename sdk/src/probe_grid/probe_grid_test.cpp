@@ -19,6 +19,8 @@
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid_baker.h"
 #include "penumbra/probe_grid/probe_grid_system.h"
+#include "penumbra/scene/animation.h"
+#include "penumbra/scene/builtin.h"
 #include "penumbra/scene/mesh.h"
 
 namespace penumbra {
@@ -540,6 +542,40 @@ TEST(ProbeGridDefault, CoversTheStaticGeometryInsetAndIsAddedOnce) {
   auto again = add_default_probe_grid(w, Preset::High);
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(*again, *e);
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// A grid a user adds (ComponentInfo::fit) covers what it was added to: a character's posed
+// vertices with room around them, or, on an entity without meshes, the level as the default grid does.
+TEST(FitProbeGrid, CoversTheSelectionOrTheLevel) {
+  World w;
+  register_scene_systems(w);
+  ASSERT_TRUE(load_builtin(w, "courtyard").ok());
+  Transform at;
+  at.translation = glm::vec3(-4.0f, 0.0f, 3.0f);
+  const Entity walker = add_builtin_character(w, Entity::null(), at, "walker");
+  w.update(0.0);
+  w.add<IrradianceProbeGrid>(walker);
+  irradiance_probe_grid_info().fit(w, walker);
+  const Aabb posed = posed_bounds(w, walker);
+  const Aabb box = w.get<IrradianceProbeGrid>(walker).box;
+  ASSERT_FALSE(posed.empty());
+  EXPECT_NEAR(posed.extent().y, 1.83f, 0.1f);  // the walker's height, not the courtyard's
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(box.min[a], posed.min[a] - std::max(0.1f * posed.extent()[a], 0.05f), 1e-4f);
+    EXPECT_NEAR(box.max[a], posed.max[a] + std::max(0.1f * posed.extent()[a], 0.05f), 1e-4f);
+  }
+  const Entity empty = w.create();
+  w.add<IrradianceProbeGrid>(empty);
+  irradiance_probe_grid_info().fit(w, empty);
+  const Aabb fitted = w.get<IrradianceProbeGrid>(empty).box;
+  EXPECT_GT(fitted.extent().x, 19.0f);  // the 20 m courtyard, inset by 2%
+  EXPECT_LT(fitted.extent().x, 20.0f);
 }
 
 }  // namespace

@@ -144,11 +144,16 @@ void skin_normals(const MeshData& mesh, const SkinPose& pose, std::vector<glm::v
   }
 }
 
-Aabb posed_bounds(World& world) {
+Aabb posed_bounds(World& world, Entity root) {
   Aabb bounds;
   std::vector<glm::vec3> skinned;
+  const auto below_root = [&world, root](Entity e) {
+    for (Entity up = e; up; up = world.has<Parent>(up) ? world.get<Parent>(up).entity : Entity::null())
+      if (up == root) return true;
+    return false;
+  };
   world.view<const Mesh, const WorldTransform>().each([&](Entity e, const Mesh& mesh, const WorldTransform& wt) {
-    if (!mesh.data || mesh.data->bounds.empty()) return;
+    if (!mesh.data || mesh.data->bounds.empty() || (root && !below_root(e))) return;
     const MeshData& m = *mesh.data;
     const SkinPose* pose = world.try_get<SkinPose>(e);
     const bool skinned_now = pose && !m.joints.empty() && m.joints.size() == m.positions.size() &&

@@ -77,6 +77,10 @@ struct ComponentInfo {
   // The component belongs on an entity with a Mesh: a glTF node's declaration of it goes on each
   // of the node's mesh entities (one per primitive) rather than on the node's own entity.
   bool on_mesh = false;
+  // Fits a component a user just added (the editor's Add) to what it is on: the probe grid's box
+  // to the posed bounds of the entity's meshes, or to the scene's when it has none. Null: nothing
+  // to fit. Precondition: the entity has the component; world transforms and poses are current.
+  void (*fit)(World& world, Entity e) = nullptr;
 
   const FieldInfo* field(std::string_view name) const;
   bool present(const World& world, Entity e) const { return find(world, e) != nullptr; }

@@ -60,6 +60,13 @@ void register_probe_grid_system(World& world);
 // existing grid entity when there is one, and InvalidInput when the World has no static geometry.
 Result<Entity> add_default_probe_grid(World& world, Preset preset);
 
+// Sizes the IrradianceProbeGrid of `e` to what it is added to (ComponentInfo::fit): the posed
+// bounds of the meshes of e's subtree grown by 10% of their size on every side (a grid around an
+// object covers its surroundings); for an entity without meshes, the static geometry's bounds
+// inset as add_default_probe_grid does (else every mesh's). Nothing when the World has no mesh.
+// Cost: O(meshes x depth + skinned vertices).
+void fit_probe_grid(World& world, Entity e);
+
 const LightingModule& probe_grid_module();
 
 }  // namespace penumbra

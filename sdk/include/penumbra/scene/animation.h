@@ -48,8 +48,9 @@ void skin_normals(const MeshData& mesh, const SkinPose& pose, std::vector<glm::v
 // a SkinPose whose matrices cover its joints) by its skinned vertices, any other by its box's
 // corners. This is what a camera must frame: a skinned mesh's node transform does not place its
 // vertices (an armature scaled by 0.01 shrinks the node's box, not the character). Empty when
-// the world has no such mesh. Run after the skinning system. Cost: O(skinned vertices + meshes).
-Aabb posed_bounds(World& world);
+// the world has no such mesh. With a `root`, only the meshes of root's subtree (root and its
+// descendants). Run after the skinning system. Cost: O(skinned vertices + meshes x depth).
+Aabb posed_bounds(World& world, Entity root = Entity::null());
 
 // Registers, in order: "animation" (Phase::Animation), the ecs transform systems
 // (register_transform_systems, Phase::Transform) and "skinning" (Phase::Transform, after the
