@@ -4,13 +4,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <unordered_map>
 #include <vector>
 
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
 #include <backends/imgui_impl_vulkan.h>
 #include <imgui.h>
+
+#include "penumbra/render/overlay_pass.h"
 
 namespace penumbra::editor {
 
@@ -43,9 +44,7 @@ struct Viewport::Impl {
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   VkDescriptorPool imgui_pool = VK_NULL_HANDLE;
   // The UI pass loads the renderer's image; one pass ends ready to present, the other ready to copy.
-  VkRenderPass ui_pass = VK_NULL_HANDLE, ui_pass_capture = VK_NULL_HANDLE;
-  std::unordered_map<VkImageView, VkFramebuffer> framebuffers;
-  VkExtent2D framebuffer_extent{0, 0};
+  std::unique_ptr<OverlayPass> ui_pass, ui_pass_capture;
   bool imgui_ready = false;
   // The scaled 3D view: its own colour image, blitted up to the swapchain image.
   float render_scale = 1.0f;
@@ -61,12 +60,11 @@ struct Viewport::Impl {
   ~Impl() {
     if (vk) vkDeviceWaitIdle(vk);
     if (imgui_ready) ImGui_ImplVulkan_Shutdown();
-    destroy_framebuffers();
+    ui_pass.reset();
+    ui_pass_capture.reset();
     destroy_scaled();
     if (readback) vkDestroyBuffer(vk, readback, nullptr);
     if (readback_memory) vkFreeMemory(vk, readback_memory, nullptr);
-    if (ui_pass) vkDestroyRenderPass(vk, ui_pass, nullptr);
-    if (ui_pass_capture) vkDestroyRenderPass(vk, ui_pass_capture, nullptr);
     if (imgui_pool) vkDestroyDescriptorPool(vk, imgui_pool, nullptr);
     if (pool) vkDestroyCommandPool(vk, pool, nullptr);
     renderer.reset();
@@ -128,73 +126,6 @@ struct Viewport::Impl {
     return {};
   }
 
-  void destroy_framebuffers() {
-    for (auto& [view, fb] : framebuffers) vkDestroyFramebuffer(vk, fb, nullptr);
-    framebuffers.clear();
-  }
-
-  Result<VkRenderPass> make_ui_pass(VkImageLayout final_layout) {
-    VkAttachmentDescription color{};
-    color.format = swapchain->format();
-    color.samples = VK_SAMPLE_COUNT_1_BIT;
-    color.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;  // the renderer's frame stays underneath
-    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    color.initialLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    color.finalLayout = final_layout;
-    VkAttachmentReference ref{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
-    VkSubpassDescription subpass{};
-    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-    subpass.colorAttachmentCount = 1;
-    subpass.pColorAttachments = &ref;
-    // The renderer's colour writes happen before the UI blends over them.
-    VkSubpassDependency dep{};
-    dep.srcSubpass = VK_SUBPASS_EXTERNAL;
-    dep.dstSubpass = 0;
-    dep.srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    dep.dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    dep.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    dep.dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    VkSubpassDependency out{};
-    out.srcSubpass = 0;
-    out.dstSubpass = VK_SUBPASS_EXTERNAL;
-    out.srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    out.dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
-    out.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    out.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    const VkSubpassDependency deps[] = {dep, out};
-    auto info = vk_struct<VkRenderPassCreateInfo>(VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO);
-    info.attachmentCount = 1;
-    info.pAttachments = &color;
-    info.subpassCount = 1;
-    info.pSubpasses = &subpass;
-    info.dependencyCount = 2;
-    info.pDependencies = deps;
-    VkRenderPass pass = VK_NULL_HANDLE;
-    if (VkResult r = vkCreateRenderPass(vk, &info, nullptr, &pass); r != VK_SUCCESS) return vk_error("vkCreateRenderPass", r);
-    return pass;
-  }
-
-  Result<VkFramebuffer> framebuffer(const RenderTarget& t) {
-    if (framebuffer_extent.width != t.width || framebuffer_extent.height != t.height) {
-      destroy_framebuffers();
-      framebuffer_extent = {t.width, t.height};
-    }
-    if (auto it = framebuffers.find(t.view); it != framebuffers.end()) return it->second;
-    auto info = vk_struct<VkFramebufferCreateInfo>(VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO);
-    info.renderPass = ui_pass;
-    info.attachmentCount = 1;
-    info.pAttachments = &t.view;
-    info.width = t.width;
-    info.height = t.height;
-    info.layers = 1;
-    VkFramebuffer fb = VK_NULL_HANDLE;
-    if (VkResult r = vkCreateFramebuffer(vk, &info, nullptr, &fb); r != VK_SUCCESS) return vk_error("vkCreateFramebuffer", r);
-    framebuffers.emplace(t.view, fb);
-    return fb;
-  }
-
   Status ensure_readback(VkDeviceSize size) {
     if (readback_size >= size) return {};
     if (readback) vkDestroyBuffer(vk, readback, nullptr);
@@ -225,7 +156,8 @@ struct Viewport::Impl {
     int w = 0, h = 0;
     glfwGetFramebufferSize(window, &w, &h);
     if (w <= 0 || h <= 0) return {};  // minimised
-    destroy_framebuffers();
+    ui_pass->release_framebuffers();
+    ui_pass_capture->release_framebuffers();
     return swapchain->resize(static_cast<std::uint32_t>(w), static_cast<std::uint32_t>(h));
   }
 };
@@ -294,12 +226,12 @@ Result<std::unique_ptr<Viewport>> Viewport::create(GLFWwindow* window, const Vie
   dp.pPoolSizes = sizes;
   if (VkResult r = vkCreateDescriptorPool(impl->vk, &dp, nullptr, &impl->imgui_pool); r != VK_SUCCESS)
     return vk_error("vkCreateDescriptorPool", r);
-  auto pass = impl->make_ui_pass(VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+  auto pass = OverlayPass::create(*impl->device, impl->swapchain->format(), VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
   if (!pass) return pass.error();
-  impl->ui_pass = *pass;
-  auto capture_pass = impl->make_ui_pass(VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+  impl->ui_pass = std::move(*pass);
+  auto capture_pass = OverlayPass::create(*impl->device, impl->swapchain->format(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
   if (!capture_pass) return capture_pass.error();
-  impl->ui_pass_capture = *capture_pass;
+  impl->ui_pass_capture = std::move(*capture_pass);
 
   ImGui_ImplVulkan_InitInfo init{};
   init.Instance = impl->device->instance();
@@ -312,7 +244,7 @@ Result<std::unique_ptr<Viewport>> Viewport::create(GLFWwindow* window, const Vie
   init.ImageCount = std::max(2u, impl->swapchain->image_count());
   init.MSAASamples = VK_SAMPLE_COUNT_1_BIT;
   init.CheckVkResultFn = check_imgui_vk;
-  if (!ImGui_ImplVulkan_Init(&init, impl->ui_pass))
+  if (!ImGui_ImplVulkan_Init(&init, impl->ui_pass->render_pass()))
     return make_error(ErrorCode::Internal, "viewport: ImGui_ImplVulkan_Init failed");
   impl->imgui_ready = true;
   PENUMBRA_TRY(impl->device->submit_and_wait([](VkCommandBuffer c) { ImGui_ImplVulkan_CreateFontsTexture(c); }));
@@ -397,18 +329,13 @@ Status Viewport::draw(World& world, const CameraView& camera, const RenderSettin
                          nullptr, 0, nullptr, 1, &to_color);
   }
   // The UI on top, in its own render pass.
-  auto fb = m.framebuffer(target);
-  if (!fb) {
+  OverlayPass& pass = capture ? *m.ui_pass_capture : *m.ui_pass;
+  if (Status s = pass.begin(m.cmd, target); !s) {
     vkEndCommandBuffer(m.cmd);
-    return fb.error();
+    return s;
   }
-  auto rp = vk_struct<VkRenderPassBeginInfo>(VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO);
-  rp.renderPass = capture ? m.ui_pass_capture : m.ui_pass;
-  rp.framebuffer = *fb;
-  rp.renderArea.extent = {target.width, target.height};
-  vkCmdBeginRenderPass(m.cmd, &rp, VK_SUBPASS_CONTENTS_INLINE);
   if (ui) ImGui_ImplVulkan_RenderDrawData(ui, m.cmd);
-  vkCmdEndRenderPass(m.cmd);
+  pass.end(m.cmd);
 
   const VkDeviceSize bytes = VkDeviceSize{target.width} * target.height * 4;
   if (capture) {

@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <map>
 #include <memory>
-#include <unordered_map>
 
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
@@ -26,6 +25,7 @@
 #include <penumbra/image/image.h>
 #include <penumbra/import/gltf.h>
 #include <penumbra/render/device.h>
+#include <penumbra/render/overlay_pass.h>
 #include <penumbra/render/renderer.h>
 #include <penumbra/render/swapchain.h>
 #include <penumbra/render/vk_util.h>
@@ -115,7 +115,7 @@ void check_imgui_vk(VkResult r) {
 }
 
 // The window's Vulkan objects: Penumbra's device, swapchain and renderer, plus what the ImGui
-// overlay needs (a render pass that loads the renderer's frame, framebuffers per swapchain image).
+// overlay needs (its descriptor pool and the SDK's OverlayPass over the renderer's frame).
 struct WindowFrame {
   GLFWwindow* window = nullptr;
   std::unique_ptr<Device> device;
@@ -125,16 +125,13 @@ struct WindowFrame {
   VkCommandPool pool = VK_NULL_HANDLE;
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   VkDescriptorPool imgui_pool = VK_NULL_HANDLE;
-  VkRenderPass ui_pass = VK_NULL_HANDLE;
-  std::unordered_map<VkImageView, VkFramebuffer> framebuffers;
-  VkExtent2D framebuffer_extent{};
+  std::unique_ptr<OverlayPass> overlay;
   bool imgui_ready = false;
 
   ~WindowFrame() {
     if (vk) vkDeviceWaitIdle(vk);
     if (imgui_ready) ImGui_ImplVulkan_Shutdown();
-    for (auto& [view, fb] : framebuffers) vkDestroyFramebuffer(vk, fb, nullptr);
-    if (ui_pass) vkDestroyRenderPass(vk, ui_pass, nullptr);
+    overlay.reset();
     if (imgui_pool) vkDestroyDescriptorPool(vk, imgui_pool, nullptr);
     if (pool) vkDestroyCommandPool(vk, pool, nullptr);
     renderer.reset();
@@ -186,7 +183,9 @@ struct WindowFrame {
     dp.pPoolSizes = sizes;
     if (VkResult r = vkCreateDescriptorPool(vk, &dp, nullptr, &imgui_pool); r != VK_SUCCESS)
       return vk_error("vkCreateDescriptorPool", r);
-    PENUMBRA_TRY(make_ui_pass());
+    auto pass = OverlayPass::create(*device, swapchain->format(), VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+    if (!pass) return pass.error();
+    overlay = std::move(*pass);
 
     ImGui_ImplVulkan_InitInfo init{};
     init.Instance = device->instance();
@@ -199,7 +198,7 @@ struct WindowFrame {
     init.ImageCount = std::max(2u, swapchain->image_count());
     init.MSAASamples = VK_SAMPLE_COUNT_1_BIT;
     init.CheckVkResultFn = check_imgui_vk;
-    if (!ImGui_ImplVulkan_Init(&init, ui_pass))
+    if (!ImGui_ImplVulkan_Init(&init, overlay->render_pass()))
       return make_error(ErrorCode::Internal, "ImGui_ImplVulkan_Init failed");
     imgui_ready = true;
     PENUMBRA_TRY(device->submit_and_wait([](VkCommandBuffer c) { ImGui_ImplVulkan_CreateFontsTexture(c); }));
@@ -207,68 +206,11 @@ struct WindowFrame {
     return {};
   }
 
-  // The overlay's pass: loads the renderer's frame (left in COLOR_ATTACHMENT_OPTIMAL), draws the
-  // UI over it and leaves the image ready to present.
-  Status make_ui_pass() {
-    VkAttachmentDescription color{};
-    color.format = swapchain->format();
-    color.samples = VK_SAMPLE_COUNT_1_BIT;
-    color.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    color.initialLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    color.finalLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
-    VkAttachmentReference ref{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
-    VkSubpassDescription subpass{};
-    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-    subpass.colorAttachmentCount = 1;
-    subpass.pColorAttachments = &ref;
-    VkSubpassDependency dep{};
-    dep.srcSubpass = VK_SUBPASS_EXTERNAL;
-    dep.dstSubpass = 0;
-    dep.srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    dep.dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    dep.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    dep.dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-    auto info = vk_struct<VkRenderPassCreateInfo>(VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO);
-    info.attachmentCount = 1;
-    info.pAttachments = &color;
-    info.subpassCount = 1;
-    info.pSubpasses = &subpass;
-    info.dependencyCount = 1;
-    info.pDependencies = &dep;
-    if (VkResult r = vkCreateRenderPass(vk, &info, nullptr, &ui_pass); r != VK_SUCCESS)
-      return vk_error("vkCreateRenderPass", r);
-    return {};
-  }
-
-  Result<VkFramebuffer> framebuffer(const RenderTarget& t) {
-    if (framebuffer_extent.width != t.width || framebuffer_extent.height != t.height) {
-      vkDeviceWaitIdle(vk);
-      for (auto& [view, fb] : framebuffers) vkDestroyFramebuffer(vk, fb, nullptr);
-      framebuffers.clear();
-      framebuffer_extent = {t.width, t.height};
-    }
-    if (auto it = framebuffers.find(t.view); it != framebuffers.end()) return it->second;
-    auto info = vk_struct<VkFramebufferCreateInfo>(VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO);
-    info.renderPass = ui_pass;
-    info.attachmentCount = 1;
-    info.pAttachments = &t.view;
-    info.width = t.width;
-    info.height = t.height;
-    info.layers = 1;
-    VkFramebuffer fb = VK_NULL_HANDLE;
-    if (VkResult r = vkCreateFramebuffer(vk, &info, nullptr, &fb); r != VK_SUCCESS)
-      return vk_error("vkCreateFramebuffer", r);
-    framebuffers.emplace(t.view, fb);
-    return fb;
-  }
-
   Status resize() {
     int fw = 0, fh = 0;
     glfwGetFramebufferSize(window, &fw, &fh);
     if (fw == 0 || fh == 0) return {};  // minimised
+    overlay->release_framebuffers();
     return swapchain->resize(static_cast<std::uint32_t>(fw), static_cast<std::uint32_t>(fh));
   }
 
@@ -285,18 +227,13 @@ struct WindowFrame {
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     vkBeginCommandBuffer(cmd, &begin);
     Status recorded = renderer->record(cmd, target, camera, RenderSettings{});
-    auto fb = recorded ? framebuffer(target) : Result<VkFramebuffer>(recorded.error());
-    if (!fb) {
+    if (recorded) recorded = overlay->begin(cmd, target);
+    if (!recorded) {
       vkEndCommandBuffer(cmd);
-      return fb.error();
+      return recorded;
     }
-    auto rp = vk_struct<VkRenderPassBeginInfo>(VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO);
-    rp.renderPass = ui_pass;
-    rp.framebuffer = *fb;
-    rp.renderArea.extent = {target.width, target.height};
-    vkCmdBeginRenderPass(cmd, &rp, VK_SUBPASS_CONTENTS_INLINE);
     ImGui_ImplVulkan_RenderDrawData(ui, cmd);
-    vkCmdEndRenderPass(cmd);
+    overlay->end(cmd);
     if (VkResult r = vkEndCommandBuffer(cmd); r != VK_SUCCESS) return vk_error("vkEndCommandBuffer", r);
     const Status presented = swapchain->present(cmd);
     if (!presented && !swapchain->out_of_date()) return presented;
@@ -511,7 +448,7 @@ Result<Options> parse_options(int argc, char** argv) {
       if (!has_value) return need("a count");
       char* end = nullptr;
       const long v = std::strtol(argv[++i], &end, 10);
-      const long lo = a == "--frames" ? 1 : 1, hi = a == "--frames" ? 1000000 : 200;
+      const long lo = 1, hi = a == "--frames" ? 1000000 : 200;
       if (end == argv[i] || *end != '\0' || v < lo || v > hi)
         return make_error(ErrorCode::InvalidArgument, std::string(a) + " takes a count from " + std::to_string(lo) +
                                                           " to " + std::to_string(hi) + ", not '" + argv[i] + "'");

@@ -73,6 +73,29 @@ class Game {
 // each system's CPU milliseconds (World::systems()) are printed.
 int run(std::string_view program, Game& game, const Options& options);
 
+// A sample's main(): --help, the options, G::init(options) (its scene and bake; returns a
+// penumbra::Status), then run(). Exit codes: 0; 1 a failure (the message on stderr); 2 bad usage.
+template <class G>
+int play(int argc, char** argv, const char* program, const char* about) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string_view(argv[i]) == "--help") {
+      print_usage(stdout, program, about);
+      return 0;
+    }
+  auto options = parse_options(argc, argv);
+  if (!options) {
+    std::fprintf(stderr, "%s: %s\n", program, options.error().message.c_str());
+    print_usage(stderr, program, about);
+    return 2;
+  }
+  G game;
+  if (auto s = game.init(*options); !s) {
+    std::fprintf(stderr, "%s: %s\n", program, s.error().message.c_str());
+    return 1;
+  }
+  return run(program, game, *options);
+}
+
 // A character that walks: the entity holding its Transform and Animator (the built-in walker's
 // root, or an imported glTF's root).
 struct Character {

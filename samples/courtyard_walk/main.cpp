@@ -273,22 +273,6 @@ class CourtyardWalk final : public sample::Game {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const char* about = "courtyard_walk: walk an animated character through the courtyard, push crates (Penumbra sample)";
-  for (int i = 1; i < argc; ++i)
-    if (std::string_view(argv[i]) == "--help") {
-      sample::print_usage(stdout, "courtyard_walk", about);
-      return 0;
-    }
-  auto options = sample::parse_options(argc, argv);
-  if (!options) {
-    std::fprintf(stderr, "courtyard_walk: %s\n", options.error().message.c_str());
-    sample::print_usage(stderr, "courtyard_walk", about);
-    return 2;
-  }
-  CourtyardWalk game;
-  if (Status s = game.init(*options); !s) {
-    std::fprintf(stderr, "courtyard_walk: %s\n", s.error().message.c_str());
-    return 1;
-  }
-  return sample::run("courtyard_walk", game, *options);
+  return sample::play<CourtyardWalk>(argc, argv, "courtyard_walk",
+                                  "courtyard_walk: walk an animated character through the courtyard, push crates (Penumbra sample)");
 }

@@ -167,22 +167,6 @@ class LanternMaze final : public sample::Game {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const char* about = "lantern_maze: carry a lantern through the maze; the walls' bounce light follows (Penumbra sample)";
-  for (int i = 1; i < argc; ++i)
-    if (std::string_view(argv[i]) == "--help") {
-      sample::print_usage(stdout, "lantern_maze", about);
-      return 0;
-    }
-  auto options = sample::parse_options(argc, argv);
-  if (!options) {
-    std::fprintf(stderr, "lantern_maze: %s\n", options.error().message.c_str());
-    sample::print_usage(stderr, "lantern_maze", about);
-    return 2;
-  }
-  LanternMaze game;
-  if (Status s = game.init(*options); !s) {
-    std::fprintf(stderr, "lantern_maze: %s\n", s.error().message.c_str());
-    return 1;
-  }
-  return sample::run("lantern_maze", game, *options);
+  return sample::play<LanternMaze>(argc, argv, "lantern_maze",
+                                  "lantern_maze: carry a lantern through the maze; the walls' bounce light follows (Penumbra sample)");
 }
