@@ -52,10 +52,11 @@ int usage(const char* message) {
   return 2;
 }
 
-// Mouse and keyboard to the camera, when ImGui does not want them.
+// Mouse and keyboard to the camera, when ImGui does not want them. Ctrl + left drag is the
+// overlays' (moving a light: extension.h), not the camera's.
 void camera_input(GLFWwindow* window, CameraControl& camera, double dt) {
   const ImGuiIO& io = ImGui::GetIO();
-  if (!io.WantCaptureMouse) {
+  if (!io.WantCaptureMouse && !io.KeyCtrl) {
     const glm::vec2 delta(io.MouseDelta.x, io.MouseDelta.y);
     if (ImGui::IsMouseDown(ImGuiMouseButton_Left)) camera.rotate(delta);
     if (ImGui::IsMouseDown(ImGuiMouseButton_Middle)) camera.pan(delta);
