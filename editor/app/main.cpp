@@ -26,6 +26,7 @@
 #include "camera_control.h"
 #include "overlays.h"
 #include "panels.h"
+#include "picking.h"
 #include "script.h"
 #include "viewport.h"
 
@@ -72,6 +73,29 @@ void camera_input(GLFWwindow* window, CameraControl& camera, double dt) {
     if (glfwGetKey(window, GLFW_KEY_Q) == GLFW_PRESS) m.y -= 1;
     camera.move(m * static_cast<float>(dt) * 0.3f * camera.radius);
   }
+}
+
+// A left click in the 3D view (press and release within a few pixels, not over a panel, without
+// Ctrl) selects what is under the pointer (picking.h); a click on nothing clears the selection.
+void click_select(Document& doc, const CameraView& camera, glm::vec2 size, std::string& message) {
+  const ImGuiIO& io = ImGui::GetIO();
+  if (io.WantCaptureMouse || io.KeyCtrl || !ImGui::IsMouseReleased(ImGuiMouseButton_Left)) return;
+  const glm::vec2 at(io.MousePos.x, io.MousePos.y), from(io.MouseClickedPos[0].x, io.MouseClickedPos[0].y);
+  if (glm::distance(at, from) > 4.0f) return;  // a drag turned the camera
+  auto picked = pick(doc.world(), camera, at, size);
+  if (!picked) {
+    message = "select: " + picked.error().message;
+    return;
+  }
+  doc.select(*picked);
+  if (!*picked) {
+    message = "selection cleared";
+  } else if (const Name* name = doc.world().try_get<Name>(*picked)) {
+    message = "selected '" + name->value + "'";
+  } else {
+    message = "selected #" + std::to_string(picked->index);
+  }
+  std::printf("%s\n", message.c_str());  // for scripted runs and logs
 }
 
 int run(const Options& options) {
@@ -223,7 +247,9 @@ int run(const Options& options) {
         const glm::vec2 size(static_cast<float>(extent.width), static_cast<float>(extent.height));
         const CameraView camera = ui.camera.view(size.x / std::max(size.y, 1.0f));
         ui.camera_now = camera;
+        click_select(doc, camera, size, ui.message);
         if (ui.show_ui) {
+          draw_selection(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
           ViewContext view{doc.world(), doc.selection(), camera, size, ui.message};
           for (const EditorExtension& x : editor_extensions())
             if (x.draw_overlay) x.draw_overlay(view, ImGui::GetBackgroundDrawList());

@@ -6,10 +6,12 @@
 #include <vector>
 
 #include <glm/common.hpp>
-
+#include <glm/gtc/matrix_transform.hpp>
 #include <imgui.h>
 
 #include "penumbra/ecs/transform.h"
+#include "penumbra/scene/animation.h"
+#include "penumbra/scene/components.h"
 
 namespace penumbra::editor {
 
@@ -50,6 +52,15 @@ void draw_loop(ImDrawList* dl, const CameraView& camera, glm::vec2 size, const s
     const auto a = project(camera, loop[i], size), b = project(camera, loop[(i + 1) % loop.size()], size);
     if (a && b) dl->AddLine(ImVec2(a->x, a->y), ImVec2(b->x, b->y), colour, 1.5f);
   }
+}
+
+void draw_selection(ImDrawList* dl, World& world, Entity selection, const CameraView& camera, glm::vec2 size) {
+  if (!selection || !world.alive(selection)) return;
+  const Aabb box = posed_bounds(world, selection);
+  if (box.empty()) return;
+  const glm::vec3 extent = glm::max(box.extent(), glm::vec3(1e-3f));
+  const glm::mat4 unit_to_world = glm::scale(glm::translate(glm::mat4(1.0f), box.min), extent);
+  draw_box(dl, camera, size, unit_to_world, IM_COL32(255, 255, 255, 220));
 }
 
 }  // namespace penumbra::editor

@@ -34,4 +34,8 @@ void draw_box(ImDrawList* draw_list, const CameraView& camera, glm::vec2 size, c
 void draw_loop(ImDrawList* draw_list, const CameraView& camera, glm::vec2 size, const std::vector<glm::vec3>& loop,
                unsigned colour);
 
+// The selection's highlight: the posed bounds of the meshes of its subtree as a white box (nothing
+// for an entity without meshes, e.g. a light: its module draws its marker).
+void draw_selection(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
+
 }  // namespace penumbra::editor

@@ -245,6 +245,37 @@ TEST(EditorXvfb, FileMenuOpensAnotherSceneAndThenALightlessCharacter) {
   fs::remove_all(dir);
 }
 
+// A click in the 3D view selects what is under the pointer, as a user would do it (the script's
+// click presses and releases the button): through the courtyard's camera the ground below the
+// middle, the north wall behind the crates, and nothing (the selection cleared) in the sky.
+TEST(EditorXvfb, AClickSelectsWhatIsUnderThePointer) {
+  ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
+  const fs::path dir = scratch_dir("penumbra_editor_pick");
+  {
+    std::ofstream script(dir / "pick.txt");
+    script << "open builtin:courtyard draft\n"
+              "frames 3\n"
+              "click 614 470\n"
+              "frames 1\n"
+              "click 614 330\n"
+              "frames 1\n"
+              "click 614 40\n"
+              "frames 1\n"
+              "quit\n";
+  }
+  int status = 0;
+  const std::string output = run_editor(dir / "pick.txt", status);
+  ASSERT_EQ(status, 0) << output;
+  const std::size_t ground = output.find("selected 'ground'"), wall = output.find("selected 'north_wall'"),
+                    cleared = output.find("selection cleared");
+  ASSERT_NE(ground, std::string::npos) << output;
+  ASSERT_NE(wall, std::string::npos) << output;
+  ASSERT_NE(cleared, std::string::npos) << output;
+  EXPECT_LT(ground, wall);
+  EXPECT_LT(wall, cleared);
+  fs::remove_all(dir);
+}
+
 TEST(EditorXvfb, ABadScriptFailsNamingTheLineBeforeAnyWindowOpens) {
   const fs::path path = fs::temp_directory_path() / ("penumbra_editor_bad_" + std::to_string(::getpid()) + ".txt");
   {
