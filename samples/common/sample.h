@@ -7,7 +7,6 @@
 
 #include <cstdint>
 #include <cstdio>
-#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -34,7 +33,7 @@ struct Options {
   std::string bake;           // .pbake cache: attached when its input hash is current, else rewritten
   int characters = 0;         // animated characters, the player included; 0: the game's default
   penumbra::Preset preset = penumbra::Preset::Draft;
-  bool stats = false;         // print the frame-time and per-system summary at exit
+  bool stats = false;         // the timings overlay (F2) on from the start; the summary prints at exit anyway
 };
 
 // Parses the options every sample takes (`usage` is printed for --help and for errors, which

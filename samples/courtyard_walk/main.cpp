@@ -54,10 +54,11 @@ class CourtyardWalk final : public sample::Game {
     auto scene = load_builtin(world_, "courtyard");
     if (!scene) return scene.error();
     // The courtyard's own walker gives way to this game's characters.
+    Entity scenery_walker;
     world_.view<const Name, const Animator>().each([&](Entity e, const Name& n, const Animator&) {
-      if (n.value == "character") scenery_walker_ = e;
+      if (n.value == "character") scenery_walker = e;
     });
-    if (scenery_walker_) destroy_hierarchy(world_, scenery_walker_);
+    if (scenery_walker) destroy_hierarchy(world_, scenery_walker);
 
     auto player = sample::add_character(world_, options.character, "player", {-3.0f, 0.0f, -3.5f});
     if (!player) return player.error();
@@ -260,7 +261,6 @@ class CourtyardWalk final : public sample::Game {
   }
 
   World world_;
-  Entity scenery_walker_;
   std::vector<Character> characters_;  // [0] the player
   std::vector<Circle> paths_;          // of characters_[1...]
   std::vector<Entity> crates_;
