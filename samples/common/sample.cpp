@@ -63,7 +63,7 @@ struct Timings {
     const std::size_t n = window == 0 ? v.size() : std::min(window, v.size());
     return median(std::vector<double>(v.end() - static_cast<std::ptrdiff_t>(n), v.end()));
   }
-  double lighting_ms(std::size_t window) const {
+  double systems_ms(std::size_t window) const {
     double sum = 0.0;
     for (const auto& [name, ms] : system_ms) sum += recent_median(ms, window);
     return sum;
@@ -73,7 +73,7 @@ struct Timings {
                  static_cast<int>(program.size()), program.data(), frame_ms.size(), width, height,
                  median(frame_ms));
     for (const auto& [name, ms] : system_ms) std::fprintf(out, " %s %.3f", name.c_str(), median(ms));
-    std::fprintf(out, "; all systems %.3f\n", lighting_ms(0));
+    std::fprintf(out, "; all systems %.3f\n", systems_ms(0));
   }
 };
 
@@ -101,7 +101,7 @@ void draw_overlay(const Game& game, const Timings& timings, bool help, bool stat
     ImGui::Text("frame %.1f ms (median of the last 60)", Timings::recent_median(timings.frame_ms, 60));
     for (const auto& [name, ms] : timings.system_ms)
       ImGui::Text("  %-20s %7.3f ms", name.c_str(), Timings::recent_median(ms, 60));
-    ImGui::Text("  %-20s %7.3f ms", "all systems", timings.lighting_ms(60));
+    ImGui::Text("  %-20s %7.3f ms", "all systems", timings.systems_ms(60));
   }
   ImGui::End();
 }
@@ -506,7 +506,8 @@ namespace {
 // vertices: the toes stick out in front of the shins, so the centroid of the lowest 4% of the
 // height lies forward of the centroid at 10-20%. +Z when the feet give no clear answer.
 float model_facing(World& world, Entity root) {
-  world.update(0.0);  // poses the skins
+  update_world_transforms(world);
+  update_skin_poses(world);
   std::vector<glm::vec3> points, skinned;
   world.each<const Mesh, const SkinPose, const WorldTransform>(
       [&](Entity e, const Mesh& mesh, const SkinPose& pose, const WorldTransform& wt) {
@@ -538,7 +539,6 @@ float model_facing(World& world, Entity root) {
 
 Result<Character> add_character(World& world, const std::string& path, const std::string& name, glm::vec3 position) {
   Character c;
-  c.name = name;
   c.position = position;
   Transform at;
   at.translation = position;
@@ -556,7 +556,9 @@ Result<Character> add_character(World& world, const std::string& path, const std
     destroy_hierarchy(world, c.root);
     return make_error(ErrorCode::InvalidInput, path + ": a character needs a skinned mesh and an animation clip (it has " +
                                                    std::to_string(imported.skins) + " skins, " +
-                                                   std::to_string(imported.animations) + " animations)");
+                                                   std::to_string(imported.animations) +
+                                                   " animations); export it with its walk clip, or leave out "
+                                                   "--character for the built-in walker");
   }
   world.add<EntityKey>(c.root, EntityKey{name});
   world.add<Transform>(c.root, at);
@@ -586,6 +588,12 @@ Obstacles Obstacles::of_static_meshes(World& world) {
   return o;
 }
 
+bool Obstacles::blocked(glm::vec2 p, float radius) const {
+  for (const Box& b : boxes)
+    if (glm::distance(p, glm::clamp(p, b.min, b.max)) < radius) return true;
+  return false;
+}
+
 glm::vec2 Obstacles::resolve(glm::vec2 p, float radius) const {
   for (int pass = 0; pass < 3; ++pass) {
     for (const Box& b : boxes) {
@@ -610,7 +618,8 @@ glm::vec2 Obstacles::resolve(glm::vec2 p, float radius) const {
 
 void walk(World& world, Character& c, glm::vec2 direction, double dt, const Obstacles& obstacles) {
   const float amount = std::min(glm::length(direction), 1.0f);
-  if (amount > 1e-3f) {
+  const bool moving = amount > 1e-3f;
+  if (moving) {
     const glm::vec2 d = direction / glm::length(direction);
     const glm::vec2 next = glm::vec2(c.position.x, c.position.z) + d * (amount * c.speed * static_cast<float>(dt));
     const glm::vec2 p = obstacles.resolve(next, c.radius);
@@ -618,13 +627,20 @@ void walk(World& world, Character& c, glm::vec2 direction, double dt, const Obst
     c.position.z = p.y;
     c.heading = std::atan2(d.x, d.y);
   }
-  Transform& t = world.patch<Transform>(c.root);
-  t.translation = c.position;
-  t.rotation = glm::angleAxis(c.heading + c.facing_offset, glm::vec3(0.0f, 1.0f, 0.0f));
+  place(world, c);
   if (Animator* a = world.try_get<Animator>(c.root)) {
-    a->playing = amount > 1e-3f;
+    a->playing = moving;
     a->speed = std::max(amount, 0.2f);
   }
+}
+
+void place(World& world, const Character& c) {
+  const glm::quat rotation = glm::angleAxis(c.heading + c.facing_offset, glm::vec3(0.0f, 1.0f, 0.0f));
+  const Transform& now = world.get<Transform>(c.root);
+  if (now.translation == c.position && now.rotation == rotation) return;  // unchanged: no change tick
+  Transform& t = world.patch<Transform>(c.root);
+  t.translation = c.position;
+  t.rotation = rotation;
 }
 
 CameraView FollowCamera::view(glm::vec3 target, float aspect, const Obstacles& walls) const {
@@ -632,8 +648,7 @@ CameraView FollowCamera::view(glm::vec3 target, float aspect, const Obstacles& w
   // Pulled in front of the first wall between the target and where the camera would be.
   float distance = distance_;
   for (float d = 0.1f; d < distance_; d += 0.05f) {
-    const glm::vec2 p(target.x + d * back.x, target.z + d * back.z);
-    if (walls.resolve(p, 0.15f) != p) {
+    if (walls.blocked(glm::vec2(target.x + d * back.x, target.z + d * back.z), 0.15f)) {
       distance = std::max(d - 0.05f, 0.3f);
       break;
     }

@@ -104,7 +104,6 @@ struct Character {
   float facing_offset = 0.0f;  // minus the yaw the model faces in its file (humanoids: from the feet)
   float speed = 1.4f;          // metres per second at full input
   float radius = 0.3f;         // for collisions
-  std::string name;
 };
 
 // Adds a character at `position` facing +Z: the glTF at `path` (imported, its Animator playing its
@@ -124,11 +123,16 @@ struct Obstacles {
   static Obstacles of_static_meshes(penumbra::World& world);
   // `p` pushed out of every box by `radius` (a few passes, so corners resolve).
   glm::vec2 resolve(glm::vec2 p, float radius) const;
+  // Whether a circle of `radius` at `p` touches a box. One pass, stops at the first.
+  bool blocked(glm::vec2 p, float radius) const;
 };
 
 // Moves `c` by `direction` (world x-z, length <= 1) for `dt` seconds, turns it to face where it
 // goes, plays its walk clip while it moves (rate following the speed) and holds it when still.
 void walk(penumbra::World& world, Character& c, glm::vec2 direction, double dt, const Obstacles& obstacles);
+// Writes c's position and heading to its root's Transform, only when they changed (a patch would
+// tell every system it moved).
+void place(penumbra::World& world, const Character& c);
 
 // A camera behind and above a target, turned by the player.
 class FollowCamera {

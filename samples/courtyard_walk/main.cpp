@@ -22,6 +22,7 @@
 #include <penumbra/bakers.h>
 #include <penumbra/ecs/transform.h>
 #include <penumbra/pose_ao/pose_ao.h>
+#include <penumbra/pose_ao/pose_ao_system.h>
 #include <penumbra/probe_grid/probe_grid.h>
 #include <penumbra/runtime.h>
 #include <penumbra/scene/builtin.h>
@@ -37,6 +38,8 @@ using sample::Character;
 constexpr float kPi = std::numbers::pi_v<float>;
 constexpr float kCrateHalf = 0.4f;  // the courtyard's crates are 0.8 m cubes
 constexpr glm::vec3 kUp(0.0f, 1.0f, 0.0f);
+// Where the scripted walk (autoplay) leaves the crate it pushes: against the north wall.
+constexpr glm::vec3 kPushedTo(-3.0f, kCrateHalf, -8.87f);
 
 // The skinned mesh entities below `root`, depth first in Children order (the same order for every
 // import of one file).
@@ -88,17 +91,9 @@ class CourtyardWalk final : public sample::Game {
     }
     world_.update(0.0);
     if (Status s = add_default_lighting(world_, options.preset, /*authored=*/false); !s) return s;
-    std::vector<Entity> from;
-    skinned_meshes(world_, characters_[0].root, from);
-    for (std::size_t i = 1; i < characters_.size(); ++i) {
-      std::vector<Entity> to;
-      skinned_meshes(world_, characters_[i].root, to);
-      for (std::size_t m = 0; m < to.size() && m < from.size(); ++m) {
-        const SkinnedPoseAO* source = world_.try_get<SkinnedPoseAO>(from[m]);
-        SkinnedPoseAO* target = world_.try_get<SkinnedPoseAO>(to[m]);
-        if (source && target) target->data = source->data;
-      }
-    }
+    for (std::size_t i = 1; i < characters_.size(); ++i)
+      share_pose_ao(world_, characters_[0].root, world_, characters_[i].root);
+    skinned_meshes(world_, characters_[0].root, player_meshes_);
 
     world_.view<const Name, const AOFieldCaster>().each([&](Entity e, const Name& n, const AOFieldCaster&) {
       if (n.value == "crate") crates_.push_back(e);
@@ -168,23 +163,24 @@ class CourtyardWalk final : public sample::Game {
   }
 
   // What the tests check: the player moves; the pushed crate and the AO next to where it stood and
-  // next to where it is; the player's pose-AO (its mean); the crates' occlusion on the player; the
+  // next to where the push leaves it; the player's pose-AO (its mean); the crates' occlusion on the player; the
   // probe grid's irradiance on the player.
   void report(std::FILE* out) override {
     const Character& p = characters_[0];
     const glm::vec3 crate = world_.get<Transform>(pushed_).translation;
     const auto* caster = world_.try_get<AOFieldCaster>(pushed_);
     const auto* wt = world_.try_get<WorldTransform>(pushed_);
-    // Ground points 10 cm beside the crate's east face, where its contact shadow is.
+    // Ground points 10 cm beside the crate's east face, where its contact shadow is: where it
+    // stood, and where the scripted push leaves it (by the north wall).
     const glm::vec3 beside(kCrateHalf + 0.1f, -kCrateHalf + 0.01f, 0.0f);
-    float ao_start = 0.0f, ao_now = 0.0f;
+    float ao_start = 0.0f, ao_end = 0.0f;
     if (caster && caster->data && wt) {
       ao_start = evaluate(*caster->data, wt->matrix, pushed_start_ + beside, kUp);
-      ao_now = evaluate(*caster->data, wt->matrix, crate + beside, kUp);
+      ao_end = evaluate(*caster->data, wt->matrix, kPushedTo + beside, kUp);
     }
-    std::fprintf(out, "player_x=%.4f player_z=%.4f crate_x=%.4f crate_z=%.4f ao_crate_start=%.4f ao_crate_now=%.4f "
+    std::fprintf(out, "player_x=%.4f player_z=%.4f crate_x=%.4f crate_z=%.4f ao_crate_start=%.4f ao_crate_end=%.4f "
                  "pose_ao_mean=%.5f occlusion_on_player=%.4f probe_irradiance=%.4f",
-                 p.position.x, p.position.z, crate.x, crate.z, ao_start, ao_now, pose_ao_mean(), player_occlusion(),
+                 p.position.x, p.position.z, crate.x, crate.z, ao_start, ao_end, pose_ao_mean(), player_occlusion(),
                  probe_irradiance());
   }
 
@@ -227,15 +223,13 @@ class CourtyardWalk final : public sample::Game {
     }
     player.position.x = p.x;
     player.position.z = p.y;
-    world_.patch<Transform>(player.root).translation = player.position;
+    sample::place(world_, player);
   }
 
   float pose_ao_mean() const {
-    std::vector<Entity> meshes;
-    skinned_meshes(world_, characters_[0].root, meshes);
     double sum = 0.0;
     std::size_t n = 0;
-    for (Entity m : meshes)
+    for (Entity m : player_meshes_)
       if (const VertexAO* ao = world_.try_get<VertexAO>(m))
         for (float a : ao->ao) {
           sum += a;
@@ -245,10 +239,8 @@ class CourtyardWalk final : public sample::Game {
   }
 
   float player_occlusion() const {
-    std::vector<Entity> meshes;
-    skinned_meshes(world_, characters_[0].root, meshes);
     float occlusion = 0.0f;
-    for (Entity m : meshes)
+    for (Entity m : player_meshes_)
       if (const AOFieldReceiver* r = world_.try_get<AOFieldReceiver>(m)) occlusion = std::max(occlusion, r->occlusion);
     return occlusion;
   }
@@ -262,6 +254,7 @@ class CourtyardWalk final : public sample::Game {
 
   World world_;
   std::vector<Character> characters_;  // [0] the player
+  std::vector<Entity> player_meshes_;  // its skinned meshes
   std::vector<Circle> paths_;          // of characters_[1...]
   std::vector<Entity> crates_;
   Entity pushed_;

@@ -145,7 +145,9 @@ class LanternMaze final : public sample::Game {
     const Character& c = characters_[0];
     const float s = std::sin(c.heading), co = std::cos(c.heading);
     const glm::vec3 hand(co * kHand.x + s * kHand.z, kHand.y, -s * kHand.x + co * kHand.z);
-    world_.patch<Transform>(lantern_).translation = c.position + hand;
+    // Only a moved lantern is patched: the transport recomputes the bounce light when it moves.
+    if (world_.get<Transform>(lantern_).translation != c.position + hand)
+      world_.patch<Transform>(lantern_).translation = c.position + hand;
   }
 
   glm::vec3 indirect_at(glm::vec3 x, glm::vec3 n, bool direct) const {

@@ -5,7 +5,7 @@
 # checks its per-frame report:
 #   courtyard_walk  the player moves; the crate it walks into moves, and its contact shadow with
 #                   it (the AO beside where the crate stood falls below a quarter, the AO beside
-#                   where it is stays); the player's pose-AO changes as it walks; the probe grid
+#                   where it ends rises from nothing to about what it was); the player's pose-AO changes as it walks; the probe grid
 #                   lights the player.
 #   lantern_maze    the lantern stays in the player's hand; the bounce light on the watched wall
 #                   rises at least tenfold from the start to where the lantern comes nearest.
@@ -42,7 +42,8 @@ check "$(value $r 0 player_z) - $(value $r 99 player_z) > 3" "the player walked 
 check "$(value $r 0 crate_z) - $(value $r 99 crate_z) > 2" "the crate it walked into moved"
 check "$(value $r 0 ao_crate_start) > 0.2" "the crate's contact shadow darkens the ground beside it"
 check "$(value $r 99 ao_crate_start) < 0.25 * $(value $r 0 ao_crate_start)" "the shadow left where the crate stood"
-check "$(value $r 99 ao_crate_now) > 0.95 * $(value $r 0 ao_crate_start)" "the shadow is beside the crate where it is"
+check "$(value $r 0 ao_crate_end) < 0.05" "no shadow yet by the wall where the crate will end"
+check "$(value $r 99 ao_crate_end) > 0.8 * $(value $r 0 ao_crate_start)" "the shadow arrived with the crate"
 # The smallest and largest pose-AO means over the frames.
 range=$(awk '{ for (i = 2; i <= NF; ++i) { split($i, a, "="); if (a[1] == "pose_ao_mean") v = a[2] + 0 }
                if (NR == 1 || v < lo) lo = v; if (NR == 1 || v > hi) hi = v } END { print lo, hi }' $r)

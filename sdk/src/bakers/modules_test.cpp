@@ -4,22 +4,19 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <set>
 #include <string>
 
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
-
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
-#include <nlohmann/json.hpp>
-
 #include "penumbra/ao_field/ao_field.h"
-#include "penumbra/import/gltf.h"
-#include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/bake/baker.h"
 #include "penumbra/bakers.h"
+#include "penumbra/import/gltf.h"
+#include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/runtime.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/components.h"
@@ -230,9 +227,8 @@ TEST(LightingModules, AttachBakeRoutesChunksAndNamesMissingKeys) {
 }
 
 // A re-export that writes the nodes in another order (every node two places on, children lists
-// reversed) keeps
-// every node's name path, so a bake of the original attaches to it: the same fields on the same
-// named entities.
+// reversed) keeps every node's name path, so a bake of the original attaches to it: the same
+// fields on the same named entities.
 TEST(LightingModules, ABakeAttachesToAReexportWithReorderedNodes) {
   const std::filesystem::path source = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf/lighting_extension.gltf";
   nlohmann::json doc = nlohmann::json::parse(std::ifstream(source));

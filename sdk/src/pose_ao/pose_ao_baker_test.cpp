@@ -405,3 +405,42 @@ TEST(PoseAOBake, BakeWorldAttachAndTheSystemFollowTheWalkCycle) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// Instances of one character share one bake, and the shared model gives the instance the same AO
+// in the same pose; what has no SkinnedPoseAO, or no Skin, is left alone.
+TEST(PoseAOShare, InstancesOfOneCharacterShareItsBake) {
+  Walker w;
+  World& world = *w.world;
+  register_scene_systems(world);
+  register_pose_ao_system(world);
+  register_pose_ao_baker(world);
+  ASSERT_EQ(add_default_pose_ao(world, Preset::Draft), 1u);
+  world.patch<SkinnedPoseAO>(w.mesh) = quick();
+  world.update(0.0);
+  JobContext jobs;
+  ASSERT_TRUE(bake_world(world, {"pose-ao"}, BakeSettings{}, jobs));
+  const Entity original = world.get<Parent>(w.mesh).entity;
+  Transform at;
+  at.translation = glm::vec3(-4.0f, 0.0f, 3.0f);
+  const Entity copy = add_builtin_character(world, Entity::null(), at, "copy");
+  EXPECT_EQ(share_pose_ao(world, original, world, copy), 0u);  // no SkinnedPoseAO on the copy yet
+  ASSERT_EQ(add_default_pose_ao(world, Preset::Draft), 1u);
+  EXPECT_EQ(share_pose_ao(world, original, world, copy), 1u);
+  Entity copy_mesh;
+  world.view<const SkinnedPoseAO>().each([&](Entity e, const SkinnedPoseAO&) {
+    if (e != w.mesh) copy_mesh = e;
+  });
+  EXPECT_EQ(world.get<SkinnedPoseAO>(copy_mesh).data, world.get<SkinnedPoseAO>(w.mesh).data);
+  world.update(0.0);  // both in the bind pose: the same AO
+  EXPECT_EQ(world.get<VertexAO>(copy_mesh).ao, world.get<VertexAO>(w.mesh).ao);
+  // A mesh without a Skin is no instance of the character: nothing is shared.
+  const Entity box = world.create();
+  world.add<Mesh>(box, world.get<Mesh>(w.mesh));
+  EXPECT_EQ(share_pose_ao(world, original, world, box), 0u);
+}
+
+}  // namespace
+}  // namespace penumbra

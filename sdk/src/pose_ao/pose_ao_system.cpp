@@ -4,6 +4,7 @@
 
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "penumbra/ecs/transform.h"
 #include "penumbra/pose_ao/pose_ao.h"
@@ -94,6 +95,35 @@ std::string explain_empty(World& world) {
 }
 
 }  // namespace
+
+namespace {
+
+// The meshes with Skin below `root` (root included), depth first in Children order.
+void skinned_meshes(const World& world, Entity root, std::vector<Entity>& out) {
+  if (world.has<Skin>(root) && world.has<Mesh>(root)) out.push_back(root);
+  if (const Children* c = world.try_get<Children>(root))
+    for (Entity child : c->entities) skinned_meshes(world, child, out);
+}
+
+}  // namespace
+
+std::size_t share_pose_ao(const World& from_world, Entity from, World& to_world, Entity to) {
+  std::vector<Entity> sources, targets;
+  skinned_meshes(from_world, from, sources);
+  skinned_meshes(to_world, to, targets);
+  std::size_t shared = 0;
+  for (std::size_t i = 0; i < sources.size() && i < targets.size(); ++i) {
+    const SkinnedPoseAO* source = from_world.try_get<SkinnedPoseAO>(sources[i]);
+    if (!source || !source->data || !to_world.has<SkinnedPoseAO>(targets[i])) continue;
+    const MeshData& mesh = *to_world.get<Mesh>(targets[i]).data;
+    if (source->data->vertex_count != mesh.positions.size() ||
+        source->data->joint_count != to_world.get<Skin>(targets[i]).joints.size())
+      continue;
+    to_world.patch<SkinnedPoseAO>(targets[i]).data = source->data;
+    ++shared;
+  }
+  return shared;
+}
 
 const LightingModule& pose_ao_module() {
   static const ComponentInfo* const components[] = {&skinned_pose_ao_info()};

@@ -36,6 +36,14 @@ std::vector<Entity> pose_ao_meshes(World& world);
 // the preset's settings. Returns how many were added.
 std::size_t add_default_pose_ao(World& world, Preset preset);
 
+// Instances of one character share one bake (pose-AO is self-occlusion: it does not depend on
+// where the character stands): gives each skinned mesh with a SkinnedPoseAO below `to` in `to_world`
+// the baked data of the skinned mesh at the same place below `from` in `from_world` (both depth
+// first in Children order; the worlds may be the same). Pairs whose vertex or joint counts differ,
+// or whose source is not baked, are skipped. Returns the meshes given data. Cost: O(entities below
+// both roots), no copy of the data.
+std::size_t share_pose_ao(const World& from_world, Entity from, World& to_world, Entity to);
+
 const LightingModule& pose_ao_module();
 
 }  // namespace penumbra

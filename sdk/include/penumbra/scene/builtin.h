@@ -61,8 +61,9 @@ Result<LoadedScene> load_builtin(World& world, std::string_view name);
 
 // The courtyard's walker, for games and tests that need more characters: an entity named `name`
 // with `transform` under `parent` (null: a root entity), 8 joint entities, a skinned mesh child
-// "character_mesh" (822 vertices, 1.83 m tall; the limbs swing in the YZ plane, walking in place) and an Animator looping its 1.2 s walk
-// clip (not Static). Returns the character's entity. Cost: microseconds.
+// "character_mesh" (822 vertices, 1.83 m tall; the limbs swing in the YZ plane, walking in
+// place) and an Animator looping its 1.2 s walk clip (not Static). Returns the character's
+// entity. Cost: microseconds.
 Entity add_builtin_character(World& world, Entity parent, const Transform& transform,
                              std::string_view name = "character");
 
