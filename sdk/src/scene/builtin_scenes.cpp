@@ -505,15 +505,24 @@ LoadedScene build_maze(World& world) {
   return b.finish();
 }
 
+// Humanoid: the production-style character alone, as a character export is.
+LoadedScene build_humanoid(World& world) {
+  SceneBuilder b(world, "humanoid");
+  add_builtin_humanoid(world, b.root(), Transform{});
+  world.each<Mesh>([&b](Entity, Mesh& m) { b.count_mesh(m.data->triangle_count()); });
+  return b.finish();
+}
+
 }  // namespace
 
-std::vector<std::string> builtin_scene_names() { return {"cornell", "courtyard", "furnace", "maze"}; }
+std::vector<std::string> builtin_scene_names() { return {"cornell", "courtyard", "furnace", "maze", "humanoid"}; }
 
 Result<LoadedScene> load_builtin(World& world, std::string_view name) {
   if (name == "cornell") return build_cornell(world);
   if (name == "courtyard") return build_courtyard(world);
   if (name == "furnace") return build_furnace(world);
   if (name == "maze") return build_maze(world);
+  if (name == "humanoid") return build_humanoid(world);
   std::string valid;
   for (const std::string& n : builtin_scene_names()) valid += (valid.empty() ? "" : ", ") + n;
   return make_error(ErrorCode::NotFound,

@@ -32,7 +32,7 @@ Entity find(World& world, std::string_view name) {
 }
 
 TEST(BuiltinScenes, NamesAndUnknownNameError) {
-  EXPECT_EQ(builtin_scene_names(), (std::vector<std::string>{"cornell", "courtyard", "furnace", "maze"}));
+  EXPECT_EQ(builtin_scene_names(), (std::vector<std::string>{"cornell", "courtyard", "furnace", "maze", "humanoid"}));
   World world;
   auto r = load_scene(world, "builtin:nowhere");
   ASSERT_FALSE(r.ok());
@@ -47,7 +47,7 @@ TEST(BuiltinScenes, EveryMeshIsValidStaticTaggedAndSmall) {
     auto scene = load_scene(world, "builtin:" + name);
     ASSERT_TRUE(scene.ok()) << scene.error().message;
     EXPECT_LT(scene->triangles, 50000u) << name;
-    EXPECT_TRUE(scene->camera) << name;
+    EXPECT_EQ(bool(scene->camera), name != "humanoid") << name;  // a character export has no camera
     std::size_t meshes = 0, triangles = 0;
     world.each<Mesh>([&](Entity e, Mesh& m) {
       ++meshes;
@@ -60,6 +60,32 @@ TEST(BuiltinScenes, EveryMeshIsValidStaticTaggedAndSmall) {
     EXPECT_EQ(meshes, scene->mesh_entities);
     EXPECT_EQ(triangles, scene->triangles);
   }
+}
+
+TEST(BuiltinScenes, TheHumanoidIsAProductionShapedRig) {
+  World world;
+  auto scene = load_builtin(world, "humanoid");
+  ASSERT_TRUE(scene.ok());
+  update_world_transforms(world);
+  update_skin_poses(world);
+  const Entity body = find(world, "body"), gear = find(world, "gear");
+  ASSERT_TRUE(body && gear);
+  const Skin& skin = world.get<Skin>(body);
+  EXPECT_EQ(skin.joints.size(), 65u);
+  EXPECT_EQ(world.get<Skin>(gear).joints, skin.joints);  // one skeleton, two meshes
+  EXPECT_EQ(world.get<Name>(skin.joints.front()).value, "mixamorig:Hips");
+  EXPECT_TRUE(find(world, "mixamorig:LeftHandPinky4"));
+  // The armature's 0.01 scale: the joint nodes hold centimetres, the skinned character is
+  // 1.82 m tall in metres (the head's top at 181 cm, the soles at 0.5 cm).
+  EXPECT_FLOAT_EQ(world.get<Transform>(find(world, "mixamorig:Spine")).translation.y, 10.0f);
+  const Aabb bounds = posed_bounds(world);
+  EXPECT_NEAR(bounds.max.y, 1.81f, 0.005f);
+  EXPECT_NEAR(bounds.min.y, 0.0f, 0.01f);
+  EXPECT_GT(world.get<Mesh>(body).data->positions.size(), 5000u);
+  // The one clip is a single frame: no joint turns more than 0.005 rad.
+  const Animator& animator = world.get<Animator>(find(world, "humanoid"));
+  ASSERT_EQ(animator.clips->size(), 1u);
+  EXPECT_NEAR((*animator.clips)[0].duration, 0.067f, 0.001f);
 }
 
 TEST(BuiltinScenes, CornellBoxMatchesThePublishedData) {

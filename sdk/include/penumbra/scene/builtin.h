@@ -17,6 +17,8 @@
 //              wall, with a point light ("lantern") that an Animator carries along a path through
 //              the corridors and back every 12 s, and a camera; 30 triangles. The indirect
 //              transport's scene (moving local light, planar receivers).
+//   humanoid   a character as the common pipelines export it (add_builtin_humanoid below): no
+//              light, no camera, no ground.
 // All static geometry carries the Static tag. Thread safety: each call mutates its World only.
 #pragma once
 
@@ -52,7 +54,7 @@ struct LoadedScene {
 };
 using BuiltinScene = LoadedScene;
 
-// Names accepted by load_builtin ("cornell", "courtyard", "furnace", "maze").
+// Names accepted by load_builtin ("cornell", "courtyard", "furnace", "maze", "humanoid").
 std::vector<std::string> builtin_scene_names();
 
 // Builds the named scene into `world`. NotFound (listing the valid names) for an unknown name.
@@ -66,5 +68,17 @@ Result<LoadedScene> load_builtin(World& world, std::string_view name);
 // entity. Cost: microseconds.
 Entity add_builtin_character(World& world, Entity parent, const Transform& transform,
                              std::string_view name = "character");
+
+// A character shaped like the production rigs studios ship, for tests and benches that must not
+// depend on third-party files: an entity named `name` with `transform` under `parent`, an
+// "Armature" child scaled by 0.01 holding 65 joints named as Mixamo exports name them
+// ("mixamorig:Hips" ... "mixamorig:LeftHandPinky4", "mixamorig:RightToe_End": spine, head, arms
+// with five three-segment fingers, legs), in a T-pose 1.82 m tall facing +Z, and two skinned
+// meshes with the same skin: "body" (tubes along the bones, about 8,000 vertices) and "gear"
+// (shoulder pads, knee pads, a belt that occlude the body). One clip, "Take 001", two keys 0.067
+// s apart that turn no joint more than 0.005 rad, on an Animator on the character. Returns the
+// character's entity. Cost: about a millisecond.
+Entity add_builtin_humanoid(World& world, Entity parent, const Transform& transform,
+                            std::string_view name = "humanoid");
 
 }  // namespace penumbra
