@@ -22,6 +22,7 @@
 #include "penumbra/core/log.h"
 #include "penumbra/core/random.h"
 #include "penumbra/core/sampling.h"
+#include "penumbra/pose_ao/joint_roles.h"
 #include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/entity_key.h"
@@ -107,6 +108,8 @@ Result<PoseRig> make_pose_rig(World& world, Entity e, std::string_view context) 
     const Entity je = skin->joints[j];
     if (!world.alive(je) || !world.has<Transform>(je) || !world.has<WorldTransform>(je))
       return bad("joint " + std::to_string(j) + " has no Transform/WorldTransform (a stale joint entity?)");
+    const Name* name = world.try_get<Name>(je);
+    rig.names.push_back(name ? name->value : std::string());
     const Parent* parent = world.try_get<Parent>(je);
     const Entity parent_node = parent ? parent->entity : Entity::null();
     // The nearest ancestor that is a joint of this skin.
@@ -215,18 +218,34 @@ float width(const JointRange& r) { return std::max({r.max.x - r.min.x, r.max.y -
 }  // namespace
 
 PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
+  using PoseSource = SkinnedPoseAO::PoseSource;
   PoseSpace space;
   const std::size_t J = rig.joint_count();
   const JointRange around_bind{glm::vec3(-settings.default_range), glm::vec3(settings.default_range)};
+  // Ranges by role (joint_roles.h); joints of no known role get +-default_range.
+  const auto by_role = [&] {
+    for (std::size_t j = 0; j < J; ++j) {
+      const JointRole role = j < rig.names.size() ? joint_role(rig.names[j]) : JointRole::Unknown;
+      const float limit = role_limit(role, settings.default_range);
+      space.ranges[j] = JointRange{glm::vec3(-limit), glm::vec3(limit)};
+      space.roles += role != JointRole::Unknown;
+    }
+  };
+  std::size_t known_roles = 0;
+  for (std::size_t j = 0; j < J && j < rig.names.size(); ++j) known_roles += joint_role(rig.names[j]) != JointRole::Unknown;
+  space.ranges.assign(J, JointRange{});
   if (!settings.joint_ranges.empty()) {
     space.source = PoseSpace::Source::JointRanges;
     space.ranges = settings.joint_ranges;
-  } else if (rig.clips.empty()) {
+  } else if (settings.pose_source == PoseSource::Uniform ||
+             (rig.clips.empty() && (settings.pose_source == PoseSource::Clips || known_roles == 0))) {
     space.source = PoseSpace::Source::Default;
     space.ranges.assign(J, around_bind);
+  } else if (settings.pose_source == PoseSource::Roles || rig.clips.empty()) {
+    space.source = PoseSpace::Source::Roles;
+    by_role();
   } else {
     space.source = PoseSpace::Source::Clips;
-    space.ranges.assign(J, JointRange{});
     for (std::size_t j = 0; j < J; ++j) {
       if (!rig.animated[j]) continue;  // fixed: zero range about the bind rotation
       const JointRange& c = rig.clip_ranges[j];
@@ -237,11 +256,17 @@ PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
     if (std::none_of(space.ranges.begin(), space.ranges.end(),
                      [](const JointRange& r) { return width(r) > kPoseMinJointRange; })) {
       // Step 1 (thesis 4.5 trains on poses that span the motion): clips that barely move give a
-      // space of one pose, so the joints they animate get the range a clip-less rig gets.
-      space.source = PoseSpace::Source::DegenerateClips;
-      const bool any = std::find(rig.animated.begin(), rig.animated.end(), true) != rig.animated.end();
-      for (std::size_t j = 0; j < J; ++j)
-        if (!any || rig.animated[j]) space.ranges[j] = around_bind;
+      // space of one pose, so the joints get the ranges of their roles when their names give
+      // roles, else the joints the clips animate get the range a clip-less rig gets.
+      if (settings.pose_source == PoseSource::Auto && known_roles > 0) {
+        space.source = PoseSpace::Source::DegenerateClipsRoles;
+        by_role();
+      } else {
+        space.source = PoseSpace::Source::DegenerateClips;
+        const bool any = std::find(rig.animated.begin(), rig.animated.end(), true) != rig.animated.end();
+        for (std::size_t j = 0; j < J; ++j)
+          if (!any || rig.animated[j]) space.ranges[j] = around_bind;
+      }
     }
   }
   for (std::size_t j = 0; j < space.ranges.size(); ++j) {
@@ -298,10 +323,16 @@ std::vector<glm::mat4> skinning_matrices(const PoseRig& rig, const Pose& pose) {
 // ---------------------------------------------------------------------------------------------
 // Step 3: ray-traced self-occlusion of the posed mesh.
 
+// The traced mesh's vertices come first in the ray scene's mesh, then the occluders'. Joint
+// slots of the scene's skin: the J joints of the traced skin, the identity (the traced mesh's
+// weightless vertices), then per occluder one slot per joint of its skin (M_j x to_traced[k])
+// and one for its weightless vertices (the fixed `rigid`).
 struct PoseAOTracer::Impl {
-  std::shared_ptr<const MeshData> mesh;  // weightless vertices bound to the extra joint `joints`
+  std::shared_ptr<const MeshData> mesh;  // the traced mesh then the occluders, remapped as above
   std::size_t joints = 0;
-  std::unique_ptr<World> world;          // the mesh alone, skinned, refitted per pose
+  std::size_t vertices = 0;              // the traced mesh's
+  std::vector<PoseAOOccluder> occluders;
+  std::unique_ptr<World> world;          // the character's meshes, skinned, refitted per pose
   Entity entity;
   std::optional<RayScene> scene;
   float eps_scale = 0.0f;                // 1e-4 x the bind bounds' diagonal
@@ -313,10 +344,11 @@ PoseAOTracer::PoseAOTracer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) 
 PoseAOTracer::PoseAOTracer(PoseAOTracer&&) noexcept = default;
 PoseAOTracer& PoseAOTracer::operator=(PoseAOTracer&&) noexcept = default;
 PoseAOTracer::~PoseAOTracer() = default;
-std::size_t PoseAOTracer::vertex_count() const { return impl_->mesh->positions.size(); }
+std::size_t PoseAOTracer::vertex_count() const { return impl_->vertices; }
+std::size_t PoseAOTracer::occluder_count() const { return impl_->occluders.size(); }
 
 Result<PoseAOTracer> PoseAOTracer::create(std::shared_ptr<const MeshData> source, std::size_t joint_count,
-                                          std::string_view context) {
+                                          std::string_view context, std::vector<PoseAOOccluder> occluders) {
   const auto bad = [&](const std::string& what) {
     return make_error(ErrorCode::InvalidInput, std::string(context) + ": " + what);
   };
@@ -341,17 +373,54 @@ Result<PoseAOTracer> PoseAOTracer::create(std::shared_ptr<const MeshData> source
       mesh->weights[v] = glm::vec4(1.0f, 0.0f, 0.0f, 0.0f);
     }
   }
+  // The occluders' vertices and triangles after the traced mesh's, on their own joint slots.
+  std::size_t slot = joint_count + 1;
+  for (const PoseAOOccluder& o : occluders) {
+    const MeshData& m = *o.mesh;
+    const std::size_t k_count = o.joints.size();
+    if (o.to_traced.size() != k_count || m.joints.size() != m.positions.size() ||
+        m.weights.size() != m.positions.size() || slot + k_count + 1 > 65535)
+      return bad("occluder '" + m.name + "' has no skinning for its joints; re-export it");
+    for (std::uint32_t j : o.joints)
+      if (j >= joint_count) return bad("occluder '" + m.name + "' maps a joint outside the skin");
+    const auto base = static_cast<std::uint32_t>(mesh->positions.size());
+    for (std::size_t v = 0; v < m.positions.size(); ++v) {
+      glm::u16vec4 joints(0);
+      glm::vec4 weights(0.0f);
+      bool weighted = false;
+      for (int k = 0; k < 4; ++k) {
+        if (m.weights[v][k] == 0.0f) continue;
+        if (m.joints[v][k] >= k_count) return bad("occluder '" + m.name + "' vertex " + std::to_string(v) + " uses a joint its skin lacks");
+        joints[k] = static_cast<std::uint16_t>(slot + m.joints[v][k]);
+        weights[k] = m.weights[v][k];
+        weighted = true;
+      }
+      if (!weighted) {
+        joints = glm::u16vec4(static_cast<std::uint16_t>(slot + k_count), 0, 0, 0);
+        weights = glm::vec4(1.0f, 0.0f, 0.0f, 0.0f);
+      }
+      mesh->positions.push_back(m.positions[v]);
+      mesh->normals.push_back(v < m.normals.size() ? m.normals[v] : glm::vec3(0, 1, 0));
+      mesh->joints.push_back(joints);
+      mesh->weights.push_back(weights);
+    }
+    for (std::uint32_t i : m.indices) mesh->indices.push_back(base + i);
+    slot += k_count + 1;
+  }
+  if (!mesh->uvs.empty()) mesh->uvs.resize(mesh->positions.size(), glm::vec2(0.0f));
   auto impl = std::make_unique<Impl>();
   impl->joints = joint_count;
+  impl->vertices = n;
+  impl->occluders = std::move(occluders);
   impl->context = std::string(context);
-  impl->eps_scale = 1e-4f * glm::length(mesh->bounds.extent());
+  impl->eps_scale = 1e-4f * glm::length(source->bounds.extent());
   impl->mesh = mesh;
   impl->world = std::make_unique<World>();
   World& w = *impl->world;
   impl->entity = w.create();
   w.add<Mesh>(impl->entity, Mesh{mesh});
   w.add<Skin>(impl->entity);
-  w.add<SkinPose>(impl->entity, SkinPose{std::vector<glm::mat4>(joint_count + 1, glm::mat4(1.0f))});
+  w.add<SkinPose>(impl->entity, SkinPose{std::vector<glm::mat4>(slot, glm::mat4(1.0f))});
   w.add<WorldTransform>(impl->entity);
   auto scene = RayScene::build(w);
   if (!scene) return bad(scene.error().message);
@@ -362,18 +431,27 @@ Result<PoseAOTracer> PoseAOTracer::create(std::shared_ptr<const MeshData> source
 Status PoseAOTracer::trace(std::span<const glm::mat4> joint_matrices, std::uint32_t rays, std::uint64_t seed,
                            JobContext& jobs, std::span<float> ao, std::span<float> standard_error) {
   Impl& s = *impl_;
-  const std::size_t n = s.mesh->positions.size();
+  const std::size_t n = s.vertices;
   if (joint_matrices.size() != s.joints || ao.size() != n || rays == 0)
     return make_error(ErrorCode::InvalidArgument, s.context + ": trace() needs one matrix per joint and one AO per vertex");
-  // Refit the BVH to the pose (the extra joint stays the identity).
+  // Refit the BVH to the pose (the traced mesh's extra joint stays the identity; an occluder's
+  // joint follows the traced skin's joint it is).
   SkinPose& pose = s.world->patch<SkinPose>(s.entity);
   std::copy(joint_matrices.begin(), joint_matrices.end(), pose.joint_matrices.begin());
+  std::size_t slot = s.joints + 1;
+  for (const PoseAOOccluder& o : s.occluders) {
+    for (std::size_t k = 0; k < o.joints.size(); ++k) pose.joint_matrices[slot + k] = joint_matrices[o.joints[k]] * o.to_traced[k];
+    pose.joint_matrices[slot + o.joints.size()] = o.rigid;
+    slot += o.joints.size() + 1;
+  }
   PENUMBRA_TRY(s.scene->update(*s.world));
   skin_positions(*s.mesh, pose, s.positions);
   skin_normals(*s.mesh, pose, s.normals);
-  for (std::size_t v = 0; v < n; ++v)
+  for (std::size_t v = 0; v < s.positions.size(); ++v)
     if (!std::isfinite(s.positions[v].x + s.positions[v].y + s.positions[v].z))
-      return make_error(ErrorCode::InvalidInput, s.context + ": the pose makes vertex " + std::to_string(v) + " non-finite");
+      return make_error(ErrorCode::InvalidInput, s.context + ": the pose makes " +
+                                                     (v < n ? "vertex " + std::to_string(v) : std::string("an occluder")) +
+                                                     " non-finite");
 
   const RayScene& scene = *s.scene;
   return jobs.parallel_for(n, 64, [&](std::size_t begin, std::size_t end) {
@@ -397,6 +475,59 @@ Status PoseAOTracer::trace(std::span<const glm::mat4> joint_matrices, std::uint3
       if (!standard_error.empty()) standard_error[v] = std::sqrt(a * (1.0f - a) / static_cast<float>(rays));
     }
   });
+}
+
+Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mesh_entity, std::vector<std::string>* notes) {
+  std::vector<PoseAOOccluder> out;
+  const Skin* skin = world.alive(mesh_entity) ? world.try_get<Skin>(mesh_entity) : nullptr;
+  const WorldTransform* traced_world = world.alive(mesh_entity) ? world.try_get<WorldTransform>(mesh_entity) : nullptr;
+  if (skin == nullptr || traced_world == nullptr) return out;
+  std::unordered_map<std::uint32_t, std::uint32_t> joint_of;  // entity index -> traced skin joint
+  for (std::size_t j = 0; j < skin->joints.size(); ++j) joint_of.emplace(skin->joints[j].index, static_cast<std::uint32_t>(j));
+  const glm::mat4 to_traced_frame = glm::inverse(traced_world->matrix);
+  const auto name_of = [&](Entity e) {
+    const Name* n = world.try_get<Name>(e);
+    return n ? "'" + n->value + "'" : "entity " + std::to_string(e.index);
+  };
+  for (Entity e : world.view<Skin, Mesh>().sorted_entities()) {
+    if (e == mesh_entity) continue;
+    const Skin& other = world.get<Skin>(e);
+    const auto& data = world.get<Mesh>(e).data;
+    const WorldTransform* other_world = world.try_get<WorldTransform>(e);
+    if (!data || other_world == nullptr || data->joints.size() != data->positions.size() ||
+        data->weights.size() != data->positions.size() || other.inverse_bind.size() != other.joints.size())
+      continue;
+    PoseAOOccluder o;
+    o.mesh = data;
+    bool shares = false;
+    std::string missing;
+    std::vector<std::uint8_t> used(other.joints.size(), 0);
+    for (std::size_t v = 0; v < data->positions.size(); ++v)
+      for (int k = 0; k < 4; ++k)
+        if (data->weights[v][k] != 0.0f && data->joints[v][k] < used.size()) used[data->joints[v][k]] = 1;
+    for (std::size_t k = 0; k < other.joints.size(); ++k) {
+      const auto it = joint_of.find(other.joints[k].index);
+      const bool same = it != joint_of.end() && skin->joints[it->second] == other.joints[k];
+      shares |= same;
+      if (!same && used[k] && missing.empty()) missing = name_of(other.joints[k]);
+      const std::uint32_t j = same ? it->second : 0;
+      o.joints.push_back(j);
+      // Step 3 (the character's meshes traced together): the occluder's bind vertex in the traced
+      // skin's bind frame of joint j, which M_j then poses.
+      o.to_traced.push_back(same ? glm::inverse(skin->inverse_bind[j]) * other.inverse_bind[k] : glm::mat4(1.0f));
+    }
+    if (!shares) continue;  // another character
+    if (!missing.empty()) {
+      if (notes)
+        notes->push_back(name_of(e) + " is not traced with " + name_of(mesh_entity) + ": its skin moves joint " +
+                         missing + ", which " + name_of(mesh_entity) + "'s skin lacks");
+      continue;
+    }
+    o.rigid = to_traced_frame * other_world->matrix;
+    if (!finite_matrix(o.rigid)) continue;
+    out.push_back(std::move(o));
+  }
+  return out;
 }
 
 Status PoseAOTraining::add_pose(PoseAOTracer& tracer, const PoseRig& rig, const Pose& pose, std::uint32_t rays,
@@ -679,10 +810,8 @@ Result<std::shared_ptr<PoseBake>> PoseBake::prepare(World& world, Entity e, cons
   PENUMBRA_TRY(validate_pose_ao(settings, rig->joint_count(), context));
   const PoseSpace space = pose_space(*rig, settings);
   {
-    const Skin& skin = world.get<Skin>(e);
     const auto joint_name = [&](std::size_t j) {
-      const Name* n = j < skin.joints.size() && world.alive(skin.joints[j]) ? world.try_get<Name>(skin.joints[j]) : nullptr;
-      return n ? "'" + n->value + "'" : "joint " + std::to_string(j);
+      return j < rig->names.size() && !rig->names[j].empty() ? "'" + rig->names[j] + "'" : "joint " + std::to_string(j);
     };
     char figures[160];
     if (space.moving == 0) {
@@ -694,27 +823,47 @@ Result<std::shared_ptr<PoseBake>> PoseBake::prepare(World& world, Entity e, cons
                             ": every reference pose would be the bind pose; give the joints that bend ranges of a "
                             "few tenths of a radian" + (given ? "" : " (default_range 0.5)"));
     }
-    if (space.source == PoseSpace::Source::DegenerateClips) {
+    if (degenerate_clips(space.source)) {
       std::string clips;
       for (const AnimationClip* c : rig->clips) {
         std::snprintf(figures, sizeof figures, " (%.3g s)", static_cast<double>(c->duration));
         clips += (clips.empty() ? "'" : ", '") + c->name + "'" + figures;
       }
+      char range[32];
+      std::snprintf(range, sizeof range, "+-%.3g rad", static_cast<double>(settings.default_range));
       std::snprintf(figures, sizeof figures, "%.3g rad", static_cast<double>(space.clip_widest_range));
+      const std::string instead =
+          space.source == PoseSpace::Source::DegenerateClipsRoles
+              ? "the ranges of the joints' roles by name (" + std::to_string(space.roles) + " of " +
+                    std::to_string(rig->joint_count()) + " joints recognised, the others " + range + ")"
+              : std::string(range) + " (default_range) on the " +
+                    std::to_string(space.moving) + " joints they animate";
       const std::string message =
           context + ": the clips " + clips + " turn no joint more than " + figures +
-          ": a degenerate pose space (every reference pose would be the bind pose); sampling +-" +
-          std::to_string(settings.default_range) + " rad (default_range) on the " + std::to_string(space.moving) +
-          " joints they animate instead; set joint_ranges for the character's real range of motion";
+          ": a degenerate pose space (every reference pose would be the bind pose); sampling " + instead +
+          " instead; give the bake the character's animations (penumbra bake --poses FILE.glb) or set joint_ranges "
+          "for its real range of motion";
       log(LogLevel::Warning, message);
       if (warnings) warnings->push_back(message);
     }
     std::snprintf(figures, sizeof figures, "%zu of %zu joints move, the widest %.3g rad", space.moving,
                   rig->joint_count(), static_cast<double>(space.widest_range));
+    std::string roles;
+    if (space.roles > 0) roles = ", " + std::to_string(space.roles) + " joints by role";
     log(LogLevel::Info, context + ": pose space from " + to_string(space.source) + ": " + figures + " (" +
-                            joint_name(space.widest) + ")");
+                            joint_name(space.widest) + ")" + roles);
   }
-  auto tracer = PoseAOTracer::create(mesh->data, rig->joint_count(), context);
+  std::vector<std::string> notes;
+  auto occluders = character_occluders(world, e, &notes);
+  if (!occluders) return occluders.error();
+  for (const std::string& note : notes) {
+    log(LogLevel::Warning, context + ": " + note);
+    if (warnings) warnings->push_back(context + ": " + note);
+  }
+  if (!occluders->empty())
+    log(LogLevel::Info, context + ": traced with the character's " + std::to_string(occluders->size()) +
+                            " other mesh" + (occluders->size() == 1 ? "" : "es"));
+  auto tracer = PoseAOTracer::create(mesh->data, rig->joint_count(), context, std::move(*occluders));
   if (!tracer) return tracer.error();
 
   const std::size_t V = mesh->data->positions.size(), J = rig->joint_count();
@@ -824,7 +973,7 @@ Result<PoseAOData> finish_pose_ao(std::span<const std::byte> header_bytes, std::
   if (V == 0 || J == 0 || P == 0 || !acyclic || mesh.positions.size() != V || mesh.joints.size() != V ||
       mesh.weights.size() != V || std::uint64_t{V} * J > (std::uint64_t{1} << 26) || h.locality > kPoseAOMaxLocality ||
       !(h.lambda >= 0.0f) || !std::isfinite(h.lambda) ||
-      h.pose_space > static_cast<std::uint32_t>(PoseSpaceSource::DegenerateClips) ||
+      h.pose_space > static_cast<std::uint32_t>(PoseSpaceSource::DegenerateClipsRoles) ||
       results.size() != (P + 1) * (F + V) * sizeof(float))
     return make_error(ErrorCode::InvalidInput, std::string(where) + ": the header (" + std::to_string(V) + " vertices, " +
                                                    std::to_string(J) + " joints, " + std::to_string(P) +

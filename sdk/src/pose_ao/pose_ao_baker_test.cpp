@@ -3,6 +3,7 @@
 // never moves, fewer poses than coefficients, far poses, weightless vertices, scale 1e-3 and 1e4),
 // the model against its baselines, bake_world + attach + the system over the walk cycle.
 #include <gtest/gtest.h>
+#include <glm/gtc/quaternion.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include "penumbra/bake/baker.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/pose_ao/pose_ao_baker.h"
+#include "penumbra/pose_ao/joint_roles.h"
 #include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
@@ -241,10 +243,19 @@ TEST(PoseAOExtremes, ADegeneratePoseSpaceIsWidenedWithAWarningOrRefused) {
 
   hold_first_key(*w.world);
   auto held = make_pose_rig(*w.world, w.mesh, "walker").value();
+  // The walker's joint names give their roles ("left_thigh", "right_shin", ...), so by default the
+  // degenerate clips give way to the roles' limits.
+  const PoseSpace by_role = pose_space(held, s);
+  EXPECT_EQ(by_role.source, PoseSpace::Source::DegenerateClipsRoles);
+  EXPECT_EQ(by_role.roles, held.joint_count());
+  for (std::size_t j = 0; j < held.joint_count(); ++j)
+    EXPECT_EQ(by_role.ranges[j].max, glm::vec3(role_limit(joint_role(held.names[j]), 0.0f))) << held.names[j];
+  // Asked for the clips alone: keys that never change rotate no joint, so every joint gets
+  // +-default_range.
+  s.pose_source = SkinnedPoseAO::PoseSource::Clips;
   const PoseSpace space = pose_space(held, s);
   EXPECT_EQ(space.source, PoseSpace::Source::DegenerateClips);
   EXPECT_LT(space.clip_widest_range, kPoseMinJointRange);
-  // Keys that never change rotate no joint, so every joint gets +-default_range.
   for (std::size_t j = 0; j < held.joint_count(); ++j) {
     EXPECT_FALSE(held.animated[j]) << j;
     EXPECT_EQ(space.ranges[j].max, glm::vec3(s.default_range)) << j;
@@ -269,6 +280,134 @@ TEST(PoseAOExtremes, ADegeneratePoseSpaceIsWidenedWithAWarningOrRefused) {
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().code, ErrorCode::InvalidArgument);
   EXPECT_NE(refused.error().message.find("joint_ranges turn no joint"), std::string::npos) << refused.error().message;
+}
+
+// The production-shaped humanoid (builtin.h): 65 Mixamo-named joints, an armature scaled 0.01,
+// body and gear meshes on one skin, a one-frame clip.
+struct Humanoid {
+  std::unique_ptr<World> world = std::make_unique<World>();
+  Entity body, gear;
+  Humanoid() {
+    EXPECT_TRUE(load_builtin(*world, "humanoid"));
+    update_world_transforms(*world);
+    update_skin_poses(*world);
+    world->each<Name>([&](Entity e, Name& n) {
+      if (n.value == "body") body = e;
+      if (n.value == "gear") gear = e;
+    });
+  }
+};
+
+TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
+  Humanoid h;
+  auto rig = make_pose_rig(*h.world, h.body, "humanoid");
+  ASSERT_TRUE(rig) << rig.error().message;
+  ASSERT_EQ(rig->joint_count(), 65u);
+  const PoseSpace space = pose_space(*rig, SkinnedPoseAO{});
+  EXPECT_EQ(space.source, PoseSpace::Source::DegenerateClipsRoles);
+  EXPECT_EQ(space.roles, 65u);
+  // End joints stay fixed, the forearm gets the forearm's limit, a finger the finger's.
+  const auto range_of = [&](std::string_view name) {
+    for (std::size_t j = 0; j < rig->joint_count(); ++j)
+      if (rig->names[j] == name) return space.ranges[j].max.x;
+    ADD_FAILURE() << name;
+    return -1.0f;
+  };
+  EXPECT_EQ(range_of("mixamorig:HeadTop_End"), 0.0f);
+  EXPECT_EQ(range_of("mixamorig:LeftForeArm"), role_limit(JointRole::Forearm, 0.5f));
+  EXPECT_EQ(range_of("mixamorig:RightHandIndex2"), role_limit(JointRole::Finger, 0.5f));
+  EXPECT_EQ(space.moving, 62u);  // all but the three end joints
+}
+
+// Mean AO of the body's vertices under the left shoulder pad (the gear's tube of radius 8 cm
+// about the upper arm from x = 17 to 29 cm), in a pose.
+double under_the_pad(PoseAOTracer& tracer, const MeshData& body, std::span<const glm::mat4> pose, JobContext& jobs) {
+  std::vector<float> ao(body.positions.size());
+  EXPECT_TRUE(tracer.trace(pose, 64, 7, jobs, ao));
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t v = 0; v < ao.size(); ++v) {
+    const glm::vec3 p = body.positions[v];
+    if (p.x > 19.0f && p.x < 27.0f && p.y > 148.0f && body.normals[v].y > 0.7f) {
+      sum += ao[v];
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 10u);
+  return sum / double(std::max<std::size_t>(n, 1));
+}
+
+TEST(PoseAOProductionRig, TheCharactersMeshesAreTracedTogether) {
+  Humanoid h;
+  ASSERT_TRUE(h.body && h.gear);
+  std::vector<std::string> notes;
+  auto occluders = character_occluders(*h.world, h.body, &notes);
+  ASSERT_TRUE(occluders);
+  ASSERT_EQ(occluders->size(), 1u);  // the gear; nothing else shares the skeleton
+  EXPECT_TRUE(notes.empty());
+  EXPECT_EQ(occluders->front().mesh, h.world->get<Mesh>(h.gear).data);
+  auto rig = make_pose_rig(*h.world, h.body, "humanoid").value();
+  const auto body = h.world->get<Mesh>(h.body).data;
+  auto alone = PoseAOTracer::create(body, rig.joint_count(), "body").value();
+  auto together = PoseAOTracer::create(body, rig.joint_count(), "body", *occluders).value();
+  EXPECT_EQ(together.occluder_count(), 1u);
+  JobContext jobs;
+  const std::vector<glm::mat4> bind(rig.joint_count(), glm::mat4(1.0f));
+  // The pad sits 2.5 cm above the upper arm's top: open sky alone, shadowed under the pad.
+  const double open = under_the_pad(alone, *body, bind, jobs), shadowed = under_the_pad(together, *body, bind, jobs);
+  EXPECT_GT(open, 0.8);
+  EXPECT_LT(shadowed, 0.4);
+  // The pad follows the arm: with the arm raised 0.6 rad (and the vertices chosen in the bind
+  // pose), the upper arm stays shadowed, no more than in the bind pose plus the noise.
+  Pose raised = rig.bind;
+  for (std::size_t j = 0; j < rig.joint_count(); ++j)
+    if (rig.names[j] == "mixamorig:LeftArm") raised[j].rotation = glm::angleAxis(0.6f, glm::vec3(0, 0, 1));
+  const std::vector<glm::mat4> m = skinning_matrices(rig, raised);
+  const double raised_together = under_the_pad(together, *body, m, jobs);
+  const double raised_alone = under_the_pad(alone, *body, m, jobs);
+  EXPECT_LT(raised_together, shadowed + 0.1);
+  EXPECT_GT(raised_alone, raised_together + 0.3);  // the raised arm meets the shoulder, but no pad
+
+  // The bake traces them together too, and says so in its AO: the bind-pose AO under the pad.
+  SkinnedPoseAO s = quick();
+  s.reference_poses = 20;
+  s.clip_poses = 1;
+  MemoryBudget budget;
+  auto data = bake_pose_ao(*h.world, h.body, s, 1, jobs, budget);
+  ASSERT_TRUE(data) << data.error().message;
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t v = 0; v < body->positions.size(); ++v) {
+    const glm::vec3 p = body->positions[v];
+    if (p.x > 19.0f && p.x < 27.0f && p.y > 148.0f && body->normals[v].y > 0.7f) {
+      sum += data->bind_ao[v];
+      ++n;
+    }
+  }
+  EXPECT_LT(sum / double(n), 0.45);
+}
+
+TEST(PoseAOProductionRig, AMeshOnJointsTheSkinLacksIsLeftOutWithANote) {
+  Humanoid h;
+  // The gear's skin gets a joint of its own (a cape bone) that its first vertex follows.
+  const Entity cape = h.world->create();
+  h.world->add<Name>(cape, Name{"cape_01"});
+  h.world->add<Transform>(cape);
+  h.world->add<WorldTransform>(cape);
+  Skin& skin = h.world->patch<Skin>(h.gear);
+  skin.joints.push_back(cape);
+  skin.inverse_bind.push_back(glm::mat4(1.0f));
+  auto mesh = std::make_shared<MeshData>(*h.world->get<Mesh>(h.gear).data);
+  mesh->joints[0] = glm::u16vec4(static_cast<std::uint16_t>(skin.joints.size() - 1), 0, 0, 0);
+  mesh->weights[0] = glm::vec4(1, 0, 0, 0);
+  h.world->patch<Mesh>(h.gear).data = mesh;
+  std::vector<std::string> notes;
+  auto occluders = character_occluders(*h.world, h.body, &notes);
+  ASSERT_TRUE(occluders);
+  EXPECT_TRUE(occluders->empty());
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("'gear' is not traced with 'body'"), std::string::npos) << notes[0];
+  EXPECT_NE(notes[0].find("'cape_01'"), std::string::npos) << notes[0];
 }
 
 TEST(PoseAOExtremes, VerticesWithoutSkinWeightsFollowTheMesh) {

@@ -17,6 +17,8 @@ const char* to_string(PoseSpaceSource source) {
     case PoseSpaceSource::Clips: return "the clips";
     case PoseSpaceSource::Default: return "+-default_range (no clip)";
     case PoseSpaceSource::DegenerateClips: return "+-default_range (the clips barely move)";
+    case PoseSpaceSource::Roles: return "the joints' roles";
+    case PoseSpaceSource::DegenerateClipsRoles: return "the joints' roles (the clips barely move)";
   }
   return "?";
 }
@@ -75,7 +77,7 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(d.moving_joints));
   PENUMBRA_TRY(r.read(d.widest_range));
   const std::uint32_t V = d.vertex_count, J = d.joint_count;
-  if (source > static_cast<std::uint8_t>(PoseSpaceSource::DegenerateClips))
+  if (source > static_cast<std::uint8_t>(PoseSpaceSource::DegenerateClipsRoles))
     return bad("pose space source " + std::to_string(source) + " is unknown");
   d.pose_space = static_cast<PoseSpaceSource>(source);
   if (d.moving_joints > J || !(std::isfinite(d.widest_range) && d.widest_range >= 0.0f))
@@ -161,7 +163,7 @@ std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk) {
   std::snprintf(line, sizeof line, "pose space from %s: %u of %u joints move, the widest %.3g rad",
                 to_string(d->pose_space), d->moving_joints, d->joint_count, static_cast<double>(d->widest_range));
   out.emplace_back(line);
-  if (d->pose_space == PoseSpaceSource::DegenerateClips)
+  if (degenerate_clips(d->pose_space))
     out.emplace_back("warning: the clips barely move the joints; set joint_ranges for the character's range of motion");
   if (d->locality < d->requested_locality) {
     std::snprintf(line, sizeof line, "warning: locality reduced from %u to %u joints (too few poses); bake more poses",

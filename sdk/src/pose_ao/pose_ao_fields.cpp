@@ -10,6 +10,8 @@ namespace {
 using fields::member;
 using T = FieldType;
 
+constexpr std::string_view kPoseSources[] = {"auto", "clips", "roles", "uniform"};
+
 const SkinnedPoseAO kDefaults{};
 constexpr FieldInfo kFields[] = {
     member<&SkinnedPoseAO::reference_poses>({.name = "reference_poses", .type = T::Count, .min = 0, .max = 1e6,
@@ -27,6 +29,11 @@ constexpr FieldInfo kFields[] = {
     member<&SkinnedPoseAO::lambda>({.name = "lambda", .type = T::Float, .min = 0, .max = 1e6,
                                     .help = "ridge strength per pose; 1e-3 is a good start", .hashed = true,
                                     .speed = 1e-4f}),
+    member<&SkinnedPoseAO::pose_source>({.name = "pose_source", .type = T::Enum, .min = 0, .max = 3,
+                                         .choices = kPoseSources,
+                                         .help = "joint ranges: the clips, else the joints' roles by name, else "
+                                                 "default_range (auto); or only one of them",
+                                         .hashed = true}),
     member<&SkinnedPoseAO::range_margin>({.name = "range_margin", .type = T::Float, .min = 0, .max = 100,
                                           .help = "clip ranges widened by this fraction on each side",
                                           .hashed = true, .speed = 0.005f}),

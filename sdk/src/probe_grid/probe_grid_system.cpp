@@ -203,7 +203,8 @@ Status attach_probe_grid(World& world, const BakeChunk& chunk, const EntityKeys&
 }
 
 Status add_defaults(World& world, Preset preset, bool authored) {
-  if (authored) return {};
+  // A scene without static geometry (a character alone) has nothing for a grid to light.
+  if (authored || static_bounds(world).empty()) return {};
   auto grid = add_default_probe_grid(world, preset);
   return grid ? Status{} : Status{grid.error()};
 }

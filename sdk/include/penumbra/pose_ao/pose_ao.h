@@ -70,13 +70,21 @@ struct SkinnedPoseAO {
   // Ridge strength per pose: t_v minimises sum_p (t . theta_p - a_p)^2 + lambda P |t_1..|^2 over the
   // P poses (the bias t_0 is not regularised).
   float lambda = 1e-3f;
+  // Where the random poses' joint ranges come from when joint_ranges is empty:
+  //   Auto     the clips when they turn some joint (kPoseMinJointRange); else the joints' roles
+  //            when their names give any (joint_roles.h); else +-default_range on every joint.
+  //   Clips    the clips (clips that barely move: +-default_range on the joints they animate).
+  //   Roles    the joints' roles by name, whatever the clips hold: each joint within
+  //            +-role_limit(role) on each axis (+-default_range for a joint of no known role).
+  //   Uniform  +-default_range on every joint.
+  enum class PoseSource : std::uint8_t { Auto, Clips, Roles, Uniform };
+  PoseSource pose_source = PoseSource::Auto;
   // Ranges from the clips are widened by this fraction of their width on each side (a joint whose
   // clip range is empty stays fixed).
   float range_margin = 0.25f;
-  // A character without clips (and without joint_ranges): every joint moves within +-default_range
-  // radians about each axis.
+  // Joints with no range from the clips or a role: +-default_range radians about each axis.
   float default_range = 0.5f;
-  // Ranges set by hand, one per skin joint (empty: from the clips as above).
+  // Ranges set by hand, one per skin joint (empty: from pose_source as above).
   std::vector<JointRange> joint_ranges;
 
   // The baked data (set by the baker or attach_bake(), penumbra/runtime.h); null until baked.
@@ -112,7 +120,13 @@ enum class PoseSpaceSource : std::uint8_t {
   Default,          // no clip: +-default_range on every axis of every joint
   DegenerateClips,  // the clips move no joint (e.g. two keys 0.067 s apart): +-default_range on
                     // every joint they animate (every joint when they rotate none), as without clips
+  Roles,            // the joints' roles by name (joint_roles.h), +-default_range for unknown roles
+  DegenerateClipsRoles,  // the clips move no joint, so the ranges come from the joints' roles
 };
+// The clips of the file were found to move no joint (a warning to repeat in reports).
+constexpr bool degenerate_clips(PoseSpaceSource s) {
+  return s == PoseSpaceSource::DegenerateClips || s == PoseSpaceSource::DegenerateClipsRoles;
+}
 // "the clips", "joint_ranges", ... for reports.
 const char* to_string(PoseSpaceSource source);
 

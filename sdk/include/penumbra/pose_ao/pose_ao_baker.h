@@ -5,8 +5,9 @@
 //   1. make_pose_rig: the skin's joint hierarchy, bind local transforms (from the inverse bind
 //      matrices) and per-joint rotation ranges from the clips that animate the joints.
 //   2. reference poses: random ones (each joint independently within its range) and clip frames.
-//   3. PoseAOTracer: the posed mesh alone in an Embree BVH refitted per pose; per vertex
-//      `rays_per_vertex` cosine-weighted rays from a scrambled Sobol' net, AO = unoccluded fraction.
+//   3. PoseAOTracer: the posed mesh and the character's other meshes in an Embree BVH refitted
+//      per pose; per vertex `rays_per_vertex` cosine-weighted rays from a scrambled Sobol' net,
+//      AO = unoccluded fraction.
 //   4. fit_pose_ao: per vertex ridge regression from the parameters of its joints to its AO.
 #pragma once
 
@@ -32,6 +33,7 @@ using Pose = std::vector<Transform>;
 // What the bake needs to know about a skinned mesh's skeleton.
 struct PoseRig {
   std::vector<std::int32_t> parents;       // nearest ancestor among the skin's joints, -1 for a root
+  std::vector<std::string> names;          // the joints' Names ("" for a joint without one)
   std::vector<glm::mat4> offsets;          // fixed: parent joint's frame (mesh frame for a root) -> the joint's parent node
   std::vector<glm::mat4> inverse_bind;
   Pose bind;                               // bind local transforms
@@ -65,6 +67,7 @@ struct PoseSpace {
   Source source = Source::Default;
   std::vector<JointRange> ranges;  // per skin joint
   std::size_t moving = 0;          // joints wider than kPoseMinJointRange
+  std::size_t roles = 0;           // joints whose range came from a known role (Source::Roles)
   std::size_t widest = 0;          // the joint of the widest range (any axis), and that width
   float widest_range = 0.0f;
   float clip_widest_range = 0.0f;  // the widest unwidened clip range (0 without clips)
@@ -85,15 +88,37 @@ Pose clip_pose(const PoseRig& rig, std::size_t clip, float t);
 // with X_j = X_parent offset_j local_j. Cost: O(joints).
 std::vector<glm::mat4> skinning_matrices(const PoseRig& rig, const Pose& pose);
 
-// Ray-traced self-occlusion of one skinned mesh in any pose. Vertices with no skin weight follow
-// the mesh (identity), as a rigid part of the character. Not thread-safe (trace() refits); the
+// Another skinned mesh of the same character (one skeleton, several meshes: a body and its
+// armour), traced with the baked mesh so that each shadows the other.
+struct PoseAOOccluder {
+  std::shared_ptr<const MeshData> mesh;  // positions, indices, JOINTS_0/WEIGHTS_0 of its own skin
+  // Per joint k of the occluder's skin: the joint j of the traced skin it is, and the matrix that
+  // carries the occluder's bind vertices to the traced skin's bind pose for that joint,
+  // inverse(inverse_bind_traced[j]) x inverse_bind_occluder[k] (the posed vertex is M_j x it).
+  std::vector<std::uint32_t> joints;
+  std::vector<glm::mat4> to_traced;
+  glm::mat4 rigid{1.0f};  // its weightless vertices: its mesh frame -> the traced mesh's frame
+};
+
+// The other skinned meshes of `mesh_entity`'s character: every Mesh + Skin entity whose skin
+// shares a joint entity with its skin, in entity order. A mesh whose weights use a joint the
+// traced skin lacks cannot be posed from its poses: it is left out, with a line in `notes`
+// naming both meshes and the joint. Needs WorldTransforms (run the transform system). Cost:
+// O(meshes x joints + their vertices).
+Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mesh_entity,
+                                                        std::vector<std::string>* notes = nullptr);
+
+// Ray-traced self-occlusion of one skinned mesh in any pose, occluded by itself and by the
+// character's other meshes (`occluders`, posed with it). Vertices with no skin weight follow the
+// mesh (identity), as a rigid part of the character. Not thread-safe (trace() refits); the
 // queries inside trace() run in parallel on `jobs`.
 class PoseAOTracer {
  public:
   // Fails with InvalidInput naming `context` when the mesh has no normals, no joints/weights, or
-  // a joint index >= joint_count with a non-zero weight. Cost: one BVH build.
+  // a joint index >= joint_count with a non-zero weight, or an occluder's skinning does not fit
+  // its joint map. Cost: one BVH build over the mesh and the occluders.
   static Result<PoseAOTracer> create(std::shared_ptr<const MeshData> mesh, std::size_t joint_count,
-                                     std::string_view context);
+                                     std::string_view context, std::vector<PoseAOOccluder> occluders = {});
   PoseAOTracer(PoseAOTracer&&) noexcept;
   PoseAOTracer& operator=(PoseAOTracer&&) noexcept;
   ~PoseAOTracer();
@@ -108,7 +133,8 @@ class PoseAOTracer {
   Status trace(std::span<const glm::mat4> joint_matrices, std::uint32_t rays, std::uint64_t seed, JobContext& jobs,
                std::span<float> ao, std::span<float> standard_error = {});
 
-  std::size_t vertex_count() const;
+  std::size_t vertex_count() const;    // of the traced mesh
+  std::size_t occluder_count() const;
 
  private:
   struct Impl;

@@ -1,0 +1,101 @@
+// Joint roles by name (joint_roles.h).
+#include "penumbra/pose_ao/joint_roles.h"
+
+#include <cctype>
+#include <string>
+
+namespace penumbra {
+
+namespace {
+
+// The name lower-cased, without a namespace prefix ("mixamorig:", "Armature|") and with every
+// character that is not a letter or digit turned into a space, padded with spaces so that whole
+// words can be found as " word ".
+std::string words(std::string_view name) {
+  if (const auto cut = name.find_last_of(":|"); cut != std::string_view::npos) name.remove_prefix(cut + 1);
+  std::string out = " ";
+  for (std::size_t i = 0; i < name.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(name[i]);
+    // Split camel case ("LeftForeArm" -> "left fore arm") so that side words stand alone.
+    if (std::isupper(c) && i > 0 && std::islower(static_cast<unsigned char>(name[i - 1]))) out += ' ';
+    out += std::isalnum(c) ? static_cast<char>(std::tolower(c)) : ' ';
+  }
+  return out + " ";
+}
+
+bool has(const std::string& w, std::string_view part) { return w.find(part) != std::string::npos; }
+
+}  // namespace
+
+JointRole joint_role(std::string_view name) {
+  const std::string w = words(name);
+  // The same words with the spaces removed, for names that run words together ("forearm",
+  // "upperarm", "upleg").
+  std::string joined;
+  for (char c : w)
+    if (c != ' ') joined += c;
+  if (has(w, " end ") || has(w, "nub") || has(w, " tip") || joined.ends_with("end")) return JointRole::End;
+  if (has(joined, "thumb") || has(joined, "index") || has(joined, "middle") || has(joined, "ring") ||
+      has(joined, "pinky") || has(joined, "finger"))
+    return JointRole::Finger;
+  if (has(joined, "toe") || has(w, " ball ")) return JointRole::Toe;
+  if (has(joined, "foot") || has(joined, "ankle")) return JointRole::Foot;
+  if (has(joined, "thigh") || has(joined, "upleg") || has(joined, "upperleg")) return JointRole::Thigh;
+  if (has(joined, "calf") || has(joined, "shin") || has(joined, "knee") || has(joined, "lowerleg") ||
+      has(joined, "leg"))
+    return JointRole::Calf;
+  if (has(joined, "forearm") || has(joined, "lowerarm") || has(joined, "elbow")) return JointRole::Forearm;
+  if (has(joined, "clavicle") || has(joined, "shoulder") || has(joined, "collar")) return JointRole::Clavicle;
+  if (has(joined, "upperarm") || has(joined, "arm")) return JointRole::UpperArm;
+  if (has(joined, "hand") || has(joined, "wrist") || has(joined, "palm")) return JointRole::Hand;
+  if (has(joined, "neck")) return JointRole::Neck;
+  if (has(joined, "head")) return JointRole::Head;
+  if (has(joined, "spine") || has(joined, "chest") || has(joined, "torso") || has(joined, "abdomen"))
+    return JointRole::Spine;
+  if (has(joined, "hips") || has(joined, "pelvis") || has(w, " hip ")) return JointRole::Hips;
+  return JointRole::Unknown;
+}
+
+const char* to_string(JointRole role) {
+  switch (role) {
+    case JointRole::Unknown: return "unknown";
+    case JointRole::Hips: return "hips";
+    case JointRole::Spine: return "spine";
+    case JointRole::Neck: return "neck";
+    case JointRole::Head: return "head";
+    case JointRole::Clavicle: return "clavicle";
+    case JointRole::UpperArm: return "upper arm";
+    case JointRole::Forearm: return "forearm";
+    case JointRole::Hand: return "hand";
+    case JointRole::Finger: return "finger";
+    case JointRole::Thigh: return "thigh";
+    case JointRole::Calf: return "calf";
+    case JointRole::Foot: return "foot";
+    case JointRole::Toe: return "toe";
+    case JointRole::End: return "end";
+  }
+  return "unknown";
+}
+
+float role_limit(JointRole role, float unknown) {
+  switch (role) {
+    case JointRole::Unknown: return unknown;
+    case JointRole::Hips: return 0.3f;
+    case JointRole::Spine: return 0.25f;
+    case JointRole::Neck: return 0.35f;
+    case JointRole::Head: return 0.4f;
+    case JointRole::Clavicle: return 0.25f;
+    case JointRole::UpperArm: return 0.9f;
+    case JointRole::Forearm: return 1.0f;
+    case JointRole::Hand: return 0.6f;
+    case JointRole::Finger: return 0.5f;
+    case JointRole::Thigh: return 0.7f;
+    case JointRole::Calf: return 0.9f;
+    case JointRole::Foot: return 0.4f;
+    case JointRole::Toe: return 0.3f;
+    case JointRole::End: return 0.0f;
+  }
+  return unknown;
+}
+
+}  // namespace penumbra

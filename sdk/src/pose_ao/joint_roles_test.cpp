@@ -1,0 +1,60 @@
+#include "penumbra/pose_ao/joint_roles.h"
+
+#include <gtest/gtest.h>
+
+namespace penumbra {
+namespace {
+
+struct Case {
+  const char* name;
+  JointRole role;
+};
+
+// The naming conventions of the common pipelines (joint_roles.h).
+TEST(JointRoles, TheCommonNamingConventionsAreRecognised) {
+  const Case cases[] = {
+      // Mixamo
+      {"mixamorig:Hips", JointRole::Hips}, {"mixamorig:Spine2", JointRole::Spine},
+      {"mixamorig:Neck", JointRole::Neck}, {"mixamorig:Head", JointRole::Head},
+      {"mixamorig:HeadTop_End", JointRole::End}, {"mixamorig:LeftShoulder", JointRole::Clavicle},
+      {"mixamorig:LeftArm", JointRole::UpperArm}, {"mixamorig:LeftForeArm", JointRole::Forearm},
+      {"mixamorig:RightHand", JointRole::Hand}, {"mixamorig:RightHandIndex2", JointRole::Finger},
+      {"mixamorig:LeftHandThumb1", JointRole::Finger}, {"mixamorig:LeftUpLeg", JointRole::Thigh},
+      {"mixamorig:LeftLeg", JointRole::Calf}, {"mixamorig:RightFoot", JointRole::Foot},
+      {"mixamorig:RightToeBase", JointRole::Toe}, {"mixamorig:LeftToe_End", JointRole::End},
+      // Unreal
+      {"pelvis", JointRole::Hips}, {"spine_03", JointRole::Spine}, {"clavicle_l", JointRole::Clavicle},
+      {"upperarm_l", JointRole::UpperArm}, {"lowerarm_r", JointRole::Forearm}, {"hand_l", JointRole::Hand},
+      {"index_02_l", JointRole::Finger}, {"thigh_r", JointRole::Thigh}, {"calf_l", JointRole::Calf},
+      {"foot_r", JointRole::Foot}, {"ball_l", JointRole::Toe}, {"upperarm_twist_01_l", JointRole::UpperArm},
+      // 3ds Max Biped
+      {"Bip01 Pelvis", JointRole::Hips}, {"Bip01 L Clavicle", JointRole::Clavicle},
+      {"Bip01 L UpperArm", JointRole::UpperArm}, {"Bip01 L Forearm", JointRole::Forearm},
+      {"Bip01 R Finger12", JointRole::Finger}, {"Bip01 R Thigh", JointRole::Thigh},
+      {"Bip01 L Calf", JointRole::Calf}, {"Bip01 L Toe0", JointRole::Toe}, {"Bip01 HeadNub", JointRole::End},
+      // Blender (Rigify deform bones)
+      {"DEF-upper_arm.L", JointRole::UpperArm}, {"DEF-forearm.R", JointRole::Forearm},
+      {"DEF-thigh.L", JointRole::Thigh}, {"DEF-shin.R", JointRole::Calf}, {"shoulder.L", JointRole::Clavicle},
+      // The courtyard's walker
+      {"left_thigh", JointRole::Thigh}, {"right_shin", JointRole::Calf}, {"left_arm", JointRole::UpperArm},
+      // Nothing to go by
+      {"Bip01", JointRole::Unknown}, {"root", JointRole::Unknown}, {"joint_17", JointRole::Unknown},
+      {"", JointRole::Unknown},
+  };
+  for (const Case& c : cases) EXPECT_EQ(joint_role(c.name), c.role) << c.name << ": " << to_string(joint_role(c.name));
+}
+
+TEST(JointRoles, LimitsAreHumanAndEndJointsStayFixed) {
+  EXPECT_EQ(role_limit(JointRole::End, 0.5f), 0.0f);
+  EXPECT_EQ(role_limit(JointRole::Unknown, 0.37f), 0.37f);
+  // A forearm bends further than a finger segment, a finger further than the spine.
+  EXPECT_GT(role_limit(JointRole::Forearm, 0.5f), role_limit(JointRole::Finger, 0.5f));
+  EXPECT_GT(role_limit(JointRole::Finger, 0.5f), role_limit(JointRole::Spine, 0.5f));
+  for (int r = 0; r <= static_cast<int>(JointRole::End); ++r) {
+    const float limit = role_limit(static_cast<JointRole>(r), 0.5f);
+    EXPECT_TRUE(limit >= 0.0f && limit <= 1.2f) << to_string(static_cast<JointRole>(r));
+  }
+}
+
+}  // namespace
+}  // namespace penumbra
