@@ -77,4 +77,17 @@ expect_exit 0 "$PENUMBRA" validate "$SOURCE_DIR/tests/data/gltf/degenerate.gltf"
 grep -q "penumbra: warning" <<<"$out" && fail "--quiet still printed a warning: $out"
 expect_exit 0 "$PENUMBRA" --verbose validate "$SOURCE_DIR/tests/data/gltf/degenerate.gltf"
 expect_output "penumbra: warning: .*degenerate"
+# A character without clips bakes its pose-AO over its joints' roles; --poses adds an animation
+# file's clips retargeted by joint name (a node the character lacks is named, not fatal), and a
+# file that drives nothing of the scene is refused by name.
+armature="$SOURCE_DIR/tests/data/gltf/scaled_armature.gltf"
+expect_exit 0 "$PENUMBRA" bake "$armature" -o "$scratch/roles.pbake" --only pose-ao --preset draft
+expect_output "pose space from the joints' roles: 2 of 2 joints move"
+expect_exit 0 "$PENUMBRA" bake "$armature" -o "$scratch/wave.pbake" --only pose-ao --preset draft \
+  --poses "$SOURCE_DIR/tests/data/gltf/scaled_armature_wave.gltf"
+expect_output "1 clips, 1 channels retargeted"; expect_output "dropped ('rig:prop')"
+expect_output "pose space from the clips: 1 of 2 joints move, the widest 0.9 rad"
+expect_exit 1 "$PENUMBRA" bake builtin:cornell -o "$scratch/x.pbake" --poses "$SOURCE_DIR/tests/data/gltf/scaled_armature_wave.gltf"
+expect_output "no animation channel drives a node of the scene"; expect_output "'rig:head'"
+expect_exit 2 "$PENUMBRA" bake "$armature" -o "$scratch/x.pbake" --poses; expect_output "--poses needs a value"
 finish

@@ -48,6 +48,9 @@ int cmd_bake(Args args) {
   const auto threads = args.take("--threads");
   const auto seed = args.take("--seed");
   const auto shard_arg = args.take("--shard");
+  std::vector<std::string> pose_files;
+  while (const auto poses = args.take("--poses"))
+    for (const std::string& f : split_list(*poses)) pose_files.push_back(f);
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
   std::optional<ShardSpec> shard;
   if (shard_arg) {
@@ -105,6 +108,13 @@ int cmd_bake(Args args) {
   const auto t0 = std::chrono::steady_clock::now();
   World world;
   if (Status s = load_world(world, scene, settings.preset); !s) return fail(kFailure, s.error().message);
+  for (const std::string& f : pose_files) {
+    auto added = import_animations(world, f);
+    if (!added) return fail(kFailure, "--poses: " + added.error().message);
+    for (const std::string& w : added->warnings) std::fprintf(stderr, "penumbra: warning: %s\n", w.c_str());
+    std::printf("poses from %s: %zu clips, %zu channels retargeted by joint name\n", f.c_str(), added->clips,
+                added->channels);
+  }
 
   // Skip the bake when the file on disk was made from the same inputs (a part: and the same shard).
   const std::uint64_t input_hash = bake_input_hash(world, names, settings);

@@ -13,9 +13,11 @@ constexpr const char* kUsage = R"(usage: penumbra COMMAND [ARGS]
 
 Commands:
   bake SCENE -o FILE.pbake [--only LIST] [--preset draft|medium|high] [--threads N] [--seed S] [--force]
-       [--shard I/N]
+       [--shard I/N] [--poses ANIM.glb[,ANIM.glb...]]
       Bake the lighting data of SCENE (a glTF file or builtin:NAME) into FILE.pbake. --only takes a
-      comma-separated list of bakers (default: all; 'penumbra bake --list' names them). An unchanged
+      comma-separated list of bakers (default: all; 'penumbra bake --list' names them). --poses adds
+      the clips of animation files (the character's walk, run, ... delivered apart from it; the
+      option may repeat) retargeted by joint name: pose-AO then samples the poses they reach. An unchanged
       scene with the same settings is not baked again unless --force is given. FILE is never the
       scene itself, and an existing FILE that is not a .pbake is replaced only with --force; when
       FILE is a symbolic link, the file it points to is written and the link kept.

@@ -636,3 +636,50 @@ TEST(GltfImport, BaseColourTextureDecodedWithLinearAverage) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+TEST(GltfAnimations, AnAnimationFileIsRetargetedByJointName) {
+  World world;
+  auto character = import_gltf(world, kCases / "scaled_armature.gltf");
+  ASSERT_TRUE(character) << character.error().message;
+  ASSERT_FALSE(world.has<Animator>(character->root));  // the character comes without clips
+  auto added = import_animations(world, kCases / "scaled_armature_wave.gltf");
+  ASSERT_TRUE(added) << added.error().message;
+  EXPECT_EQ(added->clips, 1u);
+  EXPECT_EQ(added->channels, 1u);
+  EXPECT_EQ(added->unmatched_channels, 1u);
+  ASSERT_EQ(added->warnings.size(), 1u);
+  EXPECT_NE(added->warnings[0].find("'rig:prop'"), std::string::npos) << added->warnings[0];
+  // "rig:head" drives the character's "head"; the Animator goes on the hierarchy's root.
+  EXPECT_EQ(added->animator, character->root);
+  const Animator& animator = world.get<Animator>(added->animator);
+  ASSERT_EQ(animator.clips->size(), 1u);
+  const AnimationClip& wave = animator.clips->front();
+  EXPECT_EQ(wave.name, "wave");
+  EXPECT_FLOAT_EQ(wave.duration, 1.0f);
+  ASSERT_EQ(wave.targets.size(), 1u);
+  EXPECT_EQ(world.get<Name>(wave.targets[0]).value, "head");
+  // A second file appends to the same Animator.
+  auto again = import_animations(world, kCases / "scaled_armature_wave.gltf");
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->animator, added->animator);
+  EXPECT_EQ(world.get<Animator>(added->animator).clips->size(), 2u);
+}
+
+TEST(GltfAnimations, AFileThatDrivesNothingOfTheSceneIsRefusedByName) {
+  World world;
+  ASSERT_TRUE(load_scene(world, "builtin:cornell"));
+  auto added = import_animations(world, kCases / "scaled_armature_wave.gltf");
+  ASSERT_FALSE(added);
+  EXPECT_EQ(added.error().code, ErrorCode::InvalidInput);
+  EXPECT_NE(added.error().message.find("scaled_armature_wave.gltf"), std::string::npos);
+  EXPECT_NE(added.error().message.find("'rig:head'"), std::string::npos) << added.error().message;
+  auto none = import_animations(world, kCases / "valid.gltf");
+  ASSERT_FALSE(none);
+  EXPECT_NE(none.error().message.find("has no animations"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -229,6 +229,34 @@ def main():
     armature["skins"] = [{"joints": [2, 3], "inverseBindMatrices": 5, "skeleton": 2}]
     write("scaled_armature.gltf", armature)
 
+    # scaled_armature_wave.gltf: an animation of scaled_armature.gltf's skeleton delivered alone
+    # (no mesh, no skin), as animation libraries ship them: its nodes carry a namespace prefix the
+    # character's lack ("rig:hips"), and the clip "wave" turns the head 0.6 rad about Z in 1 s.
+    keys = [0.0, 0.5, 1.0]
+    turn = [0.0, 0.3, 0.6]
+    quats = sum(([0.0, 0.0, math.sin(a / 2), math.cos(a / 2)] for a in turn), [])
+    data = floats(keys) + floats(quats)
+    wave = {
+        "asset": {"version": "2.0", "generator": "penumbra make_gltf_cases.py"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "Armature", "scale": [0.01, 0.01, 0.01], "children": [1, 3]},
+                  {"name": "rig:hips", "translation": [0, 90, 0], "children": [2]},
+                  {"name": "rig:head", "translation": [0, 70, 0]},
+                  {"name": "rig:prop"}],
+        "buffers": [{"byteLength": len(data),
+                     "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 12},
+                        {"buffer": 0, "byteOffset": 12, "byteLength": 48}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "SCALAR", "min": [0.0], "max": [1.0]},
+                      {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC4"}],
+        "animations": [{"name": "wave",
+                        "channels": [{"sampler": 0, "target": {"node": 2, "path": "rotation"}},
+                                     {"sampler": 0, "target": {"node": 3, "path": "rotation"}}],
+                        "samplers": [{"input": 0, "output": 1, "interpolation": "LINEAR"}]}],
+    }
+    write("scaled_armature_wave.gltf", wave)
+
     # lighting_extension.gltf: a small level authored with Penumbra's lighting components
     # (PENUMBRA_lighting on nodes): a floor, a movable crate that casts an AO field, a probe grid
     # whose box is its node's unit cube (scaled to the level), and a sun.

@@ -75,6 +75,28 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
 Status save_gltf(const std::filesystem::path& source, const std::filesystem::path& out,
                  std::span<const GltfNodeEdit> edits);
 
+// What import_animations added.
+struct ImportedAnimations {
+  std::size_t clips = 0;               // clips added: those of which some channel found its node
+  std::size_t channels = 0;            // channels retargeted
+  std::size_t unmatched_channels = 0;  // channels on nodes the scene has no node of that name for
+  Entity animator;                     // the Animator the clips were appended to
+  std::vector<std::string> warnings;   // the dropped channels' nodes, named
+};
+
+// Adds the animations of the glTF file `path` (clips delivered apart from the character, e.g.
+// walk.glb from an animation library) to `world`, retargeted by node name: a channel on a node
+// named N drives the entity of `world` named N, else the one whose name matches without its
+// namespace prefix ("rig:Hips" and "mixamorig:Hips" match "Hips"). The retarget assumes the
+// same skeleton (the same bind pose, units and proportions): keys are applied as they are.
+// Channels whose node finds no match are dropped, counted and named in `warnings`. The clips are
+// appended to the Animator whose clips already drive the first matched node, else to a new
+// Animator on that node's hierarchy root; the pose-AO bake samples every clip that drives a
+// skin's joints (pose_ao_baker.h). Errors name the file: the importer's, InvalidInput when the
+// file has no animations or none of its channels drives a node of `world` (naming the nodes).
+// Cost: one import of the file without textures.
+Result<ImportedAnimations> import_animations(World& world, const std::filesystem::path& path);
+
 // "builtin:NAME" loads a built-in scene (builtin.h); anything else is a path to a .gltf or .glb
 // file (import_gltf with default options).
 Result<LoadedScene> load_scene(World& world, std::string_view spec);
