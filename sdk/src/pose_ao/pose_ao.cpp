@@ -153,8 +153,20 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
     for (std::uint32_t k = 0; k < g.joint_count; ++k)
       for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e)
         theta[1 + kPoseFeaturesPerJoint * k + e] = features[std::size_t{g.joints[k]} * kPoseFeaturesPerJoint + e];
-    evaluate_group(data.coefficients.data() + g.coefficient_offset, g.count, g.coefficient_count(), theta,
-                   data.vertex_order.data() + g.first, ao.data());
+    const std::uint32_t* order = data.vertex_order.data() + g.first;
+    evaluate_group(data.coefficients.data() + g.coefficient_offset, g.count, g.coefficient_count(), theta, order,
+                   ao.data());
+    // Within bind_blend of the bind pose: towards the bind-pose AO (PoseAOGroup).
+    if (g.bind_blend > 0.0f) {
+      float d2 = 0.0f;
+      for (std::uint32_t c = 1; c < g.coefficient_count(); ++c) d2 += theta[c] * theta[c];
+      const float w = d2 / g.bind_blend;
+      if (w < 1.0f)
+        for (std::uint32_t i = 0; i < g.count; ++i) {
+          const float bind = data.bind_ao[order[i]];
+          ao[order[i]] = bind + w * (ao[order[i]] - bind);
+        }
+    }
   }
 }
 

@@ -549,6 +549,10 @@ namespace {
 
 using JointSet = std::array<std::uint16_t, kPoseAOMaxLocality + 1>;  // joints ascending, then the count
 
+constexpr int kCensoredPasses = 4;  // refits of the clamped model (fit_pose_ao)
+// Bind blend candidates (PoseAOGroup), as fractions of the median squared pose distance.
+constexpr double kBindBlendFractions[] = {1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3};
+
 // Locality (algorithms.md P5): per vertex at most k joints. Candidates are the joints whose
 // rotation can move geometry against the vertex: joint j's rotation moves its subtree against the
 // rest of the character, so j qualifies when there is geometry on the other side of it (roots
@@ -741,19 +745,64 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
                 static_cast<double>(training.features[p * F + std::size_t{g.joints[j]} * kPoseFeaturesPerJoint + e]);
       }
       const pose_ao_detail::RidgeSolver solver(theta, P, C, static_cast<double>(settings.lambda));
+      // Bind blend candidates (PoseAOGroup): none, then fractions of the median distance of the
+      // poses from the bind pose; each pose's weight per candidate.
+      std::vector<double> d2(P, 0.0);
+      for (std::size_t p = 0; p < P; ++p)
+        for (std::size_t c = 1; c < C; ++c) d2[p] += theta[p * C + c] * theta[p * C + c];
+      std::vector<double> sorted_d2 = d2;
+      std::nth_element(sorted_d2.begin(), sorted_d2.begin() + static_cast<std::ptrdiff_t>(P / 2), sorted_d2.end());
+      const double median_d2 = sorted_d2[P / 2];
+      std::vector<double> blends = {0.0};
+      if (g.joint_count > 0 && median_d2 > 0.0)
+        for (double fraction : kBindBlendFractions) blends.push_back(fraction * median_d2);
+      std::vector<double> weight(blends.size() * P), blend_error(blends.size(), 0.0);
+      for (std::size_t b = 0; b < blends.size(); ++b)
+        for (std::size_t p = 0; p < P; ++p)
+          weight[b * P + p] = blends[b] == 0.0 ? 1.0 : std::min(1.0, d2[p] / blends[b]);
       std::vector<double> t(C);
+      std::vector<float> target(P);
       for (std::uint32_t i = 0; i < g.count; ++i) {
         const std::uint32_t v = (*members[gi])[i];
         solver.solve(training.ao.data() + v, V, t);
+        // The model is clamped to [0, 1] where it is evaluated, so a pose whose AO is at a bound
+        // (a vertex fully open) is fitted by any prediction beyond that bound: refit with such
+        // targets moved to the prediction (censored regression, a few fixed-point steps).
+        for (int pass = 0; pass < kCensoredPasses; ++pass) {
+          bool changed = false;
+          for (std::size_t p = 0; p < P; ++p) {
+            double a = 0.0;
+            for (std::size_t c = 0; c < C; ++c) a += theta[p * C + c] * t[c];
+            const float y = training.ao[p * V + v];
+            float y2 = y;
+            if (y >= 1.0f && a > 1.0) y2 = static_cast<float>(a);
+            if (y <= 0.0f && a < 0.0) y2 = static_cast<float>(a);
+            changed |= y2 != target[p] || pass == 0;
+            target[p] = y2;
+          }
+          if (!changed) break;
+          solver.solve(target.data(), 1, t);
+        }
         for (std::size_t c = 0; c < C; ++c)
           data.coefficients[g.coefficient_offset + c * g.count + i] = static_cast<float>(t[c]);
+        const double bind = static_cast<double>(training.bind_ao[v]);
         for (std::size_t p = 0; p < P; ++p) {
           double a = 0.0;
           for (std::size_t c = 0; c < C; ++c) a += theta[p * C + c] * t[c];
-          const double err = std::clamp(a, 0.0, 1.0) - static_cast<double>(training.ao[p * V + v]);
-          group_error[gi] += err * err;
+          a = std::clamp(a, 0.0, 1.0);
+          const double y = static_cast<double>(training.ao[p * V + v]);
+          for (std::size_t b = 0; b < blends.size(); ++b) {
+            const double err = bind + weight[b * P + p] * (a - bind) - y;
+            blend_error[b] += err * err;
+          }
         }
       }
+      // The blend with the least training error (the smallest on ties).
+      std::size_t best = 0;
+      for (std::size_t b = 1; b < blends.size(); ++b)
+        if (blend_error[b] < blend_error[best]) best = b;
+      data.groups[gi].bind_blend = static_cast<float>(blends[best]);
+      group_error[gi] = blend_error[best];
     }
   }));
   double sum = 0.0;

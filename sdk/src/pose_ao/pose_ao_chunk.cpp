@@ -45,6 +45,7 @@ BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
     w.write(g.first);
     w.write(g.count);
     w.write(g.coefficient_offset);
+    w.write(g.bind_blend);
   }
   w.write_vector(d.vertex_order);
   std::vector<std::uint16_t> halves(d.coefficients.size());
@@ -101,7 +102,7 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
   // Each set's record as written above: check the count against the bytes present before allocating.
   constexpr std::size_t kGroupBytes = sizeof(PoseAOGroup::joints) + sizeof(PoseAOGroup::joint_count) +
                                       sizeof(PoseAOGroup::first) + sizeof(PoseAOGroup::count) +
-                                      sizeof(PoseAOGroup::coefficient_offset);
+                                      sizeof(PoseAOGroup::coefficient_offset) + sizeof(PoseAOGroup::bind_blend);
   if (groups > r.remaining() / kGroupBytes)
     return bad(std::to_string(groups) + " joint sets do not fit in the " + std::to_string(r.remaining()) +
                " bytes left");
@@ -114,10 +115,12 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
     PENUMBRA_TRY(r.read(g.first));
     PENUMBRA_TRY(r.read(g.count));
     PENUMBRA_TRY(r.read(g.coefficient_offset));
-    bool ok = g.joint_count <= d.locality && g.count >= 1 && g.first == vertices && g.coefficient_offset == coefficients;
+    PENUMBRA_TRY(r.read(g.bind_blend));
+    bool ok = g.joint_count <= d.locality && g.count >= 1 && g.first == vertices &&
+              g.coefficient_offset == coefficients && std::isfinite(g.bind_blend) && g.bind_blend >= 0.0f;
     for (std::uint32_t k = 0; ok && k < g.joint_count; ++k)
       ok = g.joints[k] < J && (k == 0 || g.joints[k] > g.joints[k - 1]);
-    if (!ok) return bad("joint set " + std::to_string(i) + " is malformed (joints, count or offsets)");
+    if (!ok) return bad("joint set " + std::to_string(i) + " is malformed (joints, count, offsets or bind blend)");
     vertices += g.count;
     coefficients += std::uint64_t{g.coefficient_count()} * g.count;
     if (vertices > V) return bad("the joint sets hold more than " + std::to_string(V) + " vertices");

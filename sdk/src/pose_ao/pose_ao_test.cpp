@@ -203,6 +203,7 @@ PoseAOData tiny_data() {
 
 TEST(PoseAOChunk, RoundTripKeepsHalfPrecision) {
   PoseAOData d = tiny_data();
+  d.groups.front().bind_blend = 0.125f;
   d.pose_space = PoseSpaceSource::DegenerateClips;
   d.moving_joints = 1;
   d.widest_range = 1.0f;
@@ -221,10 +222,41 @@ TEST(PoseAOChunk, RoundTripKeepsHalfPrecision) {
   EXPECT_EQ(r->pose_space, PoseSpaceSource::DegenerateClips);
   EXPECT_EQ(r->moving_joints, 1u);
   EXPECT_EQ(r->widest_range, 1.0f);
+  for (std::size_t g = 0; g < d.groups.size(); ++g) EXPECT_EQ(r->groups[g].bind_blend, d.groups[g].bind_blend);
   const std::vector<std::string> lines = describe_pose_ao_chunk(chunk);
   ASSERT_GE(lines.size(), 4u);
   EXPECT_NE(lines[2].find("pose space from +-default_range (the clips barely move): 1 of"), std::string::npos) << lines[2];
   EXPECT_NE(lines[3].find("warning"), std::string::npos) << lines[3];
+}
+
+TEST(PoseAOFit, TheBindBlendIsExactAtTheBindPoseAndAbsentFarFromIt) {
+  PoseAOData d = tiny_data();
+  const std::size_t F = d.feature_count();
+  std::vector<float> linear(d.vertex_count), blended(d.vertex_count);
+  for (float& b : d.bind_ao) b = 0.3f;
+  for (PoseAOGroup& g : d.groups) g.bind_blend = 0.0f;
+  const auto at = [&](float scale, std::vector<float>& out) {
+    // Features of one moving joint at `scale`: every entry of joint 1 the same value.
+    std::vector<float> f(F, 0.0f);
+    for (std::size_t e = 0; e < kPoseFeaturesPerJoint; ++e) f[kPoseFeaturesPerJoint + e] = scale;
+    evaluate_pose_ao(d, f, out);
+  };
+  const auto with_blend = [&](float blend, float scale, std::vector<float>& out) {
+    for (PoseAOGroup& g : d.groups) g.bind_blend = blend;
+    at(scale, out);
+    for (PoseAOGroup& g : d.groups) g.bind_blend = 0.0f;
+  };
+  // d^2 = 9 scale^2 against bind_blend 0.9: the bind pose, a quarter of the way, and beyond.
+  at(0.0f, linear);
+  with_blend(0.9f, 0.0f, blended);
+  for (std::size_t v = 0; v < linear.size(); ++v) EXPECT_EQ(blended[v], 0.3f) << v;
+  const float quarter = std::sqrt(0.9f * 0.25f / 9.0f);
+  at(quarter, linear);
+  with_blend(0.9f, quarter, blended);
+  for (std::size_t v = 0; v < linear.size(); ++v) EXPECT_NEAR(blended[v], 0.3f + 0.25f * (linear[v] - 0.3f), 1e-5f) << v;
+  at(0.4f, linear);
+  with_blend(0.9f, 0.4f, blended);
+  EXPECT_EQ(blended, linear);
 }
 
 TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
@@ -263,6 +295,15 @@ TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
     ASSERT_FALSE(r);
     EXPECT_NE(r.error().message.find("joint sets do not fit"), std::string::npos) << r.error().message;
   }
+  // A negative bind blend (the first set's, after its record) is refused.
+  {
+    const PoseAOData t = tiny_data();
+    PoseAOData negative = t;
+    negative.groups.front().bind_blend = -1.0f;
+    auto r = read_pose_ao_chunk(write_pose_ao_chunk(negative));
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().message.find("bind blend"), std::string::npos) << r.error().message;
+  }
   // Every single-byte change either fails or reads back finite data of the same shape.
   for (std::size_t i = 0; i < good.payload.size(); ++i) {
     c = good;
@@ -271,6 +312,7 @@ TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
     if (!r) continue;
     EXPECT_EQ(r->vertex_order.size(), r->vertex_count);
     for (float x : r->coefficients) EXPECT_TRUE(std::isfinite(x));
+    for (const PoseAOGroup& g : r->groups) EXPECT_TRUE(std::isfinite(g.bind_blend) && g.bind_blend >= 0.0f);
   }
 }
 

@@ -104,12 +104,19 @@ Status validate_pose_ao(const SkinnedPoseAO& settings, std::size_t joint_count, 
 // Vertices that share a joint set share one factorisation at bake and one parameter gather at
 // runtime. Coefficient c of the group's vertex i is coefficients[coefficient_offset + c * count +
 // i] (structure of arrays: the runtime loop runs over i).
+//
+// Near the bind pose a group blends towards the bind-pose AO, which the bake traced exactly:
+// with d^2 = |f_j1 .. f_jk|^2 (zero in the bind pose), ao = bind + w (clamp(t . theta) - bind),
+// w = min(1, d^2 / bind_blend): a pose at least sqrt(bind_blend) from the bind pose gets the linear
+// model alone, at no cost. bind_blend = 0 is the linear model alone everywhere; the bake picks it
+// per group from the training poses (a one-frame clip makes the bind pose matter).
 struct PoseAOGroup {
   std::array<std::uint16_t, kPoseAOMaxLocality> joints{};  // skin joint indices, ascending
   std::uint32_t joint_count = 0;
   std::uint32_t first = 0;   // into PoseAOData::vertex_order
   std::uint32_t count = 0;   // vertices
   std::uint64_t coefficient_offset = 0;
+  float bind_blend = 0.0f;   // >= 0, finite
   std::uint32_t coefficient_count() const { return pose_ao_coefficients(joint_count); }
 };
 
@@ -167,7 +174,8 @@ void pose_features(std::span<const std::int32_t> parents, std::span<const glm::m
                    std::vector<float>& out);
 
 // AO of every vertex for pose features `features` (from pose_features): ao[v] = clamp(t_v .
-// theta_local(v), 0, 1), group by group in a loop the compiler vectorises. Preconditions:
+// theta_local(v), 0, 1) blended towards bind_ao near the bind pose (PoseAOGroup), group by group
+// in a loop the compiler vectorises. Preconditions:
 // features.size() == data.feature_count(), ao.size() == data.vertex_count. The same math as the
 // vertex shader. Cost: about (1 + 9 k) multiply-adds per vertex (the pose-ao bench measures the ns
 // per vertex). Thread-safe (writes only `ao`).
@@ -178,7 +186,7 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
 // rest as written. The reader checks the version, every size and index, that the groups
 // partition the vertices, finiteness and [0, 1] baselines, naming the chunk in its errors.
 inline constexpr std::uint32_t kPoseAOChunkType = fourcc("PSAO");
-inline constexpr std::uint32_t kPoseAOChunkVersion = 3;  // 3: the pose space
+inline constexpr std::uint32_t kPoseAOChunkVersion = 4;  // 4: the groups' bind blend
 BakeChunk write_pose_ao_chunk(const PoseAOData& data);
 Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk);
 
