@@ -489,8 +489,9 @@ Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mes
     const Name* n = world.try_get<Name>(e);
     return n ? "'" + n->value + "'" : "entity " + std::to_string(e.index);
   };
-  for (Entity e : world.view<Skin, Mesh>().sorted_entities()) {
-    if (e == mesh_entity) continue;
+  const std::vector<Entity> meshes = character_meshes(world, mesh_entity);
+  for (std::size_t m = 1; m < meshes.size(); ++m) {
+    const Entity e = meshes[m];
     const Skin& other = world.get<Skin>(e);
     const auto& data = world.get<Mesh>(e).data;
     const WorldTransform* other_world = world.try_get<WorldTransform>(e);
@@ -499,7 +500,6 @@ Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mes
       continue;
     PoseAOOccluder o;
     o.mesh = data;
-    bool shares = false;
     std::string missing;
     std::vector<std::uint8_t> used(other.joints.size(), 0);
     for (std::size_t v = 0; v < data->positions.size(); ++v)
@@ -508,7 +508,6 @@ Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mes
     for (std::size_t k = 0; k < other.joints.size(); ++k) {
       const auto it = joint_of.find(other.joints[k].index);
       const bool same = it != joint_of.end() && skin->joints[it->second] == other.joints[k];
-      shares |= same;
       if (!same && used[k] && missing.empty()) missing = name_of(other.joints[k]);
       const std::uint32_t j = same ? it->second : 0;
       o.joints.push_back(j);
@@ -516,7 +515,6 @@ Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mes
       // skin's bind frame of joint j, which M_j then poses.
       o.to_traced.push_back(same ? glm::inverse(skin->inverse_bind[j]) * other.inverse_bind[k] : glm::mat4(1.0f));
     }
-    if (!shares) continue;  // another character
     if (!missing.empty()) {
       if (notes)
         notes->push_back(name_of(e) + " is not traced with " + name_of(mesh_entity) + ": its skin moves joint " +

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_set>
 
 #include <glm/gtc/matrix_inverse.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -142,6 +143,22 @@ void skin_normals(const MeshData& mesh, const SkinPose& pose, std::vector<glm::v
     const float len = glm::length(n);
     out[i] = len > 0.0f && std::isfinite(len) ? n / len : mesh.normals[i];
   }
+}
+
+std::vector<Entity> character_meshes(World& world, Entity mesh) {
+  std::vector<Entity> out{mesh};
+  const Skin* skin = world.alive(mesh) ? world.try_get<Skin>(mesh) : nullptr;
+  if (skin == nullptr) return out;
+  const auto bits = [](Entity j) { return (std::uint64_t{j.generation} << 32) | j.index; };
+  std::unordered_set<std::uint64_t> joints;
+  for (Entity j : skin->joints) joints.insert(bits(j));
+  for (Entity e : world.view<Skin, Mesh>().sorted_entities()) {
+    if (e == mesh) continue;
+    const Skin& other = world.get<Skin>(e);
+    if (std::any_of(other.joints.begin(), other.joints.end(), [&](Entity j) { return joints.contains(bits(j)); }))
+      out.push_back(e);
+  }
+  return out;
 }
 
 Aabb posed_bounds(World& world, Entity root) {

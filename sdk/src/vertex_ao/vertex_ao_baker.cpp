@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
+#include <optional>
 #include <string>
 
 #include <glm/mat3x3.hpp>
@@ -14,6 +16,7 @@
 #include "penumbra/bake/integrators.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/vertex_ao/vertex_ao.h"
 #include "penumbra/vertex_ao/vertex_ao_system.h"
@@ -30,6 +33,52 @@ std::vector<Entity> static_meshes(World& world) {
     return !m.data || m.data->positions.empty();
   });
   return out;
+}
+
+// The skinned meshes to bake in their bind pose, in entity-index order.
+std::vector<Entity> skinned_meshes(World& world) {
+  std::vector<Entity> out = world.view<Skin, Mesh>().sorted_entities();
+  std::erase_if(out, [&](Entity e) {
+    const Mesh& m = world.get<Mesh>(e);
+    return world.has<Static>(e) || !m.data || m.data->positions.empty() || m.data->indices.empty();
+  });
+  return out;
+}
+
+// A character in its bind pose, for the AO of one of its skinned meshes: the mesh and the
+// character's other meshes whose skins bind the shared joints with the same inverse bind
+// matrices (so their vertices as stored lie in one bind space), unskinned. Self-occlusion only:
+// the level does not move with the character.
+struct BindPoseScene {
+  std::unique_ptr<World> world = std::make_unique<World>();
+  std::optional<RayScene> rays;
+};
+
+bool same_bind_space(const Skin& a, const Skin& b) {
+  for (std::size_t i = 0; i < a.joints.size(); ++i)
+    for (std::size_t k = 0; k < b.joints.size(); ++k)
+      if (a.joints[i] == b.joints[k] && i < a.inverse_bind.size() && k < b.inverse_bind.size()) {
+        const glm::mat4 d = a.inverse_bind[i] - b.inverse_bind[k];
+        for (int c = 0; c < 4; ++c)
+          if (glm::length(d[c]) > 1e-5f * (1.0f + glm::length(a.inverse_bind[i][c]))) return false;
+      }
+  return true;
+}
+
+Result<std::shared_ptr<BindPoseScene>> bind_pose_scene(World& world, Entity mesh) {
+  auto scene = std::make_shared<BindPoseScene>();
+  const Skin& skin = world.get<Skin>(mesh);
+  for (Entity e : character_meshes(world, mesh)) {
+    if (e != mesh && !same_bind_space(skin, world.get<Skin>(e))) continue;
+    const Entity copy = scene->world->create();
+    scene->world->add<Mesh>(copy, Mesh{world.get<Mesh>(e).data});
+    scene->world->add<WorldTransform>(copy);
+    scene->world->add<Static>(copy);
+  }
+  auto rays = RayScene::build(*scene->world);
+  if (!rays) return rays.error();
+  scene->rays.emplace(std::move(*rays));
+  return scene;
 }
 
 }  // namespace
@@ -49,7 +98,9 @@ struct VertexAoHeader {
 Result<BakeWork> plan_vertex_ao(BakeInputs& in) {
   VertexAoSettings settings = VertexAoSettings::preset(in.settings.preset);
   settings.max_distance = vertex_ao_distance(settings, glm::length(in.rays.bounds_max() - in.rays.bounds_min()));
-  const std::vector<Entity> entities = static_meshes(in.world);
+  std::vector<Entity> entities = static_meshes(in.world);
+  const std::size_t static_count = entities.size();
+  for (Entity e : skinned_meshes(in.world)) entities.push_back(e);
   auto keys = bake_keys(in, entities, "vertex-AO mesh");
   if (!keys) return keys.error();
   ByteWriter header;
@@ -59,22 +110,31 @@ Result<BakeWork> plan_vertex_ao(BakeInputs& in) {
   struct Group {
     Entity entity;
     std::uint64_t first_vertex;
+    std::shared_ptr<BindPoseScene> bind;  // skinned: its character in the bind pose; null: static
   };
   auto groups = std::make_shared<std::vector<Group>>();
   BakeWork work;
   std::uint64_t next = 0;
   for (std::size_t i = 0; i < entities.size(); ++i) {
     const std::size_t n = in.world.get<Mesh>(entities[i]).data->positions.size();
+    Group group{entities[i], next, nullptr};
+    if (i >= static_count) {
+      auto bind = bind_pose_scene(in.world, entities[i]);
+      if (!bind) return bind.error();
+      group.bind = std::move(*bind);
+    }
     work.groups.push_back(BakeGroup{std::move((*keys)[i]), n, kVertexBlock, double(settings.rays), header_bytes});
-    groups->push_back({entities[i], next});
+    groups->push_back(std::move(group));
     next += n;
   }
   work.run = [&in, groups, settings](std::size_t g, std::uint64_t begin, std::uint64_t end,
                                      JobContext& jobs) -> Result<std::vector<std::byte>> {
-    // The range's vertices in world space; normals by the inverse transpose.
-    const Entity e = (*groups)[g].entity;
+    // The range's vertices in world space (a skinned mesh's: in its bind space as stored);
+    // normals by the inverse transpose.
+    const Group& group = (*groups)[g];
+    const Entity e = group.entity;
     const MeshData& mesh = *in.world.get<Mesh>(e).data;
-    const glm::mat4& m = in.world.get<WorldTransform>(e).matrix;
+    const glm::mat4 m = group.bind ? glm::mat4(1.0f) : in.world.get<WorldTransform>(e).matrix;
     const glm::mat3 normal_matrix = glm::transpose(glm::inverse(glm::mat3(m)));
     const std::size_t count = static_cast<std::size_t>(end - begin);
     PENUMBRA_TRY(in.budget.reserve("vertex AO points", count * (sizeof(SurfacePoint) + sizeof(AoEstimate))));
@@ -89,11 +149,12 @@ Result<BakeWork> plan_vertex_ao(BakeInputs& in) {
     // Trace: one random stream per vertex, results by index (deterministic at any thread count).
     std::vector<AoEstimate> estimates(count);
     AoSettings ao;
-    ao.max_distance = settings.max_distance;
+    // A character occludes itself at any distance (the level's scale means nothing to it).
+    if (!group.bind) ao.max_distance = settings.max_distance;
     ao.rays = settings.rays;
     ao.seed = in.settings.seed;
     ao.first_stream = (*groups)[g].first_vertex + begin;
-    const Status traced = ambient_occlusion(in.rays, points, ao, estimates, jobs);
+    const Status traced = ambient_occlusion(group.bind ? *group.bind->rays : in.rays, points, ao, estimates, jobs);
     in.budget.release(count * (sizeof(SurfacePoint) + sizeof(AoEstimate)));
     PENUMBRA_TRY(traced);
     ByteWriter out;

@@ -42,7 +42,7 @@ std::vector<std::string> describe_vertex_ao(const BakeChunk& chunk) {
       hi = std::max(hi, a);
     }
   char line[200];
-  std::snprintf(line, sizeof line, "%zu meshes, %zu vertices, %u rays/vertex, max distance %.3g m", data->entries.size(),
+  std::snprintf(line, sizeof line, "%zu meshes, %zu vertices, %u rays/vertex, max distance %.3g m (skinned meshes: none)", data->entries.size(),
                 vertices, data->rays, static_cast<double>(data->max_distance));
   std::vector<std::string> out{line};
   if (vertices > 0) {
@@ -56,14 +56,10 @@ std::vector<std::string> describe_vertex_ao(const BakeChunk& chunk) {
 constexpr std::uint32_t kChunkTypes[] = {kVertexAoChunkType};
 
 std::string explain_empty(World& world) {
-  std::size_t skinned = 0, movable = 0;
-  world.view<const Mesh>().each([&](Entity e, const Mesh&) {
-    if (world.has<Skin>(e)) ++skinned;
-    else if (!world.has<Static>(e)) ++movable;
-  });
-  return "vertex-ao bakes Static meshes and this scene has none (" + std::to_string(skinned) +
-         " skinned meshes, which pose-ao bakes; " + std::to_string(movable) +
-         " movable meshes, which ao-field casters shade)";
+  std::size_t movable = 0;
+  world.view<const Mesh>().each([&](Entity e, const Mesh&) { movable += !world.has<Skin>(e) && !world.has<Static>(e); });
+  return "vertex-ao bakes Static meshes and skinned meshes (in their bind pose) and this scene has neither (" +
+         std::to_string(movable) + " movable meshes, which ao-field casters shade)";
 }
 
 }  // namespace

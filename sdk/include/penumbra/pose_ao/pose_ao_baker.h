@@ -100,8 +100,8 @@ struct PoseAOOccluder {
   glm::mat4 rigid{1.0f};  // its weightless vertices: its mesh frame -> the traced mesh's frame
 };
 
-// The other skinned meshes of `mesh_entity`'s character: every Mesh + Skin entity whose skin
-// shares a joint entity with its skin, in entity order. A mesh whose weights use a joint the
+// The other skinned meshes of `mesh_entity`'s character (character_meshes, scene/animation.h), as
+// occluders. A mesh whose weights use a joint the
 // traced skin lacks cannot be posed from its poses: it is left out, with a line in `notes`
 // naming both meshes and the joint. Needs WorldTransforms (run the transform system). Cost:
 // O(meshes x joints + their vertices).

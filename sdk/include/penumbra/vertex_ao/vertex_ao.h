@@ -3,8 +3,11 @@
 // deterministic parallel bake, a versioned .pbake chunk keyed by entity, a reader for it).
 //
 // A(x, n) = (1/pi) \int V(x, w) max(0, w.n) dw within max_distance (1 = open), at every vertex of
-// every entity with Static + Mesh, from the vertex's position and normal in world space. The values
-// reach the renderer as VertexAO (scene/components.h).
+// every entity with Static + Mesh, from the vertex's position and normal in world space; and at
+// every vertex of every skinned mesh (Skin + Mesh) in its bind pose, occluded by its character's
+// meshes alone (scene/animation.h, character_meshes; no distance limit): the AO of a character
+// that carries no pose-AO, or before its pose-AO is baked (a mesh's pose-AO, when attached,
+// replaces it every frame). The values reach the renderer as VertexAO (scene/components.h).
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,6 @@
-// The vertex-AO baker: every Static mesh's vertices, VertexAoSettings::preset(bake preset), one
-// random stream per vertex (bit-identical at any thread count), one VXAO chunk.
+// The vertex-AO baker: every Static mesh's vertices, then every skinned mesh's in its bind pose
+// (vertex_ao.h), VertexAoSettings::preset(bake preset), one random stream per vertex
+// (bit-identical at any thread count), one VXAO chunk.
 #pragma once
 
 #include "penumbra/ecs/world.h"
