@@ -26,6 +26,7 @@
 #include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/entity_key.h"
+#include "penumbra/scene/mesh.h"
 #include "ridge.h"
 
 namespace penumbra {
@@ -477,6 +478,41 @@ Status PoseAOTracer::trace(std::span<const glm::mat4> joint_matrices, std::uint3
   });
 }
 
+PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOccluder> others, const glm::mat4& mesh_world) {
+  // World up in the bind space the vertices are stored in (the mesh frame: the skinning matrices
+  // are the identity in the bind pose), and the character's lowest point and extent along it.
+  glm::vec3 up = glm::inverse(glm::mat3(mesh_world)) * glm::vec3(0.0f, 1.0f, 0.0f);
+  up = glm::length(up) > 0.0f && std::isfinite(glm::length(up)) ? glm::normalize(up) : glm::vec3(0.0f, 1.0f, 0.0f);
+  float low = std::numeric_limits<float>::max();
+  Aabb box;
+  const auto take = [&](const MeshData& m, const glm::mat4& to) {
+    for (const glm::vec3& p : m.positions) {
+      const glm::vec3 q(to * glm::vec4(p, 1.0f));
+      low = std::min(low, glm::dot(q, up));
+      box.extend(q);
+    }
+  };
+  take(mesh, glm::mat4(1.0f));
+  for (const PoseAOOccluder& o : others) take(*o.mesh, o.to_traced.empty() ? o.rigid : o.to_traced.front());
+  const float size = 2.0f * glm::length(box.extent());
+  const glm::vec3 centre = box.center() - (glm::dot(box.center(), up) - low) * up;
+  const glm::vec3 helper = std::abs(up.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+  const glm::vec3 u = glm::normalize(glm::cross(helper, up)) * size, w = glm::normalize(glm::cross(up, u)) * size;
+  auto ground = std::make_shared<MeshData>();
+  ground->name = "ground";
+  for (const glm::vec3& corner : {centre - u - w, centre + u - w, centre + u + w, centre - u + w}) {
+    ground->positions.push_back(corner);
+    ground->normals.push_back(up);
+    ground->joints.push_back(glm::u16vec4(0));
+    ground->weights.push_back(glm::vec4(0.0f));  // weightless: fixed in the traced mesh's frame
+  }
+  ground->indices = {0, 1, 2, 0, 2, 3};  // facing up
+  compute_bounds(*ground);
+  PoseAOOccluder o;
+  o.mesh = std::move(ground);
+  return o;
+}
+
 Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mesh_entity, std::vector<std::string>* notes) {
   std::vector<PoseAOOccluder> out;
   const Skin* skin = world.alive(mesh_entity) ? world.try_get<Skin>(mesh_entity) : nullptr;
@@ -910,6 +946,7 @@ Result<std::shared_ptr<PoseBake>> PoseBake::prepare(World& world, Entity e, cons
   if (!occluders->empty())
     log(LogLevel::Info, context + ": traced with the character's " + std::to_string(occluders->size()) +
                             " other mesh" + (occluders->size() == 1 ? "" : "es"));
+  if (settings.ground) occluders->push_back(ground_occluder(*mesh->data, *occluders, world.get<WorldTransform>(e).matrix));
   auto tracer = PoseAOTracer::create(mesh->data, rig->joint_count(), context, std::move(*occluders));
   if (!tracer) return tracer.error();
 

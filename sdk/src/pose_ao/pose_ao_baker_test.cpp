@@ -387,6 +387,63 @@ TEST(PoseAOProductionRig, TheCharactersMeshesAreTracedTogether) {
   EXPECT_LT(sum / double(n), 0.45);
 }
 
+TEST(PoseAOProductionRig, TheOptionalGroundDarkensTheFeetAndNotTheHead) {
+  Humanoid h;
+  SkinnedPoseAO s = quick();
+  s.reference_poses = 12;
+  s.clip_poses = 1;
+  s.locality = 1;
+  JobContext jobs;
+  MemoryBudget budget;
+  auto open = bake_pose_ao(*h.world, h.body, s, 1, jobs, budget);
+  s.ground = true;
+  auto grounded = bake_pose_ao(*h.world, h.body, s, 1, jobs, budget);
+  ASSERT_TRUE(open && grounded);
+  const MeshData& body = *h.world->get<Mesh>(h.body).data;
+  double feet_open = 0, feet_ground = 0, head_open = 0, head_ground = 0;
+  std::size_t feet = 0, head = 0;
+  for (std::size_t v = 0; v < body.positions.size(); ++v) {
+    // The armature scales centimetres to metres: the toes' undersides lie within 3 cm of the floor.
+    if (body.positions[v].y < 3.0f) {
+      feet_open += open->bind_ao[v];
+      feet_ground += grounded->bind_ao[v];
+      ++feet;
+    }
+    if (body.positions[v].y > 178.0f) {
+      head_open += open->bind_ao[v];
+      head_ground += grounded->bind_ao[v];
+      ++head;
+    }
+  }
+  ASSERT_GT(feet, 10u);
+  ASSERT_GT(head, 10u);
+  EXPECT_GT(feet_open / double(feet), feet_ground / double(feet) + 0.2);
+  EXPECT_NEAR(head_open / double(head), head_ground / double(head), 0.02);
+}
+
+// CesiumMan stores its vertices Z-up under a node that turns them Y-up: the ground follows world
+// up into the mesh's frame and lies under the feet.
+TEST(PoseAOProductionRig, TheGroundLiesUnderAZUpCharactersFeet) {
+  const std::string path = std::string(PENUMBRA_SHARED_DIR) + "/assets/CesiumMan.glb";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (the shared assets are not checked out)";
+  World world;
+  ASSERT_TRUE(load_scene(world, path));
+  update_world_transforms(world);
+  Entity mesh;
+  world.view<Skin, Mesh>().each([&](Entity e, Skin&, Mesh&) { mesh = e; });
+  const MeshData& data = *world.get<Mesh>(mesh).data;
+  const PoseAOOccluder ground = ground_occluder(data, {}, world.get<WorldTransform>(mesh).matrix);
+  const glm::vec3 up = ground.mesh->normals[0];
+  // The character's height is along the ground's normal, and every vertex is on its upper side.
+  const glm::vec3 extent = data.bounds.extent();
+  const int tallest = extent.x > extent.y ? (extent.x > extent.z ? 0 : 2) : (extent.y > extent.z ? 1 : 2);
+  EXPECT_GT(std::abs(up[tallest]), 0.99f) << up.x << " " << up.y << " " << up.z;
+  const float floor = glm::dot(ground.mesh->positions[0], up);
+  float lowest = 1e30f;
+  for (const glm::vec3& p : data.positions) lowest = std::min(lowest, glm::dot(p, up) - floor);
+  EXPECT_NEAR(lowest, 0.0f, 1e-4f * glm::length(extent));
+}
+
 TEST(PoseAOProductionRig, AMeshOnJointsTheSkinLacksIsLeftOutWithANote) {
   Humanoid h;
   // The gear's skin gets a joint of its own (a cape bone) that its first vertex follows.

@@ -34,6 +34,9 @@ constexpr FieldInfo kFields[] = {
                                          .help = "joint ranges: the clips, else the joints' roles by name, else "
                                                  "default_range (auto); or only one of them",
                                          .hashed = true}),
+    member<&SkinnedPoseAO::ground>({.name = "ground", .type = T::Bool,
+                                    .help = "trace a floor under the character (darkens the feet)",
+                                    .hashed = true}),
     member<&SkinnedPoseAO::range_margin>({.name = "range_margin", .type = T::Float, .min = 0, .max = 100,
                                           .help = "clip ranges widened by this fraction on each side",
                                           .hashed = true, .speed = 0.005f}),

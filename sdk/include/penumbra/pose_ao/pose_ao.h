@@ -86,6 +86,10 @@ struct SkinnedPoseAO {
   float default_range = 0.5f;
   // Ranges set by hand, one per skin joint (empty: from pose_source as above).
   std::vector<JointRange> joint_ranges;
+  // Trace a ground plane under the character with it: contact with the floor darkens the feet.
+  // The plane is perpendicular to world up (+Y through the mesh's world transform) at the lowest
+  // bind-pose vertex of the character's meshes, and does not move with the poses.
+  bool ground = false;
 
   // The baked data (set by the baker or attach_bake(), penumbra/runtime.h); null until baked.
   std::shared_ptr<const PoseAOData> data;

@@ -108,6 +108,12 @@ struct PoseAOOccluder {
 Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mesh_entity,
                                                         std::vector<std::string>* notes = nullptr);
 
+// A ground plane under a character (SkinnedPoseAO::ground) as an occluder fixed in the traced
+// mesh's frame: perpendicular to world up as `mesh_world` (the mesh's WorldTransform) carries it,
+// through the lowest bind-pose vertex of `mesh` and `others` (the character's occluders), two
+// character diagonals wide on each side. Cost: O(vertices).
+PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOccluder> others, const glm::mat4& mesh_world);
+
 // Ray-traced self-occlusion of one skinned mesh in any pose, occluded by itself and by the
 // character's other meshes (`occluders`, posed with it). Vertices with no skin weight follow the
 // mesh (identity), as a rigid part of the character. Not thread-safe (trace() refits); the
