@@ -106,7 +106,8 @@ Result<ImportedAnimations> import_animations(World& world, const std::filesystem
     if (!world.has<Animator>(out.animator)) world.add<Animator>(out.animator, Animator{});
   }
   Animator& target = world.patch<Animator>(out.animator);
-  auto clips = std::make_shared<std::vector<AnimationClip>>(target.clips ? *target.clips : std::vector<AnimationClip>{});
+  auto clips = target.clips ? std::make_shared<std::vector<AnimationClip>>(*target.clips)
+                            : std::make_shared<std::vector<AnimationClip>>();
   out.clips = added.size();
   for (AnimationClip& c : added) clips->push_back(std::move(c));
   target.clips = std::move(clips);

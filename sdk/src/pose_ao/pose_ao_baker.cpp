@@ -233,7 +233,8 @@ PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
     }
   };
   std::size_t known_roles = 0;
-  for (std::size_t j = 0; j < J && j < rig.names.size(); ++j) known_roles += joint_role(rig.names[j]) != JointRole::Unknown;
+  for (std::size_t j = 0; j < J && j < rig.names.size(); ++j)
+    known_roles += joint_role(rig.names[j]) != JointRole::Unknown;
   space.ranges.assign(J, JointRange{});
   if (!settings.joint_ranges.empty()) {
     space.source = PoseSpace::Source::JointRanges;
@@ -391,7 +392,8 @@ Result<PoseAOTracer> PoseAOTracer::create(std::shared_ptr<const MeshData> source
       bool weighted = false;
       for (int k = 0; k < 4; ++k) {
         if (m.weights[v][k] == 0.0f) continue;
-        if (m.joints[v][k] >= k_count) return bad("occluder '" + m.name + "' vertex " + std::to_string(v) + " uses a joint its skin lacks");
+        if (m.joints[v][k] >= k_count)
+          return bad("occluder '" + m.name + "' vertex " + std::to_string(v) + " uses a joint its skin lacks");
         joints[k] = static_cast<std::uint16_t>(slot + m.joints[v][k]);
         weights[k] = m.weights[v][k];
         weighted = true;
@@ -441,7 +443,8 @@ Status PoseAOTracer::trace(std::span<const glm::mat4> joint_matrices, std::uint3
   std::copy(joint_matrices.begin(), joint_matrices.end(), pose.joint_matrices.begin());
   std::size_t slot = s.joints + 1;
   for (const PoseAOOccluder& o : s.occluders) {
-    for (std::size_t k = 0; k < o.joints.size(); ++k) pose.joint_matrices[slot + k] = joint_matrices[o.joints[k]] * o.to_traced[k];
+    for (std::size_t k = 0; k < o.joints.size(); ++k)
+      pose.joint_matrices[slot + k] = joint_matrices[o.joints[k]] * o.to_traced[k];
     pose.joint_matrices[slot + o.joints.size()] = o.rigid;
     slot += o.joints.size() + 1;
   }
@@ -450,9 +453,9 @@ Status PoseAOTracer::trace(std::span<const glm::mat4> joint_matrices, std::uint3
   skin_normals(*s.mesh, pose, s.normals);
   for (std::size_t v = 0; v < s.positions.size(); ++v)
     if (!std::isfinite(s.positions[v].x + s.positions[v].y + s.positions[v].z))
-      return make_error(ErrorCode::InvalidInput, s.context + ": the pose makes " +
-                                                     (v < n ? "vertex " + std::to_string(v) : std::string("an occluder")) +
-                                                     " non-finite");
+      return make_error(ErrorCode::InvalidInput,
+                        s.context + ": the pose makes " +
+                            (v < n ? "vertex " + std::to_string(v) : std::string("an occluder")) + " non-finite");
 
   const RayScene& scene = *s.scene;
   return jobs.parallel_for(n, 64, [&](std::size_t begin, std::size_t end) {
@@ -478,7 +481,8 @@ Status PoseAOTracer::trace(std::span<const glm::mat4> joint_matrices, std::uint3
   });
 }
 
-PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOccluder> others, const glm::mat4& mesh_world) {
+PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOccluder> others,
+                               const glm::mat4& mesh_world) {
   // World up in the bind space the vertices are stored in (the mesh frame: the skinning matrices
   // are the identity in the bind pose), and the character's lowest point and extent along it.
   glm::vec3 up = glm::inverse(glm::mat3(mesh_world)) * glm::vec3(0.0f, 1.0f, 0.0f);
@@ -513,13 +517,15 @@ PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOcclu
   return o;
 }
 
-Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mesh_entity, std::vector<std::string>* notes) {
+Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mesh_entity,
+                                                        std::vector<std::string>* notes) {
   std::vector<PoseAOOccluder> out;
   const Skin* skin = world.alive(mesh_entity) ? world.try_get<Skin>(mesh_entity) : nullptr;
   const WorldTransform* traced_world = world.alive(mesh_entity) ? world.try_get<WorldTransform>(mesh_entity) : nullptr;
   if (skin == nullptr || traced_world == nullptr) return out;
   std::unordered_map<std::uint32_t, std::uint32_t> joint_of;  // entity index -> traced skin joint
-  for (std::size_t j = 0; j < skin->joints.size(); ++j) joint_of.emplace(skin->joints[j].index, static_cast<std::uint32_t>(j));
+  for (std::size_t j = 0; j < skin->joints.size(); ++j)
+    joint_of.emplace(skin->joints[j].index, static_cast<std::uint32_t>(j));
   const glm::mat4 to_traced_frame = glm::inverse(traced_world->matrix);
   const auto name_of = [&](Entity e) {
     const Name* n = world.try_get<Name>(e);

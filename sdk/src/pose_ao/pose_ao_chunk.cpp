@@ -167,7 +167,8 @@ std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk) {
                 to_string(d->pose_space), d->moving_joints, d->joint_count, static_cast<double>(d->widest_range));
   out.emplace_back(line);
   if (degenerate_clips(d->pose_space))
-    out.emplace_back("warning: the clips barely move the joints; set joint_ranges for the character's range of motion");
+    out.emplace_back(
+        "warning: the clips barely move the joints; bake with the character's animations (--poses) or set joint_ranges");
   if (d->locality < d->requested_locality) {
     std::snprintf(line, sizeof line, "warning: locality reduced from %u to %u joints (too few poses); bake more poses",
                   d->requested_locality, d->locality);

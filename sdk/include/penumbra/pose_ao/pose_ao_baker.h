@@ -112,7 +112,8 @@ Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mes
 // mesh's frame: perpendicular to world up as `mesh_world` (the mesh's WorldTransform) carries it,
 // through the lowest bind-pose vertex of `mesh` and `others` (the character's occluders), two
 // character diagonals wide on each side. Cost: O(vertices).
-PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOccluder> others, const glm::mat4& mesh_world);
+PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOccluder> others,
+                               const glm::mat4& mesh_world);
 
 // Ray-traced self-occlusion of one skinned mesh in any pose, occluded by itself and by the
 // character's other meshes (`occluders`, posed with it). Vertices with no skin weight follow the
