@@ -2,6 +2,7 @@
 #include "panels.h"
 
 #include <algorithm>
+#include <vector>
 #include <cfloat>
 #include <cinttypes>
 #include <cmath>
@@ -227,6 +228,17 @@ void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
       glm::vec3 degrees = glm::degrees(glm::eulerAngles(std::get<glm::quat>(v)));
       if (ImGui::DragFloat3(id.c_str(), &degrees.x, 0.5f)) {
         v = glm::quat(glm::radians(degrees));
+        changed = true;
+      }
+      break;
+    }
+    case FieldKind::Text: {
+      // Committed on Enter: a half-typed entry is not an edit.
+      std::string& text = std::get<std::string>(v);
+      std::vector<char> buffer(static_cast<std::size_t>(std::clamp(f.max, 1.0, 65536.0)) + 1, '\0');
+      std::copy_n(text.begin(), std::min(text.size(), buffer.size() - 1), buffer.begin());
+      if (ImGui::InputText(id.c_str(), buffer.data(), buffer.size(), ImGuiInputTextFlags_EnterReturnsTrue)) {
+        text = buffer.data();
         changed = true;
       }
       break;

@@ -186,6 +186,7 @@ std::string kind_help(const FieldDesc& f) {
     case FieldKind::Color: return "three numbers (r g b)";
     case FieldKind::Count3: return "three whole numbers (x y z)";
     case FieldKind::Rotation: return "three Euler angles in degrees (x y z)";
+    case FieldKind::Text: return "text";
   }
   return "a value";
 }
@@ -224,6 +225,8 @@ Result<FieldValue> parse_field_value(const FieldDesc& f, std::string_view text) 
     if (text == "true" || text == "1") value = true;
     else if (text == "false" || text == "0") value = false;
     else return bad();
+  } else if (f.kind == FieldKind::Text) {
+    value = std::string(text);
   } else if (f.kind == FieldKind::Enum) {
     bool found = false;
     for (std::size_t i = 0; i < f.choices.size(); ++i)
@@ -322,6 +325,11 @@ Status check_field_value(const FieldDesc& f, const FieldValue& value) {
                  ? Status{}
                  : make_error(ErrorCode::InvalidArgument, where + "the rotation is not a unit quaternion");
     }
+    case FieldKind::Text:
+      if (!std::holds_alternative<std::string>(value)) return wrong_type();
+      return static_cast<double>(std::get<std::string>(value).size()) <= f.max
+                 ? Status{}
+                 : make_error(ErrorCode::InvalidArgument, where + "the text is longer than " + range_text(f));
   }
   return wrong_type();
 }
@@ -360,6 +368,7 @@ std::string format_field_value(const FieldDesc& f, const FieldValue& value) {
                     static_cast<double>(d.z));
       break;
     }
+    case FieldKind::Text: return std::get<std::string>(value);
   }
   return buf;
 }

@@ -96,4 +96,9 @@ expect_output "pose space from the clips: 1 of 2 joints move, the widest 0.9 rad
 expect_exit 1 "$PENUMBRA" bake builtin:cornell -o "$scratch/x.pbake" --poses "$SOURCE_DIR/tests/data/gltf/scaled_armature_wave.gltf"
 expect_output "no animation channel drives a node of the scene"; expect_output "'rig:head'"
 expect_exit 2 "$PENUMBRA" bake "$armature" -o "$scratch/x.pbake" --poses; expect_output "--poses needs a value"
+# Joint limits by name, declared in the glTF lighting extension: applied, and a name that matches
+# no joint is named.
+expect_exit 0 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/scaled_armature_limits.gltf" -o "$scratch/limits.pbake" \
+  --only pose-ao
+expect_output "joint_limits 'tail' match no joint"; expect_output "the widest 1.6 rad"
 finish

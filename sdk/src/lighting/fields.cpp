@@ -21,6 +21,7 @@ const char* type_name(FieldType type) {
     case FieldType::Color: return "a linear RGB colour";
     case FieldType::Count3: return "three non-negative integers";
     case FieldType::Rotation: return "a rotation";
+    case FieldType::Text: return "a string";
   }
   return "a value";
 }
@@ -37,6 +38,7 @@ bool holds_type(FieldType type, const FieldValue& v) {
     case FieldType::Color: return std::holds_alternative<glm::vec3>(v);
     case FieldType::Count3: return std::holds_alternative<glm::uvec3>(v);
     case FieldType::Rotation: return std::holds_alternative<glm::quat>(v);
+    case FieldType::Text: return std::holds_alternative<std::string>(v);
   }
   return false;
 }
@@ -114,6 +116,10 @@ Result<FieldValue> field_value_from(const FieldInfo& f, const AuthoredValue& a) 
       v = glm::quat(static_cast<float>((*numbers)[3]), static_cast<float>((*numbers)[0]),
                     static_cast<float>((*numbers)[1]), static_cast<float>((*numbers)[2]));
       break;
+    case FieldType::Text:
+      if (!std::holds_alternative<std::string>(a)) return bad("a string");
+      v = std::get<std::string>(a);
+      break;
   }
   PENUMBRA_TRY(check_field_value(f, v));
   return v;
@@ -133,6 +139,8 @@ AuthoredValue authored_value(const FieldInfo& f, const FieldValue& v) {
           return static_cast<double>(x);
         } else if constexpr (std::is_same_v<X, glm::quat>) {
           return std::vector<double>{x.x, x.y, x.z, x.w};
+        } else if constexpr (std::is_same_v<X, std::string>) {
+          return x;
         } else {
           std::vector<double> out;
           for (int i = 0; i < static_cast<int>(X::length()); ++i) out.push_back(static_cast<double>(x[i]));
@@ -147,13 +155,19 @@ Status check_field_value(const FieldInfo& f, const FieldValue& v) {
   if (!holds_type(f.type, v))
     return make_error(ErrorCode::InvalidArgument, where + " takes " + type_name(f.type));
   // Every scalar component, as a double (a rotation is only checked for finiteness).
+  if (const auto* text = std::get_if<std::string>(&v)) {
+    if (static_cast<double>(text->size()) > f.max)
+      return make_error(ErrorCode::InvalidArgument, where + " is " + std::to_string(text->size()) +
+                                                        " characters long; at most " + number(f.max) + " fit");
+    return {};
+  }
   double values[4];
   int n = 0;
   bool ranged = true;
   std::visit(
       [&](const auto& x) {
         using X = std::decay_t<decltype(x)>;
-        if constexpr (std::is_same_v<X, bool>) {
+        if constexpr (std::is_same_v<X, bool> || std::is_same_v<X, std::string>) {
           ranged = false;
         } else if constexpr (std::is_same_v<X, std::int64_t> || std::is_same_v<X, float>) {
           values[n++] = static_cast<double>(x);
@@ -204,7 +218,12 @@ void hash_fields(const ComponentInfo& info, const void* component, Hasher& h) {
     if (!f.hashed) continue;
     const FieldValue v = f.get(component);
     h.add(v.index());
-    std::visit([&](const auto& x) { h.add(x); }, v);
+    std::visit(
+        [&](const auto& x) {
+          if constexpr (std::is_same_v<std::decay_t<decltype(x)>, std::string>) h.add(std::string_view(x));
+          else h.add(x);
+        },
+        v);
   }
 }
 

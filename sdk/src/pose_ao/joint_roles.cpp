@@ -2,6 +2,9 @@
 #include "penumbra/pose_ao/joint_roles.h"
 
 #include <cctype>
+#include <cstdlib>
+#include <cmath>
+#include <numbers>
 #include <string>
 
 namespace penumbra {
@@ -96,6 +99,72 @@ float role_limit(JointRole role, float unknown) {
     case JointRole::End: return 0.0f;
   }
   return unknown;
+}
+
+namespace {
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+  return s;
+}
+
+// Glob match with '*' only, iterative with one backtrack point (linear in practice).
+bool glob(std::string_view p, std::string_view s) {
+  std::size_t i = 0, j = 0, star = std::string_view::npos, mark = 0;
+  while (j < s.size()) {
+    if (i < p.size() && p[i] == '*') {
+      star = i++;
+      mark = j;
+    } else if (i < p.size() && p[i] == s[j]) {
+      ++i;
+      ++j;
+    } else if (star != std::string_view::npos) {
+      i = star + 1;
+      j = ++mark;
+    } else {
+      return false;
+    }
+  }
+  while (i < p.size() && p[i] == '*') ++i;
+  return i == p.size();
+}
+
+}  // namespace
+
+Result<std::vector<JointLimit>> parse_joint_limits(std::string_view text) {
+  std::vector<JointLimit> out;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t end = text.find_first_of(",;", start);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view entry = trim(text.substr(start, end - start));
+    start = end + 1;
+    if (entry.empty()) continue;
+    const auto bad = [&](const std::string& why) {
+      return make_error(ErrorCode::InvalidArgument, "joint_limits entry '" + std::string(entry) + "': " + why +
+                                                        "; write PATTERN=RADIANS, e.g. 'LeftForeArm=1.2, *Spine*=0.3'");
+    };
+    const std::size_t eq = entry.rfind('=');
+    if (eq == std::string_view::npos) return bad("has no '='");
+    JointLimit limit;
+    limit.pattern = std::string(trim(entry.substr(0, eq)));
+    if (limit.pattern.empty()) return bad("has no joint name before '='");
+    const std::string number(trim(entry.substr(eq + 1)));
+    char* stop = nullptr;
+    const double value = number.empty() ? NAN : std::strtod(number.c_str(), &stop);
+    if (number.empty() || stop != number.c_str() + number.size() || !(value >= 0.0 && value <= std::numbers::pi))
+      return bad("'" + number + "' is not a limit in 0..3.1416 radians");
+    limit.limit = static_cast<float>(value);
+    out.push_back(std::move(limit));
+  }
+  return out;
+}
+
+bool joint_name_matches(std::string_view pattern, std::string_view name) {
+  if (glob(pattern, name)) return true;
+  const auto cut = name.find_last_of(":|");
+  return cut != std::string_view::npos && glob(pattern, name.substr(cut + 1));
 }
 
 }  // namespace penumbra

@@ -58,3 +58,38 @@ TEST(JointRoles, LimitsAreHumanAndEndJointsStayFixed) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+TEST(JointLimits, EntriesParseAndBadOnesAreNamed) {
+  auto limits = parse_joint_limits(" LeftForeArm = 1.2; *Spine*=0.3 ,,*Hand*=0 ");
+  ASSERT_TRUE(limits) << limits.error().message;
+  ASSERT_EQ(limits->size(), 3u);
+  EXPECT_EQ((*limits)[0].pattern, "LeftForeArm");
+  EXPECT_FLOAT_EQ((*limits)[0].limit, 1.2f);
+  EXPECT_EQ((*limits)[1].pattern, "*Spine*");
+  EXPECT_EQ((*limits)[2].limit, 0.0f);
+  EXPECT_TRUE(parse_joint_limits("")->empty());
+  for (const char* bad : {"LeftForeArm", "=0.3", "Spine=", "Spine=abc", "Spine=-0.1", "Spine=4", "Spine=0.3x"}) {
+    auto r = parse_joint_limits(bad);
+    ASSERT_FALSE(r) << bad;
+    EXPECT_NE(r.error().message.find(std::string("'") + bad + "'"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("PATTERN=RADIANS"), std::string::npos);
+  }
+}
+
+TEST(JointLimits, PatternsMatchTheNameOrItWithoutItsPrefix) {
+  EXPECT_TRUE(joint_name_matches("LeftForeArm", "mixamorig:LeftForeArm"));
+  EXPECT_TRUE(joint_name_matches("mixamorig:LeftForeArm", "mixamorig:LeftForeArm"));
+  EXPECT_FALSE(joint_name_matches("LeftArm", "mixamorig:LeftForeArm"));
+  EXPECT_TRUE(joint_name_matches("*Spine*", "mixamorig:Spine2"));
+  EXPECT_TRUE(joint_name_matches("*Hand*", "mixamorig:LeftHandIndex3"));
+  EXPECT_TRUE(joint_name_matches("*", "anything"));
+  EXPECT_FALSE(joint_name_matches("Spine", "Spine1"));
+  EXPECT_TRUE(joint_name_matches("S*e*1", "Spine1"));
+  EXPECT_FALSE(joint_name_matches("S*x*1", "Spine1"));
+}
+
+}  // namespace
+}  // namespace penumbra

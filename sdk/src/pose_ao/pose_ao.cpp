@@ -1,6 +1,7 @@
 // Skinned pose-AO (Kontkanen & Aila 2006): settings, pose parameters, the per-frame evaluation and
 // the GPU layout (see pose_ao.h).
 #include "penumbra/pose_ao/pose_ao.h"
+#include "penumbra/pose_ao/joint_roles.h"
 
 #include "penumbra/core/memory.h"
 
@@ -31,6 +32,7 @@ Status validate_pose_ao(const SkinnedPoseAO& s, std::size_t joint_count, std::st
     return bad("reference_poses and clip_poses are both 0; use at least 50 reference poses (the presets use 100-1000)");
   // Each setting's range: the field list (pose_ao_fields.cpp).
   PENUMBRA_TRY(check_fields(skinned_pose_ao_info(), &s, context));
+  if (auto limits = parse_joint_limits(s.joint_limits); !limits) return bad(limits.error().message);
   if (!s.joint_ranges.empty()) {
     if (s.joint_ranges.size() != joint_count)
       return bad("joint_ranges has " + std::to_string(s.joint_ranges.size()) + " entries but the skin has " +

@@ -271,6 +271,23 @@ PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
       }
     }
   }
+  // Limits by name over what the source gave (the last matching entry wins).
+  if (settings.joint_ranges.empty()) {
+    auto parsed = parse_joint_limits(settings.joint_limits);
+    const std::vector<JointLimit> limits = parsed ? std::move(*parsed) : std::vector<JointLimit>{};
+    std::vector<std::uint8_t> limited(J, 0);
+    for (const JointLimit& l : limits) {
+      bool matched = false;
+      for (std::size_t j = 0; j < J && j < rig.names.size(); ++j)
+        if (joint_name_matches(l.pattern, rig.names[j])) {
+          space.ranges[j] = JointRange{glm::vec3(-l.limit), glm::vec3(l.limit)};
+          limited[j] = 1;
+          matched = true;
+        }
+      if (!matched) space.unmatched_limits.push_back(l.pattern);
+    }
+    space.limited = static_cast<std::size_t>(std::count(limited.begin(), limited.end(), 1));
+  }
   for (std::size_t j = 0; j < space.ranges.size(); ++j) {
     const float w = width(space.ranges[j]);
     space.moving += w > kPoseMinJointRange;
@@ -937,8 +954,17 @@ Result<std::shared_ptr<PoseBake>> PoseBake::prepare(World& world, Entity e, cons
     }
     std::snprintf(figures, sizeof figures, "%zu of %zu joints move, the widest %.3g rad", space.moving,
                   rig->joint_count(), static_cast<double>(space.widest_range));
+    if (!space.unmatched_limits.empty()) {
+      std::string patterns;
+      for (const std::string& p : space.unmatched_limits) patterns += (patterns.empty() ? "'" : ", '") + p + "'";
+      const std::string message = context + ": joint_limits " + patterns +
+                                  " match no joint of the skin; check the names (" + joint_name(0) + " is one)";
+      log(LogLevel::Warning, message);
+      if (warnings) warnings->push_back(message);
+    }
     std::string roles;
     if (space.roles > 0) roles = ", " + std::to_string(space.roles) + " joints by role";
+    if (space.limited > 0) roles += ", " + std::to_string(space.limited) + " by joint_limits";
     log(LogLevel::Info, context + ": pose space from " + to_string(space.source) + ": " + figures + " (" +
                             joint_name(space.widest) + ")" + roles);
   }

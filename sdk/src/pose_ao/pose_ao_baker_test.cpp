@@ -317,6 +317,27 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
   EXPECT_EQ(range_of("mixamorig:LeftForeArm"), role_limit(JointRole::Forearm, 0.5f));
   EXPECT_EQ(range_of("mixamorig:RightHandIndex2"), role_limit(JointRole::Finger, 0.5f));
   EXPECT_EQ(space.moving, 62u);  // all but the three end joints
+
+  // Limits by name go over the roles; a pattern that matches nothing is named in a warning.
+  SkinnedPoseAO limited;
+  limited.joint_limits = "LeftForeArm=1.5, *Hand*=0, nosuch=0.2";
+  ASSERT_TRUE(validate_pose_ao(limited, rig->joint_count(), "humanoid"));
+  const PoseSpace by_name = pose_space(*rig, limited);
+  EXPECT_EQ(by_name.source, PoseSpace::Source::DegenerateClipsRoles);
+  const auto limited_range = [&](std::string_view name) {
+    for (std::size_t j = 0; j < rig->joint_count(); ++j)
+      if (rig->names[j] == name) return by_name.ranges[j].max.x;
+    return -1.0f;
+  };
+  EXPECT_EQ(limited_range("mixamorig:LeftForeArm"), 1.5f);
+  EXPECT_EQ(limited_range("mixamorig:RightHandIndex2"), 0.0f);
+  EXPECT_EQ(limited_range("mixamorig:RightForeArm"), role_limit(JointRole::Forearm, 0.5f));
+  EXPECT_EQ(by_name.limited, 1u + 2u * 21u);  // the forearm, both hands and their 20 finger joints each
+  EXPECT_EQ(by_name.unmatched_limits, std::vector<std::string>{"nosuch"});
+  limited.joint_limits = "Spine=fast";
+  auto refused = validate_pose_ao(limited, rig->joint_count(), "humanoid");
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("'Spine=fast'"), std::string::npos) << refused.error().message;
 }
 
 // Mean AO of the body's vertices under the left shoulder pad (the gear's tube of radius 8 cm

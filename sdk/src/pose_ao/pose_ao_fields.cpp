@@ -34,6 +34,10 @@ constexpr FieldInfo kFields[] = {
                                          .help = "joint ranges: the clips, else the joints' roles by name, else "
                                                  "default_range (auto); or only one of them",
                                          .hashed = true}),
+    member<&SkinnedPoseAO::joint_limits>({.name = "joint_limits", .type = T::Text, .min = 0, .max = 4096,
+                                          .help = "limits by joint name: PATTERN=RADIANS, ... e.g. "
+                                                  "LeftForeArm=1.2, *Spine*=0.3",
+                                          .hashed = true}),
     member<&SkinnedPoseAO::ground>({.name = "ground", .type = T::Bool,
                                     .help = "trace a floor under the character (darkens the feet)",
                                     .hashed = true}),

@@ -229,6 +229,14 @@ def main():
     armature["skins"] = [{"joints": [2, 3], "inverseBindMatrices": 5, "skeleton": 2}]
     write("scaled_armature.gltf", armature)
 
+    # scaled_armature_limits.gltf: the same character declaring its pose-AO settings in the
+    # lighting extension, with joint limits by name (one of which names no joint) and the ground.
+    limits = copy.deepcopy(armature)
+    limits["extensionsUsed"] = ["PENUMBRA_lighting"]
+    limits["nodes"][1]["extensions"] = {"PENUMBRA_lighting": {"version": 1, "components": {
+        "SkinnedPoseAO": {"preset": "draft", "joint_limits": "head=0.8, tail=0.3", "ground": True}}}}
+    write("scaled_armature_limits.gltf", limits)
+
     # scaled_armature_wave.gltf: an animation of scaled_armature.gltf's skeleton delivered alone
     # (no mesh, no skin), as animation libraries ship them: its nodes carry a namespace prefix the
     # character's lack ("rig:hips"), and the clip "wave" turns the head 0.6 rad about Z in 1 s.

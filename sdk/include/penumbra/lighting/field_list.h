@@ -25,7 +25,8 @@ struct member_of<M C::*> {
 template <class M>
 FieldValue to_value(const M& m) {
   if constexpr (std::is_same_v<M, bool> || std::is_same_v<M, float> || std::is_same_v<M, glm::vec2> ||
-                std::is_same_v<M, glm::vec3> || std::is_same_v<M, glm::uvec3> || std::is_same_v<M, glm::quat>)
+                std::is_same_v<M, glm::vec3> || std::is_same_v<M, glm::uvec3> || std::is_same_v<M, glm::quat> ||
+                std::is_same_v<M, std::string>)
     return m;
   else
     return static_cast<std::int64_t>(m);
@@ -33,7 +34,8 @@ FieldValue to_value(const M& m) {
 template <class M>
 M from_value(const FieldValue& v) {
   if constexpr (std::is_same_v<M, bool> || std::is_same_v<M, float> || std::is_same_v<M, glm::vec2> ||
-                std::is_same_v<M, glm::vec3> || std::is_same_v<M, glm::uvec3> || std::is_same_v<M, glm::quat>)
+                std::is_same_v<M, glm::vec3> || std::is_same_v<M, glm::uvec3> || std::is_same_v<M, glm::quat> ||
+                std::is_same_v<M, std::string>)
     return std::get<M>(v);
   else
     return static_cast<M>(std::get<std::int64_t>(v));

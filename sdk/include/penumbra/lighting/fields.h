@@ -26,7 +26,7 @@
 namespace penumbra {
 
 // A field's value. Rotations are quaternions (editors show Euler degrees).
-using FieldValue = std::variant<bool, std::int64_t, float, glm::vec2, glm::vec3, glm::uvec3, glm::quat>;
+using FieldValue = std::variant<bool, std::int64_t, float, glm::vec2, glm::vec3, glm::uvec3, glm::quat, std::string>;
 
 enum class FieldType : std::uint8_t {
   Bool,      // bool
@@ -39,6 +39,7 @@ enum class FieldType : std::uint8_t {
   Color,     // glm::vec3, linear RGB
   Count3,    // glm::uvec3, three counts (e.g. nodes per axis)
   Rotation,  // glm::quat
+  Text,      // std::string of at most `max` bytes; what it may say, the component's validation checks
 };
 
 struct FieldInfo {
@@ -91,7 +92,8 @@ struct ComponentInfo {
 Status check_field_value(const FieldInfo& field, const FieldValue& value);
 // A field's value from its glTF (JSON) form (scene/components.h, AuthoredValue): true/false for
 // Bool; an integer for Int and Count; a choice's name for Enum; a number for Float; an array of 2
-// or 3 numbers for Vec2, Vec3 and Color, of 3 integers for Count3; [x, y, z, w] for Rotation.
+// or 3 numbers for Vec2, Vec3 and Color, of 3 integers for Count3; [x, y, z, w] for Rotation; a
+// string for Text.
 // InvalidArgument naming the field and the form it takes; then check_field_value's checks.
 Result<FieldValue> field_value_from(const FieldInfo& field, const AuthoredValue& value);
 // The inverse: a field's value in that form (an Enum by its choice's name).

@@ -11,7 +11,11 @@
 // from. A name that matches nothing is Unknown.
 #pragma once
 
+#include <string>
 #include <string_view>
+#include <vector>
+
+#include "penumbra/core/result.h"
 
 namespace penumbra {
 
@@ -45,5 +49,22 @@ const char* to_string(JointRole role);
 // finger 0.5, head 0.4, foot 0.4, neck 0.35, toe 0.3, spine 0.25, clavicle 0.25, hips 0.3; End 0;
 // Unknown returns `unknown`.
 float role_limit(JointRole role, float unknown);
+
+// A limit set by name (SkinnedPoseAO::joint_limits): the joints whose names match `pattern` turn
+// within +-limit radians about each axis.
+struct JointLimit {
+  std::string pattern;  // '*' matches any run of characters; matched against the whole name and
+                        // against the name without its namespace prefix ("mixamorig:")
+  float limit = 0.0f;
+};
+
+// Parses "PATTERN=RADIANS" entries separated by ',' or ';' (spaces around them ignored), e.g.
+// "LeftForeArm=1.2, *Spine*=0.3, *Hand*=0": later entries override earlier ones on the joints
+// they share. InvalidArgument naming the entry: no '=', an empty pattern, a limit that is not a
+// number in [0, pi]. An empty text gives no limit. Cost: O(text length).
+Result<std::vector<JointLimit>> parse_joint_limits(std::string_view text);
+
+// Whether `name` matches `pattern` as JointLimit describes. Cost: O(pattern x name).
+bool joint_name_matches(std::string_view pattern, std::string_view name);
 
 }  // namespace penumbra

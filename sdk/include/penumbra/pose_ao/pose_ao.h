@@ -84,7 +84,11 @@ struct SkinnedPoseAO {
   float range_margin = 0.25f;
   // Joints with no range from the clips or a role: +-default_range radians about each axis.
   float default_range = 0.5f;
-  // Ranges set by hand, one per skin joint (empty: from pose_source as above).
+  // Limits by joint name over the ranges above, as text (settable in the glTF extension and the
+  // editor): "PATTERN=RADIANS" entries, e.g. "LeftForeArm=1.2, *Spine*=0.3, *Hand*=0"
+  // (joint_roles.h, parse_joint_limits): each matching joint turns within +-limit on each axis.
+  std::string joint_limits;
+  // Ranges set by hand, one per skin joint (empty: from pose_source and joint_limits as above).
   std::vector<JointRange> joint_ranges;
   // Trace a ground plane under the character with it: contact with the floor darkens the feet.
   // The plane is perpendicular to world up (+Y through the mesh's world transform) at the lowest

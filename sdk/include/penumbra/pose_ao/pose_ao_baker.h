@@ -68,13 +68,17 @@ struct PoseSpace {
   std::vector<JointRange> ranges;  // per skin joint
   std::size_t moving = 0;          // joints wider than kPoseMinJointRange
   std::size_t roles = 0;           // joints whose range came from a known role (Source::Roles)
+  std::size_t limited = 0;         // joints whose range joint_limits set
+  std::vector<std::string> unmatched_limits;  // joint_limits patterns that match no joint
   std::size_t widest = 0;          // the joint of the widest range (any axis), and that width
   float widest_range = 0.0f;
   float clip_widest_range = 0.0f;  // the widest unwidened clip range (0 without clips)
 };
 
-// The pose space of `rig` under `settings` (above). With joint_ranges in which no joint moves the
-// space is degenerate too (moving == 0); bake_pose_ao refuses it. Cost: O(joints).
+// The pose space of `rig` under `settings` (above), joint_limits applied over the source's ranges
+// (not over joint_ranges). With ranges in which no joint moves the space is degenerate too
+// (moving == 0); bake_pose_ao refuses it. Precondition: validate_pose_ao passed (joint_limits
+// parse). Cost: O(joints x limits).
 PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings);
 
 // Random pose `index` of the stream `seed`: joint j's local rotation is bind rotation x
