@@ -63,6 +63,7 @@ FieldValue changed(const FieldInfo& f, const FieldValue& v) {
     }
     case FieldType::Count3: return std::get<glm::uvec3>(v) + glm::uvec3(0u, 1u, 0u);
     case FieldType::Rotation: return std::get<glm::quat>(v) * glm::quat(glm::vec3(0.0f, 0.25f, 0.0f));
+    case FieldType::Text: return std::get<std::string>(v) + (std::get<std::string>(v).empty() ? "x=0.5" : ", x=0.5");
   }
   return v;
 }
