@@ -3,6 +3,9 @@
 
 #include <utility>
 
+#include "penumbra/ecs/transform.h"
+#include "penumbra/scene/components.h"
+
 namespace penumbra::editor {
 
 namespace {
@@ -38,9 +41,17 @@ Status UndoStack::set(World& world, Entity entity, const FieldDesc& field, const
   const std::string name = field.component + "." + field.name;
   if (!world.alive(entity))
     return make_error(ErrorCode::InvalidArgument, "set " + name + ": the entity no longer exists; select another");
-  if (!field.present(world, entity))
+  if (!field.present(world, entity)) {
+    // A glTF node keeps per-mesh components on its primitives' entities: name them.
+    std::string children;
+    if (const Children* c = world.try_get<Children>(entity))
+      for (Entity child : c->entities)
+        if (world.alive(child) && field.present(world, child))
+          if (const Name* n = world.try_get<Name>(child)) children += (children.empty() ? "'" : ", '") + n->value + "'";
     return make_error(ErrorCode::InvalidArgument,
-                      "set " + name + ": the entity has no " + field.component + " component; select one that has");
+                      "set " + name + ": the entity has no " + field.component + " component; select one that has" +
+                          (children.empty() ? "" : " (its mesh primitives " + children + " have one)"));
+  }
   if (field.read_only || !field.set)
     return make_error(ErrorCode::InvalidArgument, "set " + name + ": the field is written by the runtime, not editable");
   PENUMBRA_TRY(check_field_value(field, value));

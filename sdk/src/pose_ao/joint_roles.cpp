@@ -2,7 +2,7 @@
 #include "penumbra/pose_ao/joint_roles.h"
 
 #include <cctype>
-#include <cstdlib>
+#include <charconv>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -37,7 +37,7 @@ JointRole joint_role(std::string_view name) {
   std::string joined;
   for (char c : w)
     if (c != ' ') joined += c;
-  if (has(w, " end ") || has(w, "nub") || has(w, " tip") || joined.ends_with("end")) return JointRole::End;
+  if (has(w, " end ") || has(w, "nub") || has(w, " tip ")) return JointRole::End;
   if (has(joined, "thumb") || has(joined, "index") || has(joined, "middle") || has(joined, "ring") ||
       has(joined, "pinky") || has(joined, "finger"))
     return JointRole::Finger;
@@ -151,9 +151,11 @@ Result<std::vector<JointLimit>> parse_joint_limits(std::string_view text) {
     limit.pattern = std::string(trim(entry.substr(0, eq)));
     if (limit.pattern.empty()) return bad("has no joint name before '='");
     const std::string number(trim(entry.substr(eq + 1)));
-    char* stop = nullptr;
-    const double value = number.empty() ? NAN : std::strtod(number.c_str(), &stop);
-    if (number.empty() || stop != number.c_str() + number.size() || !(value >= 0.0 && value <= std::numbers::pi))
+    // from_chars: the C locale's '.', whatever the process's locale.
+    double value = -1.0;
+    const auto [stop, error] = std::from_chars(number.data(), number.data() + number.size(), value);
+    if (number.empty() || error != std::errc() || stop != number.data() + number.size() ||
+        !(value >= 0.0 && value <= std::numbers::pi))
       return bad("'" + number + "' is not a limit in 0..3.1416 radians");
     limit.limit = static_cast<float>(value);
     out.push_back(std::move(limit));

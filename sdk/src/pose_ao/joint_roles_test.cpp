@@ -36,6 +36,8 @@ TEST(JointRoles, TheCommonNamingConventionsAreRecognised) {
       {"DEF-upper_arm.L", JointRole::UpperArm}, {"DEF-forearm.R", JointRole::Forearm},
       {"DEF-thigh.L", JointRole::Thigh}, {"DEF-shin.R", JointRole::Calf}, {"shoulder.L", JointRole::Clavicle},
       // The courtyard's walker
+      // Daz Genesis: "Bend" joints bend, they are no end markers
+      {"lForearmBend", JointRole::Forearm}, {"lThighBend", JointRole::Thigh}, {"rShin", JointRole::Calf},
       {"left_thigh", JointRole::Thigh}, {"right_shin", JointRole::Calf}, {"left_arm", JointRole::UpperArm},
       // Nothing to go by
       {"Bip01", JointRole::Unknown}, {"root", JointRole::Unknown}, {"joint_17", JointRole::Unknown},

@@ -4,6 +4,7 @@
 #include "penumbra/pose_ao/pose_ao_baker.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -69,6 +70,16 @@ glm::quat rotation_from_vector(glm::vec3 r) {
   const float angle = glm::length(r);
   if (angle < 1e-12f) return glm::normalize(glm::quat(1.0f, 0.5f * r.x, 0.5f * r.y, 0.5f * r.z));
   return glm::angleAxis(angle, r / angle);
+}
+
+// The level of detail a mesh's name gives ("body_LOD1" 1, "Hair_lod0" 0), -1 for none.
+int lod_level(std::string_view name) {
+  for (std::size_t i = 0; i + 3 < name.size(); ++i) {
+    const auto lower = [&](std::size_t k) { return std::tolower(static_cast<unsigned char>(name[k])); };
+    if (lower(i) == 'l' && lower(i + 1) == 'o' && lower(i + 2) == 'd' && std::isdigit(static_cast<unsigned char>(name[i + 3])))
+      return name[i + 3] - '0';
+  }
+  return -1;
 }
 
 std::string entity_context(World& world, Entity e) {
@@ -288,6 +299,11 @@ PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
     }
     space.limited = static_cast<std::size_t>(std::count(limited.begin(), limited.end(), 1));
   }
+  // On the ground a root's rotation would tilt the whole character against the floor, which no
+  // joint of the model explains (roots are never in a locality): roots stay at bind.
+  if (settings.ground)
+    for (std::size_t j = 0; j < space.ranges.size() && j < rig.parents.size(); ++j)
+      if (rig.parents[j] < 0) space.ranges[j] = JointRange{};
   for (std::size_t j = 0; j < space.ranges.size(); ++j) {
     const float w = width(space.ranges[j]);
     space.moving += w > kPoseMinJointRange;
@@ -395,11 +411,14 @@ Result<PoseAOTracer> PoseAOTracer::create(std::shared_ptr<const MeshData> source
   // The occluders' vertices and triangles after the traced mesh's, on their own joint slots.
   std::size_t slot = joint_count + 1;
   for (const PoseAOOccluder& o : occluders) {
+    if (!o.mesh) return bad("an occluder has no mesh");
     const MeshData& m = *o.mesh;
     const std::size_t k_count = o.joints.size();
     if (o.to_traced.size() != k_count || m.joints.size() != m.positions.size() ||
-        m.weights.size() != m.positions.size() || slot + k_count + 1 > 65535)
+        m.weights.size() != m.positions.size())
       return bad("occluder '" + m.name + "' has no skinning for its joints; re-export it");
+    if (slot + k_count + 1 > 65535)
+      return bad("the character's meshes use more than 65535 joint slots together; trace fewer meshes with it");
     for (std::uint32_t j : o.joints)
       if (j >= joint_count) return bad("occluder '" + m.name + "' maps a joint outside the skin");
     const auto base = static_cast<std::uint32_t>(mesh->positions.size());
@@ -502,19 +521,30 @@ PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOcclu
                                const glm::mat4& mesh_world) {
   // World up in the bind space the vertices are stored in (the mesh frame: the skinning matrices
   // are the identity in the bind pose), and the character's lowest point and extent along it.
-  glm::vec3 up = glm::inverse(glm::mat3(mesh_world)) * glm::vec3(0.0f, 1.0f, 0.0f);
+  // A plane's normal maps by the inverse transpose: the local normal of the world's horizontal
+  // plane is transpose(M) x +Y.
+  glm::vec3 up = glm::transpose(glm::mat3(mesh_world)) * glm::vec3(0.0f, 1.0f, 0.0f);
   up = glm::length(up) > 0.0f && std::isfinite(glm::length(up)) ? glm::normalize(up) : glm::vec3(0.0f, 1.0f, 0.0f);
   float low = std::numeric_limits<float>::max();
   Aabb box;
-  const auto take = [&](const MeshData& m, const glm::mat4& to) {
-    for (const glm::vec3& p : m.positions) {
-      const glm::vec3 q(to * glm::vec4(p, 1.0f));
-      low = std::min(low, glm::dot(q, up));
-      box.extend(q);
-    }
+  const auto take = [&](glm::vec3 q) {
+    low = std::min(low, glm::dot(q, up));
+    box.extend(q);
   };
-  take(mesh, glm::mat4(1.0f));
-  for (const PoseAOOccluder& o : others) take(*o.mesh, o.to_traced.empty() ? o.rigid : o.to_traced.front());
+  for (const glm::vec3& p : mesh.positions) take(p);
+  // An occluder's vertices where the bind pose puts them: skinned by to_traced, or rigid.
+  for (const PoseAOOccluder& o : others)
+    for (std::size_t v = 0; v < o.mesh->positions.size(); ++v) {
+      glm::mat4 m(0.0f);
+      float total = 0.0f;
+      for (int k = 0; k < 4 && v < o.mesh->weights.size(); ++k) {
+        const float w = o.mesh->weights[v][k];
+        if (w == 0.0f || o.mesh->joints[v][k] >= o.to_traced.size()) continue;
+        m += w * o.to_traced[o.mesh->joints[v][k]];
+        total += w;
+      }
+      take(glm::vec3((total > 0.0f ? m : o.rigid) * glm::vec4(o.mesh->positions[v], 1.0f)));
+    }
   const float size = 2.0f * glm::length(box.extent());
   const glm::vec3 centre = box.center() - (glm::dot(box.center(), up) - low) * up;
   const glm::vec3 helper = std::abs(up.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
@@ -554,16 +584,39 @@ Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mes
     const Skin& other = world.get<Skin>(e);
     const auto& data = world.get<Mesh>(e).data;
     const WorldTransform* other_world = world.try_get<WorldTransform>(e);
+    const auto leave_out = [&](const std::string& why) {
+      if (notes) notes->push_back(name_of(e) + " is not traced with " + name_of(mesh_entity) + ": " + why);
+    };
     if (!data || other_world == nullptr || data->joints.size() != data->positions.size() ||
-        data->weights.size() != data->positions.size() || other.inverse_bind.size() != other.joints.size())
+        data->weights.size() != data->positions.size() || other.inverse_bind.size() != other.joints.size()) {
+      leave_out("its skinning (JOINTS_0/WEIGHTS_0, inverse bind matrices) is incomplete");
       continue;
+    }
+    // Another level of detail or an alternative outfit of the same surface would shadow it all.
+    const auto lod = [&](Entity x) {
+      const Name* n = world.try_get<Name>(x);
+      const int level = n ? lod_level(n->value) : -1;
+      return level >= 0 ? level : lod_level(world.get<Mesh>(x).data ? world.get<Mesh>(x).data->name : "");
+    };
+    if (data == world.get<Mesh>(mesh_entity).data || (lod(e) >= 0 && lod(e) != lod(mesh_entity))) {
+      leave_out("it is the same mesh or another level of detail");
+      continue;
+    }
     PoseAOOccluder o;
     o.mesh = data;
     std::string missing;
+    bool in_range = true;
     std::vector<std::uint8_t> used(other.joints.size(), 0);
     for (std::size_t v = 0; v < data->positions.size(); ++v)
       for (int k = 0; k < 4; ++k)
-        if (data->weights[v][k] != 0.0f && data->joints[v][k] < used.size()) used[data->joints[v][k]] = 1;
+        if (data->weights[v][k] != 0.0f) {
+          if (data->joints[v][k] < used.size()) used[data->joints[v][k]] = 1;
+          else in_range = false;
+        }
+    if (!in_range) {
+      leave_out("a vertex uses a joint index its skin does not have");
+      continue;
+    }
     for (std::size_t k = 0; k < other.joints.size(); ++k) {
       const auto it = joint_of.find(other.joints[k].index);
       const bool same = it != joint_of.end() && skin->joints[it->second] == other.joints[k];
@@ -575,9 +628,7 @@ Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mes
       o.to_traced.push_back(same ? glm::inverse(skin->inverse_bind[j]) * other.inverse_bind[k] : glm::mat4(1.0f));
     }
     if (!missing.empty()) {
-      if (notes)
-        notes->push_back(name_of(e) + " is not traced with " + name_of(mesh_entity) + ": its skin moves joint " +
-                         missing + ", which " + name_of(mesh_entity) + "'s skin lacks");
+      leave_out("its skin moves joint " + missing + ", which " + name_of(mesh_entity) + "'s skin lacks");
       continue;
     }
     o.rigid = to_traced_frame * other_world->matrix;
@@ -1178,13 +1229,24 @@ void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
     h.add(s.joint_ranges);  // a list, not a field
     const Skin& skin = world.get<Skin>(e);
     h.add(skin.inverse_bind);
-    for (Entity j : skin.joints)
+    for (Entity j : skin.joints) {
       if (const Transform* t = world.alive(j) ? world.try_get<Transform>(j) : nullptr) h.add(t->matrix());
+      // Names give the roles and the joint_limits matches.
+      const Name* n = world.alive(j) ? world.try_get<Name>(j) : nullptr;
+      h.add(std::string_view(n ? n->value : std::string()));
+    }
+    // The character's other meshes, traced with it: which, and how they are bound.
+    for (Entity other : character_meshes(world, e)) {
+      h.add(std::string_view(entity_key(world, other)));
+      h.add(world.get<Skin>(other).inverse_bind);
+    }
     // The clips that drive the ranges: their keys.
     world.view<Animator>().each([&](Entity, Animator& a) {
       if (!a.clips) return;
       for (const AnimationClip& clip : *a.clips)
         for (const AnimationChannel& ch : clip.channels) {
+          h.add(ch.target);
+          h.add(static_cast<std::uint8_t>(ch.path));
           h.add(ch.times);
           h.add(ch.values);
         }

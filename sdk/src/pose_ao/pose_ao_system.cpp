@@ -47,6 +47,7 @@ std::size_t update_pose_ao(World& world, std::uint64_t since) {
     pose_features(data->joint_parents, poses.get(e).joint_matrices, features);
     VertexAO& out = world.has<VertexAO>(e) ? world.patch<VertexAO>(e) : world.add<VertexAO>(e);
     out.ao.resize(data->vertex_count);
+    out.static_occluders = false;  // the character's own meshes: no baked source saw them
     evaluate_pose_ao(*data, features, out.ao);
   }
   return due.size();

@@ -177,8 +177,8 @@ MeshData humanoid_body(const std::vector<HumanoidJoint>& joints) {
   return mesh;
 }
 
-// Shoulder pads (a wide tube over the upper arm's top), knee pads and a belt: close to the body,
-// so they occlude it.
+// Sleeves over the upper arms (wide tubes 2.5 cm off the skin), knee pads and a belt: close to the
+// body, so they occlude it.
 MeshData humanoid_gear(const std::vector<HumanoidJoint>& joints) {
   MeshData mesh;
   mesh.name = "gear";
@@ -190,7 +190,8 @@ MeshData humanoid_gear(const std::vector<HumanoidJoint>& joints) {
   for (const float side : {1.0f, -1.0f}) {
     const std::string s = side > 0 ? "Left" : "Right";
     pad(s + "Arm", {side * 17.0f, 146.5f, 0}, {side * 29.0f, 146.5f, 0}, 8.0f);
-    pad(s + "Leg", {side * 9.0f, 58.0f, 1.0f}, {side * 9.0f, 46.0f, 1.0f}, 7.5f);
+    // The knee pad from just above the knee (y 52) down the shin, blended across the knee.
+    pad(s + "Leg", {side * 9.0f, 54.0f, 1.0f}, {side * 9.0f, 43.0f, 1.0f}, 7.5f);
   }
   pad("Hips", {0, 95.0f, 0}, {0, 102.0f, 0}, 16.5f);
   compute_bounds(mesh);

@@ -508,8 +508,11 @@ LoadedScene build_maze(World& world) {
 // Humanoid: the production-style character alone, as a character export is.
 LoadedScene build_humanoid(World& world) {
   SceneBuilder b(world, "humanoid");
-  add_builtin_humanoid(world, b.root(), Transform{});
-  world.each<Mesh>([&b](Entity, Mesh& m) { b.count_mesh(m.data->triangle_count()); });
+  const Entity character = add_builtin_humanoid(world, b.root(), Transform{});
+  // Its two meshes (body, gear) are the armature's children that have one.
+  for (Entity armature : world.get<Children>(character).entities)
+    for (Entity e : world.get<Children>(armature).entities)
+      if (const Mesh* m = world.try_get<Mesh>(e)) b.count_mesh(m->data->triangle_count());
   return b.finish();
 }
 

@@ -86,6 +86,9 @@ TEST(BuiltinScenes, TheHumanoidIsAProductionShapedRig) {
   const Animator& animator = world.get<Animator>(find(world, "humanoid"));
   ASSERT_EQ(animator.clips->size(), 1u);
   EXPECT_NEAR((*animator.clips)[0].duration, 0.067f, 0.001f);
+  for (const AnimationChannel& ch : (*animator.clips)[0].channels)
+    for (const glm::vec4& q : ch.values)
+      EXPECT_LT(2.0f * std::acos(std::min(1.0f, std::abs(q.w))), 0.0051f) << ch.target;
 }
 
 TEST(BuiltinScenes, CornellBoxMatchesThePublishedData) {

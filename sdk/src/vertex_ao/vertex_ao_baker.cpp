@@ -17,6 +17,7 @@
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
+#include "penumbra/scene/entity_key.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/vertex_ao/vertex_ao.h"
 #include "penumbra/vertex_ao/vertex_ao_system.h"
@@ -194,11 +195,17 @@ Result<std::vector<BakeChunk>> finish_vertex_ao(std::span<const BakedGroup> grou
 void register_vertex_ao_baker(World& world) {
   Baker b = baker_for(vertex_ao_module());
   b.stages = 1;
-  b.hash_inputs = [](World&, const BakeSettings& s, Hasher& h) {
+  b.hash_inputs = [](World& world, const BakeSettings& s, Hasher& h) {
     const VertexAoSettings v = VertexAoSettings::preset(s.preset);
     h.add(v.max_distance);
     h.add(v.rays);
     h.add(kVertexAoChunkVersion);
+    // A skinned mesh's bind scene: its character's meshes and how they are bound.
+    for (Entity e : skinned_meshes(world))
+      for (Entity other : character_meshes(world, e)) {
+        h.add(std::string_view(entity_key(world, other)));
+        h.add(world.get<Skin>(other).inverse_bind);
+      }
   };
   b.plan = plan_vertex_ao;
   b.finish = finish_vertex_ao;

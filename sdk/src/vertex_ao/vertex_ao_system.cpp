@@ -23,7 +23,9 @@ Status attach_vertex_ao(World& world, const BakeChunk& chunk, const EntityKeys& 
                                                  " vertices in this World; re-bake the scene");
     VertexAO& out = world.has<VertexAO>(*e) ? world.patch<VertexAO>(*e) : world.add<VertexAO>(*e);
     out.ao = std::move(entry.ao);
-    out.static_occluders = true;
+    // A static mesh's occluders are the static geometry the probe grid saw; a skinned mesh's are
+    // its own character's, which no baked source saw.
+    out.static_occluders = !world.has<Skin>(*e);
   }
   return {};
 }
@@ -42,7 +44,7 @@ std::vector<std::string> describe_vertex_ao(const BakeChunk& chunk) {
       hi = std::max(hi, a);
     }
   char line[200];
-  std::snprintf(line, sizeof line, "%zu meshes, %zu vertices, %u rays/vertex, max distance %.3g m (skinned meshes: none)", data->entries.size(),
+  std::snprintf(line, sizeof line, "%zu meshes, %zu vertices, %u rays/vertex, max distance %.3g m (a skinned mesh's: none)", data->entries.size(),
                 vertices, data->rays, static_cast<double>(data->max_distance));
   std::vector<std::string> out{line};
   if (vertices > 0) {

@@ -76,8 +76,6 @@ TEST(VertexAo, FurnaceMatchesTheChordClosedForm) {
   EXPECT_NEAR(d, kVertexAoDistanceFraction * 2.0f * std::sqrt(3.0f) * r, 0.01f * d);
 }
 
-// The default distance scales with the scene: the same fraction of the static bounds' diagonal in
-// the Cornell box (0.55 m) and the courtyard (20 m); an explicit one is kept; degenerate scenes 1 m.
 // Skinned meshes bake in their bind pose, occluded by their character's meshes: the humanoid's
 // body is shadowed by its gear, and agrees with the pose-AO tracer's bind pose (another path to
 // the same integral).
@@ -127,8 +125,25 @@ TEST(VertexAo, SkinnedMeshesBakeInTheirBindPoseWithTheirCharacter) {
   // 64 rays a vertex against 256: a standard error of at most 0.07 a vertex, 0.02 on average.
   EXPECT_LT(std::abs(bias), 0.01);
   EXPECT_LT(mean_abs, 0.04);
+
+  // Attached, a character's AO counts in its lighting: its occluders are its own meshes, which no
+  // baked source saw (VertexAO::static_occluders false; a static mesh's is true).
+  ASSERT_TRUE(attach_bake(world, result->file));
+  ASSERT_TRUE(world.has<VertexAO>(body));
+  EXPECT_FALSE(world.get<VertexAO>(body).static_occluders);
+  World cornell = scene_world("cornell");
+  auto static_bake = draft_bake(cornell);
+  ASSERT_TRUE(static_bake && attach_bake(cornell, static_bake->file));
+  bool any = false;
+  cornell.each<VertexAO>([&](Entity, VertexAO& ao) {
+    EXPECT_TRUE(ao.static_occluders);
+    any = true;
+  });
+  EXPECT_TRUE(any);
 }
 
+// The default distance scales with the scene: the same fraction of the static bounds' diagonal in
+// the Cornell box (0.55 m) and the courtyard (20 m); an explicit one is kept; degenerate scenes 1 m.
 TEST(VertexAo, DistanceFollowsTheSceneScale) {
   for (const char* name : {"cornell", "courtyard"}) {
     World world = scene_world(name);

@@ -7,8 +7,9 @@
 //   3ds Max Biped "Bip01 L Forearm", "Bip01 R Thigh", "Bip01 L Finger11", "Bip01 HeadNub"
 //   Blender       "upper_arm.L", "forearm.R", "shin.L", "DEF-thigh.R"
 // by the words in the name, case-insensitively, after dropping a namespace prefix ("...:" or
-// "...|") and the side. End joints ("_End", "Nub", "_end", "tip") are leaves no geometry hangs
-// from. A name that matches nothing is Unknown.
+// "...|") and splitting camel case; side words are ignored. End joints (a word "end" as in
+// "Toe_End" or "HeadTop_End", "Nub", a word "tip") are leaves no geometry hangs from. A name that
+// matches nothing is Unknown.
 #pragma once
 
 #include <string>
@@ -53,8 +54,8 @@ float role_limit(JointRole role, float unknown);
 // A limit set by name (SkinnedPoseAO::joint_limits): the joints whose names match `pattern` turn
 // within +-limit radians about each axis.
 struct JointLimit {
-  std::string pattern;  // '*' matches any run of characters; matched against the whole name and
-                        // against the name without its namespace prefix ("mixamorig:")
+  std::string pattern;  // '*' matches any run of characters; matched, case-sensitively, against the
+                        // whole name and against the name without its namespace prefix ("mixamorig:")
   float limit = 0.0f;
 };
 

@@ -92,7 +92,9 @@ struct SkinnedPoseAO {
   std::vector<JointRange> joint_ranges;
   // Trace a ground plane under the character with it: contact with the floor darkens the feet.
   // The plane is perpendicular to world up (+Y through the mesh's world transform) at the lowest
-  // bind-pose vertex of the character's meshes, and does not move with the poses.
+  // bind-pose vertex of the character's meshes, and does not move with the poses; the root joints
+  // then stay at their bind rotation (a turned root would tilt the character against the floor).
+  // A pose that lowers a foot below the plane traces it as buried: keep foot ranges modest.
   bool ground = false;
 
   // The baked data (set by the baker or attach_bake(), penumbra/runtime.h); null until baked.
@@ -113,7 +115,7 @@ Status validate_pose_ao(const SkinnedPoseAO& settings, std::size_t joint_count, 
 // runtime. Coefficient c of the group's vertex i is coefficients[coefficient_offset + c * count +
 // i] (structure of arrays: the runtime loop runs over i).
 //
-// Near the bind pose a group blends towards the bind-pose AO, which the bake traced exactly:
+// Near the bind pose a group blends towards the bind-pose AO, which the bake traced:
 // with d^2 = |f_j1 .. f_jk|^2 (zero in the bind pose), ao = bind + w (clamp(t . theta) - bind),
 // w = min(1, d^2 / bind_blend): a pose at least sqrt(bind_blend) from the bind pose gets the linear
 // model alone, at no cost. bind_blend = 0 is the linear model alone everywhere; the bake picks it
