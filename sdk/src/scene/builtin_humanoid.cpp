@@ -22,6 +22,7 @@
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/scene/mesh.h"
+#include "scene_node.h"
 
 namespace penumbra {
 
@@ -202,11 +203,7 @@ MeshData humanoid_gear(const std::vector<HumanoidJoint>& joints) {
 
 Entity add_builtin_humanoid(World& world, Entity parent, const Transform& transform, std::string_view name) {
   const auto node = [&world](Entity up, std::string node_name, const Transform& t) {
-    const Entity e = world.create();
-    world.add<Name>(e, Name{std::move(node_name)});
-    world.add<Transform>(e, t);
-    if (up) set_parent(world, e, up);
-    return e;
+    return scene_detail::add_node(world, up, std::move(node_name), t);
   };
   const Entity character = node(parent, std::string(name), transform);
   Transform armature_transform;

@@ -14,6 +14,7 @@
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/scene/mesh.h"
+#include "scene_node.h"
 
 namespace penumbra {
 
@@ -37,11 +38,7 @@ class SceneBuilder {
   }
 
   Entity node(Entity parent, std::string name, const Transform& transform) {
-    const Entity e = world_.create();
-    world_.add<Name>(e, Name{std::move(name)});
-    world_.add<Transform>(e, transform);
-    if (parent) set_parent(world_, e, parent);
-    return e;
+    return scene_detail::add_node(world_, parent, std::move(name), transform);
   }
   Entity node(std::string name, const Transform& transform) { return node(scene_.root, std::move(name), transform); }
 
@@ -309,11 +306,7 @@ AnimationClip walk_clip(const std::array<Entity, kJointCount>& joints) {
 
 Entity add_builtin_character(World& world, Entity parent, const Transform& transform, std::string_view name) {
   const auto node = [&world](Entity up, std::string node_name, const Transform& t) {
-    const Entity e = world.create();
-    world.add<Name>(e, Name{std::move(node_name)});
-    world.add<Transform>(e, t);
-    if (up) set_parent(world, e, up);
-    return e;
+    return scene_detail::add_node(world, up, std::move(node_name), t);
   };
   const Entity character = node(parent, std::string(name), transform);
   // Joints: entities of the hierarchy with translations relative to their parent joint.
