@@ -11,13 +11,6 @@ namespace penumbra {
 
 namespace {
 
-// A node name without its namespace prefix ("mixamorig:Hips" -> "Hips", "Armature|hips" ->
-// "hips"): exporters prefix names by rig or file, the skeleton stays the same.
-std::string_view base_name(std::string_view name) {
-  const auto cut = name.find_last_of(":|");
-  return cut == std::string_view::npos ? name : name.substr(cut + 1);
-}
-
 Entity root_of(World& world, Entity e) {
   for (const Parent* p = world.try_get<Parent>(e); p != nullptr && p->entity && world.alive(p->entity);
        p = world.try_get<Parent>(e))
@@ -44,13 +37,14 @@ Result<ImportedAnimations> import_animations(World& world, const std::filesystem
   for (Entity e : world.view<Name>().sorted_entities()) {
     const std::string& n = world.get<Name>(e).value;
     by_name.emplace(n, e);
-    by_base.emplace(std::string(base_name(n)), e);
+    by_base.emplace(std::string(name_without_namespace(n)), e);
   }
   const auto match = [&](Entity node) -> Entity {
     const Name* name = source.try_get<Name>(node);
     if (name == nullptr || name->value.empty()) return Entity::null();
     if (const auto it = by_name.find(name->value); it != by_name.end()) return it->second;
-    if (const auto it = by_base.find(std::string(base_name(name->value))); it != by_base.end()) return it->second;
+    if (const auto it = by_base.find(std::string(name_without_namespace(name->value))); it != by_base.end())
+      return it->second;
     return Entity::null();
   };
 

@@ -7,6 +7,8 @@
 #include <numbers>
 #include <string>
 
+#include "penumbra/scene/components.h"
+
 namespace penumbra {
 
 namespace {
@@ -15,7 +17,7 @@ namespace {
 // character that is not a letter or digit turned into a space, padded with spaces so that whole
 // words can be found as " word ".
 std::string words(std::string_view name) {
-  if (const auto cut = name.find_last_of(":|"); cut != std::string_view::npos) name.remove_prefix(cut + 1);
+  name = name_without_namespace(name);
   std::string out = " ";
   for (std::size_t i = 0; i < name.size(); ++i) {
     const unsigned char c = static_cast<unsigned char>(name[i]);
@@ -164,9 +166,7 @@ Result<std::vector<JointLimit>> parse_joint_limits(std::string_view text) {
 }
 
 bool joint_name_matches(std::string_view pattern, std::string_view name) {
-  if (glob(pattern, name)) return true;
-  const auto cut = name.find_last_of(":|");
-  return cut != std::string_view::npos && glob(pattern, name.substr(cut + 1));
+  return glob(pattern, name) || glob(pattern, name_without_namespace(name));
 }
 
 }  // namespace penumbra

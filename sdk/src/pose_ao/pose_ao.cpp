@@ -1,9 +1,9 @@
 // Skinned pose-AO (Kontkanen & Aila 2006): settings, pose parameters, the per-frame evaluation and
 // the GPU layout (see pose_ao.h).
 #include "penumbra/pose_ao/pose_ao.h"
-#include "penumbra/pose_ao/joint_roles.h"
 
 #include "penumbra/core/memory.h"
+#include "penumbra/pose_ao/joint_roles.h"
 
 #include <algorithm>
 #include <cmath>

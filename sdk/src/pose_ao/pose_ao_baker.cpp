@@ -4,7 +4,6 @@
 #include "penumbra/pose_ao/pose_ao_baker.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -70,16 +69,6 @@ glm::quat rotation_from_vector(glm::vec3 r) {
   const float angle = glm::length(r);
   if (angle < 1e-12f) return glm::normalize(glm::quat(1.0f, 0.5f * r.x, 0.5f * r.y, 0.5f * r.z));
   return glm::angleAxis(angle, r / angle);
-}
-
-// The level of detail a mesh's name gives ("body_LOD1" 1, "Hair_lod0" 0), -1 for none.
-int lod_level(std::string_view name) {
-  for (std::size_t i = 0; i + 3 < name.size(); ++i) {
-    const auto lower = [&](std::size_t k) { return std::tolower(static_cast<unsigned char>(name[k])); };
-    if (lower(i) == 'l' && lower(i + 1) == 'o' && lower(i + 2) == 'd' && std::isdigit(static_cast<unsigned char>(name[i + 3])))
-      return name[i + 3] - '0';
-  }
-  return -1;
 }
 
 std::string entity_context(World& world, Entity e) {
@@ -235,17 +224,17 @@ PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
   const std::size_t J = rig.joint_count();
   const JointRange around_bind{glm::vec3(-settings.default_range), glm::vec3(settings.default_range)};
   // Ranges by role (joint_roles.h); joints of no known role get +-default_range.
+  std::vector<JointRole> roles(J, JointRole::Unknown);
+  for (std::size_t j = 0; j < J && j < rig.names.size(); ++j) roles[j] = joint_role(rig.names[j]);
+  const std::size_t known_roles =
+      J - static_cast<std::size_t>(std::count(roles.begin(), roles.end(), JointRole::Unknown));
   const auto by_role = [&] {
     for (std::size_t j = 0; j < J; ++j) {
-      const JointRole role = j < rig.names.size() ? joint_role(rig.names[j]) : JointRole::Unknown;
-      const float limit = role_limit(role, settings.default_range);
+      const float limit = role_limit(roles[j], settings.default_range);
       space.ranges[j] = JointRange{glm::vec3(-limit), glm::vec3(limit)};
-      space.roles += role != JointRole::Unknown;
     }
+    space.roles = known_roles;
   };
-  std::size_t known_roles = 0;
-  for (std::size_t j = 0; j < J && j < rig.names.size(); ++j)
-    known_roles += joint_role(rig.names[j]) != JointRole::Unknown;
   space.ranges.assign(J, JointRange{});
   if (!settings.joint_ranges.empty()) {
     space.source = PoseSpace::Source::JointRanges;
@@ -564,8 +553,7 @@ PoseAOOccluder ground_occluder(const MeshData& mesh, std::span<const PoseAOOcclu
   return o;
 }
 
-Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mesh_entity,
-                                                        std::vector<std::string>* notes) {
+std::vector<PoseAOOccluder> character_occluders(World& world, Entity mesh_entity, std::vector<std::string>* notes) {
   std::vector<PoseAOOccluder> out;
   const Skin* skin = world.alive(mesh_entity) ? world.try_get<Skin>(mesh_entity) : nullptr;
   const WorldTransform* traced_world = world.alive(mesh_entity) ? world.try_get<WorldTransform>(mesh_entity) : nullptr;
@@ -590,16 +578,6 @@ Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mes
     if (!data || other_world == nullptr || data->joints.size() != data->positions.size() ||
         data->weights.size() != data->positions.size() || other.inverse_bind.size() != other.joints.size()) {
       leave_out("its skinning (JOINTS_0/WEIGHTS_0, inverse bind matrices) is incomplete");
-      continue;
-    }
-    // Another level of detail or an alternative outfit of the same surface would shadow it all.
-    const auto lod = [&](Entity x) {
-      const Name* n = world.try_get<Name>(x);
-      const int level = n ? lod_level(n->value) : -1;
-      return level >= 0 ? level : lod_level(world.get<Mesh>(x).data ? world.get<Mesh>(x).data->name : "");
-    };
-    if (data == world.get<Mesh>(mesh_entity).data || (lod(e) >= 0 && lod(e) != lod(mesh_entity))) {
-      leave_out("it is the same mesh or another level of detail");
       continue;
     }
     PoseAOOccluder o;
@@ -872,7 +850,8 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
       std::vector<float> target(P);
       for (std::uint32_t i = 0; i < g.count; ++i) {
         const std::uint32_t v = (*members[gi])[i];
-        solver.solve(training.ao.data() + v, V, t);
+        for (std::size_t p = 0; p < P; ++p) target[p] = training.ao[p * V + v];
+        solver.solve(target.data(), 1, t);
         // The model is clamped to [0, 1] where it is evaluated, so a pose whose AO is at a bound
         // (a vertex fully open) is fitted by any prediction beyond that bound: refit with such
         // targets moved to the prediction (censored regression, a few fixed-point steps).
@@ -885,7 +864,7 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
             float y2 = y;
             if (y >= 1.0f && a > 1.0) y2 = static_cast<float>(a);
             if (y <= 0.0f && a < 0.0) y2 = static_cast<float>(a);
-            changed |= y2 != target[p] || pass == 0;
+            changed |= y2 != target[p];
             target[p] = y2;
           }
           if (!changed) break;
@@ -1020,17 +999,16 @@ Result<std::shared_ptr<PoseBake>> PoseBake::prepare(World& world, Entity e, cons
                             joint_name(space.widest) + ")" + roles);
   }
   std::vector<std::string> notes;
-  auto occluders = character_occluders(world, e, &notes);
-  if (!occluders) return occluders.error();
+  std::vector<PoseAOOccluder> occluders = character_occluders(world, e, &notes);
   for (const std::string& note : notes) {
     log(LogLevel::Warning, context + ": " + note);
     if (warnings) warnings->push_back(context + ": " + note);
   }
-  if (!occluders->empty())
-    log(LogLevel::Info, context + ": traced with the character's " + std::to_string(occluders->size()) +
-                            " other mesh" + (occluders->size() == 1 ? "" : "es"));
-  if (settings.ground) occluders->push_back(ground_occluder(*mesh->data, *occluders, world.get<WorldTransform>(e).matrix));
-  auto tracer = PoseAOTracer::create(mesh->data, rig->joint_count(), context, std::move(*occluders));
+  if (!occluders.empty())
+    log(LogLevel::Info, context + ": traced with the character's " + std::to_string(occluders.size()) +
+                            " other mesh" + (occluders.size() == 1 ? "" : "es"));
+  if (settings.ground) occluders.push_back(ground_occluder(*mesh->data, occluders, world.get<WorldTransform>(e).matrix));
+  auto tracer = PoseAOTracer::create(mesh->data, rig->joint_count(), context, std::move(occluders));
   if (!tracer) return tracer.error();
 
   const std::size_t V = mesh->data->positions.size(), J = rig->joint_count();

@@ -137,9 +137,7 @@ Result<Report> run(const Options& options) {
     const auto mesh = world.get<Mesh>(c->mesh).data;
     auto rig = make_pose_rig(world, c->mesh, name);
     if (!rig) return rig.error();
-    auto occluders = character_occluders(world, c->mesh);
-    if (!occluders) return occluders.error();
-    auto tracer = PoseAOTracer::create(mesh, rig->joint_count(), name, std::move(*occluders));
+    auto tracer = PoseAOTracer::create(mesh, rig->joint_count(), name, character_occluders(world, c->mesh));
     if (!tracer) return tracer.error();
     const std::size_t V = mesh->positions.size();
     const std::vector<JointRange> ranges = pose_space(*rig, defaults).ranges;

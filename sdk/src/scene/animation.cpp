@@ -4,7 +4,9 @@
 #include "penumbra/scene/animation.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <string_view>
 #include <unordered_set>
 
 #include <glm/gtc/matrix_inverse.hpp>
@@ -145,15 +147,41 @@ void skin_normals(const MeshData& mesh, const SkinPose& pose, std::vector<glm::v
   }
 }
 
+namespace {
+
+// The level of detail a name gives ("body_LOD1" 1, "Hair_lod0" 0), -1 for none.
+int lod_level(std::string_view name) {
+  for (std::size_t i = 0; i + 3 < name.size(); ++i) {
+    const auto lower = [&](std::size_t k) { return std::tolower(static_cast<unsigned char>(name[k])); };
+    if (lower(i) == 'l' && lower(i + 1) == 'o' && lower(i + 2) == 'd' &&
+        std::isdigit(static_cast<unsigned char>(name[i + 3])))
+      return name[i + 3] - '0';
+  }
+  return -1;
+}
+
+// An entity's level of detail: by its Name, else by its mesh's name.
+int lod_level(World& world, Entity e) {
+  const Name* n = world.try_get<Name>(e);
+  const int level = n ? lod_level(n->value) : -1;
+  const Mesh* m = world.try_get<Mesh>(e);
+  return level >= 0 || m == nullptr || !m->data ? level : lod_level(m->data->name);
+}
+
+}  // namespace
+
 std::vector<Entity> character_meshes(World& world, Entity mesh) {
   std::vector<Entity> out{mesh};
   const Skin* skin = world.alive(mesh) ? world.try_get<Skin>(mesh) : nullptr;
   if (skin == nullptr) return out;
+  const Mesh* own = world.try_get<Mesh>(mesh);
+  const int own_lod = lod_level(world, mesh);
   const auto bits = [](Entity j) { return (std::uint64_t{j.generation} << 32) | j.index; };
   std::unordered_set<std::uint64_t> joints;
   for (Entity j : skin->joints) joints.insert(bits(j));
   for (Entity e : world.view<Skin, Mesh>().sorted_entities()) {
-    if (e == mesh) continue;
+    if (e == mesh || (own != nullptr && world.get<Mesh>(e).data == own->data)) continue;
+    if (const int lod = lod_level(world, e); lod >= 0 && lod != own_lod) continue;
     const Skin& other = world.get<Skin>(e);
     if (std::any_of(other.joints.begin(), other.joints.end(), [&](Entity j) { return joints.contains(bits(j)); }))
       out.push_back(e);

@@ -108,9 +108,8 @@ TEST(VertexAo, SkinnedMeshesBakeInTheirBindPoseWithTheirCharacter) {
 
   auto rig = make_pose_rig(world, body, "body");
   ASSERT_TRUE(rig) << rig.error().message;
-  auto occluders = character_occluders(world, body);
-  ASSERT_TRUE(occluders);
-  auto tracer = PoseAOTracer::create(world.get<Mesh>(body).data, rig->joint_count(), "body", *occluders);
+  auto tracer =
+      PoseAOTracer::create(world.get<Mesh>(body).data, rig->joint_count(), "body", character_occluders(world, body));
   ASSERT_TRUE(tracer) << tracer.error().message;
   JobContext jobs;
   std::vector<float> reference(mesh.positions.size());

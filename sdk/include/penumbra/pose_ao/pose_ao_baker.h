@@ -109,8 +109,8 @@ struct PoseAOOccluder {
 // traced skin lacks cannot be posed from its poses: it is left out, with a line in `notes`
 // naming both meshes and the joint. Needs WorldTransforms (run the transform system). Cost:
 // O(meshes x joints + their vertices).
-Result<std::vector<PoseAOOccluder>> character_occluders(World& world, Entity mesh_entity,
-                                                        std::vector<std::string>* notes = nullptr);
+std::vector<PoseAOOccluder> character_occluders(World& world, Entity mesh_entity,
+                                                std::vector<std::string>* notes = nullptr);
 
 // A ground plane under a character (SkinnedPoseAO::ground) as an occluder fixed in the traced
 // mesh's frame: perpendicular to world up as `mesh_world` (the mesh's WorldTransform) carries it,

@@ -52,10 +52,12 @@ void skin_normals(const MeshData& mesh, const SkinPose& pose, std::vector<glm::v
 // descendants). Run after the skinning system. Cost: O(skinned vertices + meshes x depth).
 Aabb posed_bounds(World& world, Entity root = Entity::null());
 
-// The skinned meshes of `mesh`'s character: every Mesh + Skin entity whose skin shares a joint
-// entity with `mesh`'s skin (one skeleton, several meshes: a body, its armour, its hair), `mesh`
-// first, then the others in entity order. Only `mesh` when it has no Skin. Cost: O(skinned
-// meshes x joints).
+// The skinned meshes of `mesh`'s character, those that occlude it: every Mesh + Skin entity whose
+// skin shares a joint entity with `mesh`'s skin (one skeleton, several meshes: a body, its armour,
+// its hair), `mesh` first, then the others in entity order; left out are entities of the same
+// MeshData and other levels of detail (a name, the entity's or its mesh's, with "LOD" and a digit
+// other than `mesh`'s), which lie on the same surface. Only `mesh` when it has no Skin. Cost:
+// O(skinned meshes x joints).
 std::vector<Entity> character_meshes(World& world, Entity mesh);
 
 // Registers, in order: "animation" (Phase::Animation), the ecs transform systems

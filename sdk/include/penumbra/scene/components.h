@@ -215,6 +215,12 @@ struct Static {};
 struct Name {
   std::string value;
 };
+// A node name without the namespace prefix exporters add by rig or file ("mixamorig:Hips" and
+// "Armature|Hips" -> "Hips"); the name itself when it has none. O(length).
+inline std::string_view name_without_namespace(std::string_view name) {
+  const auto cut = name.find_last_of(":|");
+  return cut == std::string_view::npos ? name : name.substr(cut + 1);
+}
 
 // Lighting components a glTF node declares (its PENUMBRA_lighting extension), as the file gives
 // them: the importer reads them without knowing the lighting modules, and apply_authored_lighting
