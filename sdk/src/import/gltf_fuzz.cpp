@@ -4,10 +4,12 @@
 // Invariants: an import succeeds with valid meshes, or fails with an error that starts with the
 // file's path and leaves no entity behind; applying the declarations succeeds or fails naming the
 // file; a file that imported saves (or fails with an error, never a crash) and what it saves
-// imports again.
+// imports again; read as an animation file for a small character (import_animations), it adds
+// clips whose targets and channels all lie in that character, or fails naming the file.
 #include "fuzz/fuzz.h"
 #include "penumbra/import/gltf.h"
 #include "penumbra/runtime.h"
+#include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
 
 extern "C" std::uint32_t penumbra_fuzz_chunk_type() { return 0; }
@@ -36,7 +38,34 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     std::error_code ec;
     std::filesystem::remove(saved, ec);
-  } else {
+  }
+  {
+    // A character whose node names the seeds use (tests/data/gltf: scaled_armature, its wave).
+    World character;
+    Entity parent;
+    for (const char* name : {"Armature", "hips", "head", "root", "quad"}) {
+      const Entity e = character.create();
+      character.add<Name>(e, Name{name});
+      character.add<Transform>(e);
+      if (parent) set_parent(character, e, parent);
+      parent = e;
+    }
+    auto added = import_animations(character, path);
+    if (added) {
+      const Animator* a = character.try_get<Animator>(added->animator);
+      fuzz::require(a != nullptr && a->clips && a->clips->size() == added->clips && added->clips > 0,
+                    "retargeted clips that are not on the animator");
+      for (const AnimationClip& clip : *a->clips) {
+        for (Entity t : clip.targets) fuzz::require(character.alive(t), "a retargeted clip aims at no entity");
+        for (const AnimationChannel& ch : clip.channels)
+          fuzz::require(ch.target < clip.targets.size(), "a retargeted channel outside its clip's targets");
+      }
+    } else {
+      fuzz::require(added.error().message.find(path.filename().string()) != std::string::npos,
+                    "an animation import error that does not name the file");
+    }
+  }
+  if (!imported) {
     fuzz::require(imported.error().message.rfind(path.string(), 0) == 0, "an error that does not name the file");
     std::size_t left = 0;
     world.each<Name>([&](Entity, Name&) { ++left; });
