@@ -65,6 +65,15 @@ void* allocate_block(std::size_t bytes, std::size_t align) {
 
 void BlockDeleter::operator()(void* block) const { std::free(block); }
 
+void ZeroedWords::grow(std::size_t count) {
+  if (count <= size_) return;
+  auto words = std::make_unique_for_overwrite<std::uint64_t[]>(count);
+  if (size_ != 0) std::memcpy(words.get(), words_.get(), size_ * sizeof(std::uint64_t));
+  std::memset(words.get() + size_, 0, (count - size_) * sizeof(std::uint64_t));
+  words_ = std::move(words);
+  size_ = count;
+}
+
 // --- PoolBase ----------------------------------------------------------------------------------
 
 void PoolBase::add_sparse_page(std::uint32_t page) {
@@ -135,7 +144,8 @@ void PoolBase::swap_slots(std::uint32_t a, std::uint32_t b) {
 
 void PoolBase::reserve(std::uint32_t count) {
   while (index_pages_.size() * kPageSize < count) grow();
-  reserve_components(count);
+  const std::size_t slots = std::min<std::size_t>(index_pages_.size() * kPageSize, kNone);
+  capacity_ = std::min(static_cast<std::uint32_t>(slots), reserve_components(count));
 }
 
 void PoolBase::fire(World& world, std::vector<std::shared_ptr<Listener>>& listeners, Entity e) {
@@ -236,19 +246,45 @@ Entity World::create() {
   const auto index = static_cast<std::uint32_t>(slots_.size());
   assert(index != detail::kNone && "World::create: 2^32 - 1 entity slots in use");
   slots_.push_back(0);
-  for (std::uint32_t w = 0; w < mask_words_; ++w) masks_.push_back(0);
+  if (std::size_t{index} * mask_words_ >= masks_.size()) add_mask_rows();
   return Entity{index, 0};
+}
+
+void World::add_mask_rows() {
+  // As many rows as the entity slots have room for: they grow together, geometrically.
+  masks_.grow(std::max<std::size_t>(slots_.capacity(), 64) * mask_words_);
 }
 
 void World::create(std::span<Entity> out) {
   const std::size_t fresh = out.size() > free_.size() ? out.size() - free_.size() : 0;
   slots_.reserve(slots_.size() + fresh);
-  masks_.reserve(masks_.size() + fresh * mask_words_);
+  add_mask_rows();
   for (Entity& e : out) e = create();
 }
 
 void World::destroy(Entity e) {
   if (!alive(e)) return;
+  // Components in bit order, as destroy_components() removes them: from pools with nothing to tell
+  // and no group by a typed swap-and-pop straight from the mask, until one needs the general path.
+  bool general = iterating_ > 0;
+  std::uint64_t* row = &masks_[std::size_t{e.index} * mask_words_];
+  for (std::uint32_t word = 0; word < mask_words_ && !general; ++word) {
+    for (std::uint64_t bits = row[word]; bits != 0; bits &= bits - 1) {
+      const auto bit = static_cast<std::uint32_t>(std::countr_zero(bits));
+      detail::PoolBase& p = *by_bit_[word * 64u + bit];
+      if (!p.on_remove_.empty() || !p.groups_.empty()) {
+        general = true;
+        break;
+      }
+      row[word] &= ~mask_bit(bit);
+      p.pop_(p, p.position(e.index));
+    }
+  }
+  if (general && !destroy_components(e)) return;
+  release(e);
+}
+
+bool World::destroy_components(Entity e) {
   // Remove every component the mask names; repeat in case an on_remove listener added one back.
   // A component whose removal is already under way up the stack reports false and ends the loop.
   for (bool removed = true; removed && alive(e);) {
@@ -259,19 +295,16 @@ void World::destroy(Entity e) {
       while (bits != 0 && alive(e)) {
         const auto bit = word * 64u + static_cast<std::uint32_t>(std::countr_zero(bits));
         bits &= bits - 1;
-        detail::PoolBase& p = *by_bit_[bit];
-        if (p.on_remove_.empty() && p.groups_.empty()) {
-          erase_at(p, e.index, p.position(e.index));  // nothing to tell: no look-up past the mask
-          removed = true;
-        } else {
-          removed |= remove_from(p, e);
-        }
+        removed |= remove_from(*by_bit_[bit], e);
       }
       left = left || (alive(e) && masks_[std::size_t{e.index} * mask_words_ + word] != 0);
     }
     removed = removed && left;
   }
-  if (!alive(e)) return;  // a listener destroyed it already
+  return alive(e);  // false: a listener destroyed it already
+}
+
+void World::release(Entity e) {
   --alive_count_;
   // Bump the generation so old handles turn stale; an exhausted index is retired, never reused.
   const std::uint32_t next = e.generation + 1;
@@ -284,6 +317,7 @@ void World::destroy(Entity e) {
 }
 
 void World::destroy(std::span<const Entity> entities) {
+  free_.reserve(free_.size() + entities.size());
   for (const Entity e : entities) destroy(e);
 }
 
@@ -296,10 +330,10 @@ detail::PoolBase& World::add_pool(ComponentId id, std::unique_ptr<detail::PoolBa
     // One more mask word per entity: spread the masks out.
     const std::uint32_t words = mask_words_ + 1;
     const std::size_t rows = masks_.size() / mask_words_;
-    std::vector<std::uint64_t> masks(rows * words, 0);
+    detail::ZeroedWords masks;
+    masks.grow(rows * words);
     for (std::size_t i = 0; i < rows; ++i)
-      std::copy_n(masks_.begin() + static_cast<std::ptrdiff_t>(i * mask_words_), mask_words_,
-                  masks.begin() + static_cast<std::ptrdiff_t>(i * words));
+      for (std::uint32_t w = 0; w < mask_words_; ++w) masks[i * words + w] = masks_[i * mask_words_ + w];
     masks_ = std::move(masks);
     mask_words_ = words;
   }

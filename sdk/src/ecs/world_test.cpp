@@ -484,6 +484,16 @@ TEST(World, ResourcesAreSingletonsAndWorldsMove) {
   World moved = std::move(w);
   EXPECT_EQ(moved.resource<Health>().value, 5);
   EXPECT_EQ(moved.get<Position>(e).y, 4.0f);
+  const Entity f = moved.create();  // the moved World keeps its mask rows: add and destroy work
+  moved.add<Velocity>(f, 1.0f, 2.0f);
+  moved.destroy(e);
+  EXPECT_EQ(moved.get<Velocity>(f).y, 2.0f);
+  EXPECT_EQ(moved.count<Position>(), 0u);
+  w = World();  // a moved-from World takes a new one and works again
+  const Entity g = w.create();
+  w.add<Position>(g, 1.0f, 1.0f);
+  w.destroy(g);
+  EXPECT_EQ(w.count<Position>(), 0u);
 }
 
 #ifndef NDEBUG
@@ -781,6 +791,42 @@ TEST(WorldPool, HoistedGetsAgreeWithTheWorld) {
   EXPECT_EQ(health.try_get(es[0]), nullptr);
   EXPECT_EQ(health.get(reused).value, 77);
   EXPECT_EQ(w.pool<Mass>().try_get(reused), nullptr);  // a pool the World had not used yet
+}
+
+TEST(World, DestroyRemovesInTheOrderTypesWereFirstUsed) {
+  // destroy() takes the components in the order of their pools' first use in this World, typed
+  // swap-and-pops for pools nobody listens to; an on_remove listener sees the components after
+  // its own still there, and the entities moved into the freed slots keep their values.
+  World w;
+  std::vector<Entity> es(6);
+  w.create(es);
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    w.add<Position>(es[i], float(i), 0.0f);  // first used: removed first, by a typed pop
+    w.add<Health>(es[i], int(i));           // watched
+    w.add<Velocity>(es[i], 0.0f, float(i));  // after the watched one
+  }
+  std::vector<std::string> seen;
+  Connection c = w.on_remove<Health>([&](World& world, Entity e) {
+    seen.push_back(std::to_string(world.get<Health>(e).value) + (world.has<Position>(e) ? " position" : "") +
+                   (world.has<Velocity>(e) ? " velocity" : ""));
+  });
+  w.destroy(es[0]);
+  w.destroy(es[3]);
+  EXPECT_EQ(seen, (std::vector<std::string>{"0 velocity", "3 velocity"}));
+  for (const std::size_t i : {1, 2, 4, 5}) {
+    EXPECT_EQ(w.get<Position>(es[i]).x, float(i));
+    EXPECT_EQ(w.get<Health>(es[i]).value, int(i));
+    EXPECT_EQ(w.get<Velocity>(es[i]).y, float(i));
+  }
+  EXPECT_EQ(w.count<Position>(), 4u);
+  EXPECT_EQ(w.count<Velocity>(), 4u);
+  c.disconnect();
+  w.destroy(es[5]);
+  w.destroy(es[1]);  // the listener is pruned by now: every component by a typed pop
+  EXPECT_EQ(seen.size(), 2u);
+  EXPECT_EQ(w.get<Velocity>(es[4]).y, 4.0f);
+  EXPECT_EQ(w.get<Health>(es[2]).value, 2);
+  EXPECT_EQ(w.count<Health>(), 2u);
 }
 
 TEST(WorldBulk, BulkOperationsEqualTheirLoops) {

@@ -179,6 +179,28 @@ using Block = std::unique_ptr<void, BlockDeleter>;
 
 class GroupBase;
 
+// A growable array of 64-bit words that are zero until written; growth is one memcpy and one
+// memset. Moving leaves the source empty.
+class ZeroedWords {
+ public:
+  ZeroedWords() = default;
+  ZeroedWords(ZeroedWords&& other) noexcept : words_(std::move(other.words_)), size_(std::exchange(other.size_, 0)) {}
+  ZeroedWords& operator=(ZeroedWords&& other) noexcept {
+    words_ = std::move(other.words_);
+    size_ = std::exchange(other.size_, 0);
+    return *this;
+  }
+  std::size_t size() const { return size_; }
+  std::uint64_t& operator[](std::size_t i) { return words_[i]; }
+  std::uint64_t operator[](std::size_t i) const { return words_[i]; }
+  // Grows to `count` words (no-op when not larger), the new ones zero. O(count).
+  void grow(std::size_t count);
+
+ private:
+  std::unique_ptr<std::uint64_t[]> words_;
+  std::size_t size_ = 0;
+};
+
 // The type-independent half of a component pool (see the header comment for the layout). Dense
 // entities and ticks live in pages of kPageSize like the components, so nothing is ever copied
 // when a pool grows.
@@ -217,9 +239,9 @@ class PoolBase {
   std::uint32_t position(std::uint32_t index) const { return sparse_[index >> kSparseShift][index & (kSparsePage - 1)]; }
 
   // Appends entity `index` (its component must already be constructed at position size()).
+  // Precondition: size() < capacity().
   void push(std::uint32_t entity_index, std::uint64_t tick_value) {
     const std::uint32_t pos = size_;
-    if ((pos >> kPageShift) >= index_pages_.size()) grow();
     set_sparse(entity_index, pos);
     index(pos) = entity_index;
     tick(pos) = tick_value;
@@ -248,6 +270,8 @@ class PoolBase {
   void compact();
   // Exchanges two dense slots: components, entities and ticks. Precondition: no tombstones.
   void swap_slots(std::uint32_t a, std::uint32_t b);
+  // Slots with room for an entity, its tick and its component.
+  std::uint32_t capacity() const { return capacity_; }
   // Allocates room for `count` slots, so that filling up to it allocates nothing.
   void reserve(std::uint32_t count);
   // Calls the connected listeners (those connected during the call included).
@@ -271,13 +295,16 @@ class PoolBase {
   std::uint32_t bit_ = 0;                // this pool's bit in the World's per-entity masks
   GroupBase* owner_ = nullptr;           // the group that orders this pool, if any
   std::vector<GroupBase*> groups_;       // every group that has this pool's type, owned or observed
+  // Pool<T>::pop for this pool's T: the typed swap-and-pop, without a virtual call per step.
+  void (*pop_)(PoolBase&, std::uint32_t pos) = nullptr;
 
  protected:
   virtual void destroy_at(std::uint32_t pos) = 0;
   virtual void relocate(std::uint32_t from, std::uint32_t to) = 0;  // move-construct `to`, destroy `from`
   virtual void move_last_into(std::uint32_t pos, std::uint32_t last) = 0;  // move-assign `pos`, destroy `last`
   virtual void swap_components(std::uint32_t a, std::uint32_t b) = 0;
-  virtual void reserve_components(std::uint32_t count) = 0;
+  // Room for at least `count` components; returns the room, in slots.
+  virtual std::uint32_t reserve_components(std::uint32_t count) = 0;
 
  private:
   void set_sparse(std::uint32_t entity_index, std::uint32_t pos) {
@@ -289,16 +316,19 @@ class PoolBase {
   void grow();  // adds index and tick pages
 
   std::uint32_t size_ = 0;
-  std::vector<std::uint32_t*> index_pages_;  // into index_blocks_
-  std::vector<std::uint64_t*> tick_pages_;   // into tick_blocks_
-  std::vector<Block> blocks_;  // the allocations behind index_pages_ and tick_pages_
-  std::vector<std::unique_ptr<std::uint32_t[]>> sparse_;
+  std::uint32_t capacity_ = 0;
+  std::vector<std::uint32_t*> index_pages_;  // kPageSize entity indices each, inside blocks_
+  std::vector<std::uint64_t*> tick_pages_;   // kPageSize ticks each, inside blocks_
+  std::vector<Block> blocks_;                // the allocations behind index_pages_ and tick_pages_
+  std::vector<std::unique_ptr<std::uint32_t[]>> sparse_;  // kSparsePage positions each (null: none yet)
 };
 
 template <class T>
 class Pool final : public PoolBase {
  public:
-  Pool() = default;
+  Pool() {
+    pop_ = [](PoolBase& p, std::uint32_t pos) { static_cast<Pool&>(p).pop(pos); };
+  }
   ~Pool() override {
     for (std::uint32_t i = 0; i < size(); ++i)
       if (index(i) != kNone) at(i).~T();
@@ -319,7 +349,7 @@ class Pool final : public PoolBase {
   template <class... Args>
   T& emplace(std::uint32_t entity_index, std::uint64_t tick, Args&&... args) {
     const std::uint32_t pos = size();
-    if ((pos >> kPageShift) >= pages_.size()) add_block();
+    if (pos == capacity()) reserve(pos + 1);
     T* slot = &at(pos);
     if constexpr (std::is_constructible_v<T, Args&&...>)
       ::new (static_cast<void*>(slot)) T(std::forward<Args>(args)...);
@@ -344,8 +374,9 @@ class Pool final : public PoolBase {
     at(a) = std::move(at(b));
     at(b) = std::move(held);
   }
-  void reserve_components(std::uint32_t count) override {
+  std::uint32_t reserve_components(std::uint32_t count) override {
     while ((std::size_t{count} + kPageSize - 1) / kPageSize > pages_.size()) add_block();
+    return static_cast<std::uint32_t>(std::min<std::size_t>(pages_.size() * kPageSize, kNone));
   }
   // A new block as large as all before it (one page at first): pages stay put, and consecutive
   // pages are mostly adjacent in memory, which keeps iteration streaming.
@@ -417,7 +448,9 @@ class World {
   void create(std::span<Entity> out);
   // Removes every component (each on_remove fires while the entity is still alive), then bumps
   // the index's generation so every handle to it turns stale. A stale or null handle is ignored.
-  // Cost: O(number of components the entity has).
+  // Components go in the order their types were first used in this World, so an on_remove
+  // listener sees those of later types still there. Cost: O(number of components the entity
+  // has); a pool with no on_remove listener and no group takes a typed swap-and-pop.
   void destroy(Entity e);
   // destroy() of each, in order.
   void destroy(std::span<const Entity> entities);
@@ -595,12 +628,18 @@ class World {
     return masks_[std::size_t{index} * mask_words_ + bit / 64];
   }
   static std::uint64_t mask_bit(std::uint32_t bit) { return std::uint64_t{1} << (bit % 64); }
+  // Zeroed mask rows up to the entity slots' capacity (at least 64).
+  void add_mask_rows();
   // After e gained p's component: the groups it now completes.
   void join_groups(detail::PoolBase& p, std::uint32_t index);
   // Before e loses p's component: the groups it leaves.
   void leave_groups(detail::PoolBase& p, std::uint32_t index);
   // Removes e's component from `p` (firing on_remove); false when absent.
   bool remove_from(detail::PoolBase& p, Entity e);
+  // destroy()'s general path; false when a listener destroyed e.
+  bool destroy_components(Entity e);
+  // destroy()'s last step: the generation bumped, the index freed.
+  void release(Entity e);
   // The removal itself: clears the mask bit, erases slot `pos` (a tombstone while iterating).
   void erase_at(detail::PoolBase& p, std::uint32_t index, std::uint32_t pos);
   detail::GroupBase& make_group(std::vector<detail::PoolBase*> owned, std::vector<detail::PoolBase*> observed);
@@ -634,7 +673,8 @@ class World {
   std::vector<std::unique_ptr<detail::PoolBase>> pools_;
   std::vector<detail::PoolBase*> by_bit_;
   // Per entity index, mask_words_ 64-bit words: bit b set while by_bit_[b] holds its component.
-  std::vector<std::uint64_t> masks_;
+  // At least one row per entity slot; a free index's row is all zero.
+  detail::ZeroedWords masks_;
   std::uint32_t mask_words_ = 1;
   std::vector<std::unique_ptr<detail::GroupBase>> groups_;
   std::vector<detail::GroupBase*> dirty_groups_;
