@@ -67,12 +67,15 @@ void BlockDeleter::operator()(void* block) const { std::free(block); }
 
 void ZeroedWords::grow(std::size_t count) {
   if (count <= size_) return;
-  auto words = std::make_unique_for_overwrite<std::uint64_t[]>(count);
+  // calloc: fresh pages from the OS come zeroed without being touched here.
+  std::unique_ptr<std::uint64_t[], Free> words(static_cast<std::uint64_t*>(std::calloc(count, sizeof(std::uint64_t))));
+  if (!words) throw std::bad_alloc();
   if (size_ != 0) std::memcpy(words.get(), words_.get(), size_ * sizeof(std::uint64_t));
-  std::memset(words.get() + size_, 0, (count - size_) * sizeof(std::uint64_t));
   words_ = std::move(words);
   size_ = count;
 }
+
+void ZeroedWords::Free::operator()(std::uint64_t* p) const { std::free(p); }
 
 // --- PoolBase ----------------------------------------------------------------------------------
 
@@ -124,7 +127,7 @@ void PoolBase::compact() {
       relocate(i, out);
       index(out) = index(i);
       tick(out) = tick(i);
-      set_sparse(index(out), out);
+      sparse_entry(index(out)) = out;
     }
     ++out;
   }
@@ -138,8 +141,8 @@ void PoolBase::swap_slots(std::uint32_t a, std::uint32_t b) {
   swap_components(a, b);
   std::swap(index(a), index(b));
   std::swap(tick(a), tick(b));
-  set_sparse(index(a), a);
-  set_sparse(index(b), b);
+  sparse_entry(index(a)) = a;
+  sparse_entry(index(b)) = b;
 }
 
 void PoolBase::reserve(std::uint32_t count) {

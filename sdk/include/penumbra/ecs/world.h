@@ -179,8 +179,8 @@ using Block = std::unique_ptr<void, BlockDeleter>;
 
 class GroupBase;
 
-// A growable array of 64-bit words that are zero until written; growth is one memcpy and one
-// memset. Moving leaves the source empty.
+// A growable array of 64-bit words that are zero until written; growth is one calloc (fresh
+// pages from the OS arrive zeroed, untouched) and one memcpy. Moving leaves the source empty.
 class ZeroedWords {
  public:
   ZeroedWords() = default;
@@ -193,11 +193,14 @@ class ZeroedWords {
   std::size_t size() const { return size_; }
   std::uint64_t& operator[](std::size_t i) { return words_[i]; }
   std::uint64_t operator[](std::size_t i) const { return words_[i]; }
-  // Grows to `count` words (no-op when not larger), the new ones zero. O(count).
+  // Grows to `count` words (no-op when not larger), the new ones zero. O(size()) copied.
   void grow(std::size_t count);
 
  private:
-  std::unique_ptr<std::uint64_t[]> words_;
+  struct Free {
+    void operator()(std::uint64_t* p) const;
+  };
+  std::unique_ptr<std::uint64_t[], Free> words_;
   std::size_t size_ = 0;
 };
 
@@ -238,11 +241,18 @@ class PoolBase {
   // As find(), without the range checks. Precondition: the entity with this index has a component here.
   std::uint32_t position(std::uint32_t index) const { return sparse_[index >> kSparseShift][index & (kSparsePage - 1)]; }
 
-  // Appends entity `index` (its component must already be constructed at position size()).
-  // Precondition: size() < capacity().
-  void push(std::uint32_t entity_index, std::uint64_t tick_value) {
+  // The sparse entry of the entity with this index (kNone: no component here), its page made
+  // when missing. The reference stays valid until the pool is destroyed.
+  std::uint32_t& sparse_entry(std::uint32_t entity_index) {
+    const std::uint32_t page = entity_index >> kSparseShift;
+    if (page >= sparse_.size() || !sparse_[page]) add_sparse_page(page);
+    return sparse_[page][entity_index & (kSparsePage - 1)];
+  }
+  // Appends entity `index`, whose sparse entry is `entry` (its component must already be
+  // constructed at position size()). Precondition: size() < capacity().
+  void push(std::uint32_t entity_index, std::uint32_t& entry, std::uint64_t tick_value) {
     const std::uint32_t pos = size_;
-    set_sparse(entity_index, pos);
+    entry = pos;
     index(pos) = entity_index;
     tick(pos) = tick_value;
     ++size_;
@@ -307,11 +317,6 @@ class PoolBase {
   virtual std::uint32_t reserve_components(std::uint32_t count) = 0;
 
  private:
-  void set_sparse(std::uint32_t entity_index, std::uint32_t pos) {
-    const std::uint32_t page = entity_index >> kSparseShift;
-    if (page >= sparse_.size() || !sparse_[page]) add_sparse_page(page);
-    sparse_[page][entity_index & (kSparsePage - 1)] = pos;
-  }
   void add_sparse_page(std::uint32_t page);
   void grow();  // adds index and tick pages
 
@@ -347,7 +352,7 @@ class Pool final : public PoolBase {
 
   // Constructs a new component at the end of the pool.
   template <class... Args>
-  T& emplace(std::uint32_t entity_index, std::uint64_t tick, Args&&... args) {
+  T& emplace(std::uint32_t entity_index, std::uint32_t& entry, std::uint64_t tick, Args&&... args) {
     const std::uint32_t pos = size();
     if (pos == capacity()) reserve(pos + 1);
     T* slot = &at(pos);
@@ -355,7 +360,7 @@ class Pool final : public PoolBase {
       ::new (static_cast<void*>(slot)) T(std::forward<Args>(args)...);
     else  // an aggregate from its members (compilers without C++20's parenthesised aggregate init)
       ::new (static_cast<void*>(slot)) T{std::forward<Args>(args)...};
-    push(entity_index, tick);
+    push(entity_index, entry, tick);
     return *slot;
   }
 
@@ -986,8 +991,8 @@ template <class T, class... Args>
 T& World::add_to(detail::Pool<T>& p, Entity e, Args&&... args) {
   assert(alive(e) && "World::add: stale or null entity handle");
   assert(write_declared(component_id<T>()) && "a system adds a component it did not declare in SystemDesc::writes");
-  const std::uint32_t pos = p.find(e.index);
-  if (pos != detail::kNone) {
+  std::uint32_t& entry = p.sparse_entry(e.index);
+  if (const std::uint32_t pos = entry; pos != detail::kNone) {
     T& c = p.at(pos);
     if constexpr (std::is_constructible_v<T, Args&&...>)
       c = T(std::forward<Args>(args)...);
@@ -996,7 +1001,7 @@ T& World::add_to(detail::Pool<T>& p, Entity e, Args&&... args) {
     p.tick(pos) = tick_;
     return c;
   }
-  T* c = &p.emplace(e.index, tick_, std::forward<Args>(args)...);
+  T* c = &p.emplace(e.index, entry, tick_, std::forward<Args>(args)...);
   mask_word(e.index, p.bit_) |= mask_bit(p.bit_);
   if (!p.groups_.empty()) {
     join_groups(p, e.index);
