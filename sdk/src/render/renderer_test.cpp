@@ -540,7 +540,13 @@ TEST_F(RendererTest, AnAllLightProbeGridIsDrawnWithOneWarning) {
 }
 
 // The shader's probe irradiance (Irradiance view, linear float) equals evaluate() on the CPU at the
-// pixel's world position and normal (Position and Normal views) within 1%.
+// pixel's world position and normal (Position and Normal views) within 1%, up to the GPU's filter
+// precision: a texture unit weighs the trilinear lookup's texels at a fraction rounded to
+// subTexelPrecisionBits (8 on NVIDIA's, Vulkan's limits), so the shader's value may be the CPU's
+// interpolation anywhere within 2^-bits of a cell of the leak guard's lookup fraction; the test
+// takes the range over that box's corners (the expansion is multilinear in the fraction). Without
+// the allowance an H200 missed by 1.6% where the Cornell box's SH terms change fast; llvmpipe
+// filters in float and needs none.
 TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
   for (const char* name : {"cornell", "courtyard"}) {
     BakedScene& s = scene(name);
@@ -565,6 +571,12 @@ TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
     ASSERT_FALSE(data->reach.empty()) << name << ": the scenes' default grid has the leak guard";
     ProbeGridData plain = *data;
     plain.reach.clear();
+    VkPhysicalDeviceProperties props{};
+    vkGetPhysicalDeviceProperties(device_->physical_device(), &props);
+    const float step = device_->is_software() ? 0.0f : std::ldexp(1.0f, -int(props.limits.subTexelPrecisionBits));
+    const ProbeGridLayout& layout = data->layout;
+    const glm::vec3 cells(layout.resolution - 1u);
+    const glm::mat4 grid_to_world = glm::inverse(layout.world_to_grid);
     int checked = 0, guarded = 0;
     double worst = 0.0;
     for (std::uint32_t y = 2; y < kHeight; y += 7) {
@@ -572,16 +584,32 @@ TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
         const std::size_t p = (std::size_t{y} * kWidth + x) * 4;
         const glm::vec3 n(normal[p], normal[p + 1], normal[p + 2]);
         if (glm::length(n) < 0.5f) continue;  // background
-        const glm::vec3 pos(position[p], position[p + 1], position[p + 2]);
+        const glm::vec3 pos(position[p], position[p + 1], position[p + 2]), unit = glm::normalize(n);
         const glm::vec3 gpu(irradiance[p], irradiance[p + 1], irradiance[p + 2]);
-        const glm::vec3 cpu = evaluate(*data, pos, glm::normalize(n));
+        const glm::vec3 cpu = evaluate(*data, pos, unit);
         const float scale = std::max({cpu.x, cpu.y, cpu.z, 1e-3f});
-        if (glm::length(evaluate(plain, pos, glm::normalize(n)) - cpu) > 0.05f * scale) ++guarded;
+        if (glm::length(evaluate(plain, pos, unit) - cpu) > 0.05f * scale) ++guarded;
+        // The CPU's range over the lookup fractions the filter may use (interpolate()'s steps).
+        glm::vec3 lo = cpu, hi = cpu;
+        if (step > 0.0f) {
+          const glm::vec3 u = glm::clamp(glm::vec3(layout.world_to_grid * glm::vec4(pos, 1.0f)), 0.0f, 1.0f) * cells;
+          const glm::uvec3 base = glm::min(glm::uvec3(u), layout.resolution - 2u);
+          const glm::vec3 f = probe_lookup_fraction(*data, base, u - glm::vec3(base),
+                                                    glm::mat3(layout.world_to_grid) * unit * cells);
+          for (int corner = 0; corner < 8; ++corner) {
+            const glm::vec3 sign(corner & 1 ? 1.0f : -1.0f, corner & 2 ? 1.0f : -1.0f, corner & 4 ? 1.0f : -1.0f);
+            const glm::vec3 g = (glm::vec3(base) + glm::clamp(f + step * sign, 0.0f, 1.0f)) / cells;
+            const glm::vec3 e = evaluate(plain, glm::vec3(grid_to_world * glm::vec4(g, 1.0f)), unit);
+            lo = glm::min(lo, e);
+            hi = glm::max(hi, e);
+          }
+        }
         for (int k = 0; k < 3; ++k) {
-          const double rel = std::abs(gpu[k] - cpu[k]) / scale;
+          const double rel = std::max({0.0f, lo[k] - gpu[k], gpu[k] - hi[k]}) / scale;
           worst = std::max(worst, rel);
           EXPECT_LE(rel, 0.01) << name << " pixel (" << x << ", " << y << ") channel " << k << ": gpu " << gpu[k]
-                               << " cpu " << cpu[k];
+                               << " cpu " << cpu[k] << " (" << lo[k] << " to " << hi[k] << " within the filter's "
+                               << step << " of a cell)";
         }
         ++checked;
       }
@@ -589,8 +617,9 @@ TEST_F(RendererTest, ProbeIrradianceMatchesTheCpuEvaluation) {
     EXPECT_GE(checked, 100) << name;
     // The courtyard's thin wall and arch hide corners of the default grid's cells from many pixels;
     // the Cornell box's draft grid (2x2x2 inside the walls) has none hidden at these pixels.
-    if (std::string(name) == "courtyard")
+    if (std::string(name) == "courtyard") {
       EXPECT_GE(guarded, 10) << "too few pixels where the leak guard changes the lookup";
+    }
     RecordProperty(std::string(name) + "_guarded_pixels", std::to_string(guarded));
     RecordProperty(std::string(name) + "_worst_relative_error", std::to_string(worst));
   }
@@ -769,10 +798,13 @@ CameraView look_at(World& world, glm::vec3 eye, glm::vec3 target) {
 
 // The AO-field pass's occlusion (AO view, linear float) on the courtyard's ground against
 // 1 - evaluate_packed(), the CPU reference of the shader, at each pixel's world position and
-// normal, where the crates darken it, at 640x480. At ambient_step 1 within 0.01 on every pixel
-// (half floats). At step 2 the same on the pixels whose sample the pass computed (even
-// coordinates); upsampled, within 0.01 on 99 % of all pixels and 0.3 on every one (the step's
-// error is largest where the contact shadow changes within two pixels).
+// normal, where the crates darken it, at 640x480. At ambient_step 1 within 0.01 (half floats) on
+// 99.9 % of the pixels and 0.015 on every one (an H200 put one of 113,558 pixels, on the contact
+// shadow's steepest edge, 0.0125 off: Vulkan allows GPUs less precise division and transcendentals
+// than llvmpipe's, which stays within 0.002). At step 2 the same on the
+// pixels whose sample the pass computed (even coordinates); upsampled, within 0.01 on 99 % of all
+// pixels and 0.3 on every one (the step's error is largest where the contact shadow changes within
+// two pixels).
 TEST_F(RendererTest, AoFieldPassMatchesTheCpuReference) {
   auto s = bake_scene("courtyard", {.ao_fields = true});
   ASSERT_TRUE(s);
@@ -788,7 +820,7 @@ TEST_F(RendererTest, AoFieldPassMatchesTheCpuReference) {
     const auto position = render("position");
     const auto normal = render("normal");
     ASSERT_EQ(ao.size(), std::size_t{kW} * kH * 4);
-    int ground = 0, occluded = 0, sampled = 0, within = 0;
+    int ground = 0, occluded = 0, sampled = 0, within = 0, sampled_within = 0;
     double worst = 0.0, worst_sampled = 0.0;
     for (std::size_t p = 0; p < ao.size(); p += 4) {
       const glm::vec3 pos(position[p], position[p + 1], position[p + 2]);
@@ -800,9 +832,10 @@ TEST_F(RendererTest, AoFieldPassMatchesTheCpuReference) {
       const bool own_sample = x % step == 0 && y % step == 0;
       if (own_sample) {
         ++sampled;
+        sampled_within += err <= 0.01;
         worst_sampled = std::max(worst_sampled, err);
       }
-      EXPECT_LE(err, own_sample ? 0.01 : 0.3) << "step " << step << ", pixel (" << x << ", " << y << ") at ("
+      EXPECT_LE(err, own_sample ? 0.015 : 0.3) << "step " << step << ", pixel (" << x << ", " << y << ") at ("
                                               << pos.x << ", " << pos.z << "): gpu " << 1.0f - ao[p] << " cpu "
                                               << cpu;
       worst = std::max(worst, err);
@@ -811,6 +844,7 @@ TEST_F(RendererTest, AoFieldPassMatchesTheCpuReference) {
       occluded += cpu > 0.05f;
     }
     EXPECT_GE(sampled, 10000);
+    EXPECT_GE(sampled_within, 0.999 * sampled) << sampled_within << " of " << sampled << " own samples within 0.01";
     EXPECT_GE(within, 0.99 * ground) << within << " of " << ground << " ground pixels within 0.01";
     EXPECT_GE(occluded, 2000) << "too few ground pixels near the crates to test the pass";
     std::printf("AO-field pass at step %u against evaluate_packed on %d ground pixels: worst %.4f (own samples "
