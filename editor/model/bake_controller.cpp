@@ -151,6 +151,7 @@ Status BakeController::start(Document& doc, const BakeRequest& request) {
                       "with " + bakeable_components());
 
   std::shared_ptr<World> snap = snapshot(world, request.entities);
+  inputs_ = doc.bake_tracker().begin(world, request.bakers, request.entities, request.settings);
   {
     std::lock_guard lock(mutex_);
     status_ = BakeStatus{};
@@ -229,6 +230,7 @@ bool BakeController::poll(Document& doc) {
       next.error = "the bake finished but its results do not fit the scene any more (" + s.error().message + ")";
     } else {
       next.state = BakeStatus::State::Done;
+      doc.bake_tracker().commit(std::move(inputs_), r.report);
     }
   }
   std::lock_guard lock(mutex_);

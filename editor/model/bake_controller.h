@@ -72,8 +72,9 @@ class BakeController {
   void cancel();
   bool running() const;
   // Main thread, once per frame: when the worker has finished, joins it and attaches the results
-  // to `doc` (the document the bake started from; other documents are left alone). Returns true in
-  // the call that completed a bake (Done, Failed or Cancelled).
+  // to `doc` (the document the bake started from; other documents are left alone) and records
+  // what it was baked from in the document's bake tracker. Returns true in the call that
+  // completed a bake (Done, Failed or Cancelled).
   bool poll(Document& doc);
   // Blocks until the worker finishes (poll() still attaches). For scripts and tests.
   void wait();
@@ -88,6 +89,7 @@ class BakeController {
   std::thread worker_;
   std::unique_ptr<CancelToken> cancel_;
   std::optional<Result<BakeResult>> outcome_;  // written by the worker, taken by poll()
+  BakeTracker::Records inputs_;  // what the running bake read (main thread), kept when it is done
   const Document* document_ = nullptr;
   bool finished_ = false;  // the worker has stored its outcome
   std::chrono::steady_clock::time_point started_;

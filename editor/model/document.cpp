@@ -77,6 +77,7 @@ Status Document::open_bake(const std::filesystem::path& path) {
   auto file = read_bake_file(path);
   if (!file) return file.error();
   if (Status s = attach_bake(world_, *file); !s) return Error{s.error().code, path.string() + ": " + s.error().message};
+  bake_tracker_.loaded(world_, *file, path.filename().string());
   baked_ = std::move(*file);
   return {};
 }

@@ -10,6 +10,7 @@
 
 #include "penumbra/bake/baker.h"
 #include "penumbra/core/pbake.h"
+#include "bake_state.h"
 #include "penumbra/ecs/world.h"
 #include "undo.h"
 
@@ -49,6 +50,9 @@ class Document {
   Status save_bake(const std::filesystem::path& path) const;
   const BakeFile& baked() const { return baked_; }
   bool has_bake() const { return !baked_.chunks.empty(); }
+  // What each lighting component was baked from (bake_state.h): the bake controller records its
+  // bakes, open_bake() the files it reads.
+  BakeTracker& bake_tracker() { return bake_tracker_; }
 
   // Writes a script that re-creates this document: `open SOURCE` then one `set` per field edit that
   // is applied (undo position), so a built-in scene's edits can be saved and replayed. Atomic.
@@ -67,6 +71,7 @@ class Document {
   Entity selection_;
   UndoStack undo_;
   BakeFile baked_;
+  BakeTracker bake_tracker_;
 };
 
 }  // namespace penumbra::editor

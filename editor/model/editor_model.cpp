@@ -38,4 +38,9 @@ Status EditorModel::bake_selection() {
 
 bool EditorModel::poll() { return document_ && bakes_.poll(*document_); }
 
+std::vector<BakeState> EditorModel::bake_states() {
+  if (!document_) return {};
+  return document_->bake_tracker().states(document_->world(), bake_settings);
+}
+
 }  // namespace penumbra::editor

@@ -27,6 +27,9 @@ class EditorModel {
   Status bake_selection();
   // Once per frame: attaches a finished bake's results. True when one finished in this call.
   bool poll();
+  // The bake state of each lighting component of the document (bake_state.h) against the next
+  // bake's settings; empty without a document. Cost: hashes the scene (BakeTracker::states).
+  std::vector<BakeState> bake_states();
 
   BakeSettings bake_settings;  // preset and seed of the next bake
   unsigned bake_threads = 0;   // 0: one per hardware thread

@@ -1,7 +1,9 @@
 // Script parsing and replay (script.h).
 #include "script.h"
 
+#include <algorithm>
 #include <charconv>
+#include <optional>
 #include <fstream>
 #include <sstream>
 
@@ -44,6 +46,16 @@ bool parse_number(std::string_view text, double& out) {
   return ec == std::errc() && end == text.data() + text.size();
 }
 
+// expect-bake's words for the states: to_string(Freshness) with '-' for ' '.
+std::optional<Freshness> parse_freshness(std::string_view word) {
+  for (Freshness f : {Freshness::NeverBaked, Freshness::UpToDate, Freshness::OutOfDate, Freshness::Loaded}) {
+    std::string name = to_string(f);
+    std::replace(name.begin(), name.end(), ' ', '-');
+    if (name == word) return f;
+  }
+  return std::nullopt;
+}
+
 // The arity and argument rules of each verb; "" when the action is well formed.
 std::string check_action(const ScriptAction& a) {
   const std::size_t n = a.args.size();
@@ -83,6 +95,9 @@ std::string check_action(const ScriptAction& a) {
     if (n < 1 || n > 2 || a.args[0].empty() || (n == 2 && !preset_ok(a.args[1])))
       return "'bake' takes all, selection or lighting module names (comma-separated), then an optional preset "
              "(draft, medium, high)";
+  } else if (v == "expect-bake") {
+    if (n != 2 || !parse_freshness(a.args[1]))
+      return "'expect-bake' takes an entity (or all) and never-baked, up-to-date, out-of-date or loaded";
   } else if (v == "undo" || v == "redo" || v == "cancel" || v == "wait" || v == "reset-stats") {
     if (n != 0) return "'" + v + "' takes no arguments";
   } else if (v == "frames") {
@@ -108,7 +123,7 @@ std::string check_action(const ScriptAction& a) {
   } else {
     return "unknown action '" + v +
            "'; actions: open, open-bake, save-bake, save-edits, save-gltf, select, set, add, remove, preset, undo, redo, "
-           "bake, cancel, wait, "
+           "bake, cancel, wait, expect-bake, "
            "frames, screenshot, orbit, view, ui, click, reset-stats, quit";
   }
   return {};
@@ -255,6 +270,30 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
   }
   if (a.verb == "cancel") {
     model.bakes().cancel();
+    return {};
+  }
+  if (a.verb == "expect-bake") {
+    Entity only = Entity::null();
+    if (args[0] != "all") {
+      auto e = doc->find(args[0]);
+      if (!e) return e.error();
+      only = *e;
+    }
+    const Freshness expected = *parse_freshness(args[1]);
+    std::string wrong;
+    int checked = 0;
+    for (const BakeState& state : model.bake_states()) {
+      if (only && state.entity != only) continue;
+      ++checked;
+      if (state.freshness == expected) continue;
+      wrong += std::string(wrong.empty() ? "" : "; ") + state.module + " " +
+               (state.entity ? "on '" + doc->label(state.entity) + "' " : std::string()) + "is " +
+               to_string(state.freshness) + (state.why.empty() ? "" : " (" + state.why + ")");
+    }
+    if (checked == 0)
+      return make_error(ErrorCode::InvalidArgument, "'" + args[0] + "' has no lighting component to bake");
+    if (!wrong.empty())
+      return make_error(ErrorCode::InvalidInput, "expected " + args[1] + ", but " + wrong);
     return {};
   }
   if (a.verb == "wait") {

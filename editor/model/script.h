@@ -13,6 +13,9 @@
 //   bake all|selection|BAKER[,BAKER...] [draft|medium|high]   starts a background bake
 //   cancel                              cancels the running bake
 //   wait                                until the running bake ends; fails the script if it failed
+//   expect-bake REF|all STATE           fails the script unless every lighting component of REF (all:
+//                                       of the scene) is in STATE: never-baked, up-to-date,
+//                                       out-of-date or loaded (bake_state.h), naming those that are not
 //   frames N                            lets N frames run
 //   screenshot PATH | orbit YAW PITCH [DISTANCE] | view DEBUGVIEW | ui on|off
 //   click X Y                           a left click at window pixel (X, Y): the pointer moves there,

@@ -73,41 +73,73 @@ const Baker* BakerRegistry::find(std::string_view name) const {
   return nullptr;
 }
 
+namespace {
+
+// What hash_scene adds for one entity with a Mesh (after its key).
+void hash_mesh_entity(World& world, Entity e, Hasher& h) {
+  const Mesh& mesh = world.get<Mesh>(e);
+  if (mesh.data) {
+    h.add(mesh.data->positions);
+    h.add(mesh.data->normals);
+    h.add(mesh.data->indices);
+    h.add(mesh.data->joints);
+    h.add(mesh.data->weights);
+  }
+  if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
+  h.add(world.has<Static>(e));
+  if (const auto* m = world.try_get<Material>(e)) {
+    h.add(m->base_color);
+    h.add(m->emissive);
+    h.add(m->double_sided);
+    if (m->base_color_texture) h.add(m->base_color_texture->rgba8);
+  }
+}
+
+// What hash_scene adds for one entity with a Light (after its key).
+void hash_light_entity(World& world, Entity e, Hasher& h) {
+  const Light& l = world.get<Light>(e);
+  h.add(l.type);
+  h.add(l.color);
+  h.add(l.intensity);
+  h.add(l.range);
+  h.add(l.inner_cone_angle);
+  h.add(l.outer_cone_angle);
+  h.add(l.size);
+  if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
+  const DynamicLight* d = world.try_get<DynamicLight>(e);
+  h.add(static_cast<std::uint8_t>(d == nullptr ? 0 : d->enabled ? 1 : 2));
+}
+
+}  // namespace
+
 void hash_scene(World& world, Hasher& h) {
   for (Entity e : world.view<Mesh>().sorted_entities()) {
     h.add(std::string_view(entity_key(world, e)));
-    const Mesh& mesh = world.get<Mesh>(e);
-    if (mesh.data) {
-      h.add(mesh.data->positions);
-      h.add(mesh.data->normals);
-      h.add(mesh.data->indices);
-      h.add(mesh.data->joints);
-      h.add(mesh.data->weights);
-    }
-    if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
-    h.add(world.has<Static>(e));
-    if (const auto* m = world.try_get<Material>(e)) {
-      h.add(m->base_color);
-      h.add(m->emissive);
-      h.add(m->double_sided);
-      if (m->base_color_texture) h.add(m->base_color_texture->rgba8);
-    }
+    hash_mesh_entity(world, e, h);
   }
   h.add(environment_radiance(world));
   for (Entity e : world.view<Light>().sorted_entities()) {
     h.add(std::string_view(entity_key(world, e)));
-    const Light& l = world.get<Light>(e);
-    h.add(l.type);
-    h.add(l.color);
-    h.add(l.intensity);
-    h.add(l.range);
-    h.add(l.inner_cone_angle);
-    h.add(l.outer_cone_angle);
-    h.add(l.size);
-    if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
-    const DynamicLight* d = world.try_get<DynamicLight>(e);
-    h.add(static_cast<std::uint8_t>(d == nullptr ? 0 : d->enabled ? 1 : 2));
+    hash_light_entity(world, e, h);
   }
+}
+
+std::vector<SceneInput> scene_inputs(World& world) {
+  std::vector<SceneInput> out;
+  for (Entity e : world.view<Mesh>().sorted_entities()) {
+    Hasher h;
+    hash_mesh_entity(world, e, h);
+    out.push_back({entity_key(world, e), SceneInput::Kind::Mesh, h.digest()});
+  }
+  for (Entity e : world.view<Light>().sorted_entities()) {
+    Hasher h;
+    hash_light_entity(world, e, h);
+    out.push_back({entity_key(world, e), SceneInput::Kind::Light, h.digest()});
+  }
+  Hasher sky;
+  sky.add(environment_radiance(world));
+  out.push_back({"environment", SceneInput::Kind::Environment, sky.digest()});
+  return out;
 }
 
 Result<std::vector<const Baker*>> select_bakers(const BakerRegistry& registry, const std::vector<std::string>& names) {

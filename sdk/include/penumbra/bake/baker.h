@@ -130,6 +130,18 @@ class BakerRegistry {
 // its entity key, in entity order: the part of the input hash that every baker shares.
 void hash_scene(World& world, Hasher& hasher);
 
+// hash_scene's inputs one at a time, for telling what changed since a bake: one per entity with a
+// Mesh, then one per entity with a Light (in entity order, each with its entity key and the hash
+// of what hash_scene adds for it), then the environment (key "environment"). Cost: hash_scene's.
+struct SceneInput {
+  enum class Kind : std::uint8_t { Mesh, Light, Environment };
+  std::string key;
+  Kind kind = Kind::Mesh;
+  std::uint64_t hash = 0;
+  bool operator==(const SceneInput&) const = default;
+};
+std::vector<SceneInput> scene_inputs(World& world);
+
 // The input hash of a bake of `names` with `settings` (the seed included, the thread count not).
 std::uint64_t bake_input_hash(World& world, const std::vector<std::string>& names, const BakeSettings& settings);
 

@@ -1,0 +1,184 @@
+// Bake state per lighting component: never baked before a bake, up to date after it, out of date
+// naming what changed (a light, a mesh, the component's settings, the preset), up to date again
+// after an undo, loaded from a file, and a sibling component's edit leaves the others up to date.
+#include "bake_state.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "editor_model.h"
+#include "fields.h"
+#include "penumbra/ecs/transform.h"
+#include "penumbra/scene/entity_key.h"
+#include "script.h"
+
+namespace penumbra::editor {
+namespace {
+
+const BakeState* state_of(const std::vector<BakeState>& states, std::string_view module, Entity e = Entity::null()) {
+  for (const BakeState& s : states)
+    if (s.module == module && (!e || s.entity == e)) return &s;
+  return nullptr;
+}
+
+void bake(EditorModel& model, std::vector<std::string> bakers) {
+  ASSERT_TRUE(model.bake(std::move(bakers)).ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
+}
+
+Status set(Document& doc, std::string_view entity, std::string_view component, std::string_view field,
+           std::string_view value) {
+  auto e = doc.find(entity);
+  if (!e) return e.error();
+  const FieldDesc* f = find_field(component, field);
+  if (f == nullptr) return make_error(ErrorCode::NotFound, "no field");
+  auto parsed = parse_field_value(*f, value);
+  if (!parsed) return parsed.error();
+  PENUMBRA_TRY(doc.undo().set(doc.world(), *e, *f, *parsed));
+  update_world_transforms(doc.world());
+  return {};
+}
+
+void undo(Document& doc) {
+  ASSERT_TRUE(doc.undo().undo(doc.world()));
+  update_world_transforms(doc.world());
+}
+
+TEST(BakeState, FollowsTheEditsSinceTheBake) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  Document& doc = *model.document();
+  const Entity grid = *doc.find("probe grid");
+
+  std::vector<BakeState> states = model.bake_states();
+  ASSERT_NE(state_of(states, "probe-grid", grid), nullptr);
+  ASSERT_NE(state_of(states, "vertex-ao"), nullptr);  // module-wide: no authoring component
+  EXPECT_FALSE(state_of(states, "vertex-ao")->entity);
+  for (const BakeState& s : states) EXPECT_EQ(s.freshness, Freshness::NeverBaked) << s.module;
+
+  bake(model, {"probe-grid"});
+  states = model.bake_states();
+  const BakeState* probe = state_of(states, "probe-grid", grid);
+  ASSERT_NE(probe, nullptr);
+  EXPECT_EQ(probe->freshness, Freshness::UpToDate) << probe->why;
+  EXPECT_GT(probe->seconds, 0.0);
+  EXPECT_GT(probe->bytes, 0u);
+  EXPECT_EQ(state_of(states, "vertex-ao")->freshness, Freshness::NeverBaked);  // not in that bake
+
+  // A light's change: out of date, naming it; the undo brings the scene back, and the state.
+  ASSERT_TRUE(set(doc, "light", "Light", "intensity", "3").ok());
+  probe = state_of(states = model.bake_states(), "probe-grid", grid);
+  EXPECT_EQ(probe->freshness, Freshness::OutOfDate);
+  EXPECT_EQ(probe->why, "light '" + entity_key(doc.world(), *doc.find("light")) + "' changed");
+  undo(doc);
+  EXPECT_EQ(state_of(states = model.bake_states(), "probe-grid", grid)->freshness, Freshness::UpToDate);
+
+  // A mesh moved.
+  ASSERT_TRUE(set(doc, "tall_block", "Transform", "translation", "0.1 0 0").ok());
+  probe = state_of(states = model.bake_states(), "probe-grid", grid);
+  EXPECT_EQ(probe->freshness, Freshness::OutOfDate);
+  EXPECT_EQ(probe->why, "mesh '" + entity_key(doc.world(), *doc.find("tall_block")) + "' changed");
+  undo(doc);
+
+  // The component's own settings, and the next bake's preset.
+  ASSERT_TRUE(set(doc, "probe grid", "IrradianceProbeGrid", "samples_per_node", "7").ok());
+  probe = state_of(states = model.bake_states(), "probe-grid", grid);
+  EXPECT_EQ(probe->why, "its settings changed");
+  undo(doc);
+  model.bake_settings.preset = Preset::Medium;
+  probe = state_of(states = model.bake_states(), "probe-grid", grid);
+  EXPECT_EQ(probe->why, "the bake preset is now medium (baked at draft)");
+  model.bake_settings.preset = Preset::Draft;
+  EXPECT_EQ(state_of(states = model.bake_states(), "probe-grid", grid)->freshness, Freshness::UpToDate);
+
+  // A file read back: its data is "loaded", named by the file.
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("penumbra_bake_state_" + std::to_string(::getpid()) + ".pbake");
+  ASSERT_TRUE(doc.save_bake(path).ok());
+  ASSERT_TRUE(doc.open_bake(path).ok());
+  probe = state_of(states = model.bake_states(), "probe-grid", grid);
+  EXPECT_EQ(probe->freshness, Freshness::Loaded);
+  EXPECT_EQ(probe->why, path.filename().string());
+  EXPECT_EQ(state_of(states, "vertex-ao")->freshness, Freshness::NeverBaked);  // the file has no vertex AO
+  std::filesystem::remove(path);
+}
+
+TEST(BakeState, AnotherComponentsEditLeavesTheRestUpToDate) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  Document& doc = *model.document();
+  bake(model, {"ao-field"});
+  std::vector<BakeState> states = model.bake_states();
+  std::vector<Entity> casters;
+  for (const BakeState& s : states)
+    if (s.module == "ao-field") {
+      casters.push_back(s.entity);
+      EXPECT_EQ(s.freshness, Freshness::UpToDate) << doc.label(s.entity) << ": " << s.why;
+    }
+  ASSERT_GE(casters.size(), 2u);
+  const FieldDesc* f = find_field("AOFieldCaster", "rays_per_sample");
+  ASSERT_NE(f, nullptr);
+  auto value = parse_field_value(*f, "17");
+  ASSERT_TRUE(value.ok()) << value.error().message;
+  ASSERT_TRUE(doc.undo().set(doc.world(), casters[0], *f, *value).ok());
+  states = model.bake_states();
+  EXPECT_EQ(state_of(states, "ao-field", casters[0])->why, "its settings changed");
+  EXPECT_EQ(state_of(states, "ao-field", casters[1])->freshness, Freshness::UpToDate)
+      << state_of(states, "ao-field", casters[1])->why;
+
+  // A caster added after the bake has never been baked; baking the selection bakes it alone.
+  const Entity wall = *doc.find("north_wall");
+  ASSERT_TRUE(doc.undo().add_component(doc.world(), wall, *find_authored_component("AOFieldCaster"), Preset::Draft).ok());
+  update_world_transforms(doc.world());
+  EXPECT_EQ(state_of(states = model.bake_states(), "ao-field", wall)->freshness, Freshness::NeverBaked);
+  doc.select(wall);
+  ASSERT_TRUE(model.bake_selection().ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  states = model.bake_states();
+  EXPECT_EQ(state_of(states, "ao-field", wall)->freshness, Freshness::UpToDate) << state_of(states, "ao-field", wall)->why;
+  EXPECT_EQ(state_of(states, "ao-field", casters[0])->freshness, Freshness::OutOfDate);
+}
+
+TEST(BakeState, ScriptsExpectAState) {
+  EditorModel model;
+  auto script = parse_script(
+      "open builtin:cornell draft\n"
+      "expect-bake all never-baked\n"
+      "bake probe-grid draft\n"
+      "wait\n"
+      "expect-bake \"probe grid\" up-to-date\n"
+      "set light Light.intensity 3\n"
+      "frames 1\n"
+      "expect-bake \"probe grid\" up-to-date\n",
+      "state.txt");
+  ASSERT_TRUE(script.ok()) << script.error().message;
+  ScriptRunner runner(*script);
+  Status last;
+  // One step per frame, as the editor runs it; the bake takes a second or less.
+  for (int step = 0; step < 60000 && !runner.finished(); ++step) {
+    last = runner.step(model);
+    if (!last) break;
+    if (Document* doc = model.document()) doc->world().update(1.0 / 60.0);
+    if (model.bakes().running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_FALSE(last.ok());
+  const std::string light = entity_key(model.document()->world(), *model.document()->find("light"));
+  EXPECT_NE(last.error().message.find("state.txt:8: expect-bake: expected up-to-date, but probe-grid on 'probe grid' "
+                                      "is out of date (light '" + light + "' changed)"),
+            std::string::npos)
+      << last.error().message;
+  EXPECT_FALSE(parse_script("expect-bake all fresh\n", "bad.txt").ok());
+}
+
+}  // namespace
+}  // namespace penumbra::editor
