@@ -260,6 +260,25 @@ void field_widget(Document& doc, Entity e, const FieldDesc& f, UiState& ui) {
 }
 
 // What each module says about the entity (its baked data, its runtime outputs).
+// A bake state in its colour: up to date green, out of date amber, never baked grey, loaded blue;
+// the reason follows, wrapped.
+void bake_state_text(const BakeState& state) {
+  const ImVec4 colour = state.freshness == Freshness::UpToDate    ? ImVec4(0.45f, 0.85f, 0.45f, 1.0f)
+                        : state.freshness == Freshness::OutOfDate ? ImVec4(1.0f, 0.7f, 0.25f, 1.0f)
+                        : state.freshness == Freshness::Loaded    ? ImVec4(0.5f, 0.7f, 1.0f, 1.0f)
+                                                                  : ImVec4(0.6f, 0.6f, 0.6f, 1.0f);
+  ImGui::TextColored(colour, "%s", to_string(state.freshness));
+  if (state.seconds > 0.0) {
+    ImGui::SameLine();
+    ImGui::TextDisabled("(%.2f s, %s)", state.seconds, format_bytes(state.bytes).c_str());
+  }
+  if (!state.why.empty()) {
+    ImGui::Indent();
+    ImGui::TextWrapped("%s%s", state.freshness == Freshness::Loaded ? "from " : "", state.why.c_str());
+    ImGui::Unindent();
+  }
+}
+
 void module_lines(World& w, Entity e) {
   for (const EditorExtension& x : editor_extensions())
     if (x.inspector) x.inspector(w, e);
@@ -300,6 +319,12 @@ void inspector_panel(Document& doc, UiState& ui) {
         }
       }
     }
+    for (const BakeState& state : ui.bake_states)
+      if (state.entity == e && state.component == component) {
+        ImGui::TextUnformatted("bake:");
+        ImGui::SameLine();
+        bake_state_text(state);
+      }
     for (const FieldDesc& f : editable_fields())
       if (f.component == component) field_widget(doc, e, f, ui);
     if (const ComponentInfo* info = find_authored_component(component)) {
@@ -348,7 +373,9 @@ void bake_panel(EditorModel& model, UiState& ui) {
 
   const BakeStatus s = model.bakes().status();
   ImGui::Text("%s  %.2f s", to_string(s.state), s.seconds);
-  for (std::size_t i = 0; i < s.stages.size(); ++i) {
+  // The stages while a bake runs (and where a failed or cancelled one stopped); once it is done,
+  // the report per module says what each took.
+  for (std::size_t i = 0; s.state != BakeStatus::State::Done && i < s.stages.size(); ++i) {
     char overlay[96];
     std::snprintf(overlay, sizeof overlay, "%zu/%d %s", i + 1, s.stage_count, s.stages[i].name.c_str());
     ImGui::ProgressBar(static_cast<float>(s.stages[i].fraction), ImVec2(-1, 0), overlay);
@@ -360,6 +387,22 @@ void bake_panel(EditorModel& model, UiState& ui) {
       ImGui::TextDisabled("%s: %.2f s, %s", item.baker.c_str(), item.seconds, format_bytes(item.bytes).c_str());
   }
   if (!s.error.empty()) ImGui::TextWrapped("%s", s.error.c_str());
+  // Each lighting component's state against the scene as it is now.
+  ImGui::Separator();
+  ImGui::TextUnformatted("Lighting components");
+  Document& doc = *model.document();
+  for (const BakeState& state : ui.bake_states) {
+    if (state.entity && !doc.world().alive(state.entity)) continue;  // deleted since the refresh
+    const std::string name = state.entity ? doc.label(state.entity) : std::string("(whole scene)");
+    ImGui::PushID(&state);
+    if (state.entity && ImGui::SmallButton("select")) doc.select(state.entity);
+    if (state.entity) ImGui::SameLine();
+    ImGui::Text("%s  %s", state.module.c_str(), name.c_str());
+    ImGui::Indent();
+    bake_state_text(state);
+    ImGui::Unindent();
+    ImGui::PopID();
+  }
   ImGui::End();
 }
 
@@ -553,6 +596,11 @@ void draw_panels(EditorModel& model, UiState& ui) {
     if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Y))) doc.undo().redo(doc.world());
   }
   ui.add_preset = model.bake_settings.preset;  // an added component starts from the Bake panel's preset
+  if (ImGui::GetTime() - ui.bake_states_time > 0.25 || ui.bake_states_document != &doc) {
+    ui.bake_states = model.bake_states();
+    ui.bake_states_time = ImGui::GetTime();
+    ui.bake_states_document = &doc;
+  }
   hierarchy_panel(doc, ui);
   inspector_panel(doc, ui);
   bake_panel(model, ui);

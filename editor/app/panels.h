@@ -72,6 +72,11 @@ struct UiState {
   std::string plot_source;  // the bench and mode the plot shows (the selection's; see plot_panel)
   CostPlot plot;
   CameraView camera_now;  // this frame's camera (what the View panel's controls see)
+  // The lighting components' bake state (EditorModel::bake_states), refreshed four times a second:
+  // it hashes the scene.
+  std::vector<BakeState> bake_states;
+  double bake_states_time = -1.0;
+  const Document* bake_states_document = nullptr;
   // A scene the menus asked to open. Opening replaces the Document, so the main loop does it
   // between frames (take_open_request), never while panels hold references into the old one.
   std::string open_request;

@@ -168,6 +168,12 @@ std::vector<BakeState> BakeTracker::states(World& world, const BakeSettings& set
   };
   std::vector<Own> own(all.size());
   std::map<const LightingModule*, bool> sibling_changed;
+  std::map<const LightingModule*, std::uint64_t> modules;
+  const auto module_now = [&](const LightingModule* m) {
+    auto [it, added] = modules.try_emplace(m, 0);
+    if (added) it->second = module_hash(world, *m, settings);
+    return it->second;
+  };
   for (std::size_t i = 0; i < all.size(); ++i) {
     const Subject& s = all[i];
     const auto it = records_.find({std::string(s.module->name), key_of(world, s)});
@@ -179,10 +185,12 @@ std::vector<BakeState> BakeTracker::states(World& world, const BakeSettings& set
     const Record& r = it->second;
     if (!r.file.empty()) continue;
     if (fields_hash(world, s) != r.fields) own[i].reasons.push_back("its settings changed");
-    if (transform_hash(world, s.entity) != r.transform) own[i].reasons.push_back("it moved");
+    // Its transform counts when the module reads it (a probe grid's box; an AO field's scale, not
+    // where the caster is): when the module's inputs changed too.
+    if (transform_hash(world, s.entity) != r.transform && module_now(s.module) != r.module_inputs)
+      own[i].reasons.push_back("its transform changed");
     if (!own[i].reasons.empty()) sibling_changed[s.module] = true;
   }
-  std::map<const LightingModule*, std::uint64_t> modules;
   std::vector<BakeState> out;
   for (std::size_t i = 0; i < all.size(); ++i) {
     const Subject& s = all[i];
@@ -213,9 +221,7 @@ std::vector<BakeState> BakeTracker::states(World& world, const BakeSettings& set
     if (reasons.empty()) {
       // What else the module's bake reads (a skeleton, clips, receivers), unless another component
       // of the module changed, which alone moves that hash.
-      auto [it, added] = modules.try_emplace(s.module, 0);
-      if (added) it->second = module_hash(world, *s.module, settings);
-      if (it->second != r->module_inputs && !sibling_changed[s.module])
+      if (module_now(s.module) != r->module_inputs && !sibling_changed[s.module])
         reasons.push_back("other inputs of the " + std::string(s.module->name) + " bake changed");
     }
     state.freshness = reasons.empty() ? Freshness::UpToDate : Freshness::OutOfDate;

@@ -37,7 +37,8 @@ struct BakeState {
   Entity entity;             // the component's entity; null for a module-wide state
   std::string component;     // the authoring component's type name; empty when module-wide
   Freshness freshness = Freshness::NeverBaked;
-  // OutOfDate: what changed since the bake, e.g. "light 'lamp' changed; its settings changed"
+  // OutOfDate: what changed since the bake, e.g. "light 'lamp' changed; its settings changed",
+  // "its transform changed" (when its module reads the transform)
   // (at most three scene inputs named, then how many more). Loaded: the file's name.
   std::string why;
   double seconds = 0.0;      // the module's time in the bake that made the data (0 when loaded)

@@ -149,6 +149,30 @@ TEST(BakeState, AnotherComponentsEditLeavesTheRestUpToDate) {
   EXPECT_EQ(state_of(states, "ao-field", casters[0])->freshness, Freshness::OutOfDate);
 }
 
+// The courtyard's walker animates and walks, and a pushed crate moves: no bake reads where they
+// are (hash_scene), so everything stays up to date while they do; the crate's scale does matter.
+TEST(BakeState, MovingCharactersAndCratesLeaveTheBakeUpToDate) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  Document& doc = *model.document();
+  bake(model, {});
+  World& world = doc.world();
+  const Entity crate = *doc.find("crate");
+  for (int frame = 0; frame < 40; ++frame) {
+    world.patch<Transform>(crate).translation.x += 0.01f;
+    world.update(1.0 / 30.0);
+  }
+  for (const BakeState& s : model.bake_states())
+    EXPECT_EQ(s.freshness, Freshness::UpToDate) << s.module << " " << (s.entity ? doc.label(s.entity) : "") << ": "
+                                                << s.why;
+  world.patch<Transform>(crate).scale = glm::vec3(1.5f);
+  world.update(1.0 / 30.0);
+  const std::vector<BakeState> states = model.bake_states();
+  ASSERT_NE(state_of(states, "ao-field", crate), nullptr);
+  EXPECT_EQ(state_of(states, "ao-field", crate)->why, "its transform changed");
+}
+
 TEST(BakeState, ScriptsExpectAState) {
   EditorModel model;
   auto script = parse_script(

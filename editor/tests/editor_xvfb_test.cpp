@@ -89,9 +89,11 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
               "screenshot " << d << "/before.png\n"
               "ui on\n"
               "select \"probe grid\"\n"
+              "expect-bake \"probe grid\" never-baked\n"
               "bake selection draft\n"
               "wait\n"
               "frames 2\n"
+              "expect-bake \"probe grid\" up-to-date\n"
               "ui off\n"
               "screenshot " << d << "/after.png\n"
               "view indirect\n"
@@ -101,6 +103,14 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
               "frames 2\n"
               "screenshot " << d << "/editor.png\n"
               "save-bake " << d << "/courtyard.pbake\n"
+              // The walker keeps walking: still up to date; the sun's change makes the grid out
+              // of date.
+              "frames 10\n"
+              "expect-bake \"probe grid\" up-to-date\n"
+              "set sun Light.intensity 5\n"
+              "frames 2\n"
+              "expect-bake \"probe grid\" out-of-date\n"
+              "screenshot " << d << "/stale.png\n"
               "quit\n";
   }
   int status = 0;

@@ -81,7 +81,12 @@ void hash_field_inputs(World& world, const BakeSettings&, Hasher& h) {
     const AOFieldCaster& c = world.get<AOFieldCaster>(e);
     h.add(std::string_view(entity_key(world, e)));
     hash_fields(ao_field_caster_info(), &c, h);
-    h.add(world.get<WorldTransform>(e).matrix);  // validation (uniform scale) depends on it
+    // The field is baked in the caster's frame; only the validation (uniform scale) reads its
+    // transform, so the scale is hashed (rounded to 2^-16: a turning crate's float noise stays
+    // out) and a moved crate stays baked.
+    const glm::mat3 m(world.get<WorldTransform>(e).matrix);
+    for (int axis = 0; axis < 3; ++axis)
+      h.add(static_cast<std::int64_t>(std::llround(double(glm::length(m[axis])) * 65536.0)));
   }
 }
 

@@ -75,7 +75,11 @@ const Baker* BakerRegistry::find(std::string_view name) const {
 
 namespace {
 
-// What hash_scene adds for one entity with a Mesh (after its key).
+// What hash_scene adds for one entity with a Mesh (after its key). A movable or skinned mesh's
+// world transform is left out: the bakers' shared ray scene holds the static geometry only, and a
+// module that bakes a moving mesh in its own frame adds what it reads of the transform (AO
+// fields: the scale; pose-AO: world up in the mesh frame, the character's meshes relative to
+// each other), so an animated character or a pushed crate does not make a bake out of date.
 void hash_mesh_entity(World& world, Entity e, Hasher& h) {
   const Mesh& mesh = world.get<Mesh>(e);
   if (mesh.data) {
@@ -85,8 +89,9 @@ void hash_mesh_entity(World& world, Entity e, Hasher& h) {
     h.add(mesh.data->joints);
     h.add(mesh.data->weights);
   }
-  if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
-  h.add(world.has<Static>(e));
+  const bool still = world.has<Static>(e);
+  if (const auto* wt = world.try_get<WorldTransform>(e); wt && still) h.add(wt->matrix);
+  h.add(still);
   if (const auto* m = world.try_get<Material>(e)) {
     h.add(m->base_color);
     h.add(m->emissive);
@@ -95,7 +100,9 @@ void hash_mesh_entity(World& world, Entity e, Hasher& h) {
   }
 }
 
-// What hash_scene adds for one entity with a Light (after its key).
+// What hash_scene adds for one entity with a Light (after its key). An enabled dynamic light's
+// world transform is left out: no bake holds its light (the indirect transport's operator does
+// not depend on where the light is), so carrying it around changes nothing baked.
 void hash_light_entity(World& world, Entity e, Hasher& h) {
   const Light& l = world.get<Light>(e);
   h.add(l.type);
@@ -105,8 +112,8 @@ void hash_light_entity(World& world, Entity e, Hasher& h) {
   h.add(l.inner_cone_angle);
   h.add(l.outer_cone_angle);
   h.add(l.size);
-  if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
   const DynamicLight* d = world.try_get<DynamicLight>(e);
+  if (const auto* wt = world.try_get<WorldTransform>(e); wt && !(d && d->enabled)) h.add(wt->matrix);
   h.add(static_cast<std::uint8_t>(d == nullptr ? 0 : d->enabled ? 1 : 2));
 }
 

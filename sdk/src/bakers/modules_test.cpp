@@ -106,6 +106,45 @@ TEST(LightingModules, DefaultsAndPresetsLieWithinTheFieldRanges) {
     }
 }
 
+// What moves in a game leaves every bake's input hash alone: the walker animating and walking, a
+// pushed crate, the carried lamp (a dynamic light). A crate's scale (its AO field's validation),
+// a static wall and a baked light change it. scene_inputs lists one input per mesh, per light and
+// the sky.
+TEST(LightingModules, TheInputHashIgnoresWhatMovesInTheGame) {
+  World world = courtyard();
+  BakeSettings settings;
+  const std::uint64_t base = bake_input_hash(world, {}, settings);
+  const auto entity = [&](std::string_view name) {
+    for (Entity e : world.view<Name>().sorted_entities())
+      if (world.get<Name>(e).value == name) return e;
+    ADD_FAILURE() << "no " << name;
+    return Entity::null();
+  };
+  const Entity crate = entity("crate"), wall = entity("north_wall");
+  Entity lamp;
+  world.view<DynamicLight>().each([&](Entity e, DynamicLight&) { lamp = e; });
+  ASSERT_TRUE(lamp) << "the courtyard's lamp is a dynamic light";
+  for (int frame = 0; frame < 30; ++frame) {
+    world.patch<Transform>(crate).translation.x += 0.01f;
+    world.patch<Transform>(lamp).translation.z += 0.02f;
+    world.update(1.0 / 30.0);
+  }
+  EXPECT_EQ(bake_input_hash(world, {}, settings), base);
+  world.patch<Transform>(crate).scale = glm::vec3(1.25f);
+  world.update(0.0);
+  const std::uint64_t scaled = bake_input_hash(world, {}, settings);
+  EXPECT_NE(scaled, base);
+  world.patch<Transform>(wall).translation.y += 0.01f;
+  world.update(0.0);
+  EXPECT_NE(bake_input_hash(world, {}, settings), scaled);
+
+  const std::vector<SceneInput> inputs = scene_inputs(world);
+  const std::size_t meshes = world.view<Mesh>().count(), lights = world.view<Light>().count();
+  ASSERT_EQ(inputs.size(), meshes + lights + 1);
+  EXPECT_EQ(inputs.back().kind, SceneInput::Kind::Environment);
+  EXPECT_EQ(inputs[meshes].kind, SceneInput::Kind::Light);
+}
+
 // Every hashed field of every authoring component changes the module's input hash; the fields
 // that the bake does not read (priority, blending, receivers) leave it alone. A field added to a
 // component's list without `hashed` that the bake reads fails here only if someone marks it; one

@@ -1207,16 +1207,39 @@ void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
     h.add(s.joint_ranges);  // a list, not a field
     const Skin& skin = world.get<Skin>(e);
     h.add(skin.inverse_bind);
-    for (Entity j : skin.joints) {
-      if (const Transform* t = world.alive(j) ? world.try_get<Transform>(j) : nullptr) h.add(t->matrix());
-      // Names give the roles and the joint_limits matches.
-      const Name* n = world.alive(j) ? world.try_get<Name>(j) : nullptr;
-      h.add(std::string_view(n ? n->value : std::string()));
+    // The rig as the bake reads it (make_pose_rig): the joints' hierarchy, the fixed offsets to
+    // their parent nodes and their names (the roles and the joint_limits matches). Not the joints'
+    // current local transforms: the poses are built from the bind pose, so a character's bake does
+    // not depend on the animation time it is baked at. The offsets, and what follows from the
+    // character's world matrices, are products of moving matrices: hashed rounded to 2^-16 (of a
+    // metre, of a unit vector), so the float noise of the motion stays out of the hash.
+    const auto add_rounded = [&h](const float* v, int n) {
+      for (int i = 0; i < n; ++i) h.add(static_cast<std::int64_t>(std::llround(double(v[i]) * 65536.0)));
+    };
+    if (auto rig = make_pose_rig(world, e, "pose-ao")) {
+      h.add(rig->parents);
+      for (const glm::mat4& offset : rig->offsets) add_rounded(&offset[0][0], 16);
+      for (const std::string& name : rig->names) h.add(std::string_view(name));
+    } else {
+      h.add(std::string_view(rig.error().message));
     }
-    // The character's other meshes, traced with it: which, and how they are bound.
+    // The character's other meshes, traced with it: which, how they are bound and where they are
+    // relative to this one (character_occluders).
+    const glm::mat4 to_frame = glm::inverse(world.get<WorldTransform>(e).matrix);
     for (Entity other : character_meshes(world, e)) {
       h.add(std::string_view(entity_key(world, other)));
       h.add(world.get<Skin>(other).inverse_bind);
+      if (const auto* wt = world.try_get<WorldTransform>(other)) {
+        const glm::mat4 relative = to_frame * wt->matrix;
+        add_rounded(&relative[0][0], 16);
+      }
+    }
+    // The ground's plane: world up in the mesh frame (ground_occluder), which turning about up
+    // and walking leave alone.
+    if (s.ground) {
+      glm::vec3 up = glm::transpose(glm::mat3(world.get<WorldTransform>(e).matrix)) * glm::vec3(0.0f, 1.0f, 0.0f);
+      up /= std::max(glm::length(up), 1e-30f);
+      add_rounded(&up.x, 3);
     }
     // The clips that drive the ranges: their keys.
     world.view<Animator>().each([&](Entity, Animator& a) {

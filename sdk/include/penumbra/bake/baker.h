@@ -127,7 +127,9 @@ class BakerRegistry {
 };
 
 // Hashes the geometry, materials, lights and transforms of every entity with a Mesh or Light, with
-// its entity key, in entity order: the part of the input hash that every baker shares.
+// its entity key, in entity order: the part of the input hash that every baker shares. The world
+// transforms of movable and skinned meshes and of enabled dynamic lights are not in it (no
+// baker reads where they are; a module that reads part of one hashes that part itself).
 void hash_scene(World& world, Hasher& hasher);
 
 // hash_scene's inputs one at a time, for telling what changed since a bake: one per entity with a
