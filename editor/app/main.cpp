@@ -197,6 +197,7 @@ int run(const Options& options) {
                                                            : "bake " + std::string(to_string(st.state)) + ": " + st.error;
           std::printf("%s\n", ui.message.c_str());  // for scripted runs and logs
         }
+        if (Status s = model.auto_bake_tick(glfwGetTime()); !s) ui.message = "auto-bake: " + s.error().message;
         if (runner && click_frames == 0) {  // a click in progress holds the script
           if (Status s = runner->step(model); !s) {
             std::fprintf(stderr, "penumbra-editor: %s\n", s.error().message.c_str());
@@ -250,6 +251,7 @@ int run(const Options& options) {
         click_select(doc, camera, size, ui.message);
         if (ui.show_ui) {
           draw_selection(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
+          draw_lights(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
           ViewContext view{doc.world(), doc.selection(), camera, size, ui.message};
           for (const EditorExtension& x : editor_extensions())
             if (x.draw_overlay) x.draw_overlay(view, ImGui::GetBackgroundDrawList());

@@ -9,6 +9,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <imgui.h>
 
+#include "light_icons.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
@@ -61,6 +62,25 @@ void draw_selection(ImDrawList* dl, World& world, Entity selection, const Camera
   const glm::vec3 extent = glm::max(box.extent(), glm::vec3(1e-3f));
   const glm::mat4 unit_to_world = glm::scale(glm::translate(glm::mat4(1.0f), box.min), extent);
   draw_box(dl, camera, size, unit_to_world, IM_COL32(255, 255, 255, 220));
+}
+
+void draw_lights(ImDrawList* dl, World& world, Entity selection, const CameraView& camera, glm::vec2 size) {
+  const glm::vec3 eye(glm::inverse(camera.view)[3]);
+  world.view<const Light, const WorldTransform>().each([&](Entity e, const Light& light, const WorldTransform& wt) {
+    const glm::vec3 at(wt.matrix[3]);
+    // A tenth of the distance to the camera: the icon keeps its size on screen.
+    const LightIcon icon = light_icon(light, wt.matrix, std::max(0.1f * glm::distance(eye, at), 1e-3f));
+    const auto marker = project(camera, icon.position, size);
+    const float peak = std::max({light.color.r, light.color.g, light.color.b, 1e-6f});
+    const unsigned colour = e == selection ? IM_COL32(255, 255, 255, 255) : to_imgui(light.color / peak, 0.85f);
+    for (const auto& [a, b] : icon.lines) {
+      const auto pa = project(camera, a, size), pb = project(camera, b, size);
+      if (pa && pb) dl->AddLine(ImVec2(pa->x, pa->y), ImVec2(pb->x, pb->y), colour, 1.5f);
+    }
+    if (!marker) return;
+    dl->AddCircleFilled(ImVec2(marker->x, marker->y), 4.0f, colour, 12);
+    dl->AddCircle(ImVec2(marker->x, marker->y), 7.0f, IM_COL32(0, 0, 0, 160), 12, 1.0f);
+  });
 }
 
 }  // namespace penumbra::editor

@@ -35,7 +35,9 @@ void draw_loop(ImDrawList* draw_list, const CameraView& camera, glm::vec2 size, 
                unsigned colour);
 
 // The selection's highlight: the posed bounds of the meshes of its subtree as a white box (nothing
-// for an entity without meshes, e.g. a light: its module draws its marker).
+// for an entity without meshes, e.g. a light: its icon turns white).
 void draw_selection(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
+// Every light's icon (light_icons.h) in its colour, white when selected, with a dot at its marker.
+void draw_lights(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
 
 }  // namespace penumbra::editor

@@ -387,6 +387,11 @@ void bake_panel(EditorModel& model, UiState& ui) {
       ImGui::TextDisabled("%s: %.2f s, %s", item.baker.c_str(), item.seconds, format_bytes(item.bytes).c_str());
   }
   if (!s.error.empty()) ImGui::TextWrapped("%s", s.error.c_str());
+  ImGui::Checkbox("auto-bake what changed", &model.auto_bake);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("bakes the components that are never baked or out of date once the edits have settled "
+                      "for %.1f s", model.auto_bake_delay);
+  if (!model.auto_bake_status().empty()) ImGui::TextDisabled("%s", model.auto_bake_status().c_str());
   // Each lighting component's state against the scene as it is now.
   ImGui::Separator();
   ImGui::TextUnformatted("Lighting components");

@@ -82,13 +82,15 @@ std::uint64_t module_hash(World& world, const LightingModule& m, const BakeSetti
 
 std::string key_of(World& world, const Subject& s) { return s.entity ? entity_key(world, s.entity) : std::string(); }
 
-// "light 'lamp' changed", "'crate' added", ... for the scene inputs that differ; at most three
-// named, then how many more.
-void scene_changes(const std::vector<SceneInput>& then, const std::vector<SceneInput>& now,
+// "light 'lamp' changed", "mesh 'crate' added", ... for the scene inputs that differ (the lights
+// and the sky only for a baker that reads them); at most three named, then how many more.
+void scene_changes(const std::vector<SceneInput>& then, const std::vector<SceneInput>& now, bool lights,
                    std::vector<std::string>& out) {
   auto kind = [](SceneInput::Kind k) { return k == SceneInput::Kind::Mesh ? "mesh" : "light"; };
+  auto counts = [lights](const SceneInput& in) { return lights || in.kind == SceneInput::Kind::Mesh; };
   std::vector<std::string> changes;
   for (const SceneInput& n : now) {
+    if (!counts(n)) continue;
     const auto old = std::find_if(then.begin(), then.end(),
                                   [&](const SceneInput& t) { return t.kind == n.kind && t.key == n.key; });
     if (n.kind == SceneInput::Kind::Environment) {
@@ -100,7 +102,7 @@ void scene_changes(const std::vector<SceneInput>& then, const std::vector<SceneI
     }
   }
   for (const SceneInput& t : then)
-    if (std::none_of(now.begin(), now.end(), [&](const SceneInput& n) { return n.kind == t.kind && n.key == t.key; }))
+    if (counts(t) && std::none_of(now.begin(), now.end(), [&](const SceneInput& n) { return n.kind == t.kind && n.key == t.key; }))
       changes.push_back(std::string(kind(t.kind)) + " '" + t.key + "' removed");
   for (std::size_t i = 0; i < changes.size() && i < 3; ++i) out.push_back(changes[i]);
   if (changes.size() > 3) out.push_back("and " + std::to_string(changes.size() - 3) + " more scene changes");
@@ -217,7 +219,8 @@ std::vector<BakeState> BakeTracker::states(World& world, const BakeSettings& set
                         to_string(r->preset) + ")");
     if (settings.seed != r->seed) reasons.push_back("the bake seed changed");
     reasons.insert(reasons.end(), own[i].reasons.begin(), own[i].reasons.end());
-    scene_changes(*r->scene, scene, reasons);
+    const Baker* baker = world.resource<BakerRegistry>().find(s.module->name);
+    scene_changes(*r->scene, scene, baker == nullptr || baker->reads_lights, reasons);
     if (reasons.empty()) {
       // What else the module's bake reads (a skeleton, clips, receivers), unless another component
       // of the module changed, which alone moves that hash.

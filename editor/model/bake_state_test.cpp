@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <thread>
@@ -72,12 +73,14 @@ TEST(BakeState, FollowsTheEditsSinceTheBake) {
   EXPECT_GT(probe->seconds, 0.0);
   EXPECT_GT(probe->bytes, 0u);
   EXPECT_EQ(state_of(states, "vertex-ao")->freshness, Freshness::NeverBaked);  // not in that bake
+  bake(model, {"vertex-ao"});
 
   // A light's change: out of date, naming it; the undo brings the scene back, and the state.
   ASSERT_TRUE(set(doc, "light", "Light", "intensity", "3").ok());
   probe = state_of(states = model.bake_states(), "probe-grid", grid);
   EXPECT_EQ(probe->freshness, Freshness::OutOfDate);
   EXPECT_EQ(probe->why, "light '" + entity_key(doc.world(), *doc.find("light")) + "' changed");
+  EXPECT_EQ(state_of(states, "vertex-ao")->freshness, Freshness::UpToDate);  // AO reads no light
   undo(doc);
   EXPECT_EQ(state_of(states = model.bake_states(), "probe-grid", grid)->freshness, Freshness::UpToDate);
 
@@ -107,7 +110,7 @@ TEST(BakeState, FollowsTheEditsSinceTheBake) {
   probe = state_of(states = model.bake_states(), "probe-grid", grid);
   EXPECT_EQ(probe->freshness, Freshness::Loaded);
   EXPECT_EQ(probe->why, path.filename().string());
-  EXPECT_EQ(state_of(states, "vertex-ao")->freshness, Freshness::NeverBaked);  // the file has no vertex AO
+  EXPECT_EQ(state_of(states, "vertex-ao")->freshness, Freshness::Loaded);
   std::filesystem::remove(path);
 }
 
@@ -171,6 +174,52 @@ TEST(BakeState, MovingCharactersAndCratesLeaveTheBakeUpToDate) {
   const std::vector<BakeState> states = model.bake_states();
   ASSERT_NE(state_of(states, "ao-field", crate), nullptr);
   EXPECT_EQ(state_of(states, "ao-field", crate)->why, "its transform changed");
+}
+
+// Auto-bake: nothing before the edits have settled for the delay, then a bake of what is stale
+// (everything at first, then only the grid after the light changed: vertex AO reads no light).
+TEST(BakeState, AutoBakeBakesWhatIsStaleOnceTheEditsSettle) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  model.auto_bake = true;
+  model.auto_bake_delay = 1.0;
+  Document& doc = *model.document();
+  const auto run_until_idle = [&](double now) {
+    model.bakes().wait();
+    model.poll();
+    ASSERT_TRUE(model.auto_bake_tick(now).ok());
+  };
+  ASSERT_TRUE(model.auto_bake_tick(0.0).ok());
+  EXPECT_FALSE(model.bakes().running());
+  EXPECT_EQ(model.auto_bake_status(), "auto-bake: waiting for the edits to settle");
+  ASSERT_TRUE(model.auto_bake_tick(0.5).ok());
+  EXPECT_FALSE(model.bakes().running());
+  ASSERT_TRUE(model.auto_bake_tick(1.1).ok());
+  EXPECT_TRUE(model.bakes().running() || model.bakes().status().state == BakeStatus::State::Done);
+  run_until_idle(1.2);
+  for (const BakeState& s : model.bake_states()) EXPECT_EQ(s.freshness, Freshness::UpToDate) << s.module;
+  EXPECT_EQ(model.auto_bake_status(), "auto-bake: everything is up to date");
+
+  ASSERT_TRUE(set(doc, "light", "Light", "intensity", "3").ok());
+  ASSERT_TRUE(model.auto_bake_tick(2.0).ok());  // the change is seen
+  ASSERT_TRUE(model.auto_bake_tick(2.5).ok());
+  EXPECT_FALSE(model.bakes().running());
+  ASSERT_TRUE(model.auto_bake_tick(3.1).ok());
+  run_until_idle(3.2);
+  const BakeStatus status = model.bakes().status();
+  ASSERT_EQ(status.state, BakeStatus::State::Done) << status.error;
+  std::vector<std::string> baked;
+  for (const auto& item : status.report.items) baked.push_back(item.baker);
+  EXPECT_EQ(baked, std::vector<std::string>{"probe-grid"});  // vertex AO reads no light
+  for (const BakeState& s : model.bake_states()) EXPECT_EQ(s.freshness, Freshness::UpToDate) << s.module;
+
+  model.auto_bake = false;
+  ASSERT_TRUE(set(doc, "light", "Light", "intensity", "4").ok());
+  ASSERT_TRUE(model.auto_bake_tick(10.0).ok());
+  ASSERT_TRUE(model.auto_bake_tick(20.0).ok());
+  EXPECT_FALSE(model.bakes().running());
+  EXPECT_EQ(model.auto_bake_status(), "");
 }
 
 TEST(BakeState, ScriptsExpectAState) {

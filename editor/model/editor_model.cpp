@@ -1,6 +1,8 @@
 // The editor's model (editor_model.h).
 #include "editor_model.h"
 
+#include <algorithm>
+
 namespace penumbra::editor {
 
 Status EditorModel::open(std::string_view source, Preset preset) {
@@ -37,6 +39,65 @@ Status EditorModel::bake_selection() {
 }
 
 bool EditorModel::poll() { return document_ && bakes_.poll(*document_); }
+
+Status EditorModel::auto_bake_tick(double now) {
+  if (!auto_bake || !document_) {
+    auto_status_.clear();
+    auto_signature_.clear();
+    return {};
+  }
+  if (bakes_.running()) {
+    auto_status_ = auto_started_ ? "auto-bake: baking what changed" : "auto-bake: waiting for the bake to end";
+    return {};
+  }
+  if (auto_started_) {  // the auto-bake just ended (poll() attached it)
+    auto_started_ = false;
+    if (bakes_.status().state != BakeStatus::State::Done) auto_failed_ = auto_signature_;
+    auto_checked_ = -1.0;  // read the states again now
+  }
+  if (auto_checked_ >= 0.0 && now - auto_checked_ < 0.25) return {};
+  auto_checked_ = now;
+  // The stale components, as a signature of what they are and why.
+  std::vector<std::string> modules;
+  std::vector<Entity> entities;
+  bool whole_scene = false;
+  std::string signature;
+  for (const BakeState& s : bake_states()) {
+    if (s.freshness != Freshness::NeverBaked && s.freshness != Freshness::OutOfDate) continue;
+    signature += s.module + "#" + std::to_string(s.entity.index) + ":" + s.why + "\n";
+    if (std::find(modules.begin(), modules.end(), s.module) == modules.end()) modules.push_back(s.module);
+    if (s.entity) entities.push_back(s.entity);
+    else whole_scene = true;
+  }
+  if (signature != auto_signature_) {
+    auto_signature_ = signature;
+    auto_since_ = now;
+  }
+  if (signature.empty()) {
+    auto_status_ = "auto-bake: everything is up to date";
+    return {};
+  }
+  if (signature == auto_failed_) {
+    auto_status_ = "auto-bake: the last bake of these changes failed; change something or bake by hand";
+    return {};
+  }
+  if (now - auto_since_ < auto_bake_delay) {
+    auto_status_ = "auto-bake: waiting for the edits to settle";
+    return {};
+  }
+  BakeRequest request;
+  request.bakers = std::move(modules);
+  if (!whole_scene) request.entities = std::move(entities);
+  request.settings = bake_settings;
+  request.threads = bake_threads;
+  if (Status s = bakes_.start(*document_, request); !s) {
+    auto_failed_ = signature;
+    return s;
+  }
+  auto_started_ = true;
+  auto_status_ = "auto-bake: baking what changed";
+  return {};
+}
 
 std::vector<BakeState> EditorModel::bake_states() {
   if (!document_) return {};

@@ -31,12 +31,30 @@ class EditorModel {
   // bake's settings; empty without a document. Cost: hashes the scene (BakeTracker::states).
   std::vector<BakeState> bake_states();
 
+  // Auto-bake (the Bake panel's checkbox, the script's `auto-bake on`): once per frame with the
+  // time in seconds, after poll(). When no bake runs and the components that are never baked or
+  // out of date (bake_states) have stayed the same for auto_bake_delay seconds, bakes them: their
+  // modules over their entities, or over the whole scene when a module-wide state is among them.
+  // A bake that fails is not started again until those states change. Returns the started bake's
+  // error, if starting failed. Cost: bake_states at most four times a second.
+  Status auto_bake_tick(double now);
+  bool auto_bake = false;
+  double auto_bake_delay = 1.0;
+  // What auto-bake is doing, for the Bake panel: "" when off.
+  const std::string& auto_bake_status() const { return auto_status_; }
+
   BakeSettings bake_settings;  // preset and seed of the next bake
   unsigned bake_threads = 0;   // 0: one per hardware thread
 
  private:
   std::unique_ptr<Document> document_;
   BakeController bakes_;
+  // Auto-bake: the stale components' signature, since when it has been the same, when the states
+  // were last read, and the signature of the last bake that failed.
+  std::string auto_signature_, auto_failed_;
+  double auto_since_ = 0.0, auto_checked_ = -1.0;
+  bool auto_started_ = false;
+  std::string auto_status_;
 };
 
 }  // namespace penumbra::editor

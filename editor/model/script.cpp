@@ -95,6 +95,11 @@ std::string check_action(const ScriptAction& a) {
     if (n < 1 || n > 2 || a.args[0].empty() || (n == 2 && !preset_ok(a.args[1])))
       return "'bake' takes all, selection or lighting module names (comma-separated), then an optional preset "
              "(draft, medium, high)";
+  } else if (v == "auto-bake") {
+    double delay = 0.0;
+    if (n < 1 || n > 2 || (a.args[0] != "on" && a.args[0] != "off") ||
+        (n == 2 && (!parse_number(a.args[1], delay) || delay < 0.0 || delay > 3600.0)))
+      return "'auto-bake' takes on or off, then an optional delay in seconds (0 to 3600; default 1)";
   } else if (v == "expect-bake") {
     if (n != 2 || !parse_freshness(a.args[1]))
       return "'expect-bake' takes an entity (or all) and never-baked, up-to-date, out-of-date or loaded";
@@ -123,7 +128,7 @@ std::string check_action(const ScriptAction& a) {
   } else {
     return "unknown action '" + v +
            "'; actions: open, open-bake, save-bake, save-edits, save-gltf, select, set, add, remove, preset, undo, redo, "
-           "bake, cancel, wait, expect-bake, "
+           "bake, cancel, wait, auto-bake, expect-bake, "
            "frames, screenshot, orbit, view, ui, click, reset-stats, quit";
   }
   return {};
@@ -270,6 +275,11 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
   }
   if (a.verb == "cancel") {
     model.bakes().cancel();
+    return {};
+  }
+  if (a.verb == "auto-bake") {
+    model.auto_bake = args[0] == "on";
+    if (args.size() == 2) model.auto_bake_delay = std::stod(args[1]);
     return {};
   }
   if (a.verb == "expect-bake") {

@@ -13,6 +13,8 @@
 //   bake all|selection|BAKER[,BAKER...] [draft|medium|high]   starts a background bake
 //   cancel                              cancels the running bake
 //   wait                                until the running bake ends; fails the script if it failed
+//   auto-bake on|off [DELAY]            bakes what is never baked or out of date once edits have
+//                                       settled for DELAY seconds (EditorModel::auto_bake_tick)
 //   expect-bake REF|all STATE           fails the script unless every lighting component of REF (all:
 //                                       of the scene) is in STATE: never-baked, up-to-date,
 //                                       out-of-date or loaded (bake_state.h), naming those that are not

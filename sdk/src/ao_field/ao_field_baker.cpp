@@ -578,6 +578,7 @@ Result<AOFieldData> bake_ao_field(const AOFieldCaster& caster, const MeshData& m
 
 void register_ao_field_baker(World& world) {
   Baker b = baker_for(ao_field_module());
+  b.reads_lights = false;
   b.stages = 1;
   b.hash_inputs = hash_field_inputs;
   b.plan = plan_fields;

@@ -976,6 +976,7 @@ void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
 
 void register_indirect_transport_baker(World& world) {
   Baker b = baker_for(indirect_transport_module());
+  b.reads_lights = false;
   b.stages = 4;
   b.hash_inputs = hash_inputs;
   b.plan = plan_transport;

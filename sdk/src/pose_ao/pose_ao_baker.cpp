@@ -1259,6 +1259,7 @@ void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
 
 void register_pose_ao_baker(World& world) {
   Baker b = baker_for(pose_ao_module());
+  b.reads_lights = false;
   b.stages = 2;  // per mesh: poses, fit
   b.hash_inputs = hash_inputs;
   b.plan = plan_pose_ao;

@@ -17,11 +17,12 @@
 namespace penumbra::editor {
 namespace {
 
-// Every overlay starts off: the View panel turns them on.
+// The node overlays start off (the View panel turns them on); the grid box, the probe volume's
+// icon, is on.
 struct ProbeOverlay {
   bool probes = false;     // node positions coloured by E(+Y)
   bool invalid = false;    // nodes without an in-domain sample (filled by dilation) as red rings
-  bool bounds = false;     // the grid box
+  bool bounds = true;      // the grid box: the probe volume's icon (12 lines a grid)
   float exposure = 0.3f;   // the courtyard's nodes see 1-10 W/m^2
   int max_points = 20000;  // per grid; larger grids are subsampled by a stride
 };
@@ -30,6 +31,7 @@ struct ProbeOverlay {
 // camera of the moment and shown until cleared.
 struct State {
   ProbeOverlay overlay;
+  int reference_paths = 256;  // per cell: its noise falls as 1 / sqrt(paths), its cost grows with them
   ErrorMapJob error_job;
   std::optional<ErrorMap> error_map;
 };
@@ -63,7 +65,7 @@ void view_options(ViewContext& view) {
   } else if (ImGui::Button("Error heat map")) {
     ErrorMapRequest request;
     request.camera = view.camera;
-    request.reference.samples = 64;
+    request.reference.samples = static_cast<std::uint32_t>(s.reference_paths);
     const Status started = s.error_job.start(view.world, request);
     view.message = started ? "computing the error map" : started.error().message;
   }
@@ -71,11 +73,22 @@ void view_options(ViewContext& view) {
     if (done->ok()) s.error_map = std::move(done->value());
     else view.message = done->error().message;
   }
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(140.0f);
+  ImGui::SliderInt("reference paths", &s.reference_paths, 16, 4096, "%d", ImGuiSliderFlags_Logarithmic);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("path-traced estimates per cell of the reference: its noise falls as 1 / sqrt(paths)");
   if (s.error_map) {
-    ImGui::SameLine();
-    ImGui::Text("mean |E_probe - E_ref| / E_ref %.1f%% over %u cells (reference noise %.1f%%, %.1f s)",
-                100.0 * s.error_map->mean, s.error_map->cells, 100.0 * s.error_map->reference_noise,
-                s.error_map->seconds);
+    const ErrorMap& m = *s.error_map;
+    // The error is reported only where it stands above the reference's own noise.
+    if (m.above_noise())
+      ImGui::Text("error %.1f%% (mean |E_probe - E_ref| / E_ref %.1f%%, reference noise %.1f%% taken out) over %u "
+                  "cells, %.1f s",
+                  100.0 * m.noise_corrected_rms, 100.0 * m.mean, 100.0 * m.reference_noise, m.cells, m.seconds);
+    else
+      ImGui::Text("error below the reference's noise (%.1f%%; mean |E_probe - E_ref| / E_ref %.1f%%) over %u cells: "
+                  "raise the reference paths",
+                  100.0 * m.reference_noise, 100.0 * m.mean, m.cells);
     ImGui::SameLine();
     if (ImGui::SmallButton("clear")) s.error_map.reset();
   }
@@ -86,15 +99,19 @@ void view_options(ViewContext& view) {
   ImGui::Checkbox("grid bounds", &s.overlay.bounds);
 }
 
-// The heat map's cells over the viewport (blue: exact, red: 50% or more off).
+// The heat map's cells over the viewport (blue: exact, red: 50% or more off; grey: within twice
+// the cell's reference noise, where the map cannot tell).
 void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* dl) {
   const float w = size.x / static_cast<float>(map.columns), h = size.y / static_cast<float>(map.rows);
   for (std::uint32_t r = 0; r < map.rows; ++r)
     for (std::uint32_t c = 0; c < map.columns; ++c) {
-      const float e = map.relative_error[std::size_t{r} * map.columns + c];
+      const std::size_t i = std::size_t{r} * map.columns + c;
+      const float e = map.relative_error[i];
       if (std::isnan(e)) continue;
       const float t = std::clamp(e / 0.5f, 0.0f, 1.0f);  // 0 blue .. 0.5 and more red
-      const ImU32 colour = ImGui::ColorConvertFloat4ToU32(ImVec4(t, 0.2f * (1.0f - t), 1.0f - t, 0.55f));
+      const ImU32 colour = map.cell_above_noise(i)
+                               ? ImGui::ColorConvertFloat4ToU32(ImVec4(t, 0.2f * (1.0f - t), 1.0f - t, 0.55f))
+                               : IM_COL32(128, 128, 128, 110);
       dl->AddRectFilled(ImVec2(static_cast<float>(c) * w, static_cast<float>(r) * h),
                         ImVec2(static_cast<float>(c + 1) * w, static_cast<float>(r + 1) * h), colour);
     }

@@ -1,6 +1,7 @@
 // The probe grid's error heat map against the reference (probe_grid_views.h).
 #include "probe_grid_views.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -53,7 +54,8 @@ Result<ErrorMap> compute(const Scene& scene, const ErrorMapRequest& request, Job
   map.rows = std::max(request.rows, 1u);
   const std::size_t cells = std::size_t{map.columns} * map.rows;
   map.relative_error.assign(cells, std::numeric_limits<float>::quiet_NaN());
-  std::vector<float> noise(cells, std::numeric_limits<float>::quiet_NaN());
+  map.relative_noise.assign(cells, std::numeric_limits<float>::quiet_NaN());
+  std::vector<float>& noise = map.relative_noise;
   IrradianceSettings settings = request.reference;
   settings.reference = true;
   settings.samples = std::max(settings.samples, 2u);
@@ -96,16 +98,19 @@ Result<ErrorMap> compute(const Scene& scene, const ErrorMapRequest& request, Job
     }
   });
   if (!s) return s.error();
-  double sum = 0.0, noise_sum = 0.0;
+  double sum = 0.0, noise_sum = 0.0, squares = 0.0, noise_squares = 0.0;
   for (std::size_t i = 0; i < cells; ++i)
     if (!std::isnan(map.relative_error[i])) {
       sum += map.relative_error[i];
       noise_sum += noise[i];
+      squares += double(map.relative_error[i]) * map.relative_error[i];
+      noise_squares += double(noise[i]) * noise[i];
       ++map.cells;
     }
   if (map.cells > 0) {
     map.mean = static_cast<float>(sum / map.cells);
     map.reference_noise = static_cast<float>(noise_sum / map.cells);
+    map.noise_corrected_rms = static_cast<float>(std::sqrt(std::max(0.0, (squares - noise_squares) / map.cells)));
   }
   map.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return map;

@@ -58,6 +58,29 @@ TEST(ErrorMap, FurnaceGridMatchesTheReferenceWithinItsNoise) {
   const float expected = std::pow(kFurnaceAlbedo, float(k));
   EXPECT_NEAR(map->mean, expected, 0.04f) << "reference noise " << map->reference_noise;
   EXPECT_GT(map->reference_noise, 0.0f);
+  EXPECT_EQ(map->relative_noise.size(), map->relative_error.size());
+  // The reference's noise against its paths: 8, 64 (above) and 512 a cell. It falls as
+  // 1 / sqrt(paths); the raw mean error falls with it towards the grid's own error, which the
+  // noise-corrected RMS estimates alike at 64 and 512 paths (the grid's truncation and its own bake
+  // noise). At 8 paths the noise swamps the error, and the map says so.
+  const auto at = [&](std::uint32_t paths) {
+    ErrorMapRequest r = request;
+    r.reference.samples = paths;
+    auto m = compute_error_map(model.document()->world(), r, serial);
+    EXPECT_TRUE(m.ok());
+    std::printf("furnace error map at %u paths: mean %.4f, reference noise %.4f, noise-corrected rms %.4f, above "
+                "the noise %d\n",
+                paths, m->mean, m->reference_noise, m->noise_corrected_rms, int(m->above_noise()));
+    return *m;
+  };
+  const ErrorMap coarse = at(8), fine = at(512);
+  at(64);
+  EXPECT_FALSE(coarse.above_noise());
+  EXPECT_NEAR(fine.reference_noise / map->reference_noise, std::sqrt(64.0f / 512.0f), 0.1f);
+  EXPECT_LT(fine.mean, map->mean);
+  EXPECT_TRUE(fine.above_noise());
+  EXPECT_NEAR(fine.noise_corrected_rms, map->noise_corrected_rms, 0.25f * fine.noise_corrected_rms);
+  EXPECT_GT(fine.noise_corrected_rms, 0.5f * expected);  // at least the truncation's
 
   // Same map on two threads, through the background job.
   ErrorMapJob job;

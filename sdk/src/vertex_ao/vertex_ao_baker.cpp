@@ -194,6 +194,7 @@ Result<std::vector<BakeChunk>> finish_vertex_ao(std::span<const BakedGroup> grou
 
 void register_vertex_ao_baker(World& world) {
   Baker b = baker_for(vertex_ao_module());
+  b.reads_lights = false;
   b.stages = 1;
   b.hash_inputs = [](World& world, const BakeSettings& s, Hasher& h) {
     const VertexAoSettings v = VertexAoSettings::preset(s.preset);
