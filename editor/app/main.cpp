@@ -7,10 +7,12 @@
 // panels, render the viewport and the UI, present. At exit it prints the frame times (median and
 // 95th percentile, split by whether a bake was running) and, with --validation, fails when the
 // validation layer reported anything.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <thread>
 #include <utility>
@@ -24,6 +26,7 @@
 #include "penumbra/scene/animation.h"
 
 #include "camera_control.h"
+#include "gizmo.h"
 #include "overlays.h"
 #include "panels.h"
 #include "picking.h"
@@ -98,6 +101,76 @@ void click_select(Document& doc, const CameraView& camera, glm::vec2 size, std::
   std::printf("%s\n", message.c_str());  // for scripted runs and logs
 }
 
+// A scripted pointer: a click (from == to) or a drag over `frames` frames: hover at `from`, press,
+// move to `to` over the frames between, release. Applied after the GLFW backend, which reads the
+// real pointer.
+struct ScriptedPointer {
+  glm::vec2 from{0.0f}, to{0.0f};
+  int frames = 0, frame = 0;  // frames in all; the next one
+  bool active() const { return frame < frames; }
+  void apply(ImGuiIO& io) {
+    const float t = std::clamp(float(frame - 1) / float(std::max(frames - 3, 1)), 0.0f, 1.0f);
+    const glm::vec2 p = from + t * (to - from);
+    io.MousePos = ImVec2(p.x, p.y);
+    io.MouseDown[0] = frame >= 1 && frame <= frames - 2;
+    ++frame;
+  }
+};
+
+// The translate gizmo's drag in progress (gizmo.h): the axis grabbed (-1: none), the entity, its
+// world position and the pointer when it was grabbed.
+struct GizmoDrag {
+  int axis = -1;
+  Entity entity;
+  glm::vec3 start{0.0f};
+  glm::vec2 grab{0.0f};
+};
+
+// The selection's world position, when it has a Transform the gizmo can move.
+std::optional<glm::vec3> gizmo_origin(World& world, Entity e) {
+  if (!e || !world.alive(e) || !world.has<Transform>(e)) return std::nullopt;
+  const WorldTransform* wt = world.try_get<WorldTransform>(e);
+  return wt ? std::optional<glm::vec3>(glm::vec3(wt->matrix[3])) : std::nullopt;
+}
+
+// A left press on one of the gizmo's arrows (not over a panel, without Ctrl) starts a drag along
+// its axis; while the button is down the selection follows the pointer along it, as one undoable
+// edit of Transform.translation (through the parent's world matrix; a refused value goes to
+// `message`). Returns whether the gizmo
+// holds the pointer this frame (a drag in progress, or one that just ended): the camera does not
+// turn and a release does not select.
+bool gizmo_input(Document& doc, GizmoDrag& drag, const CameraView& camera, glm::vec2 size, std::string& message) {
+  const ImGuiIO& io = ImGui::GetIO();
+  World& world = doc.world();
+  const glm::vec2 mouse(io.MousePos.x, io.MousePos.y);
+  if (drag.axis < 0) {
+    if (io.WantCaptureMouse || io.KeyCtrl || !ImGui::IsMouseClicked(ImGuiMouseButton_Left)) return false;
+    const auto origin = gizmo_origin(world, doc.selection());
+    const auto handles = origin ? gizmo_handles(camera, *origin, size) : std::nullopt;
+    const int axis = handles ? pick_gizmo_axis(*handles, mouse) : -1;
+    if (axis < 0) return false;
+    drag = GizmoDrag{axis, doc.selection(), *origin, mouse};
+    return true;
+  }
+  if (!world.alive(drag.entity) || !ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
+    drag.axis = -1;
+    doc.undo().end_merge();
+    return true;
+  }
+  glm::vec3 axis(0.0f);
+  axis[drag.axis] = 1.0f;
+  const glm::vec3 target = drag.start + drag_along_axis(camera, drag.start, axis, drag.grab, mouse, size);
+  glm::vec3 local = target;
+  if (const Parent* parent = world.try_get<Parent>(drag.entity))
+    if (const WorldTransform* pw = world.alive(parent->entity) ? world.try_get<WorldTransform>(parent->entity) : nullptr)
+      local = glm::vec3(glm::inverse(pw->matrix) * glm::vec4(target, 1.0f));
+  static const FieldDesc* const translation = find_field("Transform", "translation");
+  if (translation == nullptr) return true;
+  if (Status s = doc.undo().set(world, drag.entity, *translation, FieldValue(local), /*merge=*/true); !s)
+    message = "move: " + s.error().message;
+  return true;
+}
+
 int run(const Options& options) {
   // The script first: a bad script is reported before any window opens.
   std::optional<ScriptRunner> runner;
@@ -105,9 +178,9 @@ int run(const Options& options) {
   ui.render.shadows = options.shadow_map_size > 0;
   ui.render.shadow_map_size = std::max(options.shadow_map_size, 64u);
   std::string pending_screenshot;
-  // A scripted click: the pointer position and the frames left (3: move, 2: press, 1: release).
-  glm::vec2 click_at(0.0f);
-  int click_frames = 0;
+  ScriptedPointer pointer;
+  std::optional<std::pair<int, float>> gizmo_request;  // drag-gizmo AXIS PIXELS, resolved in the next frame
+  GizmoDrag gizmo;
   if (!options.script.empty()) {
     auto script = load_script(options.script);
     if (!script) {
@@ -124,8 +197,10 @@ int run(const Options& options) {
         ui.frames = FrameTimes{};
         ui.frames.frames = FrameTimes::kWarmUp;  // already warm
       } else if (a.verb == "click") {
-        click_at = glm::vec2(std::stof(a.args[0]), std::stof(a.args[1]));
-        click_frames = 3;
+        const glm::vec2 at(std::stof(a.args[0]), std::stof(a.args[1]));
+        pointer = ScriptedPointer{at, at, 3, 0};
+      } else if (a.verb == "drag-gizmo") {
+        gizmo_request = std::pair{int(a.args[0][0] - 'x'), std::stof(a.args[1])};
       } else if (a.verb == "ui") {
         ui.show_ui = a.args[0] == "on";
       } else if (a.verb == "view") {
@@ -198,7 +273,7 @@ int run(const Options& options) {
           std::printf("%s\n", ui.message.c_str());  // for scripted runs and logs
         }
         if (Status s = model.auto_bake_tick(glfwGetTime()); !s) ui.message = "auto-bake: " + s.error().message;
-        if (runner && click_frames == 0) {  // a click in progress holds the script
+        if (runner && !pointer.active() && !gizmo_request) {  // a click or drag in progress holds the script
           if (Status s = runner->step(model); !s) {
             std::fprintf(stderr, "penumbra-editor: %s\n", s.error().message.c_str());
             exit_code = 1;
@@ -216,7 +291,8 @@ int run(const Options& options) {
           ui.message = s ? "opened " + source : s.error().message;
         }
         if (!model.document()) {
-          click_frames = 0;  // no panels to click
+          pointer = {};  // no panels to click
+          gizmo_request.reset();
           if (runner) continue;  // the script has not opened a scene yet
           break;
         }
@@ -233,25 +309,39 @@ int run(const Options& options) {
                                                                                                   : doc.source().c_str());
         }
 
-        ImGui_ImplVulkan_NewFrame();
-        ImGui_ImplGlfw_NewFrame();
-        if (click_frames > 0) {  // after the backend, which reads the real pointer
-          ImGuiIO& io = ImGui::GetIO();
-          io.MousePos = ImVec2(click_at.x, click_at.y);
-          io.MouseDown[0] = click_frames == 2;
-          --click_frames;
-        }
-        ImGui::NewFrame();
-        camera_input(window, ui.camera, dt);
-        draw_panels(model, ui);
         const VkExtent2D extent = (*viewport)->extent();
         const glm::vec2 size(static_cast<float>(extent.width), static_cast<float>(extent.height));
+        if (gizmo_request) {  // the script's drag-gizmo: from 60 % along the arrow, along it
+          const auto [axis, pixels] = *std::exchange(gizmo_request, std::nullopt);
+          const auto origin = gizmo_origin(doc.world(), doc.selection());
+          const CameraView view = ui.camera.view(size.x / std::max(size.y, 1.0f));
+          const auto handles = origin ? gizmo_handles(view, *origin, size) : std::nullopt;
+          if (!handles || !handles->tips[static_cast<std::size_t>(axis)]) {
+            std::fprintf(stderr, "penumbra-editor: drag-gizmo: %s\n",
+                         origin ? "that arrow is not on screen; orbit the camera" : "select an entity with a Transform first");
+            exit_code = 1;
+            break;
+          }
+          const glm::vec2 tip = *handles->tips[static_cast<std::size_t>(axis)];
+          const glm::vec2 from = glm::mix(handles->origin, tip, 0.6f);
+          pointer = ScriptedPointer{from, from + pixels * glm::normalize(tip - handles->origin), 8, 0};
+        }
+        ImGui_ImplVulkan_NewFrame();
+        ImGui_ImplGlfw_NewFrame();
+        if (pointer.active()) pointer.apply(ImGui::GetIO());  // after the backend, which reads the real pointer
+        ImGui::NewFrame();
+        const bool gizmo_busy =
+            ui.show_ui && gizmo_input(doc, gizmo, ui.camera.view(size.x / std::max(size.y, 1.0f)), size, ui.message);
+        if (!gizmo_busy) camera_input(window, ui.camera, dt);
+        draw_panels(model, ui);
         const CameraView camera = ui.camera.view(size.x / std::max(size.y, 1.0f));
         ui.camera_now = camera;
-        click_select(doc, camera, size, ui.message);
+        if (!gizmo_busy) click_select(doc, camera, size, ui.message);
         if (ui.show_ui) {
           draw_selection(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
           draw_lights(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
+          if (const auto origin = gizmo_origin(doc.world(), doc.selection()))
+            draw_gizmo(ImGui::GetBackgroundDrawList(), camera, *origin, size, gizmo.axis);
           ViewContext view{doc.world(), doc.selection(), camera, size, ui.message};
           for (const EditorExtension& x : editor_extensions())
             if (x.draw_overlay) x.draw_overlay(view, ImGui::GetBackgroundDrawList());

@@ -9,6 +9,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <imgui.h>
 
+#include "gizmo.h"
 #include "light_icons.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
@@ -62,6 +63,20 @@ void draw_selection(ImDrawList* dl, World& world, Entity selection, const Camera
   const glm::vec3 extent = glm::max(box.extent(), glm::vec3(1e-3f));
   const glm::mat4 unit_to_world = glm::scale(glm::translate(glm::mat4(1.0f), box.min), extent);
   draw_box(dl, camera, size, unit_to_world, IM_COL32(255, 255, 255, 220));
+}
+
+void draw_gizmo(ImDrawList* dl, const CameraView& camera, glm::vec3 origin, glm::vec2 size, int active) {
+  const auto handles = gizmo_handles(camera, origin, size);
+  if (!handles) return;
+  const ImU32 colours[3] = {IM_COL32(230, 60, 60, 230), IM_COL32(80, 210, 80, 230), IM_COL32(70, 120, 255, 230)};
+  for (int a = 0; a < 3; ++a) {
+    if (!handles->tips[a]) continue;
+    const glm::vec2 o = handles->origin, t = *handles->tips[a];
+    const bool on = a == active;
+    const ImU32 colour = on ? IM_COL32(255, 255, 160, 255) : colours[a];
+    dl->AddLine(ImVec2(o.x, o.y), ImVec2(t.x, t.y), colour, on ? 4.0f : 2.5f);
+    dl->AddCircleFilled(ImVec2(t.x, t.y), on ? 6.0f : 5.0f, colour, 12);
+  }
 }
 
 void draw_lights(ImDrawList* dl, World& world, Entity selection, const CameraView& camera, glm::vec2 size) {

@@ -37,6 +37,9 @@ void draw_loop(ImDrawList* draw_list, const CameraView& camera, glm::vec2 size, 
 // The selection's highlight: the posed bounds of the meshes of its subtree as a white box (nothing
 // for an entity without meshes, e.g. a light: its icon turns white).
 void draw_selection(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
+// The translate gizmo at world point `origin` (gizmo.h): red, green and blue arrows along +X, +Y,
+// +Z, the one being dragged (`active` axis, -1 none) brighter and thicker.
+void draw_gizmo(ImDrawList* draw_list, const CameraView& camera, glm::vec3 origin, glm::vec2 size, int active);
 // Every light's icon (light_icons.h) in its colour, white when selected, with a dot at its marker.
 void draw_lights(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
 

@@ -23,6 +23,9 @@
 //   click X Y                           a left click at window pixel (X, Y): the pointer moves there,
 //                                       the button goes down and up over three frames; the script
 //                                       goes on after the release (drives menus as a user would)
+//   drag-gizmo x|y|z PIXELS             drags the selection's translate-gizmo arrow: presses 60 % along
+//                                       it, moves PIXELS along it over six frames, releases (one
+//                                       undoable edit of Transform.translation)
 //   reset-stats                         starts the frame-time statistics afresh
 //                                       viewport actions (window only; ui hides/shows the panels and overlays)
 //   quit [CODE]

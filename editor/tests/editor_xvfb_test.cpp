@@ -169,6 +169,55 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
   fs::remove_all(dir);
 }
 
+// The translate gizmo driven through the real pointer path (the script presses on the selected
+// crate's +X arrow and drags 120 pixels along it): the crate moves along +X only, as one
+// undoable edit of Transform.translation, and the screenshot shows it elsewhere.
+TEST(EditorXvfb, TheGizmoMovesTheSelectionAlongAnAxisUndoably) {
+  ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
+  const fs::path dir = scratch_dir("penumbra_editor_gizmo");
+  const std::string d = dir.string();
+  {
+    std::ofstream script(dir / "gizmo.txt");
+    script << "open builtin:courtyard draft\n"
+              "frames 3\n"
+              "select crate\n"
+              "frames 2\n"
+              "screenshot " << d << "/before.png\n"
+              "drag-gizmo x 120\n"
+              "frames 2\n"
+              "screenshot " << d << "/after.png\n"
+              "save-edits " << d << "/moved.txt\n"
+              "undo\n"
+              "save-edits " << d << "/undone.txt\n"
+              "quit\n";
+  }
+  int status = 0;
+  const std::string output = run_editor(dir / "gizmo.txt", status);
+  ASSERT_EQ(status, 0) << output;
+  const auto read = [](const fs::path& p) {
+    std::ifstream in(p);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  // The crate starts at (1, 0.4, 2) (builtin courtyard).
+  const std::string moved = read(dir / "moved.txt");
+  const std::size_t at = moved.find("Transform.translation ");
+  ASSERT_NE(at, std::string::npos) << moved;
+  float x = 0, y = 0, z = 0;
+  ASSERT_EQ(std::sscanf(moved.c_str() + at, "Transform.translation %f %f %f", &x, &y, &z), 3) << moved;
+  EXPECT_GT(x, 1.3f) << moved;
+  EXPECT_NEAR(y, 0.4f, 1e-4f);
+  EXPECT_NEAR(z, 2.0f, 1e-4f);
+  EXPECT_EQ(moved.find("Transform.translation", at + 1), std::string::npos) << "one edit per drag: " << moved;
+  EXPECT_EQ(read(dir / "undone.txt").find("Transform.translation"), std::string::npos);
+  const Png before = load_png(dir / "before.png"), after = load_png(dir / "after.png");
+  ASSERT_EQ(before.width, after.width);
+  double diff = 0.0;
+  for (int y2 = 0; y2 < 720; ++y2)
+    for (int x2 = 0; x2 < 1280; ++x2) diff += std::abs(after.luminance(x2, y2) - before.luminance(x2, y2));
+  EXPECT_GT(diff / (1280.0 * 720.0), 0.2) << "the view should show the crate moved";
+  fs::remove_all(dir);
+}
+
 // File > Open of another scene while one is open, clicked as a user would (the script's click
 // moves the pointer and presses the button): the document is replaced between frames, so nothing
 // drawn that frame uses the old one, and the new scene is seen through its camera. Then a glTF

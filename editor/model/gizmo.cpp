@@ -1,0 +1,79 @@
+// The translate gizmo's math (gizmo.h).
+#include "gizmo.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/geometric.hpp>
+#include <glm/mat4x4.hpp>
+
+#include "penumbra/scene/camera.h"
+
+namespace penumbra::editor {
+namespace {
+
+std::optional<glm::vec2> to_screen(const CameraView& camera, glm::vec3 p, glm::vec2 size) {
+  const glm::vec4 clip = camera.projection * camera.view * glm::vec4(p, 1.0f);
+  if (!(clip.w > 1e-6f)) return std::nullopt;
+  const glm::vec2 ndc = glm::vec2(clip) / clip.w;
+  return glm::vec2((ndc.x * 0.5f + 0.5f) * size.x, (ndc.y * 0.5f + 0.5f) * size.y);
+}
+
+float distance_to_segment(glm::vec2 p, glm::vec2 a, glm::vec2 b) {
+  const glm::vec2 ab = b - a;
+  const float len2 = glm::dot(ab, ab);
+  const float t = len2 > 0.0f ? std::clamp(glm::dot(p - a, ab) / len2, 0.0f, 1.0f) : 0.0f;
+  return glm::distance(p, a + t * ab);
+}
+
+}  // namespace
+
+std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 origin, glm::vec2 size) {
+  const auto o = to_screen(camera, origin, size);
+  if (!o) return std::nullopt;
+  GizmoHandles h;
+  h.origin = *o;
+  const glm::vec3 eye(glm::inverse(camera.view)[3]);
+  h.length = std::max(0.2f * glm::distance(eye, origin), 1e-4f);
+  for (int a = 0; a < 3; ++a) {
+    glm::vec3 axis(0.0f);
+    axis[a] = 1.0f;
+    h.tips[a] = to_screen(camera, origin + h.length * axis, size);
+  }
+  return h;
+}
+
+int pick_gizmo_axis(const GizmoHandles& handles, glm::vec2 pointer, float reach) {
+  int best = -1;
+  float nearest = reach;
+  for (int a = 0; a < 3; ++a) {
+    if (!handles.tips[a]) continue;
+    const float d = distance_to_segment(pointer, handles.origin, *handles.tips[a]);
+    if (d <= nearest) {
+      nearest = d;
+      best = a;
+    }
+  }
+  return best;
+}
+
+glm::vec3 drag_along_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axis, glm::vec2 from, glm::vec2 to,
+                          glm::vec2 size) {
+  const glm::mat4 clip_to_world = glm::inverse(camera.projection * camera.view);
+  const auto w = static_cast<std::uint32_t>(std::max(size.x, 1.0f)), h = static_cast<std::uint32_t>(std::max(size.y, 1.0f));
+  // The parameter s of the axis point origin + s axis nearest the ray through `pixel`.
+  const auto along = [&](glm::vec2 pixel, float& s) {
+    const CameraRay ray = camera_ray(clip_to_world, pixel, w, h);
+    const glm::vec3 r = origin - ray.origin;
+    const float b = glm::dot(axis, ray.direction);
+    const float denom = 1.0f - b * b;  // |axis| = |direction| = 1
+    if (!(denom > 1e-6f)) return false;
+    s = (b * glm::dot(ray.direction, r) - glm::dot(axis, r)) / denom;
+    return std::isfinite(s);
+  };
+  float s0 = 0.0f, s1 = 0.0f;
+  if (!along(from, s0) || !along(to, s1)) return glm::vec3(0.0f);
+  return (s1 - s0) * axis;
+}
+
+}  // namespace penumbra::editor

@@ -1,0 +1,63 @@
+// The translate gizmo: the arrows keep their screen size, the pointer grabs the arrow it is on, and
+// dragging along an axis keeps the axis point under the pointer (a drag from the origin's pixel to
+// the pixel of origin + 1.5 x moves by 1.5 along x, whatever else the pointer does across it).
+#include "gizmo.h"
+
+#include <gtest/gtest.h>
+
+#include "penumbra/scene/camera.h"
+
+namespace penumbra::editor {
+namespace {
+
+const glm::vec2 kSize(1280.0f, 720.0f);
+
+std::optional<glm::vec2> screen(const CameraView& camera, glm::vec3 p) {
+  const glm::vec4 clip = camera.projection * camera.view * glm::vec4(p, 1.0f);
+  if (!(clip.w > 0.0f)) return std::nullopt;
+  return glm::vec2((clip.x / clip.w * 0.5f + 0.5f) * kSize.x, (clip.y / clip.w * 0.5f + 0.5f) * kSize.y);
+}
+
+TEST(Gizmo, ArrowsKeepTheirScreenSizeAndThePointerGrabsTheOneItIsOn) {
+  const glm::vec3 target(1.0f, 0.5f, -2.0f);
+  const CameraView near = look_at_view(target + glm::vec3(3, 2, 4), target, 0.8f, kSize.x / kSize.y, 0.05f, 100.0f);
+  const CameraView far = look_at_view(target + 10.0f * glm::vec3(3, 2, 4), target, 0.8f, kSize.x / kSize.y, 0.05f, 1000.0f);
+  const auto a = gizmo_handles(near, target, kSize), b = gizmo_handles(far, target, kSize);
+  ASSERT_TRUE(a && b);
+  for (int axis = 0; axis < 3; ++axis) {
+    ASSERT_TRUE(a->tips[axis] && b->tips[axis]);
+    EXPECT_NEAR(glm::distance(a->origin, *a->tips[axis]), glm::distance(b->origin, *b->tips[axis]), 1.5f) << axis;
+    EXPECT_GT(glm::distance(a->origin, *a->tips[axis]), 20.0f) << axis;
+    // Two thirds along an arrow, and 3 pixels beside it, grabs that arrow.
+    const glm::vec2 on = glm::mix(a->origin, *a->tips[axis], 0.66f);
+    const glm::vec2 across = glm::normalize(*a->tips[axis] - a->origin);
+    EXPECT_EQ(pick_gizmo_axis(*a, on + 3.0f * glm::vec2(-across.y, across.x)), axis);
+  }
+  EXPECT_EQ(pick_gizmo_axis(*a, a->origin + glm::vec2(200.0f, 200.0f)), -1);
+  // Behind the camera: no handles.
+  EXPECT_FALSE(gizmo_handles(near, target + 20.0f * glm::vec3(3, 2, 4), kSize));
+}
+
+TEST(Gizmo, DraggingAlongAnAxisKeepsItsPointUnderThePointer) {
+  const glm::vec3 origin(0.5f, 1.0f, 0.0f);
+  const CameraView camera = look_at_view(glm::vec3(4, 3, 6), origin, 0.8f, kSize.x / kSize.y, 0.05f, 100.0f);
+  for (int a = 0; a < 3; ++a) {
+    glm::vec3 axis(0.0f);
+    axis[a] = 1.0f;
+    const auto from = screen(camera, origin), to = screen(camera, origin + 1.5f * axis);
+    ASSERT_TRUE(from && to);
+    const glm::vec3 moved = drag_along_axis(camera, origin, axis, *from, *to, kSize);
+    EXPECT_NEAR(moved[a], 1.5f, 0.01f) << a;
+    EXPECT_EQ(moved[(a + 1) % 3], 0.0f);
+    // A pointer that also moves across the arrow still moves only along it, by the same amount.
+    const glm::vec2 off = *to + 30.0f * glm::normalize(glm::vec2(-(*to - *from).y, (*to - *from).x));
+    EXPECT_NEAR(drag_along_axis(camera, origin, axis, *from, off, kSize)[a], 1.5f, 0.15f) << a;
+  }
+  // An axis pointing at the camera projects to a point: a drag across the screen barely moves along it.
+  const glm::vec3 view_axis = glm::normalize(glm::vec3(4, 3, 6) - origin);
+  EXPECT_LT(glm::length(drag_along_axis(camera, origin, view_axis, glm::vec2(600, 300), glm::vec2(700, 400), kSize)),
+            0.01f);
+}
+
+}  // namespace
+}  // namespace penumbra::editor
