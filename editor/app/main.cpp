@@ -19,6 +19,7 @@
 
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
+#include <glm/gtc/quaternion.hpp>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_vulkan.h>
 #include <imgui.h>
@@ -117,13 +118,17 @@ struct ScriptedPointer {
   }
 };
 
-// The translate gizmo's drag in progress (gizmo.h): the axis grabbed (-1: none), the entity, its
-// world position and the pointer when it was grabbed.
+// The gizmo's drag in progress (gizmo.h): the axis grabbed (-1: none), the mode, the entity, its
+// world position, local rotation and scale, the pointer and the handles' length when it was grabbed.
 struct GizmoDrag {
   int axis = -1;
+  GizmoMode mode = GizmoMode::Move;
   Entity entity;
   glm::vec3 start{0.0f};
+  glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};
+  glm::vec3 scale{1.0f};
   glm::vec2 grab{0.0f};
+  float length = 1.0f;
 };
 
 // The selection's world position, when it has a Transform the gizmo can move.
@@ -133,23 +138,25 @@ std::optional<glm::vec3> gizmo_origin(World& world, Entity e) {
   return wt ? std::optional<glm::vec3>(glm::vec3(wt->matrix[3])) : std::nullopt;
 }
 
-// A left press on one of the gizmo's arrows (not over a panel, without Ctrl) starts a drag along
-// its axis; while the button is down the selection follows the pointer along it, as one undoable
-// edit of Transform.translation (through the parent's world matrix; a refused value goes to
-// `message`). Returns whether the gizmo
-// holds the pointer this frame (a drag in progress, or one that just ended): the camera does not
-// turn and a release does not select.
-bool gizmo_input(Document& doc, GizmoDrag& drag, const CameraView& camera, glm::vec2 size, std::string& message) {
+// A left press on one of the gizmo's handles (not over a panel, without Ctrl) starts a drag
+// about or along its axis; while the button is down the selection follows the pointer, as one
+// undoable edit of Transform.translation, .rotation or .scale (through the parent's world matrix;
+// a refused value goes to `message`). Returns whether the gizmo holds the pointer this frame (a
+// drag in progress, or one that just ended): the camera does not turn and a release does not
+// select.
+bool gizmo_input(Document& doc, GizmoDrag& drag, GizmoMode mode, const CameraView& camera, glm::vec2 size,
+                 std::string& message) {
   const ImGuiIO& io = ImGui::GetIO();
   World& world = doc.world();
   const glm::vec2 mouse(io.MousePos.x, io.MousePos.y);
   if (drag.axis < 0) {
     if (io.WantCaptureMouse || io.KeyCtrl || !ImGui::IsMouseClicked(ImGuiMouseButton_Left)) return false;
     const auto origin = gizmo_origin(world, doc.selection());
-    const auto handles = origin ? gizmo_handles(camera, *origin, size) : std::nullopt;
+    const auto handles = origin ? gizmo_handles(camera, *origin, size, mode) : std::nullopt;
     const int axis = handles ? pick_gizmo_axis(*handles, mouse) : -1;
     if (axis < 0) return false;
-    drag = GizmoDrag{axis, doc.selection(), *origin, mouse};
+    const Transform& t = world.get<Transform>(doc.selection());
+    drag = GizmoDrag{axis, mode, doc.selection(), *origin, t.rotation, t.scale, mouse, handles->length};
     return true;
   }
   if (!world.alive(drag.entity) || !ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
@@ -159,15 +166,33 @@ bool gizmo_input(Document& doc, GizmoDrag& drag, const CameraView& camera, glm::
   }
   glm::vec3 axis(0.0f);
   axis[drag.axis] = 1.0f;
-  const glm::vec3 target = drag.start + drag_along_axis(camera, drag.start, axis, drag.grab, mouse, size);
-  glm::vec3 local = target;
+  glm::mat4 parent_world(1.0f);
   if (const Parent* parent = world.try_get<Parent>(drag.entity))
     if (const WorldTransform* pw = world.alive(parent->entity) ? world.try_get<WorldTransform>(parent->entity) : nullptr)
-      local = glm::vec3(glm::inverse(pw->matrix) * glm::vec4(target, 1.0f));
-  static const FieldDesc* const translation = find_field("Transform", "translation");
-  if (translation == nullptr) return true;
-  if (Status s = doc.undo().set(world, drag.entity, *translation, FieldValue(local), /*merge=*/true); !s)
-    message = "move: " + s.error().message;
+      parent_world = pw->matrix;
+  const char* field = "translation";
+  FieldValue value;
+  if (drag.mode == GizmoMode::Move) {
+    const glm::vec3 target = drag.start + drag_along_axis(camera, drag.start, axis, drag.grab, mouse, size);
+    value = glm::vec3(glm::inverse(parent_world) * glm::vec4(target, 1.0f));
+  } else if (drag.mode == GizmoMode::Rotate) {
+    // A turn about the world axis, in the parent's frame: q_parent^-1 R q_parent q_local.
+    const glm::mat3 m(parent_world);
+    const glm::quat parent_rotation =
+        glm::quat_cast(glm::mat3(glm::normalize(m[0]), glm::normalize(m[1]), glm::normalize(m[2])));
+    const glm::quat turn = glm::angleAxis(rotate_about_axis(camera, drag.start, axis, drag.grab, mouse, size), axis);
+    field = "rotation";
+    value = glm::normalize(glm::inverse(parent_rotation) * turn * parent_rotation * drag.rotation);
+  } else {
+    glm::vec3 scale = drag.scale;
+    scale[drag.axis] *= scale_along_axis(camera, drag.start, axis, drag.length, drag.grab, mouse, size);
+    field = "scale";
+    value = scale;
+  }
+  const FieldDesc* desc = find_field("Transform", field);
+  if (desc == nullptr) return true;
+  if (Status s = doc.undo().set(world, drag.entity, *desc, value, /*merge=*/true); !s)
+    message = std::string(to_string(drag.mode)) + ": " + s.error().message;
   return true;
 }
 
@@ -199,6 +224,8 @@ int run(const Options& options) {
       } else if (a.verb == "click") {
         const glm::vec2 at(std::stof(a.args[0]), std::stof(a.args[1]));
         pointer = ScriptedPointer{at, at, 3, 0};
+      } else if (a.verb == "gizmo") {
+        ui.gizmo_mode = a.args[0] == "rotate" ? GizmoMode::Rotate : a.args[0] == "scale" ? GizmoMode::Scale : GizmoMode::Move;
       } else if (a.verb == "drag-gizmo") {
         gizmo_request = std::pair{int(a.args[0][0] - 'x'), std::stof(a.args[1])};
       } else if (a.verb == "ui") {
@@ -315,23 +342,37 @@ int run(const Options& options) {
           const auto [axis, pixels] = *std::exchange(gizmo_request, std::nullopt);
           const auto origin = gizmo_origin(doc.world(), doc.selection());
           const CameraView view = ui.camera.view(size.x / std::max(size.y, 1.0f));
-          const auto handles = origin ? gizmo_handles(view, *origin, size) : std::nullopt;
-          if (!handles || !handles->tips[static_cast<std::size_t>(axis)]) {
+          // Move and scale: from 60 % along the arrow, along it. Rotate: from the ring's point
+          // farthest from the centre, across the screen (a turn about the centre).
+          const auto handles = origin ? gizmo_handles(view, *origin, size, ui.gizmo_mode) : std::nullopt;
+          const auto k = static_cast<std::size_t>(axis);
+          std::optional<std::pair<glm::vec2, glm::vec2>> path;
+          if (handles && ui.gizmo_mode != GizmoMode::Rotate && handles->tips[k]) {
+            const glm::vec2 from = glm::mix(handles->origin, *handles->tips[k], 0.6f);
+            path = std::pair{from, from + pixels * glm::normalize(*handles->tips[k] - handles->origin)};
+          } else if (handles && ui.gizmo_mode == GizmoMode::Rotate && !handles->rings[k].empty()) {
+            const std::vector<glm::vec2>& ring = handles->rings[k];
+            const auto far = std::max_element(ring.begin(), ring.end(), [&](glm::vec2 p, glm::vec2 q) {
+              return glm::distance(p, handles->origin) < glm::distance(q, handles->origin);
+            });
+            const glm::vec2 out = glm::normalize(*far - handles->origin);
+            path = std::pair{*far, *far + pixels * glm::vec2(out.y, -out.x)};
+          }
+          if (!path) {
             std::fprintf(stderr, "penumbra-editor: drag-gizmo: %s\n",
-                         origin ? "that arrow is not on screen; orbit the camera" : "select an entity with a Transform first");
+                         origin ? "that handle is not on screen; orbit the camera" : "select an entity with a Transform first");
             exit_code = 1;
             break;
           }
-          const glm::vec2 tip = *handles->tips[static_cast<std::size_t>(axis)];
-          const glm::vec2 from = glm::mix(handles->origin, tip, 0.6f);
-          pointer = ScriptedPointer{from, from + pixels * glm::normalize(tip - handles->origin), 8, 0};
+          pointer = ScriptedPointer{path->first, path->second, 8, 0};
         }
         ImGui_ImplVulkan_NewFrame();
         ImGui_ImplGlfw_NewFrame();
         if (pointer.active()) pointer.apply(ImGui::GetIO());  // after the backend, which reads the real pointer
         ImGui::NewFrame();
         const bool gizmo_busy =
-            ui.show_ui && gizmo_input(doc, gizmo, ui.camera.view(size.x / std::max(size.y, 1.0f)), size, ui.message);
+            ui.show_ui &&
+            gizmo_input(doc, gizmo, ui.gizmo_mode, ui.camera.view(size.x / std::max(size.y, 1.0f)), size, ui.message);
         if (!gizmo_busy) camera_input(window, ui.camera, dt);
         draw_panels(model, ui);
         const CameraView camera = ui.camera.view(size.x / std::max(size.y, 1.0f));
@@ -341,7 +382,7 @@ int run(const Options& options) {
           draw_selection(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
           draw_lights(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
           if (const auto origin = gizmo_origin(doc.world(), doc.selection()))
-            draw_gizmo(ImGui::GetBackgroundDrawList(), camera, *origin, size, gizmo.axis);
+            draw_gizmo(ImGui::GetBackgroundDrawList(), camera, *origin, size, ui.gizmo_mode, gizmo.axis);
           ViewContext view{doc.world(), doc.selection(), camera, size, ui.message};
           for (const EditorExtension& x : editor_extensions())
             if (x.draw_overlay) x.draw_overlay(view, ImGui::GetBackgroundDrawList());

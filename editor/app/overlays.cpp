@@ -65,17 +65,28 @@ void draw_selection(ImDrawList* dl, World& world, Entity selection, const Camera
   draw_box(dl, camera, size, unit_to_world, IM_COL32(255, 255, 255, 220));
 }
 
-void draw_gizmo(ImDrawList* dl, const CameraView& camera, glm::vec3 origin, glm::vec2 size, int active) {
-  const auto handles = gizmo_handles(camera, origin, size);
+void draw_gizmo(ImDrawList* dl, const CameraView& camera, glm::vec3 origin, glm::vec2 size, GizmoMode mode,
+                int active) {
+  const auto handles = gizmo_handles(camera, origin, size, mode);
   if (!handles) return;
   const ImU32 colours[3] = {IM_COL32(230, 60, 60, 230), IM_COL32(80, 210, 80, 230), IM_COL32(70, 120, 255, 230)};
   for (int a = 0; a < 3; ++a) {
-    if (!handles->tips[a]) continue;
-    const glm::vec2 o = handles->origin, t = *handles->tips[a];
     const bool on = a == active;
     const ImU32 colour = on ? IM_COL32(255, 255, 160, 255) : colours[a];
-    dl->AddLine(ImVec2(o.x, o.y), ImVec2(t.x, t.y), colour, on ? 4.0f : 2.5f);
-    dl->AddCircleFilled(ImVec2(t.x, t.y), on ? 6.0f : 5.0f, colour, 12);
+    const float width = on ? 4.0f : 2.5f;
+    if (mode == GizmoMode::Rotate) {
+      std::vector<ImVec2> points;
+      for (const glm::vec2 p : handles->rings[a]) points.emplace_back(p.x, p.y);
+      dl->AddPolyline(points.data(), static_cast<int>(points.size()), colour, ImDrawFlags_Closed, width);
+      continue;
+    }
+    if (!handles->tips[a]) continue;
+    const glm::vec2 o = handles->origin, t = *handles->tips[a];
+    dl->AddLine(ImVec2(o.x, o.y), ImVec2(t.x, t.y), colour, width);
+    if (mode == GizmoMode::Scale)
+      dl->AddRectFilled(ImVec2(t.x - 5.0f, t.y - 5.0f), ImVec2(t.x + 5.0f, t.y + 5.0f), colour);
+    else
+      dl->AddCircleFilled(ImVec2(t.x, t.y), on ? 6.0f : 5.0f, colour, 12);
   }
 }
 

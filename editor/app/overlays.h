@@ -10,6 +10,7 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
+#include "gizmo.h"
 #include "penumbra/ecs/world.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/components.h"
@@ -37,9 +38,11 @@ void draw_loop(ImDrawList* draw_list, const CameraView& camera, glm::vec2 size, 
 // The selection's highlight: the posed bounds of the meshes of its subtree as a white box (nothing
 // for an entity without meshes, e.g. a light: its icon turns white).
 void draw_selection(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
-// The translate gizmo at world point `origin` (gizmo.h): red, green and blue arrows along +X, +Y,
-// +Z, the one being dragged (`active` axis, -1 none) brighter and thicker.
-void draw_gizmo(ImDrawList* draw_list, const CameraView& camera, glm::vec3 origin, glm::vec2 size, int active);
+// The gizmo at world point `origin` (gizmo.h): red, green and blue arrows along +X, +Y, +Z (Move:
+// round tips, Scale: square ones) or rings about them (Rotate), the one being dragged (`active`
+// axis, -1 none) brighter and thicker.
+void draw_gizmo(ImDrawList* draw_list, const CameraView& camera, glm::vec3 origin, glm::vec2 size, GizmoMode mode,
+                int active);
 // Every light's icon (light_icons.h) in its colour, white when selected, with a dot at its marker.
 void draw_lights(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
 

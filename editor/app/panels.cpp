@@ -456,6 +456,11 @@ void view_panel(EditorModel& model, UiState& ui) {
     ImGui::EndCombo();
   }
   ImGui::DragFloat("exposure", &ui.render.exposure, 0.01f, 0.01f, 100.0f);
+  ImGui::TextUnformatted("gizmo");
+  for (GizmoMode m : {GizmoMode::Move, GizmoMode::Rotate, GizmoMode::Scale}) {
+    ImGui::SameLine();
+    if (ImGui::RadioButton(to_string(m), ui.gizmo_mode == m)) ui.gizmo_mode = m;
+  }
   ImGui::SliderFloat("3D resolution", &ui.render_scale, 0.25f, 1.0f, "x%.2f");
   ImGui::SliderInt("fps while baking", &ui.bake_fps, 0, 60, ui.bake_fps == 0 ? "no limit" : "%d");
   if (ImGui::IsItemHovered())

@@ -10,6 +10,7 @@
 #include "camera_control.h"
 #include "editor_model.h"
 #include "extension.h"
+#include "gizmo.h"
 #include "viewport.h"
 #include "penumbra/render/renderer.h"
 
@@ -72,6 +73,7 @@ struct UiState {
   std::string plot_source;  // the bench and mode the plot shows (the selection's; see plot_panel)
   CostPlot plot;
   CameraView camera_now;  // this frame's camera (what the View panel's controls see)
+  GizmoMode gizmo_mode = GizmoMode::Move;  // the selection's gizmo (View panel; the script's `gizmo`)
   // The lighting components' bake state (EditorModel::bake_states), refreshed four times a second:
   // it hashes the scene.
   std::vector<BakeState> bake_states;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
@@ -28,17 +29,41 @@ float distance_to_segment(glm::vec2 p, glm::vec2 a, glm::vec2 b) {
 
 }  // namespace
 
-std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 origin, glm::vec2 size) {
+const char* to_string(GizmoMode mode) {
+  switch (mode) {
+    case GizmoMode::Move: return "move";
+    case GizmoMode::Rotate: return "rotate";
+    case GizmoMode::Scale: return "scale";
+  }
+  return "?";
+}
+
+std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 origin, glm::vec2 size,
+                                          GizmoMode mode) {
   const auto o = to_screen(camera, origin, size);
   if (!o) return std::nullopt;
   GizmoHandles h;
+  h.mode = mode;
   h.origin = *o;
   const glm::vec3 eye(glm::inverse(camera.view)[3]);
   h.length = std::max(0.2f * glm::distance(eye, origin), 1e-4f);
   for (int a = 0; a < 3; ++a) {
     glm::vec3 axis(0.0f);
     axis[a] = 1.0f;
-    h.tips[a] = to_screen(camera, origin + h.length * axis, size);
+    if (mode != GizmoMode::Rotate) {
+      h.tips[a] = to_screen(camera, origin + h.length * axis, size);
+      continue;
+    }
+    // The ring in the plane across the axis.
+    glm::vec3 u(0.0f), v(0.0f);
+    u[(a + 1) % 3] = 1.0f;
+    v[(a + 2) % 3] = 1.0f;
+    constexpr int kPoints = 48;
+    for (int i = 0; i < kPoints; ++i) {
+      const float t = 6.2831853f * float(i) / kPoints;
+      if (const auto p = to_screen(camera, origin + h.length * (std::cos(t) * u + std::sin(t) * v), size))
+        h.rings[a].push_back(*p);
+    }
   }
   return h;
 }
@@ -47,14 +72,39 @@ int pick_gizmo_axis(const GizmoHandles& handles, glm::vec2 pointer, float reach)
   int best = -1;
   float nearest = reach;
   for (int a = 0; a < 3; ++a) {
-    if (!handles.tips[a]) continue;
-    const float d = distance_to_segment(pointer, handles.origin, *handles.tips[a]);
+    float d = std::numeric_limits<float>::infinity();
+    if (handles.mode != GizmoMode::Rotate) {
+      if (handles.tips[a]) d = distance_to_segment(pointer, handles.origin, *handles.tips[a]);
+    } else {
+      const std::vector<glm::vec2>& ring = handles.rings[a];
+      for (std::size_t i = 0; i < ring.size(); ++i)
+        d = std::min(d, distance_to_segment(pointer, ring[i], ring[(i + 1) % ring.size()]));
+    }
     if (d <= nearest) {
       nearest = d;
       best = a;
     }
   }
   return best;
+}
+
+float rotate_about_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axis, glm::vec2 from, glm::vec2 to,
+                        glm::vec2 size) {
+  const auto o = to_screen(camera, origin, size);
+  if (!o) return 0.0f;
+  const glm::vec2 a = from - *o, b = to - *o;
+  if (glm::dot(a, a) < 1e-6f || glm::dot(b, b) < 1e-6f) return 0.0f;
+  // The screen turn, counter-clockwise positive as seen (y grows downwards on screen).
+  const float turn = -std::atan2(a.x * b.y - a.y * b.x, glm::dot(a, b));
+  // Right-handed about an axis that points at the camera is counter-clockwise as seen.
+  const glm::vec3 eye(glm::inverse(camera.view)[3]);
+  return glm::dot(axis, eye - origin) >= 0.0f ? turn : -turn;
+}
+
+float scale_along_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axis, float length, glm::vec2 from,
+                       glm::vec2 to, glm::vec2 size) {
+  const glm::vec3 offset = drag_along_axis(camera, origin, axis, from, to, size);
+  return std::max(0.01f, 1.0f + glm::dot(offset, axis) / std::max(length, 1e-6f));
 }
 
 glm::vec3 drag_along_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axis, glm::vec2 from, glm::vec2 to,

@@ -59,5 +59,31 @@ TEST(Gizmo, DraggingAlongAnAxisKeepsItsPointUnderThePointer) {
             0.01f);
 }
 
+// Rotate: a quarter turn counter-clockwise as seen around the origin turns +90 degrees about an
+// axis pointing at the camera and -90 about one pointing away; the pointer grabs a ring. Scale: a
+// drag to the arrow's tip doubles, one back past the origin shrinks, never below 0.01.
+TEST(Gizmo, RingsTurnRightHandedAndArrowsScale) {
+  const glm::vec3 origin(0.0f);
+  const CameraView camera = look_at_view(glm::vec3(0.1f, 0.2f, 5.0f), origin, 0.8f, kSize.x / kSize.y, 0.05f, 100.0f);
+  const auto o = screen(camera, origin);
+  ASSERT_TRUE(o);
+  const glm::vec2 right = *o + glm::vec2(100.0f, 0.0f), up = *o + glm::vec2(0.0f, -100.0f);  // y grows downwards
+  EXPECT_NEAR(rotate_about_axis(camera, origin, glm::vec3(0, 0, 1), right, up, kSize), 1.5707963f, 1e-4f);
+  EXPECT_NEAR(rotate_about_axis(camera, origin, glm::vec3(0, 0, -1), right, up, kSize), -1.5707963f, 1e-4f);
+  const auto rings = gizmo_handles(camera, origin, kSize, GizmoMode::Rotate);
+  ASSERT_TRUE(rings);
+  ASSERT_EQ(rings->rings[2].size(), 48u);
+  EXPECT_EQ(pick_gizmo_axis(*rings, rings->rings[2][5] + glm::vec2(2.0f, 0.0f)), 2);
+  EXPECT_EQ(pick_gizmo_axis(*rings, *o), 0);  // the x ring, seen edge on, runs through the centre
+  EXPECT_EQ(pick_gizmo_axis(*rings, *o + glm::vec2(300.0f, 250.0f)), -1);
+
+  const auto arrows = gizmo_handles(camera, origin, kSize, GizmoMode::Scale);
+  ASSERT_TRUE(arrows && arrows->tips[0]);
+  EXPECT_NEAR(scale_along_axis(camera, origin, glm::vec3(1, 0, 0), arrows->length, *o, *arrows->tips[0], kSize), 2.0f,
+              0.01f);
+  const glm::vec2 back = *o - 3.0f * (*arrows->tips[0] - *o);
+  EXPECT_EQ(scale_along_axis(camera, origin, glm::vec3(1, 0, 0), arrows->length, *o, back, kSize), 0.01f);
+}
+
 }  // namespace
 }  // namespace penumbra::editor

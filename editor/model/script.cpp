@@ -15,7 +15,7 @@ namespace {
 // The actions the window carries out (at the next frame).
 bool is_viewport_action(const std::string& verb) {
   return verb == "screenshot" || verb == "orbit" || verb == "view" || verb == "ui" || verb == "click" ||
-         verb == "drag-gizmo" ||
+         verb == "gizmo" || verb == "drag-gizmo" ||
          verb == "reset-stats";
 }
 
@@ -123,6 +123,9 @@ std::string check_action(const ScriptAction& a) {
     long long x = 0, y = 0;
     if (n != 2 || !parse_int(a.args[0], x) || !parse_int(a.args[1], y) || x < 0 || y < 0 || x > 16384 || y > 16384)
       return "'click' takes X and Y in window pixels from the top left, e.g. click 20 10";
+  } else if (v == "gizmo") {
+    if (n != 1 || (a.args[0] != "move" && a.args[0] != "rotate" && a.args[0] != "scale"))
+      return "'gizmo' takes move, rotate or scale";
   } else if (v == "drag-gizmo") {
     double pixels = 0.0;
     if (n != 2 || (a.args[0] != "x" && a.args[0] != "y" && a.args[0] != "z") || !parse_number(a.args[1], pixels) ||
@@ -136,7 +139,7 @@ std::string check_action(const ScriptAction& a) {
     return "unknown action '" + v +
            "'; actions: open, open-bake, save-bake, save-edits, save-gltf, select, set, add, remove, preset, undo, redo, "
            "bake, cancel, wait, auto-bake, expect-bake, "
-           "frames, screenshot, orbit, view, ui, click, drag-gizmo, reset-stats, quit";
+           "frames, screenshot, orbit, view, ui, click, drag-gizmo, reset-stats, gizmo, quit";
   }
   return {};
 }

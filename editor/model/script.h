@@ -23,9 +23,12 @@
 //   click X Y                           a left click at window pixel (X, Y): the pointer moves there,
 //                                       the button goes down and up over three frames; the script
 //                                       goes on after the release (drives menus as a user would)
-//   drag-gizmo x|y|z PIXELS             drags the selection's translate-gizmo arrow: presses 60 % along
-//                                       it, moves PIXELS along it over six frames, releases (one
-//                                       undoable edit of Transform.translation)
+//   gizmo move|rotate|scale             the selection's gizmo (gizmo.h)
+//   drag-gizmo x|y|z PIXELS             drags the gizmo's handle of that axis: an arrow from 60 % along
+//                                       it, PIXELS along it; a ring from its point farthest from the
+//                                       centre, PIXELS across the screen; over six frames, then
+//                                       releases (one undoable edit of Transform.translation,
+//                                       .rotation or .scale)
 //   reset-stats                         starts the frame-time statistics afresh
 //                                       viewport actions (window only; ui hides/shows the panels and overlays)
 //   quit [CODE]

@@ -169,10 +169,11 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
   fs::remove_all(dir);
 }
 
-// The translate gizmo driven through the real pointer path (the script presses on the selected
-// crate's +X arrow and drags 120 pixels along it): the crate moves along +X only, as one
-// undoable edit of Transform.translation, and the screenshot shows it elsewhere.
-TEST(EditorXvfb, TheGizmoMovesTheSelectionAlongAnAxisUndoably) {
+// The gizmo driven through the real pointer path (the script presses on the selected crate's +X
+// arrow and drags 120 pixels along it): the crate moves along +X only, as one undoable edit of
+// Transform.translation, and the screenshot shows it elsewhere; then the +Y ring turns it and the
+// +Y scale arrow stretches it.
+TEST(EditorXvfb, TheGizmoMovesTurnsAndScalesTheSelectionUndoably) {
   ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
   const fs::path dir = scratch_dir("penumbra_editor_gizmo");
   const std::string d = dir.string();
@@ -189,6 +190,12 @@ TEST(EditorXvfb, TheGizmoMovesTheSelectionAlongAnAxisUndoably) {
               "save-edits " << d << "/moved.txt\n"
               "undo\n"
               "save-edits " << d << "/undone.txt\n"
+              "gizmo rotate\n"
+              "drag-gizmo y 150\n"
+              "gizmo scale\n"
+              "drag-gizmo y 60\n"
+              "frames 2\n"
+              "save-edits " << d << "/turned.txt\n"
               "quit\n";
   }
   int status = 0;
@@ -209,6 +216,20 @@ TEST(EditorXvfb, TheGizmoMovesTheSelectionAlongAnAxisUndoably) {
   EXPECT_NEAR(z, 2.0f, 1e-4f);
   EXPECT_EQ(moved.find("Transform.translation", at + 1), std::string::npos) << "one edit per drag: " << moved;
   EXPECT_EQ(read(dir / "undone.txt").find("Transform.translation"), std::string::npos);
+  // The ring about +Y turns it about Y alone (degrees in the edit), the +Y arrow in scale mode
+  // makes it taller alone.
+  const std::string turned = read(dir / "turned.txt");
+  const std::size_t rotation = turned.find("Transform.rotation "), scale = turned.find("Transform.scale ");
+  ASSERT_NE(rotation, std::string::npos) << turned;
+  ASSERT_NE(scale, std::string::npos) << turned;
+  ASSERT_EQ(std::sscanf(turned.c_str() + rotation, "Transform.rotation %f %f %f", &x, &y, &z), 3) << turned;
+  EXPECT_NEAR(x, 0.0f, 1e-3f);
+  EXPECT_GT(std::abs(y), 10.0f) << turned;
+  EXPECT_NEAR(z, 0.0f, 1e-3f);
+  ASSERT_EQ(std::sscanf(turned.c_str() + scale, "Transform.scale %f %f %f", &x, &y, &z), 3) << turned;
+  EXPECT_EQ(x, 1.0f);
+  EXPECT_GT(y, 1.1f) << turned;
+  EXPECT_EQ(z, 1.0f);
   const Png before = load_png(dir / "before.png"), after = load_png(dir / "after.png");
   ASSERT_EQ(before.width, after.width);
   double diff = 0.0;
