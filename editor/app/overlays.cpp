@@ -17,13 +17,6 @@
 
 namespace penumbra::editor {
 
-std::optional<glm::vec2> project(const CameraView& camera, glm::vec3 p, glm::vec2 size) {
-  const glm::vec4 clip = camera.projection * camera.view * glm::vec4(p, 1.0f);
-  if (clip.w <= 1e-6f) return std::nullopt;
-  const glm::vec2 ndc(clip.x / clip.w, clip.y / clip.w);  // Vulkan: y already points down
-  return glm::vec2((ndc.x * 0.5f + 0.5f) * size.x, (ndc.y * 0.5f + 0.5f) * size.y);
-}
-
 glm::vec3 irradiance_colour(glm::vec3 e, float exposure) {
   const glm::vec3 x = glm::max(e * exposure, glm::vec3(0.0f));
   return x / (glm::vec3(1.0f) + x);

@@ -11,6 +11,7 @@
 #include <glm/vec3.hpp>
 
 #include "gizmo.h"
+#include "picking.h"
 #include "penumbra/ecs/world.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/components.h"
@@ -18,10 +19,6 @@
 struct ImDrawList;
 
 namespace penumbra::editor {
-
-// Screen position in pixels (origin top left) of world point p in a viewport of `size` pixels;
-// nullopt behind the camera.
-std::optional<glm::vec2> project(const CameraView& camera, glm::vec3 p, glm::vec2 size);
 
 // Display colour of an irradiance (W/m^2 per channel): exposure, then x / (1 + x) per channel.
 glm::vec3 irradiance_colour(glm::vec3 e, float exposure);

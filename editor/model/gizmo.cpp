@@ -9,16 +9,10 @@
 #include <glm/mat4x4.hpp>
 
 #include "penumbra/scene/camera.h"
+#include "picking.h"
 
 namespace penumbra::editor {
 namespace {
-
-std::optional<glm::vec2> to_screen(const CameraView& camera, glm::vec3 p, glm::vec2 size) {
-  const glm::vec4 clip = camera.projection * camera.view * glm::vec4(p, 1.0f);
-  if (!(clip.w > 1e-6f)) return std::nullopt;
-  const glm::vec2 ndc = glm::vec2(clip) / clip.w;
-  return glm::vec2((ndc.x * 0.5f + 0.5f) * size.x, (ndc.y * 0.5f + 0.5f) * size.y);
-}
 
 float distance_to_segment(glm::vec2 p, glm::vec2 a, glm::vec2 b) {
   const glm::vec2 ab = b - a;
@@ -40,7 +34,7 @@ const char* to_string(GizmoMode mode) {
 
 std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 origin, glm::vec2 size,
                                           GizmoMode mode) {
-  const auto o = to_screen(camera, origin, size);
+  const auto o = project(camera, origin, size);
   if (!o) return std::nullopt;
   GizmoHandles h;
   h.mode = mode;
@@ -51,7 +45,7 @@ std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 or
     glm::vec3 axis(0.0f);
     axis[a] = 1.0f;
     if (mode != GizmoMode::Rotate) {
-      h.tips[a] = to_screen(camera, origin + h.length * axis, size);
+      h.tips[a] = project(camera, origin + h.length * axis, size);
       continue;
     }
     // The ring in the plane across the axis.
@@ -61,7 +55,7 @@ std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 or
     constexpr int kPoints = 48;
     for (int i = 0; i < kPoints; ++i) {
       const float t = 6.2831853f * float(i) / kPoints;
-      if (const auto p = to_screen(camera, origin + h.length * (std::cos(t) * u + std::sin(t) * v), size))
+      if (const auto p = project(camera, origin + h.length * (std::cos(t) * u + std::sin(t) * v), size))
         h.rings[a].push_back(*p);
     }
   }
@@ -90,7 +84,7 @@ int pick_gizmo_axis(const GizmoHandles& handles, glm::vec2 pointer, float reach)
 
 float rotate_about_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axis, glm::vec2 from, glm::vec2 to,
                         glm::vec2 size) {
-  const auto o = to_screen(camera, origin, size);
+  const auto o = project(camera, origin, size);
   if (!o) return 0.0f;
   const glm::vec2 a = from - *o, b = to - *o;
   if (glm::dot(a, a) < 1e-6f || glm::dot(b, b) < 1e-6f) return 0.0f;

@@ -6,17 +6,14 @@
 #include <gtest/gtest.h>
 
 #include "penumbra/scene/camera.h"
+#include "picking.h"
 
 namespace penumbra::editor {
 namespace {
 
 const glm::vec2 kSize(1280.0f, 720.0f);
 
-std::optional<glm::vec2> screen(const CameraView& camera, glm::vec3 p) {
-  const glm::vec4 clip = camera.projection * camera.view * glm::vec4(p, 1.0f);
-  if (!(clip.w > 0.0f)) return std::nullopt;
-  return glm::vec2((clip.x / clip.w * 0.5f + 0.5f) * kSize.x, (clip.y / clip.w * 0.5f + 0.5f) * kSize.y);
-}
+std::optional<glm::vec2> screen(const CameraView& camera, glm::vec3 p) { return project(camera, p, kSize); }
 
 TEST(Gizmo, ArrowsKeepTheirScreenSizeAndThePointerGrabsTheOneItIsOn) {
   const glm::vec3 target(1.0f, 0.5f, -2.0f);

@@ -10,16 +10,22 @@
 
 namespace penumbra::editor {
 
+std::optional<glm::vec2> project(const CameraView& camera, glm::vec3 p, glm::vec2 size) {
+  const glm::vec4 clip = camera.projection * camera.view * glm::vec4(p, 1.0f);
+  if (clip.w <= 1e-6f) return std::nullopt;
+  const glm::vec2 ndc(clip.x / clip.w, clip.y / clip.w);  // Vulkan: y already points down
+  return glm::vec2((ndc.x * 0.5f + 0.5f) * size.x, (ndc.y * 0.5f + 0.5f) * size.y);
+}
+
 Result<Entity> pick(World& world, const CameraView& camera, glm::vec2 pixel, glm::vec2 size) {
   // Lights first: a marker under the pointer wins over the surface behind it.
   Entity light;
   float nearest = kLightPickRadius;
   const glm::mat4 world_to_clip = camera.projection * camera.view;
   world.view<const Light, const WorldTransform>().each([&](Entity e, const Light&, const WorldTransform& wt) {
-    const glm::vec4 c = world_to_clip * glm::vec4(glm::vec3(wt.matrix[3]), 1.0f);
-    if (c.w <= 1e-6f) return;
-    const glm::vec2 p((c.x / c.w * 0.5f + 0.5f) * size.x, (c.y / c.w * 0.5f + 0.5f) * size.y);
-    if (const float d = glm::distance(p, pixel); d < nearest) {
+    const auto p = project(camera, glm::vec3(wt.matrix[3]), size);
+    if (!p) return;
+    if (const float d = glm::distance(*p, pixel); d < nearest) {
       nearest = d;
       light = e;
     }

@@ -2,13 +2,20 @@
 // it. Main thread (reads the World).
 #pragma once
 
+#include <optional>
+
 #include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 
 #include "penumbra/core/result.h"
 #include "penumbra/ecs/world.h"
 #include "penumbra/scene/camera.h"
 
 namespace penumbra::editor {
+
+// Screen position in pixels (origin top left) of world point p in a viewport of `size` pixels;
+// nullopt behind the camera. What the overlays, the gizmo and picking project with. O(1).
+std::optional<glm::vec2> project(const CameraView& camera, glm::vec3 p, glm::vec2 size);
 
 // Pixels around a light's position within which a click picks the light (lights have no geometry).
 inline constexpr float kLightPickRadius = 12.0f;
