@@ -239,6 +239,85 @@ TEST(EditorXvfb, TheGizmoMovesTurnsAndScalesTheSelectionUndoably) {
   fs::remove_all(dir);
 }
 
+// The path through the editor in one run: two built-in scenes, then a glTF file (a quad lit
+// by a spot light); a probe grid and an AO-field caster added; the quad moved with the gizmo; a
+// bake, after which everything is up to date; the spot light brightened, after which the grid is
+// out of date (it holds the light) and the caster is not (AO reads no light); the scene saved as
+// glTF and reopened with both components, never baked in the new document. A screenshot at each
+// step.
+TEST(EditorXvfb, OpensEditsBakesAndSavesAStudiosScene) {
+  ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
+  const fs::path dir = scratch_dir("penumbra_editor_path");
+  const std::string d = dir.string();
+  {
+    std::ofstream script(dir / "path.txt");
+    script << "open builtin:courtyard draft\n"
+              "frames 2\n"
+              "screenshot " << d << "/a.png\n"
+              "open builtin:cornell draft\n"
+              "frames 2\n"
+              "screenshot " << d << "/b.png\n"
+              "open " PENUMBRA_TEST_DATA "/gltf/valid.gltf\n"
+              "frames 2\n"
+              "ui off\n"
+              "screenshot " << d << "/gltf.png\n"
+              "ui on\n"
+              "add root IrradianceProbeGrid\n"
+              "add quad/0 AOFieldCaster\n"
+              "expect-bake all never-baked\n"
+              "select quad\n"
+              "frames 2\n"
+              "drag-gizmo y 40\n"
+              "frames 2\n"
+              "bake all draft\n"
+              "wait\n"
+              "frames 2\n"
+              "expect-bake all up-to-date\n"
+              "ui off\n"
+              "screenshot " << d << "/baked.png\n"
+              "ui on\n"
+              "set spot Light.intensity 60\n"
+              "frames 2\n"
+              "expect-bake root out-of-date\n"
+              "expect-bake quad/0 up-to-date\n"
+              "ui off\n"
+              "screenshot " << d << "/stale.png\n"
+              "ui on\n"
+              "save-edits " << d << "/edits.txt\n"
+              "save-gltf " << d << "/saved.gltf\n"
+              "open " << d << "/saved.gltf\n"
+              "frames 2\n"
+              "expect-bake root never-baked\n"
+              "expect-bake quad/0 never-baked\n"
+              "screenshot " << d << "/reopened.png\n"
+              "quit\n";
+  }
+  int status = 0;
+  const std::string output = run_editor(dir / "path.txt", status);
+  ASSERT_EQ(status, 0) << output;
+  EXPECT_NE(output.find("validation messages: 0"), std::string::npos);
+  std::ifstream in(dir / "edits.txt");
+  const std::string edits((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(edits.find("Transform.translation"), std::string::npos) << "the gizmo's move: " << edits;
+  EXPECT_NE(edits.find("Light.intensity 60"), std::string::npos) << edits;
+  for (const char* shot : {"a", "b", "gltf", "baked", "stale", "reopened"}) {
+    const Png png = load_png(dir / (std::string(shot) + ".png"));
+    EXPECT_EQ(png.width, 1280) << shot;
+    EXPECT_EQ(png.height, 720) << shot;
+  }
+  // Each open replaced what the window shows: the courtyard, the Cornell box, the glTF.
+  const Png a = load_png(dir / "a.png"), b = load_png(dir / "b.png"), gltf = load_png(dir / "gltf.png");
+  const auto mean_difference = [](const Png& p, const Png& q) {
+    double sum = 0.0;
+    for (int y = 0; y < 720; ++y)
+      for (int x = 0; x < 1280; ++x) sum += std::abs(p.luminance(x, y) - q.luminance(x, y));
+    return sum / (1280.0 * 720.0);
+  };
+  EXPECT_GT(mean_difference(a, b), 10.0);
+  EXPECT_GT(mean_difference(b, gltf), 10.0);
+  fs::remove_all(dir);
+}
+
 // File > Open of another scene while one is open, clicked as a user would (the script's click
 // moves the pointer and presses the button): the document is replaced between frames, so nothing
 // drawn that frame uses the old one, and the new scene is seen through its camera. Then a glTF
