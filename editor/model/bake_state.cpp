@@ -117,10 +117,23 @@ BakeTracker::Records BakeTracker::begin(World& world, const std::vector<std::str
   std::map<const LightingModule*, std::uint64_t> modules;
   for (const Subject& s : subjects(world)) {
     if (!bakers.empty() && std::find(bakers.begin(), bakers.end(), s.module->name) == bakers.end()) continue;
-    // A selection bake bakes the selected entities' components; module-wide work needs a full bake.
-    if (!entities.empty() && std::find(entities.begin(), entities.end(), s.entity) == entities.end()) continue;
     auto [it, added] = modules.try_emplace(s.module, 0);
     if (added) it->second = module_hash(world, *s.module, settings);
+    // A selection bake bakes the selected entities' components; module-wide work needs a full bake.
+    if (!entities.empty() && std::find(entities.begin(), entities.end(), s.entity) == entities.end()) {
+      // A component of the module left out whose own inputs are as baked: the module's inputs now
+      // hold its siblings' new values, which its data does not read (a skeleton or clip change
+      // that a selection bake leaves out goes unnoticed for it).
+      const auto kept = records_.find({std::string(s.module->name), key_of(world, s)});
+      if (kept != records_.end() && kept->second.file.empty() && kept->second.fields == fields_hash(world, s) &&
+          kept->second.transform == transform_hash(world, s.entity)) {
+        Record r = kept->second;
+        r.module_inputs = it->second;
+        r.refresh_only = true;
+        out[kept->first] = std::move(r);
+      }
+      continue;
+    }
     Record r;
     r.component = s.info != nullptr ? std::string(s.info->name) : std::string();
     r.fields = fields_hash(world, s);
@@ -136,11 +149,13 @@ BakeTracker::Records BakeTracker::begin(World& world, const std::vector<std::str
 
 void BakeTracker::commit(Records pending, const BakeReport& report) {
   for (auto& [id, record] : pending) {
-    for (const BakeReport::Item& item : report.items)
-      if (item.baker == id.first) {
-        record.seconds = item.seconds;
-        record.bytes = item.bytes;
-      }
+    if (!record.refresh_only)
+      for (const BakeReport::Item& item : report.items)
+        if (item.baker == id.first) {
+          record.seconds = item.seconds;
+          record.bytes = item.bytes;
+        }
+    record.refresh_only = false;
     records_[id] = std::move(record);
   }
 }

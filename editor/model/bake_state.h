@@ -58,6 +58,9 @@ class BakeTracker {
     double seconds = 0.0;
     std::uint64_t bytes = 0;
     std::string file;  // set when loaded from a .pbake: then nothing else is known
+    // In a pending bake: a sibling left out of a selection bake, whose record only takes the
+    // module's new inputs.
+    bool refresh_only = false;
   };
   // Records by (module, entity key); the key is empty for a module-wide record.
   using Records = std::map<std::pair<std::string, std::string>, Record>;
@@ -68,7 +71,7 @@ class BakeTracker {
   Records begin(World& world, const std::vector<std::string>& bakers, const std::vector<Entity>& entities,
                 const BakeSettings& settings) const;
   // The bake of `pending` finished: its records replace those of the same components, with the
-  // report's time and bytes per module.
+  // report's time and bytes per module (a selection bake's siblings keep theirs).
   void commit(Records pending, const BakeReport& report);
   // A .pbake file was attached: every component of a module with chunks in it is Loaded from
   // `file_name` (replacing what was recorded).

@@ -222,6 +222,36 @@ TEST(BakeState, AutoBakeBakesWhatIsStaleOnceTheEditsSettle) {
   EXPECT_EQ(model.auto_bake_status(), "");
 }
 
+// A bake that fails (a crate scaled unevenly: its AO field refuses it) is not started again for
+// the same changes; the next change starts one, which succeeds once the scale is uniform again.
+TEST(BakeState, AutoBakeDoesNotRetryAFailedBakeUntilSomethingChanges) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
+  model.bake_settings.preset = Preset::Draft;
+  Document& doc = *model.document();
+  bake(model, {});
+  model.auto_bake = true;
+  model.auto_bake_delay = 0.0;
+  ASSERT_TRUE(set(doc, "crate", "Transform", "scale", "1 2 1").ok());
+  ASSERT_TRUE(model.auto_bake_tick(1.0).ok());
+  model.bakes().wait();
+  model.poll();
+  ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Failed);
+  EXPECT_NE(model.bakes().status().error.find("non-uniform scale"), std::string::npos) << model.bakes().status().error;
+  ASSERT_TRUE(model.auto_bake_tick(2.0).ok());
+  ASSERT_TRUE(model.auto_bake_tick(3.0).ok());
+  EXPECT_FALSE(model.bakes().running());
+  EXPECT_NE(model.auto_bake_status().find("failed"), std::string::npos) << model.auto_bake_status();
+  ASSERT_TRUE(set(doc, "crate", "Transform", "scale", "1.5 1.5 1.5").ok());
+  ASSERT_TRUE(model.auto_bake_tick(4.0).ok());
+  model.bakes().wait();
+  model.poll();
+  EXPECT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
+  ASSERT_TRUE(model.auto_bake_tick(5.0).ok());
+  for (const BakeState& st : model.bake_states())
+    EXPECT_EQ(st.freshness, Freshness::UpToDate) << st.module << ": " << st.why;
+}
+
 TEST(BakeState, ScriptsExpectAState) {
   EditorModel model;
   auto script = parse_script(

@@ -57,7 +57,7 @@ Status EditorModel::auto_bake_tick(double now) {
   }
   if (auto_checked_ >= 0.0 && now - auto_checked_ < 0.25) return {};
   auto_checked_ = now;
-  // The stale components, as a signature of what they are and why.
+  // The stale components, as a signature of what they are, why, and what their bake would read.
   std::vector<std::string> modules;
   std::vector<Entity> entities;
   bool whole_scene = false;
@@ -69,6 +69,10 @@ Status EditorModel::auto_bake_tick(double now) {
     if (s.entity) entities.push_back(s.entity);
     else whole_scene = true;
   }
+  // What those modules would read: a change that leaves the reasons' words alone (a second scale
+  // edit) is still a change.
+  if (!signature.empty())
+    signature += std::to_string(bake_input_hash(document_->world(), modules, bake_settings));
   if (signature != auto_signature_) {
     auto_signature_ = signature;
     auto_since_ = now;
