@@ -12,6 +12,7 @@ Status EditorModel::open(std::string_view source, Preset preset) {
   bakes_.wait();
   if (document_) bakes_.poll(*document_);  // collect (and drop) the cancelled bake's outcome
   document_ = std::move(*doc);
+  bake_settings.preset = preset;  // the next bake at the preset the scene's components start from
   return {};
 }
 

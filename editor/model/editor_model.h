@@ -15,8 +15,8 @@ namespace penumbra::editor {
 
 class EditorModel {
  public:
-  // Opens a scene, replacing the document (a running bake is cancelled first). On failure the
-  // previous document stays open.
+  // Opens a scene, replacing the document (a running bake is cancelled first), and sets the next
+  // bake's preset to `preset`. On failure the previous document (and preset) stays.
   Status open(std::string_view source, Preset preset = Preset::Medium);
   Document* document() { return document_.get(); }
   BakeController& bakes() { return bakes_; }
