@@ -68,6 +68,7 @@ glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const 
     if (!(s >= -m && s <= 1.0f + m && t >= -m && t <= 1.0f + m)) continue;
     best = &p;
     best_d = d;
+    if (d <= kTransportPlaneSnap * patch_plane_tolerance(p)) break;  // on its plane: none is nearer
   }
   if (best != nullptr) {
     const TransportPatch& p = *best;

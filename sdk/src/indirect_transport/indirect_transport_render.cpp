@@ -17,6 +17,7 @@
 
 // The shader's seam margin is the CPU lookup's.
 static_assert(float(PENUMBRA_TRANSPORT_MARGIN) == penumbra::kTransportMargin);
+static_assert(float(PENUMBRA_TRANSPORT_PLANE_SNAP) == penumbra::kTransportPlaneSnap);
 
 namespace penumbra {
 namespace shaders {

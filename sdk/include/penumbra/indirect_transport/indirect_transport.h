@@ -157,9 +157,10 @@ TransportUpdate apply_transport(const TransportData& data, std::span<const glm::
 // The indirect irradiance at world point x with unit normal n from a lightmap (`irradiance`, one
 // value per leaf, IndirectLightmap::irradiance): of the patches whose normal is within 60 degrees
 // of n, whose plane holds x (within patch_plane_tolerance) and whose rectangle, widened by
-// kTransportMargin of its size, contains x, the one nearest to x's plane gives the bilinear
-// interpolation of its leaf texels (centres at (k + 0.5) / 2^level, clamped to the patch); none
-// gives 0. The renderer's lookup is this one in GLSL
+// kTransportMargin of its size, contains x, the one nearest to x's plane (or, in patch order, the
+// first whose plane is within kTransportPlaneSnap of its tolerance of x: the renderer's search
+// stops there) gives the bilinear interpolation of its leaf texels (centres at (k + 0.5) / 2^level,
+// clamped to the patch); none gives 0. The renderer's lookup is this one in GLSL
 // (shaders/indirect_transport.glsl). Cost: O(patches).
 glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const glm::vec3> irradiance, glm::vec3 x,
                                      glm::vec3 n);
@@ -167,6 +168,7 @@ glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const 
 // float error of its position (the renderer's points come from its depth buffer).
 float patch_plane_tolerance(const TransportPatch& patch);
 inline constexpr float kTransportMargin = 0.01f;
+inline constexpr float kTransportPlaneSnap = 0.01f;
 
 inline constexpr std::uint32_t kTransportChunkType = fourcc("WRTO");
 inline constexpr std::uint32_t kTransportChunkVersion = 1;

@@ -14,7 +14,8 @@ layout(std430, set = 2, binding = PENUMBRA_TRANSPORT_BINDING_TEXELS) readonly bu
 } lightmap;
 
 // The patch holding x (its index), or -1: of the patches facing n whose rectangle, widened by
-// PENUMBRA_TRANSPORT_MARGIN, contains x, the nearest to x's plane within its tolerance.
+// PENUMBRA_TRANSPORT_MARGIN, contains x, the nearest to x's plane within its tolerance, or the
+// first on it (PENUMBRA_TRANSPORT_PLANE_SNAP; the cells list patches in index order).
 int transport_patch(vec3 x, vec3 n) {
   int best = -1;
   float best_d = 0.0;
@@ -35,6 +36,7 @@ int transport_patch(vec3 x, vec3 n) {
     if (s < -m || s > 1.0 + m || t < -m || t > 1.0 + m) continue;
     best = int(i);
     best_d = d;
+    if (d <= PENUMBRA_TRANSPORT_PLANE_SNAP * p.plane.w) break;  // on its plane: none is nearer
   }
   return best;
 }

@@ -17,6 +17,9 @@ namespace penumbra::gpu {
 // How far outside its rectangle (in its parameters) a point may be and still be a patch's: the
 // seams between patches have no gap (sample_indirect_irradiance, kTransportMargin).
 #define PENUMBRA_TRANSPORT_MARGIN 0.01
+// A patch whose plane lies within this fraction of its tolerance of the point is taken at once:
+// no other can be nearer by more than that, and the search ends (kTransportPlaneSnap).
+#define PENUMBRA_TRANSPORT_PLANE_SNAP 0.01
 
 // A patch in the lookup's terms (TransportPatch, indirect_transport.h).
 struct TransportPatchGpu {
