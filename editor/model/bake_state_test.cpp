@@ -54,8 +54,7 @@ void undo(Document& doc) {
 
 TEST(BakeState, FollowsTheEditsSinceTheBake) {
   EditorModel model;
-  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
-  model.bake_settings.preset = Preset::Draft;
+  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());  // the next bake at draft too
   Document& doc = *model.document();
   const Entity grid = *doc.find("probe grid");
 
@@ -116,8 +115,7 @@ TEST(BakeState, FollowsTheEditsSinceTheBake) {
 
 TEST(BakeState, AnotherComponentsEditLeavesTheRestUpToDate) {
   EditorModel model;
-  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
-  model.bake_settings.preset = Preset::Draft;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());  // the next bake at draft too
   Document& doc = *model.document();
   bake(model, {"ao-field"});
   std::vector<BakeState> states = model.bake_states();
@@ -156,8 +154,7 @@ TEST(BakeState, AnotherComponentsEditLeavesTheRestUpToDate) {
 // are (hash_scene), so everything stays up to date while they do; the crate's scale does matter.
 TEST(BakeState, MovingCharactersAndCratesLeaveTheBakeUpToDate) {
   EditorModel model;
-  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
-  model.bake_settings.preset = Preset::Draft;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());  // the next bake at draft too
   Document& doc = *model.document();
   bake(model, {});
   World& world = doc.world();
@@ -180,8 +177,7 @@ TEST(BakeState, MovingCharactersAndCratesLeaveTheBakeUpToDate) {
 // (everything at first, then only the grid after the light changed: vertex AO reads no light).
 TEST(BakeState, AutoBakeBakesWhatIsStaleOnceTheEditsSettle) {
   EditorModel model;
-  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
-  model.bake_settings.preset = Preset::Draft;
+  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());  // the next bake at draft too
   model.auto_bake = true;
   model.auto_bake_delay = 1.0;
   Document& doc = *model.document();
@@ -226,8 +222,7 @@ TEST(BakeState, AutoBakeBakesWhatIsStaleOnceTheEditsSettle) {
 // the same changes; the next change starts one, which succeeds once the scale is uniform again.
 TEST(BakeState, AutoBakeDoesNotRetryAFailedBakeUntilSomethingChanges) {
   EditorModel model;
-  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
-  model.bake_settings.preset = Preset::Draft;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());  // the next bake at draft too
   Document& doc = *model.document();
   bake(model, {});
   model.auto_bake = true;
