@@ -101,9 +101,11 @@ void scene_changes(const std::vector<SceneInput>& then, const std::vector<SceneI
       changes.push_back(std::string(kind(n.kind)) + " '" + n.key + "' changed");
     }
   }
-  for (const SceneInput& t : then)
-    if (counts(t) && std::none_of(now.begin(), now.end(), [&](const SceneInput& n) { return n.kind == t.kind && n.key == t.key; }))
+  for (const SceneInput& t : then) {
+    const auto same = [&](const SceneInput& n) { return n.kind == t.kind && n.key == t.key; };
+    if (counts(t) && std::none_of(now.begin(), now.end(), same))
       changes.push_back(std::string(kind(t.kind)) + " '" + t.key + "' removed");
+  }
   for (std::size_t i = 0; i < changes.size() && i < 3; ++i) out.push_back(changes[i]);
   if (changes.size() > 3) out.push_back("and " + std::to_string(changes.size() - 3) + " more scene changes");
 }

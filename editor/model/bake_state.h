@@ -66,8 +66,10 @@ class BakeTracker {
   using Records = std::map<std::pair<std::string, std::string>, Record>;
 
   // What a bake of `bakers` (every registered baker when empty) over the components of `entities`
-  // (all when empty) reads, from the live World at its start. Cost: hash_scene plus each baked
-  // module's hash_inputs.
+  // (all when empty) reads, from the live World at its start; for a selection bake also the
+  // module's other components whose own inputs are as baked, which take the module's new inputs
+  // (their siblings' changes alone moved them). Cost: hash_scene plus each baked module's
+  // hash_inputs.
   Records begin(World& world, const std::vector<std::string>& bakers, const std::vector<Entity>& entities,
                 const BakeSettings& settings) const;
   // The bake of `pending` finished: its records replace those of the same components, with the

@@ -138,7 +138,8 @@ TEST(BakeState, AnotherComponentsEditLeavesTheRestUpToDate) {
 
   // A caster added after the bake has never been baked; baking the selection bakes it alone.
   const Entity wall = *doc.find("north_wall");
-  ASSERT_TRUE(doc.undo().add_component(doc.world(), wall, *find_authored_component("AOFieldCaster"), Preset::Draft).ok());
+  const ComponentInfo& caster = *find_authored_component("AOFieldCaster");
+  ASSERT_TRUE(doc.undo().add_component(doc.world(), wall, caster, Preset::Draft).ok());
   update_world_transforms(doc.world());
   EXPECT_EQ(state_of(states = model.bake_states(), "ao-field", wall)->freshness, Freshness::NeverBaked);
   doc.select(wall);
@@ -146,7 +147,8 @@ TEST(BakeState, AnotherComponentsEditLeavesTheRestUpToDate) {
   model.bakes().wait();
   ASSERT_TRUE(model.poll());
   states = model.bake_states();
-  EXPECT_EQ(state_of(states, "ao-field", wall)->freshness, Freshness::UpToDate) << state_of(states, "ao-field", wall)->why;
+  const BakeState* baked = state_of(states, "ao-field", wall);
+  EXPECT_EQ(baked->freshness, Freshness::UpToDate) << baked->why;
   EXPECT_EQ(state_of(states, "ao-field", casters[0])->freshness, Freshness::OutOfDate);
 }
 

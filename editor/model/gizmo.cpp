@@ -104,7 +104,8 @@ float scale_along_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axi
 glm::vec3 drag_along_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axis, glm::vec2 from, glm::vec2 to,
                           glm::vec2 size) {
   const glm::mat4 clip_to_world = glm::inverse(camera.projection * camera.view);
-  const auto w = static_cast<std::uint32_t>(std::max(size.x, 1.0f)), h = static_cast<std::uint32_t>(std::max(size.y, 1.0f));
+  const auto w = static_cast<std::uint32_t>(std::max(size.x, 1.0f));
+  const auto h = static_cast<std::uint32_t>(std::max(size.y, 1.0f));
   // The parameter s of the axis point origin + s axis nearest the ray through `pixel`.
   const auto along = [&](glm::vec2 pixel, float& s) {
     const CameraRay ray = camera_ray(clip_to_world, pixel, w, h);

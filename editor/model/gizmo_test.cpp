@@ -17,8 +17,9 @@ std::optional<glm::vec2> screen(const CameraView& camera, glm::vec3 p) { return 
 
 TEST(Gizmo, ArrowsKeepTheirScreenSizeAndThePointerGrabsTheOneItIsOn) {
   const glm::vec3 target(1.0f, 0.5f, -2.0f);
-  const CameraView near = look_at_view(target + glm::vec3(3, 2, 4), target, 0.8f, kSize.x / kSize.y, 0.05f, 100.0f);
-  const CameraView far = look_at_view(target + 10.0f * glm::vec3(3, 2, 4), target, 0.8f, kSize.x / kSize.y, 0.05f, 1000.0f);
+  const float aspect = kSize.x / kSize.y;
+  const CameraView near = look_at_view(target + glm::vec3(3, 2, 4), target, 0.8f, aspect, 0.05f, 100.0f);
+  const CameraView far = look_at_view(target + 10.0f * glm::vec3(3, 2, 4), target, 0.8f, aspect, 0.05f, 1000.0f);
   const auto a = gizmo_handles(near, target, kSize), b = gizmo_handles(far, target, kSize);
   ASSERT_TRUE(a && b);
   for (int axis = 0; axis < 3; ++axis) {
