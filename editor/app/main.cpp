@@ -166,10 +166,7 @@ bool gizmo_input(Document& doc, GizmoDrag& drag, GizmoMode mode, const CameraVie
   }
   glm::vec3 axis(0.0f);
   axis[drag.axis] = 1.0f;
-  glm::mat4 parent_world(1.0f);
-  if (const Parent* parent = world.try_get<Parent>(drag.entity))
-    if (const WorldTransform* pw = world.alive(parent->entity) ? world.try_get<WorldTransform>(parent->entity) : nullptr)
-      parent_world = pw->matrix;
+  const glm::mat4 parent_world = parent_world_matrix(world, drag.entity);
   const char* field = "translation";
   FieldValue value;
   if (drag.mode == GizmoMode::Move) {

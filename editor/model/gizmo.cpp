@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
 
+#include "penumbra/ecs/transform.h"
 #include "penumbra/scene/camera.h"
 #include "picking.h"
 
@@ -119,6 +120,13 @@ glm::vec3 drag_along_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 
   float s0 = 0.0f, s1 = 0.0f;
   if (!along(from, s0) || !along(to, s1)) return glm::vec3(0.0f);
   return (s1 - s0) * axis;
+}
+
+glm::mat4 parent_world_matrix(const World& world, Entity e) {
+  const Parent* parent = world.alive(e) ? world.try_get<Parent>(e) : nullptr;
+  const WorldTransform* up =
+      parent != nullptr && world.alive(parent->entity) ? world.try_get<WorldTransform>(parent->entity) : nullptr;
+  return up != nullptr ? up->matrix : glm::mat4(1.0f);
 }
 
 }  // namespace penumbra::editor

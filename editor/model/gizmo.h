@@ -12,6 +12,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "penumbra/ecs/world.h"
 #include "penumbra/render/renderer.h"
 
 namespace penumbra::editor {
@@ -56,5 +57,10 @@ float scale_along_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axi
 // moves along it; zero when a ray is parallel to the axis or not finite. O(1).
 glm::vec3 drag_along_axis(const CameraView& camera, glm::vec3 origin, glm::vec3 axis, glm::vec2 from, glm::vec2 to,
                           glm::vec2 size);
+
+// The world matrix that entity `e`'s Transform is relative to: its live parent's WorldTransform,
+// the identity for a root. What turns a move or turn in world space into the local Transform a
+// drag edits. O(1).
+glm::mat4 parent_world_matrix(const World& world, Entity e);
 
 }  // namespace penumbra::editor

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "penumbra/ecs/transform.h"
 #include "penumbra/scene/camera.h"
 #include "picking.h"
 
@@ -81,6 +82,24 @@ TEST(Gizmo, RingsTurnRightHandedAndArrowsScale) {
               0.01f);
   const glm::vec2 back = *o - 3.0f * (*arrows->tips[0] - *o);
   EXPECT_EQ(scale_along_axis(camera, origin, glm::vec3(1, 0, 0), arrows->length, *o, back, kSize), 0.01f);
+}
+
+// The frame a drag edits a Transform in: the parent's world matrix, the identity for a root and
+// for an entity whose parent is gone.
+TEST(Gizmo, ParentWorldMatrixIsTheFrameOfTheLocalTransform) {
+  World world;
+  const Entity parent = world.create(), child = world.create();
+  Transform t;
+  t.translation = glm::vec3(1.0f, 2.0f, 3.0f);
+  t.scale = glm::vec3(2.0f);
+  world.add<Transform>(parent, t);
+  world.add<Transform>(child, Transform{});
+  ASSERT_TRUE(set_parent(world, child, parent));
+  update_world_transforms(world);
+  EXPECT_EQ(parent_world_matrix(world, child), world.get<WorldTransform>(parent).matrix);
+  EXPECT_EQ(parent_world_matrix(world, parent), glm::mat4(1.0f));
+  world.destroy(parent);
+  EXPECT_EQ(parent_world_matrix(world, child), glm::mat4(1.0f));
 }
 
 }  // namespace

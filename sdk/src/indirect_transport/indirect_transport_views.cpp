@@ -1,6 +1,8 @@
 // The inspector's figures for the indirect transport (indirect_transport_views.h).
 #include "indirect_transport_views.h"
 
+#include "gizmo.h"
+
 #include <algorithm>
 #include <cmath>
 #include <span>
@@ -114,11 +116,8 @@ glm::vec3 drag_in_view_plane(const CameraView& camera, glm::vec3 point, glm::vec
 }
 
 void move_to(World& world, Entity e, glm::vec3 position) {
-  glm::vec3 local = position;
-  if (const Parent* parent = world.try_get<Parent>(e))
-    if (const WorldTransform* up = world.try_get<WorldTransform>(parent->entity))
-      local = glm::vec3(glm::inverse(up->matrix) * glm::vec4(position, 1.0f));
-  world.patch<Transform>(e).translation = local;
+  world.patch<Transform>(e).translation =
+      glm::vec3(glm::inverse(parent_world_matrix(world, e)) * glm::vec4(position, 1.0f));
 }
 
 }  // namespace penumbra::editor
