@@ -636,6 +636,14 @@ namespace {
 using JointSet = std::array<std::uint16_t, kPoseAOMaxLocality + 1>;  // joints ascending, then the count
 
 constexpr int kCensoredPasses = 4;  // refits of the clamped model (fit_pose_ao)
+// Clusters (pose_ao.h): one per kPosesPerClusterCoefficient x coefficients training poses at most;
+// Lloyd iterations of k-means at most; the fraction of the training poses that blend clusters
+// (the blend band is set to give it: the per-frame cost grows with it); the least relative cut in
+// the validation error that justifies more clusters.
+constexpr std::size_t kPosesPerClusterCoefficient = 3;
+constexpr int kLloydIterations = 20;
+constexpr double kBlendedPoses = 0.1;
+constexpr double kClusterGain = 0.01;
 // Bind blend candidates (PoseAOGroup), as fractions of the median squared pose distance.
 constexpr double kBindBlendFractions[] = {1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3};
 
@@ -755,6 +763,85 @@ std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, co
   return sets;
 }
 
+// Step 4b (clusters, after Kirk & Arikan 2007): k-means over the poses' theta_local (without the
+// leading 1; `x` is P x dims), seeded by k-means++ with a generator fixed per joint set, then Lloyd
+// iterations (sums in pose order: deterministic). A centre that loses all its poses keeps its
+// place. Writes clusters x dims centres; returns the blend band (pose_ao_cluster_weights).
+float cluster_poses(const std::vector<float>& x, std::size_t P, std::size_t dims, std::uint32_t clusters,
+                    std::uint64_t seed, float* centers) {
+  const auto distance = [&](const float* a, const float* b) {
+    double d = 0.0;
+    for (std::size_t i = 0; i < dims; ++i) d += double(a[i] - b[i]) * double(a[i] - b[i]);
+    return d;
+  };
+  // k-means++: each next centre drawn with probability proportional to the squared distance to the
+  // nearest chosen one.
+  Rng rng = Rng::stream(seed, clusters);
+  std::vector<double> nearest(P, std::numeric_limits<double>::infinity());
+  std::copy_n(x.data() + (rng.next_u32() % P) * dims, dims, centers);
+  for (std::uint32_t m = 1; m < clusters; ++m) {
+    double total = 0.0;
+    for (std::size_t p = 0; p < P; ++p) {
+      nearest[p] = std::min(nearest[p], distance(x.data() + p * dims, centers + (m - 1) * dims));
+      total += nearest[p];
+    }
+    double r = rng.next_double() * total;
+    std::size_t pick = 0;
+    for (; pick + 1 < P; ++pick) {
+      r -= nearest[pick];
+      if (r < 0.0) break;
+    }
+    std::copy_n(x.data() + pick * dims, dims, centers + m * dims);
+  }
+  // Lloyd iterations.
+  std::vector<std::uint32_t> owner(P, 0);
+  std::vector<double> sum(clusters * dims);
+  std::vector<std::size_t> count(clusters);
+  for (int iteration = 0; iteration < kLloydIterations; ++iteration) {
+    bool moved = false;
+    for (std::size_t p = 0; p < P; ++p) {
+      std::uint32_t best = 0;
+      double least = std::numeric_limits<double>::infinity();
+      for (std::uint32_t m = 0; m < clusters; ++m)
+        if (const double d = distance(x.data() + p * dims, centers + m * dims); d < least) {
+          least = d;
+          best = m;
+        }
+      moved |= iteration == 0 || owner[p] != best;
+      owner[p] = best;
+    }
+    if (!moved) break;
+    std::fill(sum.begin(), sum.end(), 0.0);
+    std::fill(count.begin(), count.end(), 0);
+    for (std::size_t p = 0; p < P; ++p) {
+      ++count[owner[p]];
+      for (std::size_t i = 0; i < dims; ++i) sum[owner[p] * dims + i] += x[p * dims + i];
+    }
+    for (std::uint32_t m = 0; m < clusters; ++m)
+      if (count[m] > 0)
+        for (std::size_t i = 0; i < dims; ++i) centers[m * dims + i] = float(sum[m * dims + i] / double(count[m]));
+  }
+  // The band: the gap between the nearest and the second nearest centre (squared distances) that
+  // kBlendedPoses of the poses fall within.
+  std::vector<double> gaps(P);
+  for (std::size_t p = 0; p < P; ++p) {
+    double first = std::numeric_limits<double>::infinity(), second = first;
+    for (std::uint32_t m = 0; m < clusters; ++m) {
+      const double d = distance(x.data() + p * dims, centers + m * dims);
+      if (d < first) {
+        second = first;
+        first = d;
+      } else if (d < second) {
+        second = d;
+      }
+    }
+    gaps[p] = second - first;
+  }
+  const auto at = static_cast<std::ptrdiff_t>(kBlendedPoses * static_cast<double>(P - 1));
+  std::nth_element(gaps.begin(), gaps.begin() + at, gaps.end());
+  return static_cast<float>(gaps[static_cast<std::size_t>(at)]);
+}
+
 }  // namespace
 
 Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
@@ -801,6 +888,7 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
   data.requested_locality = settings.locality;
   data.locality = k;
   data.lambda = settings.lambda;
+  data.requested_clusters = settings.clusters;
   std::vector<const std::vector<std::uint32_t>*> members;
   for (const auto& [set, vertices] : by_set) {
     PoseAOGroup g;
@@ -808,29 +896,173 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
     for (std::uint32_t i = 0; i < g.joint_count; ++i) g.joints[i] = set[i];
     g.first = static_cast<std::uint32_t>(data.vertex_order.size());
     g.count = static_cast<std::uint32_t>(vertices.size());
-    g.coefficient_offset = data.coefficients.size();
     data.vertex_order.insert(data.vertex_order.end(), vertices.begin(), vertices.end());
-    data.coefficients.resize(data.coefficients.size() + std::size_t{g.coefficient_count()} * g.count);
     data.groups.push_back(g);
     members.push_back(&vertices);
   }
+  // Clusters: as many as asked while each has kPosesPerClusterCoefficient poses per coefficient.
+  const std::uint32_t affordable = static_cast<std::uint32_t>(
+      std::min<std::size_t>(P / (kPosesPerClusterCoefficient * pose_ao_coefficients(k)), kPoseAOMaxClusters));
+  const std::uint32_t max_clusters = k == 0 ? 1u : std::clamp(std::min(settings.clusters, affordable), 1u, kPoseAOMaxClusters);
+  // (Not repeated when the locality was already reduced for want of poses.)
+  if (max_clusters < std::min(settings.clusters, kPoseAOMaxClusters) && k > 0 &&
+      k == std::min(settings.locality, kPoseAOMaxLocality)) {
+    const std::string message =
+        std::string(context) + ": " + std::to_string(P) + " reference poses allow " + std::to_string(max_clusters) +
+        " of the " + std::to_string(settings.clusters) + " clusters asked for (each needs " +
+        std::to_string(kPosesPerClusterCoefficient * pose_ao_coefficients(k)) + " poses); bake more poses for more";
+    log(LogLevel::Info, message);
+    if (warnings) warnings->push_back(message);
+  }
 
-  // One factorisation per joint set; each vertex one solve. Squared training errors per group.
+  // Per joint set: the cluster count by validation, then the final fit of every vertex. Results
+  // per set, assembled in set order below.
+  struct GroupResult {
+    std::vector<float> centers, coefficients;  // coefficients: U x count, as stored
+  };
+  std::vector<GroupResult> results(data.groups.size());
   std::vector<double> group_error(data.groups.size(), 0.0);
   jobs.begin_stage("pose-ao fit", data.groups.size());
   PENUMBRA_TRY(jobs.parallel_for(data.groups.size(), 1, [&](std::size_t begin, std::size_t end) {
     for (std::size_t gi = begin; gi < end; ++gi) {
-      const PoseAOGroup& g = data.groups[gi];
+      PoseAOGroup& g = data.groups[gi];
+      const std::vector<std::uint32_t>& vertices = *members[gi];
       const std::size_t C = g.coefficient_count();
       std::vector<double> theta(P * C);
+      std::vector<float> x(P * (C - 1));  // theta_local without the 1, for the clusters
       for (std::size_t p = 0; p < P; ++p) {
         theta[p * C] = 1.0;
         for (std::uint32_t j = 0; j < g.joint_count; ++j)
-          for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e)
-            theta[p * C + 1 + j * kPoseFeaturesPerJoint + e] =
-                static_cast<double>(training.features[p * F + std::size_t{g.joints[j]} * kPoseFeaturesPerJoint + e]);
+          for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e) {
+            const float f = training.features[p * F + std::size_t{g.joints[j]} * kPoseFeaturesPerJoint + e];
+            theta[p * C + 1 + j * kPoseFeaturesPerJoint + e] = static_cast<double>(f);
+            x[p * (C - 1) + j * kPoseFeaturesPerJoint + e] = f;
+          }
       }
-      const pose_ao_detail::RidgeSolver solver(theta, P, C, static_cast<double>(settings.lambda));
+      std::uint64_t seed = 0;
+      for (std::uint32_t j = 0; j < g.joint_count; ++j) seed = seed * 65537u + g.joints[j] + 1u;
+
+      // A model of `clusters` clusters fitted to the poses `rows`: the clusters, then the design
+      // of the blended local models (pose_ao.h): row p holds w_m(pose p) theta_p in cluster m's
+      // columns, fitted jointly, each cluster's ridge scaled by its weight in the poses. One
+      // cluster: the thesis' linear model, its bias free.
+      struct Model {
+        std::uint32_t clusters = 1;
+        float band = 0.0f;
+        std::vector<float> centers;
+        std::vector<double> weights;  // per row of `rows`: the clusters' weights
+        std::optional<pose_ao_detail::RidgeSolver> solver;
+        std::vector<double> design;
+      };
+      const auto make_model = [&](const std::vector<std::size_t>& rows, std::uint32_t clusters, Model& m) {
+        const std::size_t R = rows.size(), U = std::size_t{clusters} * C;
+        m.clusters = clusters;
+        m.weights.assign(R * clusters, clusters == 1 ? 1.0 : 0.0);
+        if (clusters > 1) {
+          std::vector<float> xs(R * (C - 1));
+          for (std::size_t r = 0; r < R; ++r)
+            std::copy_n(x.data() + rows[r] * (C - 1), C - 1, xs.data() + r * (C - 1));
+          m.centers.resize(std::size_t{clusters} * (C - 1));
+          m.band = cluster_poses(xs, R, C - 1, clusters, seed, m.centers.data());
+          float w[kPoseAOMaxClusters];
+          for (std::size_t r = 0; r < R; ++r) {
+            pose_ao_cluster_weights(m.centers.data(), clusters, static_cast<std::uint32_t>(C - 1),
+                                    xs.data() + r * (C - 1), m.band, w);
+            for (std::uint32_t c = 0; c < clusters; ++c) m.weights[r * clusters + c] = static_cast<double>(w[c]);
+          }
+        }
+        m.design.assign(R * U, 0.0);
+        std::vector<double> mass(clusters, 0.0);
+        for (std::size_t r = 0; r < R; ++r)
+          for (std::uint32_t c = 0; c < clusters; ++c) {
+            const double w = m.weights[r * clusters + c];
+            mass[c] += w;
+            if (w != 0.0)
+              for (std::size_t e = 0; e < C; ++e) m.design[r * U + c * C + e] = w * theta[rows[r] * C + e];
+          }
+        std::vector<double> ridge(U);
+        for (std::uint32_t c = 0; c < clusters; ++c)
+          for (std::size_t e = 0; e < C; ++e)  // the bias: none alone, a hundredth among clusters
+            ridge[c * C + e] = static_cast<double>(settings.lambda) * mass[c] * (e > 0 ? 1.0 : clusters > 1 ? 0.01 : 0.0);
+        m.solver.emplace(m.design, R, U, ridge);
+      };
+      // Vertex v's coefficients t under model m over `rows`. The model is clamped to [0, 1] where it
+      // is evaluated, so a pose whose AO is at a bound (a vertex fully open) is fitted by any
+      // prediction beyond that bound: refit with such targets moved to the prediction (censored
+      // regression, a few fixed-point steps).
+      std::vector<float> target(P);
+      const auto fit_vertex = [&](const Model& m, const std::vector<std::size_t>& rows, std::uint32_t v,
+                                  std::vector<double>& t) {
+        t.assign(std::size_t{m.clusters} * C, 0.0);
+        for (std::size_t r = 0; r < rows.size(); ++r) target[r] = training.ao[rows[r] * V + v];
+        m.solver->solve(target.data(), 1, t);
+        for (int pass = 0; pass < kCensoredPasses; ++pass) {
+          bool changed = false;
+          for (std::size_t r = 0; r < rows.size(); ++r) {
+            const double a = m.solver->predict(r, t);
+            const float y = training.ao[rows[r] * V + v];
+            float y2 = y;
+            if (y >= 1.0f && a > 1.0) y2 = static_cast<float>(a);
+            if (y <= 0.0f && a < 0.0) y2 = static_cast<float>(a);
+            changed |= y2 != target[r];
+            target[r] = y2;
+          }
+          if (!changed) break;
+          m.solver->solve(target.data(), 1, t);
+        }
+      };
+
+      // Step 4c: the cluster count, 1, 2, 4, .. up to max_clusters, by the error on every fifth
+      // pose when fitted to the others (more clusters fit the training poses better and overfit
+      // where the poses do not support them): each count must cut the least error so far by
+      // kClusterGain.
+      std::uint32_t clusters = 1;
+      if (g.joint_count > 0 && max_clusters > 1) {
+        std::vector<std::size_t> fit_rows, check_rows;
+        for (std::size_t p = 0; p < P; ++p) (p % 5 == 4 ? check_rows : fit_rows).push_back(p);
+        double least = std::numeric_limits<double>::infinity();
+        std::vector<double> t;
+        float w[kPoseAOMaxClusters];
+        for (std::uint32_t candidate = 1; candidate <= max_clusters; candidate = candidate < max_clusters ? std::min(2 * candidate, max_clusters) : candidate + 1) {
+          Model m;
+          make_model(fit_rows, candidate, m);
+          double error = 0.0;
+          for (std::uint32_t v : vertices) {
+            fit_vertex(m, fit_rows, v, t);
+            for (std::size_t p : check_rows) {
+              if (candidate > 1)
+                pose_ao_cluster_weights(m.centers.data(), candidate, static_cast<std::uint32_t>(C - 1),
+                                        x.data() + p * (C - 1), m.band, w);
+              double a = 0.0;
+              for (std::uint32_t c = 0; c < candidate; ++c) {
+                const double wc = candidate > 1 ? static_cast<double>(w[c]) : 1.0;
+                if (wc == 0.0) continue;
+                double dot = 0.0;
+                for (std::size_t e = 0; e < C; ++e) dot += t[c * C + e] * theta[p * C + e];
+                a += wc * dot;
+              }
+              const double d = std::clamp(a, 0.0, 1.0) - static_cast<double>(training.ao[p * V + v]);
+              error += d * d;
+            }
+          }
+          if (error < (1.0 - kClusterGain) * least) {
+            least = error;
+            clusters = candidate;
+          }
+        }
+      }
+
+      // The final fit on every pose.
+      std::vector<std::size_t> all(P);
+      for (std::size_t p = 0; p < P; ++p) all[p] = p;
+      Model model;
+      make_model(all, clusters, model);
+      g.cluster_count = clusters;
+      g.cluster_band = model.band;
+      const std::size_t U = std::size_t{clusters} * C;
+      GroupResult& result = results[gi];
+      result.centers = std::move(model.centers);
+      result.coefficients.resize(U * g.count);
       // Bind blend candidates (PoseAOGroup): none, then fractions of the median distance of the
       // poses from the bind pose; each pose's weight per candidate.
       std::vector<double> d2(P, 0.0);
@@ -846,37 +1078,14 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
       for (std::size_t b = 0; b < blends.size(); ++b)
         for (std::size_t p = 0; p < P; ++p)
           weight[b * P + p] = blends[b] == 0.0 ? 1.0 : std::min(1.0, d2[p] / blends[b]);
-      std::vector<double> t(C);
-      std::vector<float> target(P);
+      std::vector<double> t;
       for (std::uint32_t i = 0; i < g.count; ++i) {
-        const std::uint32_t v = (*members[gi])[i];
-        for (std::size_t p = 0; p < P; ++p) target[p] = training.ao[p * V + v];
-        solver.solve(target.data(), 1, t);
-        // The model is clamped to [0, 1] where it is evaluated, so a pose whose AO is at a bound
-        // (a vertex fully open) is fitted by any prediction beyond that bound: refit with such
-        // targets moved to the prediction (censored regression, a few fixed-point steps).
-        for (int pass = 0; pass < kCensoredPasses; ++pass) {
-          bool changed = false;
-          for (std::size_t p = 0; p < P; ++p) {
-            double a = 0.0;
-            for (std::size_t c = 0; c < C; ++c) a += theta[p * C + c] * t[c];
-            const float y = training.ao[p * V + v];
-            float y2 = y;
-            if (y >= 1.0f && a > 1.0) y2 = static_cast<float>(a);
-            if (y <= 0.0f && a < 0.0) y2 = static_cast<float>(a);
-            changed |= y2 != target[p];
-            target[p] = y2;
-          }
-          if (!changed) break;
-          solver.solve(target.data(), 1, t);
-        }
-        for (std::size_t c = 0; c < C; ++c)
-          data.coefficients[g.coefficient_offset + c * g.count + i] = static_cast<float>(t[c]);
+        const std::uint32_t v = vertices[i];
+        fit_vertex(model, all, v, t);
+        for (std::size_t u = 0; u < U; ++u) result.coefficients[u * g.count + i] = static_cast<float>(t[u]);
         const double bind = static_cast<double>(training.bind_ao[v]);
         for (std::size_t p = 0; p < P; ++p) {
-          double a = 0.0;
-          for (std::size_t c = 0; c < C; ++c) a += theta[p * C + c] * t[c];
-          a = std::clamp(a, 0.0, 1.0);
+          const double a = std::clamp(model.solver->predict(p, t), 0.0, 1.0);
           const double y = static_cast<double>(training.ao[p * V + v]);
           for (std::size_t b = 0; b < blends.size(); ++b) {
             const double err = bind + weight[b * P + p] * (a - bind) - y;
@@ -888,10 +1097,20 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
       std::size_t best = 0;
       for (std::size_t b = 1; b < blends.size(); ++b)
         if (blend_error[b] < blend_error[best]) best = b;
-      data.groups[gi].bind_blend = static_cast<float>(blends[best]);
+      g.bind_blend = static_cast<float>(blends[best]);
       group_error[gi] = blend_error[best];
     }
   }));
+  // Assemble the sets' coefficients and centres in set order.
+  data.clusters = 1;
+  for (std::size_t gi = 0; gi < data.groups.size(); ++gi) {
+    PoseAOGroup& g = data.groups[gi];
+    g.coefficient_offset = data.coefficients.size();
+    g.center_offset = g.cluster_count > 1 ? data.centers.size() : 0;
+    data.coefficients.insert(data.coefficients.end(), results[gi].coefficients.begin(), results[gi].coefficients.end());
+    data.centers.insert(data.centers.end(), results[gi].centers.begin(), results[gi].centers.end());
+    data.clusters = std::max(data.clusters, g.cluster_count);
+  }
   double sum = 0.0;
   for (double e : group_error) sum += e;
   data.training_rmse = static_cast<float>(std::sqrt(sum / static_cast<double>(P * V)));
@@ -1042,6 +1261,7 @@ struct PoseHeaderScalars {
   float lambda = 0.0f;
   std::uint32_t pose_space = 0, moving_joints = 0;
   float widest_range = 0.0f;
+  std::uint32_t clusters = 1;
 };
 
 std::vector<std::byte> PoseBake::header() const {
@@ -1050,7 +1270,7 @@ std::vector<std::byte> PoseBake::header() const {
   w.write(PoseHeaderScalars{static_cast<std::uint32_t>(vertices_), static_cast<std::uint32_t>(rig_.joint_count()),
                             static_cast<std::uint32_t>(poses_), settings_.locality, settings_.rays_per_vertex,
                             settings_.lambda, static_cast<std::uint32_t>(space_.source),
-                            static_cast<std::uint32_t>(space_.moving), space_.widest_range});
+                            static_cast<std::uint32_t>(space_.moving), space_.widest_range, settings_.clusters});
   w.write_vector(rig_.parents);
   w.write_vector(mesh_->positions);
   w.write_vector(mesh_->joints);
@@ -1117,6 +1337,7 @@ Result<PoseAOData> finish_pose_ao(std::span<const std::byte> header_bytes, std::
   }
   if (V == 0 || J == 0 || P == 0 || !acyclic || mesh.positions.size() != V || mesh.joints.size() != V ||
       mesh.weights.size() != V || std::uint64_t{V} * J > (std::uint64_t{1} << 26) || h.locality > kPoseAOMaxLocality ||
+      h.clusters == 0 || h.clusters > kPoseAOMaxClusters ||
       !(h.lambda >= 0.0f) || !std::isfinite(h.lambda) ||
       h.pose_space > static_cast<std::uint32_t>(PoseSpaceSource::DegenerateClipsRoles) ||
       results.size() != (P + 1) * (F + V) * sizeof(float))
@@ -1144,6 +1365,7 @@ Result<PoseAOData> finish_pose_ao(std::span<const std::byte> header_bytes, std::
   settings.locality = h.locality;
   settings.lambda = h.lambda;
   settings.rays_per_vertex = h.rays_per_vertex;
+  settings.clusters = h.clusters;
   auto data = fit_pose_ao(training, rig, mesh, settings, 0, jobs, warnings, context);
   if (!data) return data.error();
   data->pose_space = static_cast<PoseSpaceSource>(h.pose_space);

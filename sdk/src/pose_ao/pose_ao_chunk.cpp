@@ -37,6 +37,8 @@ BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
   w.write(static_cast<std::uint8_t>(d.pose_space));
   w.write(d.moving_joints);
   w.write(d.widest_range);
+  w.write(d.requested_clusters);
+  w.write(d.clusters);
   w.write_vector(d.joint_parents);
   w.write(static_cast<std::uint64_t>(d.groups.size()));
   for (const PoseAOGroup& g : d.groups) {
@@ -46,8 +48,12 @@ BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
     w.write(g.count);
     w.write(g.coefficient_offset);
     w.write(g.bind_blend);
+    w.write(g.cluster_count);
+    w.write(g.center_offset);
+    w.write(g.cluster_band);
   }
   w.write_vector(d.vertex_order);
+  w.write_vector(d.centers);
   std::vector<std::uint16_t> halves(d.coefficients.size());
   for (std::size_t i = 0; i < halves.size(); ++i) halves[i] = glm::packHalf1x16(d.coefficients[i]);
   w.write_vector(halves);
@@ -77,6 +83,8 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(source));
   PENUMBRA_TRY(r.read(d.moving_joints));
   PENUMBRA_TRY(r.read(d.widest_range));
+  PENUMBRA_TRY(r.read(d.requested_clusters));
+  PENUMBRA_TRY(r.read(d.clusters));
   const std::uint32_t V = d.vertex_count, J = d.joint_count;
   if (source > static_cast<std::uint8_t>(PoseSpaceSource::DegenerateClipsRoles))
     return bad("pose space source " + std::to_string(source) + " is unknown");
@@ -88,6 +96,9 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
   if (J == 0 || J > 65535) return bad("joint count " + std::to_string(J) + " is outside 1..65535");
   if (d.locality > d.requested_locality || d.requested_locality > kPoseAOMaxLocality)
     return bad("locality " + std::to_string(d.locality) + " of " + std::to_string(d.requested_locality) + " is out of range");
+  if (d.clusters == 0 || d.clusters > kPoseAOMaxClusters || d.requested_clusters == 0)
+    return bad(std::to_string(d.clusters) + " clusters of " + std::to_string(d.requested_clusters) +
+               " asked for is out of range (1.." + std::to_string(kPoseAOMaxClusters) + ")");
   if (!(std::isfinite(d.lambda) && d.lambda >= 0.0f) || !std::isfinite(d.training_rmse))
     return bad("lambda or training RMSE is not finite");
   PENUMBRA_TRY(r.read_vector(d.joint_parents, J));
@@ -102,12 +113,14 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
   // Each set's record as written above: check the count against the bytes present before allocating.
   constexpr std::size_t kGroupBytes = sizeof(PoseAOGroup::joints) + sizeof(PoseAOGroup::joint_count) +
                                       sizeof(PoseAOGroup::first) + sizeof(PoseAOGroup::count) +
-                                      sizeof(PoseAOGroup::coefficient_offset) + sizeof(PoseAOGroup::bind_blend);
+                                      sizeof(PoseAOGroup::coefficient_offset) + sizeof(PoseAOGroup::bind_blend) +
+                                      sizeof(PoseAOGroup::cluster_count) + sizeof(PoseAOGroup::center_offset) +
+                                      sizeof(PoseAOGroup::cluster_band);
   if (groups > r.remaining() / kGroupBytes)
     return bad(std::to_string(groups) + " joint sets do not fit in the " + std::to_string(r.remaining()) +
                " bytes left");
   d.groups.resize(static_cast<std::size_t>(groups));
-  std::uint64_t vertices = 0, coefficients = 0;
+  std::uint64_t vertices = 0, coefficients = 0, centers = 0;
   for (std::size_t i = 0; i < d.groups.size(); ++i) {
     PoseAOGroup& g = d.groups[i];
     PENUMBRA_TRY(r.read(g.joints));
@@ -116,13 +129,22 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
     PENUMBRA_TRY(r.read(g.count));
     PENUMBRA_TRY(r.read(g.coefficient_offset));
     PENUMBRA_TRY(r.read(g.bind_blend));
+    PENUMBRA_TRY(r.read(g.cluster_count));
+    PENUMBRA_TRY(r.read(g.center_offset));
+    PENUMBRA_TRY(r.read(g.cluster_band));
+    // Several clusters need a centre each (in the joints' parameter space) and at least one joint.
+    const bool clustered = g.cluster_count > 1;
     bool ok = g.joint_count <= d.locality && g.count >= 1 && g.first == vertices &&
-              g.coefficient_offset == coefficients && std::isfinite(g.bind_blend) && g.bind_blend >= 0.0f;
+              g.coefficient_offset == coefficients && std::isfinite(g.bind_blend) && g.bind_blend >= 0.0f &&
+              g.cluster_count >= 1 && g.cluster_count <= d.clusters && (!clustered || g.joint_count > 0) &&
+              g.center_offset == (clustered ? centers : 0) && std::isfinite(g.cluster_band) && g.cluster_band >= 0.0f;
     for (std::uint32_t k = 0; ok && k < g.joint_count; ++k)
       ok = g.joints[k] < J && (k == 0 || g.joints[k] > g.joints[k - 1]);
-    if (!ok) return bad("joint set " + std::to_string(i) + " is malformed (joints, count, offsets or bind blend)");
+    if (!ok)
+      return bad("joint set " + std::to_string(i) + " is malformed (joints, count, offsets, bind blend or clusters)");
     vertices += g.count;
-    coefficients += std::uint64_t{g.coefficient_count()} * g.count;
+    coefficients += std::uint64_t{g.cluster_count} * g.coefficient_count() * g.count;
+    if (clustered) centers += std::uint64_t{g.cluster_count} * (g.coefficient_count() - 1);
     if (vertices > V) return bad("the joint sets hold more than " + std::to_string(V) + " vertices");
   }
   if (vertices != V) return bad("the joint sets hold " + std::to_string(vertices) + " of " + std::to_string(V) + " vertices");
@@ -133,6 +155,10 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
     if (v >= V || seen[v]) return bad("the vertex order is not a permutation (vertex " + std::to_string(v) + ")");
     seen[v] = 1;
   }
+  PENUMBRA_TRY(r.read_vector(d.centers, centers));
+  if (d.centers.size() != centers) return bad("the cluster centres do not match the joint sets");
+  for (std::size_t i = 0; i < d.centers.size(); ++i)
+    if (!std::isfinite(d.centers[i])) return bad("cluster centre entry " + std::to_string(i) + " is not finite");
   std::vector<std::uint16_t> halves;
   PENUMBRA_TRY(r.read_vector(halves, coefficients));
   if (halves.size() != coefficients) return bad("the coefficient count does not match the joint sets");
@@ -156,9 +182,10 @@ std::vector<std::string> describe_pose_ao_chunk(const BakeChunk& chunk) {
   if (!d) return {d.error().message};
   char line[256];
   std::vector<std::string> out;
-  std::snprintf(line, sizeof line, "%u vertices, %u joints, %zu joint sets, %u poses x %u rays, locality %u, lambda %.3g",
+  std::snprintf(line, sizeof line,
+                "%u vertices, %u joints, %zu joint sets, %u poses x %u rays, locality %u, lambda %.3g, %u clusters",
                 d->vertex_count, d->joint_count, d->groups.size(), d->poses, d->rays_per_vertex, d->locality,
-                static_cast<double>(d->lambda));
+                static_cast<double>(d->lambda), d->clusters);
   out.emplace_back(line);
   std::snprintf(line, sizeof line, "training RMSE %.4f, %.1f B per vertex (16-bit coefficients), %s", 
                 static_cast<double>(d->training_rmse), d->bytes_per_vertex(), format_bytes(d->bytes()).c_str());

@@ -26,6 +26,10 @@ constexpr FieldInfo kFields[] = {
     member<&SkinnedPoseAO::locality>({.name = "locality", .type = T::Count, .min = 0, .max = kPoseAOMaxLocality,
                                       .unit = "joints", .help = "joints per vertex; 0 for the pose-averaged AO",
                                       .preset = true, .hashed = true, .speed = 0.05f}),
+    member<&SkinnedPoseAO::clusters>({.name = "clusters", .type = T::Count, .min = 1, .max = kPoseAOMaxClusters,
+                                      .unit = "models", .help = "local linear models per joint set; 1 for the "
+                                                                 "thesis' single linear model (more: memory, accuracy)",
+                                      .preset = true, .hashed = true, .speed = 0.05f}),
     member<&SkinnedPoseAO::lambda>({.name = "lambda", .type = T::Float, .min = 0, .max = 1e6,
                                     .help = "ridge strength per pose; 1e-3 is a good start", .hashed = true,
                                     .speed = 1e-4f}),

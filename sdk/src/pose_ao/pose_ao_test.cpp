@@ -1,13 +1,15 @@
 // Pose-AO without ray tracing: the ridge solver against closed forms and on rank-deficient data,
-// pose parameters, exact recovery of a linear AO, clamping, the GPU layout, the PSAO chunk, the
-// settings' validation and the system.
+// pose parameters, exact recovery of a linear AO, clamping, the clusters' blend weights and fit,
+// the PSAO chunk, the settings' validation and the system.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
 #include <glm/gtc/quaternion.hpp>
 
+#include "penumbra/core/jobs.h"
 #include "penumbra/core/random.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/pose_ao/pose_ao_baker.h"
@@ -259,6 +261,115 @@ TEST(PoseAOFit, TheBindBlendIsExactAtTheBindPoseAndAbsentFarFromIt) {
   EXPECT_EQ(blended, linear);
 }
 
+TEST(PoseAOClusters, WeightsSumToOneAndAreContinuousAcrossTheBoundary) {
+  // Two centres on the x axis and a third far off; the pose walks along y = 0.3 through the
+  // boundary x = 0 between the first two.
+  const float centers[] = {-1.0f, 0.0f, 1.0f, 0.0f, 0.0f, 10.0f};
+  const float band = 0.5f;  // in squared distance: blended where |x| < band / 4
+  float w[3], previous[3] = {1.0f, 0.0f, 0.0f};
+  for (int step = 0; step <= 4000; ++step) {
+    const float theta[] = {-2.0f + 0.001f * static_cast<float>(step), 0.3f};
+    const std::uint32_t active = pose_ao_cluster_weights(centers, 3, 2, theta, band, w);
+    EXPECT_NEAR(w[0] + w[1] + w[2], 1.0f, 1e-6f);
+    EXPECT_EQ(w[2], 0.0f);
+    EXPECT_EQ(active, (w[0] > 0.0f ? 1u : 0u) + (w[1] > 0.0f ? 1u : 0u));
+    for (int m = 0; m < 3; ++m) EXPECT_LT(std::abs(w[m] - previous[m]), 0.01f) << step;  // no jump
+    std::copy(w, w + 3, previous);
+  }
+  const float far_left[] = {-1.5f, 0.3f}, boundary[] = {0.0f, 0.3f}, inside[] = {0.1f, 0.3f}, outside[] = {0.2f, 0.3f};
+  EXPECT_EQ(pose_ao_cluster_weights(centers, 3, 2, far_left, band, w), 1u);
+  EXPECT_EQ(w[0], 1.0f);
+  EXPECT_EQ(pose_ao_cluster_weights(centers, 3, 2, boundary, band, w), 2u);
+  EXPECT_FLOAT_EQ(w[0], 0.5f);
+  EXPECT_FLOAT_EQ(w[1], 0.5f);
+  EXPECT_EQ(pose_ao_cluster_weights(centers, 3, 2, inside, band, w), 2u);  // gap 0.4 < 0.5
+  EXPECT_GT(w[1], w[0]);
+  EXPECT_EQ(pose_ao_cluster_weights(centers, 3, 2, outside, band, w), 1u);  // gap 0.8 > 0.5
+  EXPECT_EQ(w[1], 1.0f);
+  // Band 0: the nearest alone, the lower index on a tie.
+  EXPECT_EQ(pose_ao_cluster_weights(centers, 3, 2, boundary, 0.0f, w), 1u);
+  EXPECT_EQ(w[0], 1.0f);
+}
+
+// AO with a hinge in the child's rotation: open (0.9) while the entry of its local rotation
+// R[1][0] (minus the sine of a turn about z) is negative, darkening linearly beyond, as a limb
+// swinging into a vertex's hemisphere does. One linear map cannot follow the kink.
+PoseAOTraining hinge_training(const TinyCharacter& c, std::size_t poses, std::uint64_t seed) {
+  PoseAOTraining tr;
+  tr.vertex_count = kVertices;
+  tr.joint_count = 2;
+  tr.bind_ao.assign(kVertices, 0.9f);
+  for (std::size_t p = 0; p < poses; ++p) {
+    Rng rng = Rng::stream(seed, p);
+    const glm::vec3 axis(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f + 1e-3f);
+    std::vector<float> f;
+    pose_features(c.rig.parents, std::vector<glm::mat4>{glm::mat4(1.0f), rotation(3.0f * rng.next_float(), axis)}, f);
+    tr.features.insert(tr.features.end(), f.begin(), f.end());
+    for (std::size_t v = 0; v < kVertices; ++v)
+      tr.ao.push_back(std::clamp(0.9f - (0.6f + 0.1f * static_cast<float>(v)) * std::max(0.0f, f[9 + 3]), 0.0f, 1.0f));
+  }
+  return tr;
+}
+
+double held_out_rmse(const PoseAOData& d, const PoseAOTraining& test) {
+  std::vector<float> ao(kVertices);
+  double sum = 0.0;
+  for (std::size_t p = 0; p < test.poses(); ++p) {
+    evaluate_pose_ao(d, std::span<const float>(test.features.data() + p * 18, 18), ao);
+    for (std::size_t v = 0; v < kVertices; ++v) sum += std::pow(double(ao[v]) - test.ao[p * kVertices + v], 2.0);
+  }
+  return std::sqrt(sum / double(test.poses() * kVertices));
+}
+
+TEST(PoseAOFit, ClustersFollowAHingeThatOneLinearMapCannot) {
+  TinyCharacter c;
+  const PoseAOTraining tr = hinge_training(c, 600, 5), test = hinge_training(c, 200, 5000);
+  SkinnedPoseAO s;
+  s.lambda = 1e-4f;
+  JobContext jobs;
+  s.clusters = 1;
+  const PoseAOData linear = fit_pose_ao(tr, c.rig, c.mesh, s, 0, jobs).value();
+  s.clusters = 8;  // 600 poses afford 8 clusters of 10 coefficients (3 poses per coefficient)
+  const PoseAOData clustered = fit_pose_ao(tr, c.rig, c.mesh, s, 0, jobs).value();
+  EXPECT_EQ(linear.clusters, 1u);
+  EXPECT_GT(clustered.clusters, 1u);
+  EXPECT_EQ(clustered.requested_clusters, 8u);
+  const double e_linear = held_out_rmse(linear, test), e_clustered = held_out_rmse(clustered, test);
+  EXPECT_LT(e_clustered, 0.65 * e_linear) << e_clustered << " vs " << e_linear;
+  EXPECT_LT(clustered.training_rmse, linear.training_rmse);
+  // Bit-identical at one and two threads, and through the chunk up to half precision.
+  ThreadPool pool(2);
+  JobContext two(&pool);
+  const PoseAOData again = fit_pose_ao(tr, c.rig, c.mesh, s, 0, two).value();
+  EXPECT_EQ(write_pose_ao_chunk(again).payload, write_pose_ao_chunk(clustered).payload);
+  auto stored = read_pose_ao_chunk(write_pose_ao_chunk(clustered));
+  ASSERT_TRUE(stored) << stored.error().message;
+  EXPECT_EQ(stored->centers, clustered.centers);
+  EXPECT_EQ(stored->clusters, clustered.clusters);
+  for (std::size_t g = 0; g < clustered.groups.size(); ++g) {
+    EXPECT_EQ(stored->groups[g].cluster_count, clustered.groups[g].cluster_count);
+    EXPECT_EQ(stored->groups[g].cluster_band, clustered.groups[g].cluster_band);
+  }
+  EXPECT_NEAR(held_out_rmse(*stored, test), e_clustered, 1e-3);
+  // Too few poses for more than one cluster: the thesis' model, and a note that says why.
+  std::vector<std::string> notes;
+  const PoseAOData few = fit_pose_ao(hinge_training(c, 40, 5), c.rig, c.mesh, s, 0, jobs, &notes).value();
+  EXPECT_EQ(few.clusters, 1u);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("allow 1 of the 8 clusters"), std::string::npos) << notes[0];
+}
+
+TEST(PoseAOFit, AnExactlyLinearAOKeepsOneCluster) {
+  // More clusters must cut the validation error; on a linear AO they cannot.
+  TinyCharacter c;
+  std::vector<float> w;
+  SkinnedPoseAO s;
+  s.lambda = 0.0f;
+  JobContext jobs;
+  const PoseAOData d = fit_pose_ao(linear_training(c, 600, 9, w), c.rig, c.mesh, s, 0, jobs).value();
+  EXPECT_EQ(d.clusters, 1u);
+}
+
 TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
   const BakeChunk good = write_pose_ao_chunk(tiny_data());
   const auto expect_bad = [](const BakeChunk& c, const char* why) {
@@ -288,9 +399,9 @@ TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
     const std::uint32_t many_vertices = 1u << 30;
     std::memcpy(c.payload.data() + at, &many_vertices, 4);
     const std::uint64_t many_sets = std::uint64_t{1} << 29;
-    // After 8 four-byte values, the pose space (a byte, then two four-byte values) and the joint
-    // parents (a u64 count, then one i32 per joint).
-    std::memcpy(c.payload.data() + at + 32 + 9 + 8 + 4 * std::size_t{t.joint_count}, &many_sets, 8);
+    // After 8 four-byte values, the pose space (a byte, then two four-byte values), the cluster
+    // counts (two four-byte values) and the joint parents (a u64 count, then one i32 per joint).
+    std::memcpy(c.payload.data() + at + 32 + 9 + 8 + 8 + 4 * std::size_t{t.joint_count}, &many_sets, 8);
     auto r = read_pose_ao_chunk(c);
     ASSERT_FALSE(r);
     EXPECT_NE(r.error().message.find("joint sets do not fit"), std::string::npos) << r.error().message;
@@ -303,6 +414,27 @@ TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
     auto r = read_pose_ao_chunk(write_pose_ao_chunk(negative));
     ASSERT_FALSE(r);
     EXPECT_NE(r.error().message.find("bind blend"), std::string::npos) << r.error().message;
+  }
+  // Clusters out of range, or a centre that is not finite, are refused.
+  {
+    TinyCharacter tc;
+    SkinnedPoseAO s;
+    JobContext jobs;
+    const PoseAOData clustered = fit_pose_ao(hinge_training(tc, 600, 5), tc.rig, tc.mesh, s, 0, jobs).value();
+    ASSERT_GT(clustered.clusters, 1u);
+    PoseAOData bad = clustered;
+    bad.clusters = kPoseAOMaxClusters + 1;
+    auto r = read_pose_ao_chunk(write_pose_ao_chunk(bad));
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().message.find("clusters"), std::string::npos) << r.error().message;
+    bad = clustered;
+    bad.centers.back() = std::nanf("");
+    r = read_pose_ao_chunk(write_pose_ao_chunk(bad));
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().message.find("not finite"), std::string::npos) << r.error().message;
+    bad = clustered;
+    bad.groups.front().cluster_band = -1.0f;
+    EXPECT_FALSE(read_pose_ao_chunk(write_pose_ao_chunk(bad)));
   }
   // Every single-byte change either fails or reads back finite data of the same shape.
   for (std::size_t i = 0; i < good.payload.size(); ++i) {
@@ -326,6 +458,11 @@ TEST(PoseAOSettings, ValidationNamesTheFieldAndTheFix) {
   EXPECT_NE(validate_pose_ao(s, 8, "c").error().message.find("lambda"), std::string::npos);
   s = {};
   s.rays_per_vertex = 0;
+  EXPECT_FALSE(validate_pose_ao(s, 8, "c"));
+  s = {};
+  s.clusters = 0;
+  EXPECT_NE(validate_pose_ao(s, 8, "c").error().message.find("clusters"), std::string::npos);
+  s.clusters = kPoseAOMaxClusters + 1;
   EXPECT_FALSE(validate_pose_ao(s, 8, "c"));
   s = {};
   s.reference_poses = 0;

@@ -258,4 +258,56 @@ Entity add_builtin_humanoid(World& world, Entity parent, const Transform& transf
   return character;
 }
 
+bool add_builtin_humanoid_walk(World& world, Entity humanoid) {
+  const Animator* animator = world.try_get<Animator>(humanoid);
+  if (!animator || !animator->clips || animator->clips->empty()) return false;
+  const std::vector<Entity>& joints = animator->clips->front().targets;
+  const auto find = [&](std::string_view name) {
+    for (std::size_t j = 0; j < joints.size(); ++j)
+      if (const Name* n = world.try_get<Name>(joints[j]); n && n->value == "mixamorig:" + std::string(name))
+        return static_cast<std::int64_t>(j);
+    return std::int64_t{-1};
+  };
+  AnimationClip walk;
+  walk.name = "Walk";
+  walk.duration = 1.0f;
+  walk.targets = joints;
+  constexpr int kKeys = 9;
+  // Each joint's local rotation at phase phi (the bind pose has none, so these are the rotations).
+  const std::pair<std::string_view, glm::quat (*)(float)> curves[] = {
+      {"Hips", [](float phi) { return glm::angleAxis(0.1f * std::sin(phi), glm::vec3(0, 1, 0)); }},
+      {"Spine", [](float phi) { return glm::angleAxis(-0.1f * std::sin(phi), glm::vec3(0, 1, 0)); }},
+      {"LeftArm", [](float phi) {
+         return glm::angleAxis(0.35f * std::sin(phi), glm::vec3(1, 0, 0)) * glm::angleAxis(-1.2f, glm::vec3(0, 0, 1));
+       }},
+      {"RightArm", [](float phi) {
+         return glm::angleAxis(-0.35f * std::sin(phi), glm::vec3(1, 0, 0)) * glm::angleAxis(1.2f, glm::vec3(0, 0, 1));
+       }},
+      {"LeftForeArm", [](float phi) { return glm::angleAxis(-(0.45f + 0.15f * std::sin(phi)), glm::vec3(0, 1, 0)); }},
+      {"RightForeArm", [](float phi) { return glm::angleAxis(0.45f - 0.15f * std::sin(phi), glm::vec3(0, 1, 0)); }},
+      {"LeftUpLeg", [](float phi) { return glm::angleAxis(-0.45f * std::sin(phi), glm::vec3(1, 0, 0)); }},
+      {"RightUpLeg", [](float phi) { return glm::angleAxis(0.45f * std::sin(phi), glm::vec3(1, 0, 0)); }},
+      {"LeftLeg", [](float phi) { return glm::angleAxis(0.35f + 0.3f * std::sin(phi + 1.2f), glm::vec3(1, 0, 0)); }},
+      {"RightLeg", [](float phi) { return glm::angleAxis(0.35f - 0.3f * std::sin(phi + 1.2f), glm::vec3(1, 0, 0)); }},
+  };
+  for (const auto& [name, curve] : curves) {
+    const std::int64_t j = find(name);
+    if (j < 0) return false;
+    AnimationChannel ch;
+    ch.target = static_cast<std::uint32_t>(j);
+    ch.path = AnimationChannel::Path::Rotation;
+    for (int k = 0; k < kKeys; ++k) {
+      const float t = walk.duration * static_cast<float>(k) / static_cast<float>(kKeys - 1);
+      const glm::quat q = curve(2.0f * kPi * t / walk.duration);
+      ch.times.push_back(t);
+      ch.values.push_back(glm::vec4(q.x, q.y, q.z, q.w));
+    }
+    walk.channels.push_back(std::move(ch));
+  }
+  auto clips = std::make_shared<std::vector<AnimationClip>>(*animator->clips);
+  clips->push_back(std::move(walk));
+  world.patch<Animator>(humanoid).clips = std::move(clips);
+  return true;
+}
+
 }  // namespace penumbra

@@ -89,6 +89,27 @@ TEST(BuiltinScenes, TheHumanoidIsAProductionShapedRig) {
   for (const AnimationChannel& ch : (*animator.clips)[0].channels)
     for (const glm::vec4& q : ch.values)
       EXPECT_LT(2.0f * std::acos(std::min(1.0f, std::abs(q.w))), 0.0051f) << ch.target;
+  // Its walk, delivered apart: a second clip that swings the thighs +-0.45 rad and bends the knees.
+  const Entity humanoid = find(world, "humanoid");
+  ASSERT_TRUE(add_builtin_humanoid_walk(world, humanoid));
+  const Animator& walking = world.get<Animator>(humanoid);
+  ASSERT_EQ(walking.clips->size(), 2u);
+  const AnimationClip& walk = (*walking.clips)[1];
+  EXPECT_EQ(walk.name, "Walk");
+  float thigh = 0.0f, knee = 0.0f;
+  for (const AnimationChannel& ch : walk.channels) {
+    const std::string& joint = world.get<Name>(walk.targets[ch.target]).value;
+    for (const glm::vec4& q : ch.values) {
+      const float angle = 2.0f * std::acos(std::min(1.0f, std::abs(q.w)));
+      if (joint == "mixamorig:LeftUpLeg") thigh = std::max(thigh, angle);
+      if (joint == "mixamorig:LeftLeg") knee = std::max(knee, angle);
+    }
+  }
+  EXPECT_NEAR(thigh, 0.45f, 0.01f);      // a key at the swing's peak
+  EXPECT_GT(knee, 0.55f);                  // the keys straddle the bend's peak of 0.65
+  EXPECT_LT(knee, 0.651f);
+  World empty;
+  EXPECT_FALSE(add_builtin_humanoid_walk(empty, empty.create()));  // no Animator: nothing added
 }
 
 TEST(BuiltinScenes, CornellBoxMatchesThePublishedData) {

@@ -6,6 +6,14 @@
 // [1, f_j1 .. f_jk] holds the parameters of the k <= kPoseAOMaxLocality joints that matter for v
 // (its locality). The bake is in pose_ao_baker.h, the per-frame system in pose_ao_system.h.
 //
+// Clustered local models (after Kirk & Arikan 2007, "Real-time ambient occlusion for dynamic
+// character skins"): AO is far from linear in the pose over a wide pose space (a limb swings into
+// a vertex's hemisphere and out again), so the vertices that share a joint set may instead have a
+// linear map per cluster of poses, the clusters' centres found by k-means over the training poses'
+// theta_local. A pose takes the map of its nearest centre; within a band of the Voronoi boundary
+// it blends the maps of the centres about as near (pose_ao_cluster_weights), so AO stays
+// continuous as the pose moves while most frames evaluate one map per vertex.
+//
 // Pose parameters (the 9-entry choice of the thesis' reconstruction, algorithms.md P5). With M_j
 // the skinning matrix of joint j (SkinPose::joint_matrices, the identity in the bind pose) and
 // R_j the rotation of its upper 3x3 (columns normalised),
@@ -38,6 +46,7 @@
 namespace penumbra {
 
 inline constexpr std::uint32_t kPoseAOMaxLocality = 4;    // joints per vertex, at most
+inline constexpr std::uint32_t kPoseAOMaxClusters = 16;   // local models per joint set, at most
 inline constexpr std::uint32_t kPoseFeaturesPerJoint = 9;  // entries of R_p^T R_j - I
 // Coefficients of a vertex whose locality has `joints` joints: the bias plus 9 per joint.
 constexpr std::uint32_t pose_ao_coefficients(std::uint32_t joints) { return 1 + kPoseFeaturesPerJoint * joints; }
@@ -68,8 +77,13 @@ struct SkinnedPoseAO {
   // pose-averaged AO.
   std::uint32_t locality = 4;
   // Ridge strength per pose: t_v minimises sum_p (t . theta_p - a_p)^2 + lambda P |t_1..|^2 over the
-  // P poses (the bias t_0 is not regularised).
+  // P poses (the bias t_0 is not regularised; with clusters, P is each cluster's weight in the poses).
   float lambda = 1e-3f;
+  // Local linear models per joint set, at most (1..kPoseAOMaxClusters; see the top of this file):
+  // 1 is the thesis' single linear model. The bake uses fewer where the poses are too few for them
+  // (one cluster per 3 x coefficients poses). Memory grows with the clusters used; the per-frame
+  // cost about 10 % (the blends near cluster boundaries).
+  std::uint32_t clusters = 8;
   // Where the random poses' joint ranges come from when joint_ranges is empty:
   //   Auto     the clips when they turn some joint (kPoseMinJointRange); else the joints' roles
   //            when their names give any (joint_roles.h); else +-default_range on every joint.
@@ -100,8 +114,9 @@ struct SkinnedPoseAO {
   // The baked data (set by the baker or attach_bake(), penumbra/runtime.h); null until baked.
   std::shared_ptr<const PoseAOData> data;
 
-  // Quality presets: draft 100 random poses, 32 rays, 3 joints; medium 250 poses, 64 rays, 4
-  // joints; high 1000 poses, 128 rays, 4 joints. Each adds 16 frames per clip.
+  // Quality presets: draft 100 random poses, 32 rays, 3 joints, 1 cluster; medium 250 poses, 64
+  // rays, 4 joints, 2 clusters; high 1000 poses, 128 rays, 4 joints, 8 clusters. Each adds 16
+  // frames per clip.
   static SkinnedPoseAO preset(Preset preset);
 };
 
@@ -112,8 +127,10 @@ struct SkinnedPoseAO {
 Status validate_pose_ao(const SkinnedPoseAO& settings, std::size_t joint_count, std::string_view context);
 
 // Vertices that share a joint set share one factorisation at bake and one parameter gather at
-// runtime. Coefficient c of the group's vertex i is coefficients[coefficient_offset + c * count +
-// i] (structure of arrays: the runtime loop runs over i).
+// runtime. Coefficient c of cluster m of the group's vertex i is coefficients[coefficient_offset +
+// (m * coefficient_count() + c) * count + i] (structure of arrays: the runtime loop runs over i).
+// Cluster m's centre is centers[center_offset + m * (coefficient_count() - 1) ..], in the space of
+// theta_local without its leading 1.
 //
 // Near the bind pose a group blends towards the bind-pose AO, which the bake traced:
 // with d^2 = |f_j1 .. f_jk|^2 (zero in the bind pose), ao = bind + w (clamp(t . theta) - bind),
@@ -127,8 +144,21 @@ struct PoseAOGroup {
   std::uint32_t count = 0;   // vertices
   std::uint64_t coefficient_offset = 0;
   float bind_blend = 0.0f;   // >= 0, finite
+  std::uint32_t cluster_count = 1;  // 1..kPoseAOMaxClusters
+  std::uint64_t center_offset = 0;  // into PoseAOData::centers
+  float cluster_band = 0.0f;        // pose_ao_cluster_weights; >= 0, finite
   std::uint32_t coefficient_count() const { return pose_ao_coefficients(joint_count); }
 };
+
+// Blend weights of a joint set's clusters at the pose `theta` (theta_local without its leading 1,
+// `dims` entries): with d_m the squared distance to centre m and d the least of them, w_m =
+// s((d_m - d) / band), s(x) = 1 - 3x^2 + 2x^3 below 1 and 0 beyond, normalised to sum 1. Each w_m
+// is continuous in theta (d_m - d is zero on the nearest centre and changes continuously when the
+// nearest changes), so is the blended AO; band 0 takes the nearest centre alone (ties: the lower
+// index). Writes `clusters` weights, returns how many are non-zero. Cost: clusters x dims
+// multiply-adds. Thread-safe.
+std::uint32_t pose_ao_cluster_weights(const float* centers, std::uint32_t clusters, std::uint32_t dims,
+                                      const float* theta, float band, float* weights);
 
 // Where a bake's pose space came from (pose_space in pose_ao_baker.h).
 enum class PoseSpaceSource : std::uint8_t {
@@ -156,6 +186,7 @@ struct PoseAOData {
   std::vector<PoseAOGroup> groups;          // in the order of their joint sets
   std::vector<std::uint32_t> vertex_order;  // group vertices, concatenated: mesh vertex indices
   std::vector<float> coefficients;          // see PoseAOGroup
+  std::vector<float> centers;               // see PoseAOGroup
   // Baselines by the same bake: AO of the bind pose and AO averaged over the reference poses.
   std::vector<float> bind_ao, mean_ao;
 
@@ -164,6 +195,8 @@ struct PoseAOData {
   std::uint32_t rays_per_vertex = 0;
   std::uint32_t requested_locality = 0;
   std::uint32_t locality = 0;          // < requested when there were fewer poses than coefficients
+  std::uint32_t requested_clusters = 1;
+  std::uint32_t clusters = 1;          // the most of any joint set (< requested: too few poses)
   float lambda = 0.0f;
   float training_rmse = 0.0f;          // of the clamped model over the reference poses
   PoseSpaceSource pose_space = PoseSpaceSource::Default;  // where the random poses' ranges came from
@@ -183,12 +216,12 @@ struct PoseAOData {
 void pose_features(std::span<const std::int32_t> parents, std::span<const glm::mat4> joint_matrices,
                    std::vector<float>& out);
 
-// AO of every vertex for pose features `features` (from pose_features): ao[v] = clamp(t_v .
-// theta_local(v), 0, 1) blended towards bind_ao near the bind pose (PoseAOGroup), group by group
-// in a loop the compiler vectorises. Preconditions:
-// features.size() == data.feature_count(), ao.size() == data.vertex_count. The same math as the
-// vertex shader. Cost: about (1 + 9 k) multiply-adds per vertex (the pose-ao bench measures the ns
-// per vertex). Thread-safe (writes only `ao`).
+// AO of every vertex for pose features `features` (from pose_features): ao[v] = clamp(sum_m w_m
+// t_v,m . theta_local(v), 0, 1) over its group's clusters (one term without clusters), blended
+// towards bind_ao near the bind pose (PoseAOGroup), group by group in a loop the compiler
+// vectorises. Preconditions: features.size() == data.feature_count(), ao.size() ==
+// data.vertex_count. Cost: about (1 + 9 k) multiply-adds per vertex and blended cluster (the
+// pose-ao bench measures the ns per vertex). Thread-safe (writes only `ao`).
 void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao);
 
 // The "PSAO" chunk of one mesh (label "pose-ao:<key>"): coefficients as IEEE 16-bit halves
@@ -196,7 +229,7 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
 // rest as written. The reader checks the version, every size and index, that the groups
 // partition the vertices, finiteness and [0, 1] baselines, naming the chunk in its errors.
 inline constexpr std::uint32_t kPoseAOChunkType = fourcc("PSAO");
-inline constexpr std::uint32_t kPoseAOChunkVersion = 4;  // 4: the groups' bind blend
+inline constexpr std::uint32_t kPoseAOChunkVersion = 5;  // 5: the groups' clusters
 BakeChunk write_pose_ao_chunk(const PoseAOData& data);
 Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk);
 

@@ -81,4 +81,12 @@ Entity add_builtin_character(World& world, Entity parent, const Transform& trans
 Entity add_builtin_humanoid(World& world, Entity parent, const Transform& transform,
                             std::string_view name = "humanoid");
 
+// Appends to the Animator of `humanoid` (from add_builtin_humanoid) a walk cycle, as an animation
+// library delivers it apart from the character (the way import_animations adds a walk.glb): clip
+// "Walk", 1 s, keys every 1/8 s: the arms lowered 1.2 rad from the T-pose and swinging +-0.35
+// rad, elbows bent 0.3-0.6 rad, thighs swinging +-0.45 rad, knees bent 0.05-0.65 rad, the spine
+// turning against the hips by 0.1 rad. Returns false (adding nothing) when `humanoid` has no
+// Animator or its first clip targets no joint of those names. Cost: microseconds.
+bool add_builtin_humanoid_walk(World& world, Entity humanoid);
+
 }  // namespace penumbra
