@@ -950,14 +950,12 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
         std::uint32_t clusters = 1;
         float band = 0.0f;
         std::vector<float> centers;
-        std::vector<double> weights;  // per row of `rows`: the clusters' weights
         std::optional<pose_ao_detail::RidgeSolver> solver;
-        std::vector<double> design;
       };
       const auto make_model = [&](const std::vector<std::size_t>& rows, std::uint32_t clusters, Model& m) {
         const std::size_t R = rows.size(), U = std::size_t{clusters} * C;
         m.clusters = clusters;
-        m.weights.assign(R * clusters, clusters == 1 ? 1.0 : 0.0);
+        std::vector<double> weights(R * clusters, clusters == 1 ? 1.0 : 0.0);  // per row, per cluster
         if (clusters > 1) {
           std::vector<float> xs(R * (C - 1));
           for (std::size_t r = 0; r < R; ++r)
@@ -968,23 +966,22 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
           for (std::size_t r = 0; r < R; ++r) {
             pose_ao_cluster_weights(m.centers.data(), clusters, static_cast<std::uint32_t>(C - 1),
                                     xs.data() + r * (C - 1), m.band, w);
-            for (std::uint32_t c = 0; c < clusters; ++c) m.weights[r * clusters + c] = static_cast<double>(w[c]);
+            for (std::uint32_t c = 0; c < clusters; ++c) weights[r * clusters + c] = static_cast<double>(w[c]);
           }
         }
-        m.design.assign(R * U, 0.0);
-        std::vector<double> mass(clusters, 0.0);
+        std::vector<double> design(R * U, 0.0), mass(clusters, 0.0);
         for (std::size_t r = 0; r < R; ++r)
           for (std::uint32_t c = 0; c < clusters; ++c) {
-            const double w = m.weights[r * clusters + c];
+            const double w = weights[r * clusters + c];
             mass[c] += w;
             if (w != 0.0)
-              for (std::size_t e = 0; e < C; ++e) m.design[r * U + c * C + e] = w * theta[rows[r] * C + e];
+              for (std::size_t e = 0; e < C; ++e) design[r * U + c * C + e] = w * theta[rows[r] * C + e];
           }
         std::vector<double> ridge(U);
         for (std::uint32_t c = 0; c < clusters; ++c)
           for (std::size_t e = 0; e < C; ++e)  // the bias: none alone, a hundredth among clusters
             ridge[c * C + e] = static_cast<double>(settings.lambda) * mass[c] * (e > 0 ? 1.0 : clusters > 1 ? 0.01 : 0.0);
-        m.solver.emplace(m.design, R, U, ridge);
+        m.solver.emplace(design, R, U, ridge);
       };
       // Vertex v's coefficients t under model m over `rows`. The model is clamped to [0, 1] where it
       // is evaluated, so a pose whose AO is at a bound (a vertex fully open) is fitted by any

@@ -81,8 +81,9 @@ struct SkinnedPoseAO {
   float lambda = 1e-3f;
   // Local linear models per joint set, at most (1..kPoseAOMaxClusters; see the top of this file):
   // 1 is the thesis' single linear model. The bake uses fewer where the poses are too few for them
-  // (one cluster per 3 x coefficients poses). Memory grows with the clusters used; the per-frame
-  // cost about 10 % (the blends near cluster boundaries).
+  // (one cluster per 3 x coefficients poses), and per joint set only as many as cut the error on
+  // poses held out of the fit. Memory grows with the clusters used; the per-frame cost 1.1-1.5x the
+  // linear model's (the blends near cluster boundaries; pose-ao bench).
   std::uint32_t clusters = 8;
   // Where the random poses' joint ranges come from when joint_ranges is empty:
   //   Auto     the clips when they turn some joint (kPoseMinJointRange); else the joints' roles
