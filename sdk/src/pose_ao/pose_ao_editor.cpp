@@ -22,9 +22,9 @@ void inspector(World& w, Entity e) {
   } else {
     ImGui::Text("baked: %s (%.1f B per vertex stored), %zu joint sets", format_bytes(s->bytes).c_str(),
                 s->bytes_per_vertex, s->joint_sets);
-    ImGui::TextDisabled("%u vertices, %u joints, %u poses x %u rays, locality %u of %u, lambda %.3g", s->vertices,
-                        s->joints, s->poses, s->rays_per_vertex, s->locality, s->requested_locality,
-                        static_cast<double>(s->lambda));
+    ImGui::TextDisabled("%u vertices, %u joints, %u poses x %u rays, locality %u of %u, clusters %u of %u, lambda %.3g",
+                        s->vertices, s->joints, s->poses, s->rays_per_vertex, s->locality, s->requested_locality,
+                        s->clusters, s->requested_clusters, static_cast<double>(s->lambda));
     ImGui::Text("training RMSE %.4f", static_cast<double>(s->training_rmse));
     if (s->has_values) {
       // This frame's per-vertex AO (the pose-ao system's output), 1 = open.

@@ -45,6 +45,8 @@ Result<PoseAOSummary> pose_ao_summary(World& world, Entity e) {
     s.rays_per_vertex = d->rays_per_vertex;
     s.locality = d->locality;
     s.requested_locality = d->requested_locality;
+    s.clusters = d->clusters;
+    s.requested_clusters = d->requested_clusters;
     s.lambda = d->lambda;
     s.training_rmse = d->training_rmse;
   }

@@ -32,6 +32,7 @@ struct PoseAOSummary {
   double bytes_per_vertex = 0.0;   // stored
   std::size_t joint_sets = 0;      // groups of vertices sharing a joint set
   std::uint32_t vertices = 0, joints = 0, poses = 0, rays_per_vertex = 0, locality = 0, requested_locality = 0;
+  std::uint32_t clusters = 0, requested_clusters = 0;  // the most any joint set uses, and asked for
   float lambda = 0.0f;
   float training_rmse = 0.0f;      // of the clamped model over the reference poses
   bool has_values = false;         // the system has written this frame's AO
