@@ -128,7 +128,7 @@ Result<Report> run(const Options& options) {
   report.columns = {"character", "method", "poses", "locality", "clusters", "lambda", "bake_s", "bytes_per_vertex",
                     "ns_per_vertex", "rmse", "mae", "max_err", "ref_stderr", "curve"};
   report.plot = {"pose-AO: held-out RMSE against reference poses", "reference poses (random + 16 frames per clip)",
-                 "RMSE of AO on held-out poses", 2, 8, 12, true, false, false};
+                 "RMSE of AO on held-out poses", 2, 9, 13, true, false, false};
   const auto verdict = [](bool pass) { return std::string(pass ? "PASS" : "FAIL"); };
   std::vector<std::string> goals;  // per character of the goal (CesiumMan, the humanoid)
   bool goals_pass = true;
