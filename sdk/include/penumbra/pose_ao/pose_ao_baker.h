@@ -179,9 +179,14 @@ struct PoseAOTraining {
 // sits at 0 or 1 and whose prediction lies beyond it taken as fitted (the model is clamped where
 // it is evaluated: censored regression). Per joint set the bind blend (PoseAOGroup) is the one
 // of none and 0.001..0.3 x the poses' median squared distance from the bind pose that gives the
-// least training error. Deterministic (fixed summation order, any thread count).
-// Errors: InvalidArgument when training has no pose. Cost: per joint set P C^2, per vertex P C
-// plus P x 10 per candidate joint (the scores).
+// least training error. Clusters (pose_ao.h, SkinnedPoseAO::clusters): per joint set k-means over
+// the poses (seeded per joint set), the clusters' maps fitted jointly with their blend weights;
+// 1, 2, 4, .. up to the count asked for (at most one per 3 x coefficients poses, a note in
+// `warnings` when that caps it) are fitted to four fifths of the poses and the count whose error
+// on the fifth left out is least (by 1 % at least over fewer) is refitted to all. Deterministic
+// (fixed summation order and seeds, any thread count). Errors: InvalidArgument when training has
+// no pose. Cost: per joint set P (K C)^2 + (K C)^3 / 6 per cluster count K tried, per vertex about
+// P C per count tried, plus P x 10 per candidate joint (the scores).
 Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
                                const SkinnedPoseAO& settings, std::size_t poses, JobContext& jobs,
                                std::vector<std::string>* warnings = nullptr, std::string_view context = "pose-AO");
