@@ -16,6 +16,7 @@
 #include "overlays.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/ecs/transform.h"
+#include "gizmo.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 
@@ -96,6 +97,41 @@ void report(UiState& ui, const Status& s, const std::string& done = {}) {
   ui.message = s ? done : s.error().message;
 }
 
+// --- Entities: create, duplicate, delete (done after the panels: UiState::entity_request) -------
+
+// A new entity of `kind` next to `sibling` (a root when null), at the orbit camera's target.
+void request_create(UiState& ui, std::string_view kind, Entity sibling) {
+  const glm::vec3 at = ui.camera.target();
+  ui.entity_request = [&ui, kind = std::string(kind), sibling, at](Document& doc) {
+    World& w = doc.world();
+    const Parent* p = w.alive(sibling) ? w.try_get<Parent>(sibling) : nullptr;
+    const Entity parent = p && w.alive(p->entity) ? p->entity : Entity::null();
+    const glm::vec3 local = glm::vec3(glm::inverse(parent_world_matrix(w, sibling)) * glm::vec4(at, 1.0f));
+    std::string base = kind == "empty" ? "entity" : kind;
+    std::replace(base.begin(), base.end(), '-', ' ');
+    std::string name = base;
+    for (int k = 2; doc.find(name).ok(); ++k) name = base + " " + std::to_string(k);
+    auto e = doc.create_entity(kind, name, parent, local);
+    report(ui, e ? Status{} : Status{e.error()}, "created '" + name + "' (Ctrl+Z removes it)");
+  };
+}
+void request_duplicate(UiState& ui, Entity e) {
+  ui.entity_request = [&ui, e](Document& doc) {
+    auto copy = doc.duplicate(e);
+    report(ui, copy ? Status{} : Status{copy.error()}, copy ? "duplicated as '" + doc.label(*copy) + "'" : "");
+  };
+}
+void request_delete(UiState& ui, Entity e) {
+  ui.entity_request = [&ui, e](Document& doc) {
+    const std::string name = doc.label(e);
+    report(ui, doc.delete_entity(e), "deleted '" + name + "' and what was below it (Ctrl+Z brings it back)");
+  };
+}
+void create_menu_items(UiState& ui, Entity sibling) {
+  for (std::string_view kind : Document::kEntityKinds)
+    if (ImGui::MenuItem(std::string(kind).c_str())) request_create(ui, kind, sibling);
+}
+
 // --- Layout ------------------------------------------------------------------------------------
 
 enum class Panel { Scene, Bake, Inspector, Stats, View, Plot };
@@ -125,7 +161,7 @@ void place(Panel panel, const UiState& ui) {
 
 // --- Hierarchy ---------------------------------------------------------------------------------
 
-void hierarchy_node(Document& doc, Entity e) {
+void hierarchy_node(Document& doc, UiState& ui, Entity e) {
   World& w = doc.world();
   const Children* kids = w.try_get<Children>(e);
   const bool leaf = kids == nullptr || kids->entities.empty();
@@ -139,14 +175,24 @@ void hierarchy_node(Document& doc, Entity e) {
   const bool open = ImGui::TreeNodeEx(reinterpret_cast<void*>(static_cast<std::uintptr_t>(e.index) + 1), flags, "%s",
                                       label.c_str());
   if (ImGui::IsItemClicked()) doc.select(e);
+  if (ImGui::BeginPopupContextItem()) {
+    doc.select(e);
+    if (ImGui::MenuItem("Duplicate", "Ctrl+D")) request_duplicate(ui, e);
+    if (ImGui::MenuItem("Delete", "Del")) request_delete(ui, e);
+    if (ImGui::BeginMenu("Create next to it")) {
+      create_menu_items(ui, e);
+      ImGui::EndMenu();
+    }
+    ImGui::EndPopup();
+  }
   if (open && !leaf) {
     for (Entity c : kids->entities)
-      if (w.alive(c)) hierarchy_node(doc, c);
+      if (w.alive(c)) hierarchy_node(doc, ui, c);
     ImGui::TreePop();
   }
 }
 
-void hierarchy_panel(Document& doc, const UiState& ui) {
+void hierarchy_panel(Document& doc, UiState& ui) {
   place(Panel::Scene, ui);
   ImGui::Begin("Scene");
   ImGui::TextDisabled("%s, %zu entities", doc.source().c_str(), doc.world().entity_count());
@@ -159,7 +205,8 @@ void hierarchy_panel(Document& doc, const UiState& ui) {
     const Parent* p = w.try_get<Parent>(e);
     if (p == nullptr || !w.alive(p->entity)) roots.push_back(e);
   }
-  for (Entity e : roots) hierarchy_node(doc, e);
+  for (Entity e : roots) hierarchy_node(doc, ui, e);
+  ImGui::TextDisabled("right-click an entity: duplicate, delete, create");
   ImGui::End();
 }
 
@@ -572,8 +619,16 @@ void menu_bar(EditorModel& model, UiState& ui) {
     ImGui::EndMenu();
   }
   if (ImGui::BeginMenu("Edit")) {
-    if (ImGui::MenuItem("Undo", "Ctrl+Z", false, doc.undo().can_undo())) doc.undo().undo(doc.world());
-    if (ImGui::MenuItem("Redo", "Ctrl+Y", false, doc.undo().can_redo())) doc.undo().redo(doc.world());
+    if (ImGui::MenuItem("Undo", "Ctrl+Z", false, doc.undo().can_undo())) doc.undo_edit();
+    if (ImGui::MenuItem("Redo", "Ctrl+Y", false, doc.undo().can_redo())) doc.redo_edit();
+    ImGui::Separator();
+    const bool selected = doc.world().alive(doc.selection());
+    if (ImGui::MenuItem("Duplicate", "Ctrl+D", false, selected)) request_duplicate(ui, doc.selection());
+    if (ImGui::MenuItem("Delete", "Del", false, selected)) request_delete(ui, doc.selection());
+    ImGui::EndMenu();
+  }
+  if (ImGui::BeginMenu("Create")) {
+    create_menu_items(ui, doc.selection());
     ImGui::EndMenu();
   }
   ImGui::EndMainMenuBar();
@@ -602,9 +657,15 @@ void draw_panels(EditorModel& model, UiState& ui) {
   // Keyboard undo/redo when no text field has focus.
   const ImGuiIO& io = ImGui::GetIO();
   if (io.KeyCtrl && !io.WantTextInput) {
-    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Z))) doc.undo().undo(doc.world());
-    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Y))) doc.undo().redo(doc.world());
+    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Z))) doc.undo_edit();
+    if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Y))) doc.redo_edit();
+    // 1.86 names no D key; the GLFW backend indexes keys by GLFW codes, ASCII for letters.
+    if (ImGui::IsKeyPressed('D') && doc.world().alive(doc.selection()))
+      request_duplicate(ui, doc.selection());
   }
+  if (!io.WantTextInput && ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Delete)) &&
+      doc.world().alive(doc.selection()))
+    request_delete(ui, doc.selection());
   ui.add_preset = model.bake_settings.preset;  // an added component starts from the Bake panel's preset
   if (ImGui::GetTime() - ui.bake_states_time > 0.25 || ui.bake_states_document != &doc) {
     ui.bake_states = model.bake_states();
@@ -618,6 +679,9 @@ void draw_panels(EditorModel& model, UiState& ui) {
   view_panel(model, ui);
   plot_panel(doc, ui);
   status_bar(ui);
+  if (ui.entity_request) {
+    std::exchange(ui.entity_request, {})(doc);
+  }
 }
 
 }  // namespace penumbra::editor

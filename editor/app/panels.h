@@ -3,6 +3,7 @@
 #pragma once
 
 #include <deque>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -82,6 +83,9 @@ struct UiState {
   // A scene the menus asked to open. Opening replaces the Document, so the main loop does it
   // between frames (take_open_request), never while panels hold references into the old one.
   std::string open_request;
+  // A create, duplicate or delete the panels asked for: done once every panel is drawn, since
+  // they walk the hierarchy it changes.
+  std::function<void(Document&)> entity_request;
   // The window size the panels were last laid out for, and whether this frame lays them out again.
   glm::vec2 laid_out_for{0.0f};
   bool relayout = true;

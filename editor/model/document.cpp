@@ -1,12 +1,14 @@
 // The open document (document.h).
 #include "document.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 
 #include "load_world.h"
 #include "penumbra/core/file.h"
 #include "penumbra/import/gltf.h"
+#include "penumbra/ecs/transform.h"
 #include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
 
@@ -41,6 +43,63 @@ Result<Entity> Document::find(std::string_view ref) {
   }
   return make_error(ErrorCode::NotFound,
                     "no entity named '" + std::string(ref) + "' in " + source_ + "; names include " + names);
+}
+
+bool Document::undo_edit() {
+  const bool done = undo_.undo(world_);
+  if (undo_.restored()) select(undo_.restored());
+  return done;
+}
+
+bool Document::redo_edit() {
+  const bool done = undo_.redo(world_);
+  if (undo_.restored()) select(undo_.restored());
+  return done;
+}
+
+Result<Entity> Document::create_entity(std::string_view kind, const std::string& name, Entity parent,
+                                       glm::vec3 translation) {
+  const std::string what = "create " + std::string(kind);
+  if (std::find(std::begin(kEntityKinds), std::end(kEntityKinds), kind) == std::end(kEntityKinds)) {
+    std::string kinds;
+    for (std::string_view k : kEntityKinds) kinds += (kinds.empty() ? "" : ", ") + std::string(k);
+    return make_error(ErrorCode::InvalidArgument, what + ": not a kind of entity; use one of " + kinds);
+  }
+  if (name.empty()) return make_error(ErrorCode::InvalidArgument, what + ": give the entity a name");
+  if (parent && !world_.alive(parent))
+    return make_error(ErrorCode::InvalidArgument, what + ": the parent no longer exists; select another");
+  const Entity e = world_.create();
+  world_.add<Name>(e, name);
+  Transform t;
+  t.translation = translation;
+  world_.add<Transform>(e, t);
+  if (kind != "empty") {
+    Light light;
+    light.type = kind == "point-light"   ? Light::Type::Point
+                 : kind == "spot-light"  ? Light::Type::Spot
+                 : kind == "rect-light"  ? Light::Type::Rect
+                                         : Light::Type::Directional;
+    world_.add<Light>(e, light);
+  }
+  if (parent) set_parent(world_, e, parent);
+  undo_.created(e, what + " '" + name + "'");
+  select(e);
+  return e;
+}
+
+Result<Entity> Document::duplicate(Entity e) {
+  if (!world_.alive(e)) return make_error(ErrorCode::InvalidArgument, "duplicate: the entity no longer exists; select another");
+  const Entity copy = copy_subtree(world_, e, copy_name(world_, e)).front().second;
+  undo_.created(copy, "duplicate '" + label(e) + "'");
+  select(copy);
+  return copy;
+}
+
+Status Document::delete_entity(Entity e) {
+  if (!world_.alive(e)) return make_error(ErrorCode::InvalidArgument, "delete: the entity no longer exists; select another");
+  PENUMBRA_TRY(undo_.delete_subtree(world_, e));
+  if (!world_.alive(selection_)) selection_ = Entity::null();
+  return {};
 }
 
 std::string Document::label(Entity e) {
@@ -103,6 +162,12 @@ Status Document::save_gltf(const std::filesystem::path& path) {
 Status Document::save_edits(const std::filesystem::path& path) {
   std::string text = "# Penumbra editor edits: replay with penumbra-editor --script " + path.filename().string() + "\n";
   text += "open " + source_ + "\n";
+  for (std::size_t i = 0; i < undo_.position(); ++i)
+    if (undo_.entry(i).subtree != Edit::Subtree::None)
+      return make_error(ErrorCode::InvalidArgument,
+                        "save edits: '" + undo_.entry(i).label +
+                            "' changed which entities exist, which an edit script does not replay (its #INDEX "
+                            "references would shift); save the scene as glTF instead, or undo it first");
   for (std::size_t i = 0; i < undo_.position(); ++i) {
     const Edit& edit = undo_.entry(i);
     if (!world_.alive(edit.entity)) continue;

@@ -8,6 +8,8 @@
 #include <string>
 #include <string_view>
 
+#include <glm/vec3.hpp>
+
 #include "penumbra/bake/baker.h"
 #include "penumbra/core/pbake.h"
 #include "bake_state.h"
@@ -30,6 +32,26 @@ class Document {
   World& world() { return world_; }
   const std::string& source() const { return source_; }
   UndoStack& undo() { return undo_; }
+
+  // Undo and redo of the latest edit (undo()); a step that puts an entity back selects it.
+  bool undo_edit();
+  bool redo_edit();
+
+  // Edits that change which entities exist, one undo entry each. The new entity is selected.
+  // create_entity: `kind` is "empty" (a Transform and the Name), or "point-light", "spot-light",
+  // "directional-light" or "rect-light" (with a Light of that type, white, at the Light's default
+  // intensity); under `parent` (null: a root), at `translation` in its frame.
+  // InvalidArgument names the kinds, an empty name or a stale parent.
+  Result<Entity> create_entity(std::string_view kind, const std::string& name, Entity parent,
+                               glm::vec3 translation = glm::vec3(0.0f));
+  static constexpr std::string_view kEntityKinds[] = {"empty", "point-light", "spot-light", "directional-light",
+                                                      "rect-light"};
+  // A copy of `e` and everything below it, next to it, named copy_name (subtree.h: copy_subtree).
+  // InvalidArgument for a stale handle.
+  Result<Entity> duplicate(Entity e);
+  // Deletes `e` and everything below it (the selection is cleared when it was among them).
+  // InvalidArgument for a stale handle.
+  Status delete_entity(Entity e);
 
   Entity selection() const { return selection_; }
   void select(Entity e) { selection_ = world_.alive(e) ? e : Entity::null(); }
@@ -56,6 +78,7 @@ class Document {
 
   // Writes a script that re-creates this document: `open SOURCE` then one `set` per field edit that
   // is applied (undo position), so a built-in scene's edits can be saved and replayed. Atomic.
+  // InvalidArgument when an applied edit created, duplicated or deleted entities.
   Status save_edits(const std::filesystem::path& path);
   // Writes the scene back as the glTF it was opened from, with the nodes' transforms, lights and
   // lighting components (PENUMBRA_lighting), everything else as read (import/gltf.h: save_gltf;

@@ -85,6 +85,14 @@ std::string check_action(const ScriptAction& a) {
     if (n != 2) return "'" + v + "' takes an entity and a lighting component, e.g. " + v + " crate AOFieldCaster";
     if (find_authored_component(a.args[1]) == nullptr)
       return "'" + v + "': no lighting component '" + a.args[1] + "' can be added; use " + authored_component_names();
+  } else if (v == "create") {
+    if (n < 2 || n > 3 ||
+        std::find(std::begin(Document::kEntityKinds), std::end(Document::kEntityKinds), a.args[0]) ==
+            std::end(Document::kEntityKinds))
+      return "'create' takes a kind (empty, point-light, spot-light, directional-light, rect-light), a name and an "
+             "optional parent, e.g. create point-light lamp2";
+  } else if (v == "duplicate" || v == "delete") {
+    if (n != 1) return "'" + v + "' takes one entity: its Name (quoted when it has blanks) or #INDEX";
   } else if (v == "preset") {
     if (n != 3) return "'preset' takes an entity, a lighting module's name and a preset (draft, medium, high)";
     if (find_preset(a.args[1]) == nullptr) {
@@ -241,6 +249,23 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
     return a.verb == "add" ? doc->undo().add_component(world, *e, info, model.bake_settings.preset)
                            : doc->undo().remove_component(world, *e, info);
   }
+  if (a.verb == "create") {
+    Entity parent;
+    if (args.size() == 3) {
+      auto p = doc->find(args[2]);
+      if (!p) return p.error();
+      parent = *p;
+    }
+    auto e = doc->create_entity(args[0], args[1], parent);
+    return e ? Status{} : Status{e.error()};
+  }
+  if (a.verb == "duplicate" || a.verb == "delete") {
+    auto e = doc->find(args[0]);
+    if (!e) return e.error();
+    if (a.verb == "delete") return doc->delete_entity(*e);
+    auto copy = doc->duplicate(*e);
+    return copy ? Status{} : Status{copy.error()};
+  }
   if (a.verb == "select") {
     auto e = doc->find(args[0]);
     if (!e) return e.error();
@@ -271,11 +296,11 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
                               [&] { p->apply(world, entity, q); });
   }
   if (a.verb == "undo") {
-    if (!doc->undo().undo(world)) return make_error(ErrorCode::InvalidArgument, "nothing to undo");
+    if (!doc->undo_edit()) return make_error(ErrorCode::InvalidArgument, "nothing to undo");
     return {};
   }
   if (a.verb == "redo") {
-    if (!doc->undo().redo(world)) return make_error(ErrorCode::InvalidArgument, "nothing to redo");
+    if (!doc->redo_edit()) return make_error(ErrorCode::InvalidArgument, "nothing to redo");
     return {};
   }
   if (a.verb == "bake") {

@@ -8,6 +8,9 @@
 //   select REF                          REF: an entity Name or #INDEX
 //   set REF COMPONENT.FIELD VALUE...    e.g. set lamp Light.intensity 40; undoable
 //   add REF COMPONENT | remove REF COMPONENT   a lighting component (e.g. IrradianceProbeGrid), undoable
+//   create KIND NAME [PARENT]           KIND: empty, point-light, spot-light, directional-light,
+//                                       rect-light; at the parent's origin (a root without one); undoable
+//   duplicate REF | delete REF          REF and everything below it; undoable
 //   preset REF MODULE PRESET            a lighting module's preset on REF's component, e.g. preset grid <module> draft
 //   undo | redo
 //   bake all|selection|BAKER[,BAKER...] [draft|medium|high]   starts a background bake

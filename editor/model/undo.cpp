@@ -27,7 +27,11 @@ void restore(World& world, const Edit& e) {
 }
 void take_away(World& world, const Edit& e) { e.component->erase(world, e.entity); }
 
-bool applicable(World& world, const Edit& edit) {
+// Whether undoing (forward = false) or redoing the entry can be done: its entity is there, or for
+// a subtree on its way back, its copies are held.
+bool applicable(World& world, const Edit& edit, bool forward) {
+  if (edit.subtree != Edit::Subtree::None)
+    return (edit.subtree == Edit::Subtree::Created) == forward ? edit.held != nullptr : world.alive(edit.entity);
   if (!world.alive(edit.entity)) return false;
   if (edit.component) return true;
   for (const FieldChange& c : edit.changes)
@@ -132,6 +136,35 @@ Status UndoStack::remove_component(World& world, Entity entity, const ComponentI
   return {};
 }
 
+void UndoStack::created(Entity root, std::string label) {
+  Edit edit{root, std::move(label), {}};
+  edit.subtree = Edit::Subtree::Created;
+  push(std::move(edit));
+  merging_ = false;
+}
+
+Status UndoStack::delete_subtree(World& world, Entity root) {
+  if (!world.alive(root))
+    return make_error(ErrorCode::InvalidArgument, "delete: the entity no longer exists; select another");
+  Edit edit{root, "delete", {}};
+  edit.subtree = Edit::Subtree::Deleted;
+  take_out_subtree(world, edit);
+  push(std::move(edit));
+  merging_ = false;
+  return {};
+}
+
+void UndoStack::take_out_subtree(World& world, Edit& edit) { edit.held = take_out(world, edit.entity); }
+
+void UndoStack::put_back_subtree(World& world, Edit& edit) {
+  const Remap remap = put_back(world, *edit.held);
+  edit.held.reset();
+  for (Edit& e : entries_)
+    for (const auto& [from, to] : remap)
+      if (e.entity == from) e.entity = to;
+  restored_ = remap.front().second;
+}
+
 void UndoStack::push(Edit edit) {
   entries_.resize(position_);  // a new edit drops the undone ones
   entries_.push_back(std::move(edit));
@@ -140,13 +173,16 @@ void UndoStack::push(Edit edit) {
 
 bool UndoStack::undo(World& world) {
   merging_ = false;
+  restored_ = Entity::null();
   if (position_ == 0) return false;
-  const Edit& e = entries_[position_ - 1];
-  if (!applicable(world, e)) {
+  Edit& e = entries_[position_ - 1];
+  if (!applicable(world, e, false)) {
     entries_.erase(entries_.begin() + static_cast<std::ptrdiff_t>(position_ - 1));
     --position_;
     return false;
   }
+  if (e.subtree == Edit::Subtree::Created) take_out_subtree(world, e);
+  if (e.subtree == Edit::Subtree::Deleted) put_back_subtree(world, e);
   if (e.component) {
     if (e.added) take_away(world, e);
     else restore(world, e);
@@ -159,12 +195,15 @@ bool UndoStack::undo(World& world) {
 
 bool UndoStack::redo(World& world) {
   merging_ = false;
+  restored_ = Entity::null();
   if (position_ == entries_.size()) return false;
-  const Edit& e = entries_[position_];
-  if (!applicable(world, e)) {
+  Edit& e = entries_[position_];
+  if (!applicable(world, e, true)) {
     entries_.erase(entries_.begin() + static_cast<std::ptrdiff_t>(position_));
     return false;
   }
+  if (e.subtree == Edit::Subtree::Created) put_back_subtree(world, e);
+  if (e.subtree == Edit::Subtree::Deleted) take_out_subtree(world, e);
   if (e.component) {
     if (e.added) restore(world, e);
     else take_away(world, e);

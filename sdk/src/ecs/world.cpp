@@ -408,6 +408,23 @@ detail::GroupBase& World::make_group(std::vector<detail::PoolBase*> owned, std::
   return *groups_.back();
 }
 
+std::size_t World::copy_components(Entity src, World& to, Entity dst) {
+  assert(alive(src) && to.alive(dst) && "World::copy_components: stale or null entity handle");
+  assert((&to != this || src != dst) && "World::copy_components: an entity onto itself");
+  // The pools first: adding to this World may add pools and widen the masks.
+  std::vector<detail::PoolBase*> pools;
+  const std::uint64_t* row = &masks_[std::size_t{src.index} * mask_words_];
+  for (std::uint32_t word = 0; word < mask_words_; ++word)
+    for (std::uint64_t bits = row[word]; bits != 0; bits &= bits - 1)
+      pools.push_back(by_bit_[word * 64u + static_cast<std::uint32_t>(std::countr_zero(bits))]);
+  std::size_t skipped = 0;
+  for (detail::PoolBase* p : pools) {
+    const std::uint32_t pos = p->find(src.index);  // again each time: a group may have moved it
+    if (pos != detail::kNone && !p->copy_to(pos, to, dst)) ++skipped;
+  }
+  return skipped;
+}
+
 bool World::remove_from(detail::PoolBase& p, Entity e) {
   std::uint32_t pos = p.find(e.index);
   if (pos == detail::kNone) return false;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <map>
+#include <memory>
 #include <set>
 #include <span>
 #include <stdexcept>
@@ -87,6 +88,54 @@ TEST(World, AddReplacesAndRemoveReportsAbsence) {
   EXPECT_EQ(w.count<Velocity>(), 0u);  // never used: no pool
   const World& cw = w;
   EXPECT_EQ(cw.try_get<Health>(e), nullptr);
+}
+
+TEST(World, CopyComponentsCopiesEveryCopyableTypeWithinAndAcrossWorlds) {
+  struct MoveOnly {
+    std::unique_ptr<int> value;
+  };
+  World w;
+  const Entity a = w.create(), b = w.create();
+  w.add<Position>(a, 1.0f, 2.0f);
+  w.add<Tracked>(a, 7);
+  w.add<MoveOnly>(a, std::make_unique<int>(3));
+  w.add<Health>(b, 5);
+  w.add<Position>(b, 9.0f, 9.0f);  // replaced by the copy
+  // A group over Position and Health: the copy joins it and a's components stay where views find them.
+  w.group<Position, Health>();
+  int adds = 0;
+  Connection c = w.on_add<Tracked>([&](World&, Entity) { ++adds; });
+  const int live = Tracked::live;
+  EXPECT_EQ(w.copy_components(a, w, b), 1u);  // MoveOnly skipped
+  EXPECT_EQ(w.get<Position>(b).x, 1.0f);
+  EXPECT_EQ(w.get<Position>(b).y, 2.0f);
+  EXPECT_EQ(w.get<Tracked>(b).value, 7);
+  EXPECT_EQ(w.get<Health>(b).value, 5);  // a has none: kept
+  EXPECT_FALSE(w.has<MoveOnly>(b));
+  EXPECT_EQ(adds, 1);
+  EXPECT_EQ(Tracked::live, live + 1);
+  EXPECT_EQ(w.get<Position>(a).x, 1.0f);
+  EXPECT_EQ(*w.get<MoveOnly>(a).value, 3);
+  int members = 0;
+  w.each<Position, Health>([&](Entity e, Position& p, Health&) {
+    EXPECT_EQ(e, b);
+    EXPECT_EQ(p.x, 1.0f);
+    ++members;
+  });
+  EXPECT_EQ(members, 1);
+
+  // Into another World, which has none of these pools yet, and back.
+  World held;
+  const Entity h = held.create();
+  EXPECT_EQ(w.copy_components(b, held, h), 0u);
+  EXPECT_EQ(held.get<Health>(h).value, 5);
+  EXPECT_EQ(held.get<Tracked>(h).value, 7);
+  w.destroy(b);
+  const Entity back = w.create();
+  EXPECT_EQ(held.copy_components(h, w, back), 0u);
+  EXPECT_EQ(w.get<Position>(back).y, 2.0f);
+  EXPECT_EQ(w.get<Health>(back).value, 5);
+  EXPECT_EQ(adds, 2);
 }
 
 TEST(World, ReferencesStayValidAcrossAdds) {

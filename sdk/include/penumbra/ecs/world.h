@@ -315,6 +315,9 @@ class PoolBase {
   virtual void swap_components(std::uint32_t a, std::uint32_t b) = 0;
   // Room for at least `count` components; returns the room, in slots.
   virtual std::uint32_t reserve_components(std::uint32_t count) = 0;
+  // to.add(dst, a copy of the component at `pos`); false (nothing done) when the type cannot be copied.
+  virtual bool copy_to(std::uint32_t pos, World& to, Entity dst) = 0;
+  friend class penumbra::World;
 
  private:
   void add_sparse_page(std::uint32_t page);
@@ -379,6 +382,7 @@ class Pool final : public PoolBase {
     at(a) = std::move(at(b));
     at(b) = std::move(held);
   }
+  bool copy_to(std::uint32_t pos, World& to, Entity dst) override;
   std::uint32_t reserve_components(std::uint32_t count) override {
     while ((std::size_t{count} + kPageSize - 1) / kPageSize > pages_.size()) add_block();
     return static_cast<std::uint32_t>(std::min<std::size_t>(pages_.size() * kPageSize, kNone));
@@ -522,6 +526,13 @@ class World {
   // Fires on_remove (the component still readable), then removes it. False when absent.
   template <class T>
   bool remove(Entity e);
+  // Copies each component of `src` onto `dst` of `to` (this World or another) with to.add(), in
+  // the order their types were first used here: a type dst already has is replaced, on_add fires
+  // for the others. Entity handles inside components (Parent, Children, ...) are copied as they
+  // are: remap them where the copy needs its own. Types that cannot be copied (move-only) are
+  // skipped; returns how many were. Preconditions: alive(src), to.alive(dst), and src != dst when
+  // `to` is this World (asserted). Cost: O(components of src), each a copy construction.
+  std::size_t copy_components(Entity src, World& to, Entity dst);
   // get() and stamp the current tick: use it for writes that systems should notice.
   template <class T>
   T& patch(Entity e);
@@ -966,6 +977,17 @@ class ComponentPool {
 };
 
 // --- World templates ---------------------------------------------------------------------------
+
+template <class T>
+bool detail::Pool<T>::copy_to(std::uint32_t pos, World& to, Entity dst) {
+  if constexpr (std::is_copy_constructible_v<T>) {
+    T copy(at(pos));  // taken first: `to` may be this World, whose groups an add may reorder
+    to.add<T>(dst, std::move(copy));
+    return true;
+  } else {
+    return false;
+  }
+}
 
 template <class T, class... Args>
 T& World::add(Entity e, Args&&... args) {
