@@ -68,6 +68,7 @@ Result<Entity> Document::create_entity(std::string_view kind, const std::string&
   if (name.empty()) return make_error(ErrorCode::InvalidArgument, what + ": give the entity a name");
   if (parent && !world_.alive(parent))
     return make_error(ErrorCode::InvalidArgument, what + ": the parent no longer exists; select another");
+  if (!parent) world_.each<GltfScene>([&](Entity root, GltfScene&) { parent = root; });  // saved with the file
   const Entity e = world_.create();
   world_.add<Name>(e, name);
   Transform t;
@@ -156,7 +157,9 @@ Status Document::save_gltf(const std::filesystem::path& path) {
     return make_error(ErrorCode::InvalidArgument, "save as glTF: " + source_ +
                                                       " is a built-in scene, not a glTF file; save its edits as a "
                                                       "script, or open a glTF to save into");
-  return penumbra::save_gltf(source_, path, gltf_node_edits(world_));
+  auto edits = gltf_edits(world_);
+  if (!edits) return Error{edits.error().code, "save as glTF: " + edits.error().message};
+  return penumbra::save_gltf(source_, path, *edits);
 }
 
 Status Document::save_edits(const std::filesystem::path& path) {

@@ -40,7 +40,8 @@ class Document {
   // Edits that change which entities exist, one undo entry each. The new entity is selected.
   // create_entity: `kind` is "empty" (a Transform and the Name), or "point-light", "spot-light",
   // "directional-light" or "rect-light" (with a Light of that type, white, at the Light's default
-  // intensity); under `parent` (null: a root), at `translation` in its frame.
+  // intensity); under `parent` (null: the glTF file's root entity, so that it is saved with the
+  // file, or a root in a built-in scene), at `translation` in its frame.
   // InvalidArgument names the kinds, an empty name or a stale parent.
   Result<Entity> create_entity(std::string_view kind, const std::string& name, Entity parent,
                                glm::vec3 translation = glm::vec3(0.0f));

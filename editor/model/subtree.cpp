@@ -148,7 +148,12 @@ Remap copy_subtree(World& world, Entity root, const std::string& name) {
                                         siblings->entities.begin()) + 1;
   const Remap remap = build(world, originals, parent, root_parent, position, [&](std::size_t i, Entity e) {
     world.copy_components(originals[i], world, e);
-    world.remove<GltfNode>(e);
+    if (const GltfNode* node = world.try_get<GltfNode>(e)) {
+      const GltfNodeCopy copy{node->index};
+      world.remove<GltfNode>(e);
+      world.add<GltfNodeCopy>(e, copy);
+    }
+    world.remove<GltfScene>(e);
     world.remove<EntityKey>(e);
   });
   world.add<Name>(remap.front().second, name);

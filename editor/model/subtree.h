@@ -47,8 +47,9 @@ Remap put_back(World& world, const HeldSubtree& held);
 
 // Copies `root`'s subtree as new entities, the copy of root placed right after root among its
 // siblings and named `name`. Handles the copies hold of entities in the subtree point at their
-// copies; GltfNode and EntityKey are not copied (the copies are new to the file, and keys are
-// unique). Returns the remap, root first. Precondition: world.alive(root).
+// copies; a copy of a glTF node has GltfNodeCopy instead of GltfNode (it is new to the file and
+// takes that node's mesh when saved), GltfScene and EntityKey are not copied (keys are unique).
+// Returns the remap, root first. Precondition: world.alive(root).
 // Cost: O(components of the subtree).
 Remap copy_subtree(World& world, Entity root, const std::string& name);
 

@@ -2,6 +2,8 @@
 // hierarchy with an arch of meshes, a skinned walker) and CesiumMan.
 #include "subtree.h"
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <set>
 
@@ -155,6 +157,45 @@ TEST(Subtree, CreatedLightsAreUndoableAndBadRequestsAreRefused) {
   EXPECT_FALSE(doc->create_entity("empty", "x", *lamp).ok());  // a stale parent
   EXPECT_FALSE(doc->delete_entity(*lamp).ok());
   EXPECT_FALSE(doc->duplicate(*lamp).ok());
+}
+
+// In a glTF document: what was duplicated, created and deleted is saved as the file's nodes and
+// comes back on reopening; undone, the file saves as it was.
+TEST(Subtree, EditsOfAGltfDocumentSaveAsItsNodes) {
+  const std::filesystem::path source = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf/valid.gltf";
+  auto doc = open(source.string());
+  ASSERT_TRUE(doc);
+  World& w = doc->world();
+  auto copy = doc->duplicate(*doc->find("quad"));
+  ASSERT_TRUE(copy.ok());
+  ASSERT_TRUE(doc->undo().set(w, *copy, *find_field("Transform", "translation"), FieldValue(glm::vec3(2, 0, 0))).ok());
+  auto lamp = doc->create_entity("point-light", "lamp", Entity::null(), glm::vec3(0, 2, 0));
+  ASSERT_TRUE(lamp.ok());
+  ASSERT_TRUE(doc->delete_entity(*doc->find("eye")).ok());
+  const auto out = std::filesystem::temp_directory_path() / ("penumbra_doc_" + std::to_string(::getpid()) + ".gltf");
+  ASSERT_TRUE(doc->save_gltf(out).ok());
+
+  auto reopened = open(out.string());
+  ASSERT_TRUE(reopened);
+  World& r = reopened->world();
+  const Entity quad2 = *reopened->find("quad (2)");
+  EXPECT_EQ(r.get<Transform>(quad2).translation, glm::vec3(2, 0, 0));
+  ASSERT_TRUE(r.has<Children>(quad2));
+  EXPECT_TRUE(r.has<Mesh>(r.get<Children>(quad2).entities.front()));
+  EXPECT_EQ(r.get<Light>(*reopened->find("lamp")).type, Light::Type::Point);
+  EXPECT_FALSE(reopened->find("eye").ok());
+  EXPECT_EQ(r.view<Camera>().count(), 0u);
+
+  // Undo all four: saving gives back what the file had.
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(doc->undo_edit());
+  ASSERT_TRUE(doc->save_gltf(out).ok());
+  auto original = open(out.string());
+  ASSERT_TRUE(original);
+  EXPECT_TRUE(original->find("eye").ok());
+  EXPECT_FALSE(original->find("quad (2)").ok());
+  EXPECT_FALSE(original->find("lamp").ok());
+  EXPECT_EQ(original->world().entity_count(), w.entity_count());
+  std::filesystem::remove(out);
 }
 
 // The skinned walker: its copy's skin names the copy's joints, and deleting then restoring a

@@ -242,9 +242,9 @@ TEST(EditorXvfb, TheGizmoMovesTurnsAndScalesTheSelectionUndoably) {
 // The path through the editor in one run: two built-in scenes, then a glTF file (a quad lit
 // by a spot light); a probe grid and an AO-field caster added; the quad moved with the gizmo; a
 // bake, after which everything is up to date; the spot light brightened, after which the grid is
-// out of date (it holds the light) and the caster is not (AO reads no light); the scene saved as
-// glTF and reopened with both components, never baked in the new document. A screenshot at each
-// step.
+// out of date (it holds the light) and the caster is not (AO reads no light); the quad duplicated,
+// a light created, the camera node deleted; the scene saved as glTF and reopened with both
+// components (never baked in the new document), the copy and the light. A screenshot at each step.
 TEST(EditorXvfb, OpensEditsBakesAndSavesAStudiosScene) {
   ASSERT_EQ(std::system("command -v xvfb-run > /dev/null"), 0) << "xvfb-run is missing: apt-get install xvfb xauth";
   const fs::path dir = scratch_dir("penumbra_editor_path");
@@ -284,11 +284,22 @@ TEST(EditorXvfb, OpensEditsBakesAndSavesAStudiosScene) {
               "screenshot " << d << "/stale.png\n"
               "ui on\n"
               "save-edits " << d << "/edits.txt\n"
+              "duplicate quad\n"
+              "set \"quad (2)\" Transform.translation 1.5 1 0\n"
+              "create point-light lamp\n"
+              "set lamp Transform.translation 0 2 1\n"
+              "delete eye\n"
+              "frames 2\n"
+              "ui off\n"
+              "screenshot " << d << "/edited.png\n"
+              "ui on\n"
               "save-gltf " << d << "/saved.gltf\n"
               "open " << d << "/saved.gltf\n"
               "frames 2\n"
               "expect-bake root never-baked\n"
               "expect-bake quad/0 never-baked\n"
+              "select \"quad (2)\"\n"
+              "select lamp\n"
               "screenshot " << d << "/reopened.png\n"
               "quit\n";
   }
@@ -300,7 +311,7 @@ TEST(EditorXvfb, OpensEditsBakesAndSavesAStudiosScene) {
   const std::string edits((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(edits.find("Transform.translation"), std::string::npos) << "the gizmo's move: " << edits;
   EXPECT_NE(edits.find("Light.intensity 60"), std::string::npos) << edits;
-  for (const char* shot : {"a", "b", "gltf", "baked", "stale", "reopened"}) {
+  for (const char* shot : {"a", "b", "gltf", "baked", "stale", "edited", "reopened"}) {
     const Png png = load_png(dir / (std::string(shot) + ".png"));
     EXPECT_EQ(png.width, 1280) << shot;
     EXPECT_EQ(png.height, 720) << shot;

@@ -47,9 +47,15 @@ std::vector<AuthoredComponent> authored_components(const World& world, Entity no
 
 // What save_gltf (import/gltf.h) needs to write a World back to the glTF it was imported from: per
 // imported node (GltfNode) its Transform (unless a clip animates it: the World holds the pose, not
-// the rest transform), its Light and its authored_components (with the node's mesh children).
-// Entities the file did not have (a viewer's default light) are not written. Cost: O(entities).
-std::vector<GltfNodeEdit> gltf_node_edits(World& world);
+// the rest transform), its Light and its authored_components (with the node's mesh children); the
+// imported nodes (GltfScene) whose entities are gone, as removed; and as added nodes, the entities
+// below the file's root entity that the file did not have and that are not a node's mesh
+// primitives (an entity with a Mesh and neither GltfNode nor GltfNodeCopy): created ones, and
+// copies (GltfNodeCopy), which take their node's mesh. Entities outside the file's root (a
+// viewer's default light) are not written. InvalidArgument, naming the entity, for what a glTF
+// cannot hold: a node with two copies of one mesh primitive (duplicate the node instead).
+// Cost: O(entities).
+Result<GltfEdits> gltf_edits(World& world);
 
 // apply_authored_lighting, then every module's add_defaults (module.h) in the modules' order
 // (modules skip entities that already have their components), then one world.update(0) so that

@@ -31,7 +31,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                   "a lighting declaration's error that does not name the file");
     std::filesystem::path saved = path;
     saved.replace_filename(path.stem().string() + "-saved" + path.extension().string());
-    if (save_gltf(path, saved, gltf_node_edits(world))) {
+    if (auto edits = gltf_edits(world); edits && save_gltf(path, saved, *edits)) {
       World again;
       auto reimported = import_gltf(again, saved, options);
       fuzz::require(reimported.ok(), "a saved file that does not import again");

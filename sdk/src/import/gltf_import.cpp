@@ -905,6 +905,10 @@ Result<ImportedScene> Importer::run() {
   world_.add<Transform>(out_.root);
   // Hierarchy first; mesh contents need the skins, which need the joint entities.
   PENUMBRA_TRY(create_nodes());
+  GltfScene imported;
+  for (std::size_t i = 0; i < out_.nodes.size(); ++i)
+    if (out_.nodes[i]) imported.nodes.push_back(static_cast<std::uint32_t>(i));
+  world_.add<GltfScene>(out_.root, std::move(imported));
   PENUMBRA_TRY(load_skins());
   for (std::size_t i = 0; i < model_.nodes.size(); ++i)
     if (out_.nodes[i]) PENUMBRA_TRY(attach_node_contents(i, animated_nodes_[i]));

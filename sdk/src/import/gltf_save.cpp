@@ -100,10 +100,189 @@ bool finite(const Transform& t) {
   return std::isfinite(glm::dot(t.translation, t.translation) + glm::dot(t.scale, t.scale) + glm::dot(q, q));
 }
 
+// Writes one node's edit (an existing node's, or a new one's after it was appended): transform,
+// KHR_lights_punctual light, PENUMBRA_lighting. `j` is the whole file (for its lights array).
+Status write_node(nlohmann::ordered_json& j, nlohmann::ordered_json& node, const std::string& where,
+                  const GltfNodeEdit& edit) {
+  if (edit.transform) {
+    const Transform& t = *edit.transform;
+    if (!finite(t)) return make_error(ErrorCode::InvalidArgument, where + ": the transform is not finite");
+    const std::optional<glm::mat4> before = file_matrix(node);
+    if (!before || !same_matrix(*before, t.matrix())) {
+      node.erase("matrix");
+      node["translation"] = {t.translation.x, t.translation.y, t.translation.z};
+      node["rotation"] = {t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w};
+      node["scale"] = {t.scale.x, t.scale.y, t.scale.z};
+    }
+  }
+  if (edit.light) {
+    const nlohmann::ordered_json* index = nullptr;
+    if (node.contains("extensions") && node["extensions"].contains("KHR_lights_punctual"))
+      index = &node["extensions"]["KHR_lights_punctual"]["light"];
+    nlohmann::ordered_json* lights = nullptr;
+    if (j.contains("extensions") && j["extensions"].contains("KHR_lights_punctual"))
+      lights = &j["extensions"]["KHR_lights_punctual"]["lights"];
+    if (index == nullptr || !index->is_number_unsigned() || lights == nullptr || !lights->is_array() ||
+        index->get<std::size_t>() >= lights->size())
+      return make_error(ErrorCode::InvalidArgument, where + ": has no KHR_lights_punctual light to write the Light to");
+    nlohmann::ordered_json& light = (*lights)[index->get<std::size_t>()];
+    if (!light.is_object())
+      return make_error(ErrorCode::InvalidInput, where + ": its KHR_lights_punctual light is not an object");
+    const Light& l = *edit.light;
+    if (l.type == Light::Type::Rect)
+      return make_error(ErrorCode::InvalidArgument, where + ": a rect light has no KHR_lights_punctual form; make it a "
+                                                            "point, spot or directional light");
+    light["type"] = l.type == Light::Type::Directional ? "directional" : l.type == Light::Type::Point ? "point" : "spot";
+    if (l.color != glm::vec3(1.0f) || light.contains("color")) set_numbers(light, "color", {l.color.x, l.color.y, l.color.z});
+    if (l.intensity != 1.0f || light.contains("intensity")) set_numbers(light, "intensity", {l.intensity});
+    if (l.range > 0.0f) set_numbers(light, "range", {l.range});
+    else light.erase("range");
+    if (l.type == Light::Type::Spot) {
+      if (!light.contains("spot") || !light["spot"].is_object()) light["spot"] = nlohmann::ordered_json::object();
+      set_numbers(light["spot"], "innerConeAngle", {l.inner_cone_angle});
+      set_numbers(light["spot"], "outerConeAngle", {l.outer_cone_angle});
+    } else {
+      light.erase("spot");
+    }
+  }
+  // PENUMBRA_lighting, written whole (or removed).
+  if (node.contains("extensions") && !node["extensions"].is_object())
+    return make_error(ErrorCode::InvalidInput, where + ": extensions is not an object");
+  if (edit.lighting.empty() && !edit.environment) {
+    if (node.contains("extensions")) {
+      node["extensions"].erase("PENUMBRA_lighting");
+      if (node["extensions"].empty()) node.erase("extensions");
+    }
+  } else {
+    nlohmann::ordered_json components = nlohmann::ordered_json::object();
+    for (const AuthoredComponent& c : edit.lighting) {
+      nlohmann::ordered_json body = nlohmann::ordered_json::object();
+      if (!c.preset.empty()) body["preset"] = c.preset;
+      for (const auto& [name, value] : c.fields) body[name] = to_json(value);
+      components[c.type] = std::move(body);
+    }
+    nlohmann::ordered_json ext = {{"version", kLightingExtensionVersion}};
+    if (!edit.lighting.empty()) ext["components"] = std::move(components);
+    if (edit.environment) {
+      const glm::vec3 l = edit.environment->radiance;
+      if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z) && l.x >= 0.0f && l.y >= 0.0f && l.z >= 0.0f))
+        return make_error(ErrorCode::InvalidArgument, where + ": the sky's radiance is negative or not finite");
+      ext["environment"] = {{"radiance", {l.x, l.y, l.z}}};
+    }
+    node["extensions"]["PENUMBRA_lighting"] = std::move(ext);
+  }
+  return {};
+}
+
+// Takes edits.removed out of the scene and appends edits.added, each linked under its parent or
+// into the scene's root list, with its copy_of node's mesh, skin and camera and a new
+// KHR_lights_punctual light for its Light. Keys added to `j` may move its members: every
+// reference into it is taken afresh after one is added.
+Status add_and_remove_nodes(nlohmann::ordered_json& j, const std::string& file, const GltfEdits& edits) {
+  if (edits.added.empty() && edits.removed.empty()) return {};
+  const std::size_t count = j["nodes"].size();
+  // A file without scenes shows every parentless node: it gets one scene listing them, so that a
+  // node taken out of it stays out.
+  if (!j.contains("scenes") || !j["scenes"].is_array() || j["scenes"].empty()) {
+    std::vector<bool> child(count, false);
+    for (const nlohmann::ordered_json& node : j["nodes"])
+      if (node.is_object() && node.contains("children") && node["children"].is_array())
+        for (const nlohmann::ordered_json& c : node["children"])
+          if (c.is_number_unsigned() && c.get<std::uint64_t>() < count) child[c.get<std::size_t>()] = true;
+    nlohmann::ordered_json roots = nlohmann::ordered_json::array();
+    for (std::size_t i = 0; i < count; ++i)
+      if (!child[i]) roots.push_back(i);
+    j["scenes"] = nlohmann::ordered_json::array({{{"nodes", std::move(roots)}}});
+    j["scene"] = 0;
+  }
+  std::size_t scene = 0;
+  if (j.contains("scene") && j["scene"].is_number_unsigned() && j["scene"].get<std::uint64_t>() < j["scenes"].size())
+    scene = j["scene"].get<std::size_t>();
+  if (!j["scenes"][scene].is_object())
+    return make_error(ErrorCode::InvalidInput, file + ": scenes[" + std::to_string(scene) + "] is not an object");
+
+  const std::set<std::uint32_t> removed(edits.removed.begin(), edits.removed.end());
+  for (std::uint32_t r : removed)
+    if (r >= count)
+      return make_error(ErrorCode::InvalidArgument, file + ": nodes[" + std::to_string(r) + "] to remove does not exist (the file has " +
+                                                        std::to_string(count) + " nodes)");
+  const auto unlink = [&](nlohmann::ordered_json& list) {
+    if (!list.is_array()) return;
+    list.erase(std::remove_if(list.begin(), list.end(),
+                              [&](const nlohmann::ordered_json& v) {
+                                return v.is_number_unsigned() && v.get<std::uint64_t>() < count &&
+                                       removed.contains(v.get<std::uint32_t>());
+                              }),
+               list.end());
+  };
+  for (nlohmann::ordered_json& node : j["nodes"])
+    if (node.is_object() && node.contains("children")) unlink(node["children"]);
+  for (nlohmann::ordered_json& sc : j["scenes"])
+    if (sc.is_object() && sc.contains("nodes")) unlink(sc["nodes"]);
+
+  for (std::size_t i = 0; i < edits.added.size(); ++i) {
+    const GltfNewNode& a = edits.added[i];
+    const std::size_t index = count + i;
+    const std::string where = file + ": the new node '" + a.name + "'";
+    nlohmann::ordered_json node = nlohmann::ordered_json::object();
+    if (!a.name.empty()) node["name"] = a.name;
+    if (a.copy_of) {
+      if (*a.copy_of >= count || !j["nodes"][*a.copy_of].is_object())
+        return make_error(ErrorCode::InvalidArgument, where + " copies nodes[" + std::to_string(*a.copy_of) +
+                                                          "], which is not a node of the file");
+      const nlohmann::ordered_json& from = j["nodes"][*a.copy_of];
+      for (const char* key : {"mesh", "skin", "camera"})
+        if (from.contains(key)) node[key] = from[key];
+    }
+    if (a.light) {
+      nlohmann::ordered_json& ext = j["extensions"];
+      if (!ext.is_object()) ext = nlohmann::ordered_json::object();
+      nlohmann::ordered_json& punctual = ext["KHR_lights_punctual"];
+      if (!punctual.is_object()) punctual = nlohmann::ordered_json::object();
+      nlohmann::ordered_json& lights = punctual["lights"];
+      if (!lights.is_array()) lights = nlohmann::ordered_json::array();
+      lights.push_back({{"type", "point"}});
+      node["extensions"]["KHR_lights_punctual"] = {{"light", lights.size() - 1}};
+      nlohmann::ordered_json& used = j["extensionsUsed"];
+      if (!used.is_array()) used = nlohmann::ordered_json::array();
+      if (std::find(used.begin(), used.end(), "KHR_lights_punctual") == used.end()) used.push_back("KHR_lights_punctual");
+    }
+    nlohmann::ordered_json* parent = nullptr;
+    if (a.parent) {
+      if (*a.parent >= count)
+        return make_error(ErrorCode::InvalidArgument, where + ": its parent nodes[" + std::to_string(*a.parent) +
+                                                          "] is not a node of the file");
+      parent = &j["nodes"][*a.parent];
+    } else if (a.added_parent) {
+      if (*a.added_parent >= i)
+        return make_error(ErrorCode::InvalidArgument, where + ": its parent must be added before it");
+      parent = &j["nodes"][count + *a.added_parent];
+    }
+    if (parent != nullptr) {
+      if (!parent->is_object()) return make_error(ErrorCode::InvalidInput, where + ": its parent is not an object");
+      nlohmann::ordered_json& children = (*parent)["children"];
+      if (!children.is_array()) children = nlohmann::ordered_json::array();
+      children.push_back(index);
+    } else {
+      nlohmann::ordered_json& roots = j["scenes"][scene]["nodes"];
+      if (!roots.is_array()) roots = nlohmann::ordered_json::array();
+      roots.push_back(index);
+    }
+    j["nodes"].push_back(std::move(node));
+    GltfNodeEdit edit;
+    edit.node = static_cast<std::uint32_t>(index);
+    edit.transform = a.transform;
+    edit.light = a.light;
+    edit.lighting = a.lighting;
+    edit.environment = a.environment;
+    PENUMBRA_TRY(write_node(j, j["nodes"][index], where, edit));
+  }
+  return {};
+}
+
 }  // namespace
 
-Status save_gltf(const std::filesystem::path& source, const std::filesystem::path& out,
-                 std::span<const GltfNodeEdit> edits) {
+Status save_gltf(const std::filesystem::path& source, const std::filesystem::path& out, const GltfEdits& edits) {
   const std::string file = source.string();
   std::ifstream in(source, std::ios::binary);
   if (!in) return make_error(ErrorCode::NotFound, file + ": cannot be read; save needs the file the scene came from");
@@ -143,87 +322,20 @@ Status save_gltf(const std::filesystem::path& source, const std::filesystem::pat
   nlohmann::ordered_json& nodes = j["nodes"];
   if (!nodes.is_array()) nodes = nlohmann::ordered_json::array();
 
-  for (const GltfNodeEdit& edit : edits) {
+  for (const GltfNodeEdit& edit : edits.nodes) {
     if (edit.node < nodes.size() && !nodes[edit.node].is_object())
       return make_error(ErrorCode::InvalidInput, file + ": nodes[" + std::to_string(edit.node) + "] is not an object");
     if (edit.node >= nodes.size())
       return make_error(ErrorCode::InvalidArgument, file + ": nodes[" + std::to_string(edit.node) +
                                                         "] does not exist (the file has " +
                                                         std::to_string(nodes.size()) + " nodes)");
-    nlohmann::ordered_json& node = nodes[edit.node];
-    const std::string where = file + ": nodes[" + std::to_string(edit.node) + "]";
-    if (edit.transform) {
-      const Transform& t = *edit.transform;
-      if (!finite(t)) return make_error(ErrorCode::InvalidArgument, where + ": the transform is not finite");
-      const std::optional<glm::mat4> before = file_matrix(node);
-      if (!before || !same_matrix(*before, t.matrix())) {
-        node.erase("matrix");
-        node["translation"] = {t.translation.x, t.translation.y, t.translation.z};
-        node["rotation"] = {t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w};
-        node["scale"] = {t.scale.x, t.scale.y, t.scale.z};
-      }
-    }
-    if (edit.light) {
-      const nlohmann::ordered_json* index = nullptr;
-      if (node.contains("extensions") && node["extensions"].contains("KHR_lights_punctual"))
-        index = &node["extensions"]["KHR_lights_punctual"]["light"];
-      nlohmann::ordered_json* lights = nullptr;
-      if (j.contains("extensions") && j["extensions"].contains("KHR_lights_punctual"))
-        lights = &j["extensions"]["KHR_lights_punctual"]["lights"];
-      if (index == nullptr || !index->is_number_unsigned() || lights == nullptr || !lights->is_array() ||
-          index->get<std::size_t>() >= lights->size())
-        return make_error(ErrorCode::InvalidArgument, where + ": has no KHR_lights_punctual light to write the Light to");
-      nlohmann::ordered_json& light = (*lights)[index->get<std::size_t>()];
-      if (!light.is_object())
-        return make_error(ErrorCode::InvalidInput, where + ": its KHR_lights_punctual light is not an object");
-      const Light& l = *edit.light;
-      if (l.type == Light::Type::Rect)
-        return make_error(ErrorCode::InvalidArgument, where + ": a rect light has no KHR_lights_punctual form; make it a "
-                                                              "point, spot or directional light");
-      light["type"] = l.type == Light::Type::Directional ? "directional" : l.type == Light::Type::Point ? "point" : "spot";
-      if (l.color != glm::vec3(1.0f) || light.contains("color")) set_numbers(light, "color", {l.color.x, l.color.y, l.color.z});
-      if (l.intensity != 1.0f || light.contains("intensity")) set_numbers(light, "intensity", {l.intensity});
-      if (l.range > 0.0f) set_numbers(light, "range", {l.range});
-      else light.erase("range");
-      if (l.type == Light::Type::Spot) {
-        if (!light.contains("spot") || !light["spot"].is_object()) light["spot"] = nlohmann::ordered_json::object();
-        set_numbers(light["spot"], "innerConeAngle", {l.inner_cone_angle});
-        set_numbers(light["spot"], "outerConeAngle", {l.outer_cone_angle});
-      } else {
-        light.erase("spot");
-      }
-    }
-    // PENUMBRA_lighting, written whole (or removed).
-    if (node.contains("extensions") && !node["extensions"].is_object())
-      return make_error(ErrorCode::InvalidInput, where + ": extensions is not an object");
-    if (edit.lighting.empty() && !edit.environment) {
-      if (node.contains("extensions")) {
-        node["extensions"].erase("PENUMBRA_lighting");
-        if (node["extensions"].empty()) node.erase("extensions");
-      }
-    } else {
-      nlohmann::ordered_json components = nlohmann::ordered_json::object();
-      for (const AuthoredComponent& c : edit.lighting) {
-        nlohmann::ordered_json body = nlohmann::ordered_json::object();
-        if (!c.preset.empty()) body["preset"] = c.preset;
-        for (const auto& [name, value] : c.fields) body[name] = to_json(value);
-        components[c.type] = std::move(body);
-      }
-      nlohmann::ordered_json ext = {{"version", kLightingExtensionVersion}};
-      if (!edit.lighting.empty()) ext["components"] = std::move(components);
-      if (edit.environment) {
-        const glm::vec3 l = edit.environment->radiance;
-        if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z) && l.x >= 0.0f && l.y >= 0.0f && l.z >= 0.0f))
-          return make_error(ErrorCode::InvalidArgument, where + ": the sky's radiance is negative or not finite");
-        ext["environment"] = {{"radiance", {l.x, l.y, l.z}}};
-      }
-      node["extensions"]["PENUMBRA_lighting"] = std::move(ext);
-    }
+    PENUMBRA_TRY(write_node(j, nodes[edit.node], file + ": nodes[" + std::to_string(edit.node) + "]", edit));
   }
+  PENUMBRA_TRY(add_and_remove_nodes(j, file, edits));
 
   // extensionsUsed lists PENUMBRA_lighting exactly when a node declares it.
   bool declared = false;
-  for (const nlohmann::ordered_json& node : nodes)
+  for (const nlohmann::ordered_json& node : j["nodes"])
     declared = declared || (node.is_object() && node.contains("extensions") && node["extensions"].is_object() &&
                             node["extensions"].contains("PENUMBRA_lighting"));
   nlohmann::ordered_json& used = j["extensionsUsed"];

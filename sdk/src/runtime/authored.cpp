@@ -8,6 +8,7 @@
 
 #include "penumbra/ecs/transform.h"
 #include "penumbra/runtime.h"
+#include "penumbra/scene/entity_key.h"
 
 namespace penumbra {
 
@@ -126,28 +127,94 @@ std::vector<AuthoredComponent> authored_components(const World& world, Entity no
   return out;
 }
 
-std::vector<GltfNodeEdit> gltf_node_edits(World& world) {
+Result<GltfEdits> gltf_edits(World& world) {
   std::set<std::uint32_t> animated;  // entity indices some clip targets
   world.each<Animator>([&](Entity, Animator& a) {
     if (a.clips)
       for (const AnimationClip& c : *a.clips)
         for (Entity t : c.targets) animated.insert(t.index);
   });
-  std::vector<GltfNodeEdit> edits;
+  // A node's mesh primitives: its children with a Mesh that are not nodes themselves.
+  const auto is_primitive = [&](Entity e) {
+    return world.has<Mesh>(e) && !world.has<GltfNode>(e) && !world.has<GltfNodeCopy>(e);
+  };
+  const auto primitives = [&](Entity e) -> Result<std::vector<Entity>> {
+    std::vector<Entity> meshes;
+    if (const Children* kids = world.try_get<Children>(e))
+      for (Entity k : kids->entities)
+        if (is_primitive(k)) {
+          for (Entity m : meshes)
+            if (world.get<Mesh>(m).data == world.get<Mesh>(k).data)
+              return make_error(ErrorCode::InvalidArgument,
+                                "'" + entity_key(world, k) + "': a second copy of a mesh primitive of its node, which a glTF "
+                                "node cannot hold; delete it and duplicate the node instead");
+          meshes.push_back(k);
+        }
+    return meshes;
+  };
+  GltfEdits edits;
+  std::set<std::uint32_t> present;
+  Status failed;
   world.each<GltfNode, Transform>([&](Entity e, GltfNode& n, Transform& t) {
+    present.insert(n.index);
+    auto meshes = primitives(e);
+    if (!meshes) {
+      if (failed.ok()) failed = meshes.error();
+      return;
+    }
     GltfNodeEdit edit;
     edit.node = n.index;
     if (!animated.contains(e.index)) edit.transform = t;
     if (const Light* l = world.try_get<Light>(e)) edit.light = *l;
-    std::vector<Entity> meshes;
-    if (const Children* kids = world.try_get<Children>(e))
-      for (Entity k : kids->entities)
-        if (world.has<Mesh>(k) && !world.has<GltfNode>(k)) meshes.push_back(k);
-    edit.lighting = authored_components(world, e, meshes);
+    edit.lighting = authored_components(world, e, *meshes);
     if (const Environment* sky = world.try_get<Environment>(e)) edit.environment = *sky;
-    edits.push_back(std::move(edit));
+    edits.nodes.push_back(std::move(edit));
   });
-  std::sort(edits.begin(), edits.end(), [](const GltfNodeEdit& a, const GltfNodeEdit& b) { return a.node < b.node; });
+  PENUMBRA_TRY(failed);
+  std::sort(edits.nodes.begin(), edits.nodes.end(), [](const GltfNodeEdit& a, const GltfNodeEdit& b) { return a.node < b.node; });
+
+  // The file's root entities: what they imported and is gone; what is below them and new.
+  std::vector<Entity> roots;
+  world.each<GltfScene>([&](Entity e, GltfScene& scene) {
+    roots.push_back(e);
+    for (std::uint32_t n : scene.nodes)
+      if (!present.contains(n)) edits.removed.push_back(n);
+  });
+  for (Entity root : roots) {
+    // Breadth-first below the root: each entity with the node or the added node it is under.
+    struct Pending {
+      Entity entity;
+      std::optional<std::uint32_t> parent, added_parent;
+    };
+    std::vector<Pending> pending;
+    const auto below = [&](Entity e, std::optional<std::uint32_t> parent, std::optional<std::uint32_t> added_parent) {
+      if (const Children* kids = world.try_get<Children>(e))
+        for (Entity k : kids->entities)
+          if (world.alive(k)) pending.push_back({k, parent, added_parent});
+    };
+    below(root, std::nullopt, std::nullopt);
+    for (std::size_t i = 0; i < pending.size(); ++i) {
+      const Pending p = pending[i];
+      if (const GltfNode* n = world.try_get<GltfNode>(p.entity)) {
+        below(p.entity, n->index, std::nullopt);
+        continue;
+      }
+      if (is_primitive(p.entity) || !world.has<Transform>(p.entity)) continue;
+      auto meshes = primitives(p.entity);
+      if (!meshes) return meshes.error();
+      GltfNewNode a;
+      if (const Name* name = world.try_get<Name>(p.entity)) a.name = name->value;
+      a.parent = p.parent;
+      a.added_parent = p.added_parent;
+      if (const GltfNodeCopy* c = world.try_get<GltfNodeCopy>(p.entity)) a.copy_of = c->node;
+      a.transform = world.get<Transform>(p.entity);
+      if (const Light* l = world.try_get<Light>(p.entity)) a.light = *l;
+      a.lighting = authored_components(world, p.entity, *meshes);
+      if (const Environment* sky = world.try_get<Environment>(p.entity)) a.environment = *sky;
+      edits.added.push_back(std::move(a));
+      below(p.entity, std::nullopt, static_cast<std::uint32_t>(edits.added.size() - 1));
+    }
+  }
   return edits;
 }
 

@@ -127,6 +127,13 @@ World imported(const std::filesystem::path& path) {
   return world;
 }
 
+// gltf_edits, which these scenes never fail.
+GltfEdits edits_of(World& world) {
+  auto edits = gltf_edits(world);
+  EXPECT_TRUE(edits.ok()) << edits.error().message;
+  return edits.ok() ? *edits : GltfEdits{};
+}
+
 TEST(AuthoredLighting, SavedGltfReopensWithTheEditsAndKeepsTheRest) {
   World world = imported(kCases / "lighting_extension.gltf");
   world.patch<IrradianceProbeGrid>(named(world, "probes")).spacing = 2.0f;
@@ -134,8 +141,7 @@ TEST(AuthoredLighting, SavedGltfReopensWithTheEditsAndKeepsTheRest) {
   world.patch<Light>(named(world, "sun")).intensity = 5.0f;
   world.add<Environment>(named(world, "sun"), Environment{{0.1f, 0.2f, 0.3f}});  // a sky, saved on its node
   const auto out = std::filesystem::temp_directory_path() / ("penumbra_saved_" + std::to_string(::getpid()) + ".gltf");
-  const std::vector<GltfNodeEdit> edits = gltf_node_edits(world);
-  ASSERT_TRUE(save_gltf(kCases / "lighting_extension.gltf", out, edits).ok());
+  ASSERT_TRUE(save_gltf(kCases / "lighting_extension.gltf", out, edits_of(world)).ok());
 
   World reopened = imported(out);
   EXPECT_EQ(reopened.get<IrradianceProbeGrid>(named(reopened, "probes")).spacing, 2.0f);
@@ -152,7 +158,7 @@ TEST(AuthoredLighting, SavedGltfReopensWithTheEditsAndKeepsTheRest) {
   // Saving what was reopened gives the same file (a fixed point), and what no edit touches is
   // kept as read.
   const auto again = std::filesystem::temp_directory_path() / ("penumbra_saved2_" + std::to_string(::getpid()) + ".gltf");
-  ASSERT_TRUE(save_gltf(out, again, gltf_node_edits(reopened)).ok());
+  ASSERT_TRUE(save_gltf(out, again, edits_of(reopened)).ok());
   const auto text = [](const std::filesystem::path& p) {
     std::ifstream in(p);
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -171,7 +177,7 @@ TEST(AuthoredLighting, AnUnchangedSceneSavesAsTheFileItCameFrom) {
   for (const char* name : {"valid.gltf", "lighting_extension.gltf", "scaled_armature.gltf"}) {
     World world = imported(kCases / name);
     const auto out = std::filesystem::temp_directory_path() / ("penumbra_same_" + std::to_string(::getpid()) + ".gltf");
-    ASSERT_TRUE(save_gltf(kCases / name, out, gltf_node_edits(world)).ok()) << name;
+    ASSERT_TRUE(save_gltf(kCases / name, out, edits_of(world)).ok()) << name;
     nlohmann::ordered_json source, saved;
     std::ifstream(kCases / name) >> source;
     std::ifstream(out) >> saved;
@@ -187,17 +193,95 @@ TEST(AuthoredLighting, AnUnchangedSceneSavesAsTheFileItCameFrom) {
   std::ofstream(source) << with_matrix.dump();
   World world = imported(source);
   const auto out = std::filesystem::temp_directory_path() / ("penumbra_matrix_out_" + std::to_string(::getpid()) + ".gltf");
-  ASSERT_TRUE(save_gltf(source, out, gltf_node_edits(world)).ok());
+  ASSERT_TRUE(save_gltf(source, out, edits_of(world)).ok());
   nlohmann::ordered_json saved;
   std::ifstream(out) >> saved;
   EXPECT_EQ(saved["nodes"][0], with_matrix["nodes"][0]);
   world.patch<Transform>(named(world, "root")).translation.y = 2.0f;
-  ASSERT_TRUE(save_gltf(source, out, gltf_node_edits(world)).ok());
+  ASSERT_TRUE(save_gltf(source, out, edits_of(world)).ok());
   std::ifstream(out) >> saved;
   EXPECT_FALSE(saved["nodes"][0].contains("matrix"));
   EXPECT_EQ(saved["nodes"][0]["translation"][1], 2.0);
   std::filesystem::remove(source);
   std::filesystem::remove(out);
+}
+
+// Entities made after the import (a copy of a node with its mesh primitive, a new light with a
+// probe grid, under the copy) are saved as new nodes; a deleted node leaves the scene.
+TEST(AuthoredLighting, NewAndDeletedEntitiesSaveAsAddedAndRemovedNodes) {
+  World world = imported(kCases / "valid.gltf");
+  const Entity root = named(world, "root"), quad = named(world, "quad");
+  const Entity copy = world.create();
+  world.add<Name>(copy, Name{"quad copy"});
+  world.add<Transform>(copy, Transform{{2.0f, 0.0f, 0.0f}});
+  world.add<GltfNodeCopy>(copy, GltfNodeCopy{world.get<GltfNode>(quad).index});
+  set_parent(world, copy, root);
+  const Entity primitive = world.create();
+  world.add<Transform>(primitive);
+  world.add<Mesh>(primitive, world.get<Mesh>(world.get<Children>(quad).entities.front()));
+  set_parent(world, primitive, copy);
+  const Entity lamp = world.create();
+  world.add<Name>(lamp, Name{"lamp"});
+  world.add<Transform>(lamp, Transform{{0.0f, 2.0f, 0.0f}});
+  Light light;
+  light.intensity = 12.0f;
+  world.add<Light>(lamp, light);
+  world.add<IrradianceProbeGrid>(lamp, IrradianceProbeGrid::preset(Preset::Draft));
+  set_parent(world, lamp, copy);
+  destroy_hierarchy(world, named(world, "eye"));
+  const Entity outside = world.create();  // not below the file's root: not the file's
+  world.add<Name>(outside, Name{"viewer light"});
+  world.add<Transform>(outside);
+  world.add<Light>(outside);
+
+  const auto out = std::filesystem::temp_directory_path() / ("penumbra_added_" + std::to_string(::getpid()) + ".gltf");
+  const GltfEdits edits = edits_of(world);
+  ASSERT_EQ(edits.added.size(), 2u);
+  EXPECT_EQ(edits.removed, std::vector<std::uint32_t>{3});
+  ASSERT_TRUE(save_gltf(kCases / "valid.gltf", out, edits).ok());
+  nlohmann::ordered_json saved;
+  std::ifstream(out) >> saved;
+  ASSERT_EQ(saved["nodes"].size(), 6u);
+  EXPECT_EQ(saved["nodes"][0]["children"], nlohmann::ordered_json::array({1, 2, 4}));  // eye (3) out, the copy in
+  EXPECT_EQ(saved["nodes"][4]["mesh"], 0);
+  EXPECT_EQ(saved["nodes"][4]["children"], nlohmann::ordered_json::array({5}));
+  EXPECT_EQ(saved["extensions"]["KHR_lights_punctual"]["lights"].size(), 2u);
+
+  World reopened = imported(out);
+  EXPECT_FALSE(reopened.alive(named(reopened, "eye")));
+  EXPECT_EQ(reopened.view<Camera>().count(), 0u);
+  EXPECT_FALSE(reopened.alive(named(reopened, "viewer light")));
+  const Entity quad2 = named(reopened, "quad copy");
+  ASSERT_TRUE(reopened.alive(quad2));
+  EXPECT_EQ(reopened.get<Transform>(quad2).translation, glm::vec3(2.0f, 0.0f, 0.0f));
+  std::size_t meshes = 0;
+  for (Entity k : reopened.get<Children>(quad2).entities) meshes += reopened.has<Mesh>(k) ? 1 : 0;
+  EXPECT_EQ(meshes, 2u);  // the node's mesh, both its primitives
+  const Entity lamp2 = named(reopened, "lamp");
+  ASSERT_TRUE(reopened.alive(lamp2));
+  EXPECT_EQ(reopened.get<Parent>(lamp2).entity, quad2);
+  EXPECT_EQ(reopened.get<Light>(lamp2).type, Light::Type::Point);
+  EXPECT_EQ(reopened.get<Light>(lamp2).intensity, 12.0f);
+  EXPECT_EQ(reopened.get<IrradianceProbeGrid>(lamp2).samples_per_node,
+            IrradianceProbeGrid::preset(Preset::Draft).samples_per_node);
+  // Saved again unchanged: the same file.
+  const auto again = std::filesystem::temp_directory_path() / ("penumbra_added2_" + std::to_string(::getpid()) + ".gltf");
+  ASSERT_TRUE(save_gltf(out, again, edits_of(reopened)).ok());
+  nlohmann::ordered_json saved_again;
+  std::ifstream(again) >> saved_again;
+  EXPECT_EQ(saved_again, saved);
+
+  // A second copy of a primitive under one node has no glTF form: refused, naming it.
+  const Entity twin = world.create();
+  world.add<Name>(twin, Name{"twin"});
+  world.add<Transform>(twin);
+  world.add<Mesh>(twin, world.get<Mesh>(primitive));
+  set_parent(world, twin, copy);
+  const auto refused = gltf_edits(world);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("twin"), std::string::npos) << refused.error().message;
+  std::filesystem::remove(out);
+  std::filesystem::remove(again);
 }
 
 TEST(AuthoredLighting, SavedGlbKeepsItsBinaryChunkAndTakesNewComponents) {
@@ -206,7 +290,7 @@ TEST(AuthoredLighting, SavedGlbKeepsItsBinaryChunkAndTakesNewComponents) {
   ASSERT_TRUE(world.alive(root));
   world.add<IrradianceProbeGrid>(root, IrradianceProbeGrid::preset(Preset::Draft));
   const auto out = std::filesystem::temp_directory_path() / ("penumbra_saved_" + std::to_string(::getpid()) + ".glb");
-  ASSERT_TRUE(save_gltf(kCases / "valid.glb", out, gltf_node_edits(world)).ok());
+  ASSERT_TRUE(save_gltf(kCases / "valid.glb", out, edits_of(world)).ok());
   World reopened = imported(out);
   ASSERT_TRUE(reopened.has<IrradianceProbeGrid>(named(reopened, "root")));
   EXPECT_EQ(reopened.get<IrradianceProbeGrid>(named(reopened, "root")).samples_per_node,
@@ -222,9 +306,19 @@ TEST(AuthoredLighting, SavedGlbKeepsItsBinaryChunkAndTakesNewComponents) {
   EXPECT_FALSE(std::filesystem::exists(wrong));
   GltfNodeEdit far;
   far.node = 99;
-  const Status t = save_gltf(kCases / "valid.glb", out, std::vector<GltfNodeEdit>{far});
+  const Status t = save_gltf(kCases / "valid.glb", out, GltfEdits{{far}, {}, {}});
   ASSERT_FALSE(t.ok());
   EXPECT_NE(t.error().message.find("nodes[99] does not exist"), std::string::npos) << t.error().message;
+  const Status gone = save_gltf(kCases / "valid.glb", out, GltfEdits{{}, {}, {99}});
+  ASSERT_FALSE(gone.ok());
+  EXPECT_NE(gone.error().message.find("nodes[99] to remove does not exist"), std::string::npos) << gone.error().message;
+  GltfNewNode orphan;
+  orphan.name = "orphan";
+  orphan.added_parent = 0;  // itself: parents come first
+  const Status early = save_gltf(kCases / "valid.glb", out, GltfEdits{{}, {orphan}, {}});
+  ASSERT_FALSE(early.ok());
+  EXPECT_NE(early.error().message.find("'orphan': its parent must be added before it"), std::string::npos)
+      << early.error().message;
   std::filesystem::remove(out);
 }
 

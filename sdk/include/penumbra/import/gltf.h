@@ -67,13 +67,15 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
 // buffer and image URIs (relative ones resolve against out's folder: save next to the source, or
 // copy its external files), a .glb keeps its binary chunk byte for byte. `out` has the source's
 // extension; it is written atomically (core/file.h), so it may be `source` itself. extensionsUsed
-// lists PENUMBRA_lighting exactly when some node declares it. Errors: the source's own (NotFound,
+// lists PENUMBRA_lighting exactly when some node declares it. Removed nodes are unlinked from
+// their parents and the scenes (a file without scenes gets one listing its parentless nodes);
+// added nodes are appended, under their parent or in the default scene's root list, a light as a
+// new KHR_lights_punctual light (extensionsUsed then lists it). Errors: the source's own (NotFound,
 // InvalidInput, naming the file), InvalidArgument (another extension for out, a node index outside
-// the file, a light edit for a node without a light or of a rect light, a non-finite transform),
-// InvalidInput (a node, light or extensions entry that is not an object), Io.
-// Cost: linear in the file's size.
-Status save_gltf(const std::filesystem::path& source, const std::filesystem::path& out,
-                 std::span<const GltfNodeEdit> edits);
+// the file, an added node's parent added after it, a light edit for a node without a light or of a
+// rect light, a non-finite transform), InvalidInput (a node, scene, light or extensions entry that
+// is not an object), Io. Cost: linear in the file's size.
+Status save_gltf(const std::filesystem::path& source, const std::filesystem::path& out, const GltfEdits& edits);
 
 // What import_animations added.
 struct ImportedAnimations {

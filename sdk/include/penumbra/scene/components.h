@@ -243,6 +243,17 @@ struct GltfNode {
   std::uint32_t index = 0;
 };
 
+// On the root entity import_gltf makes for a file: the nodes it imported (those of the scene), so
+// that writing the World back can tell which of them were deleted since.
+struct GltfScene {
+  std::vector<std::uint32_t> nodes;
+};
+// On an entity made as a copy of glTF node `node` (an editor's duplicate): written back as a new
+// node with that node's mesh, skin and camera.
+struct GltfNodeCopy {
+  std::uint32_t node = 0;
+};
+
 // What save_gltf (import/gltf.h) changes in one node of the file; what is left empty is kept as read.
 struct GltfNodeEdit {
   std::uint32_t node = 0;              // index into the file's nodes
@@ -252,6 +263,27 @@ struct GltfNodeEdit {
   // with neither, the extension is removed.
   std::vector<AuthoredComponent> lighting;
   std::optional<Environment> environment;
+};
+
+// A node save_gltf adds: an entity the file does not have (created, or a copy of node copy_of).
+struct GltfNewNode {
+  std::string name;
+  std::optional<std::uint32_t> parent;        // a node of the file, or
+  std::optional<std::uint32_t> added_parent;  // an earlier entry of GltfEdits::added; neither: a root of the scene
+  std::optional<std::uint32_t> copy_of;       // a node of the file whose mesh, skin and camera it takes
+  Transform transform;
+  std::optional<Light> light;                 // a new KHR_lights_punctual light (not a Rect)
+  std::vector<AuthoredComponent> lighting;
+  std::optional<Environment> environment;
+};
+
+// Everything save_gltf writes: edits of the file's nodes, nodes to add, and nodes to take out of
+// the scene (unlinked from their parent and the scenes' root lists; they stay in the file's node
+// array, so no index in it changes).
+struct GltfEdits {
+  std::vector<GltfNodeEdit> nodes;
+  std::vector<GltfNewNode> added;
+  std::vector<std::uint32_t> removed;
 };
 
 }  // namespace penumbra
