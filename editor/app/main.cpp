@@ -119,12 +119,14 @@ struct ScriptedPointer {
 };
 
 // The gizmo's drag in progress (gizmo.h): the axis grabbed (-1: none), the mode, the entity, its
-// world position, local rotation and scale, the pointer and the handles' length when it was grabbed.
+// world position, local rotation and scale, the handles' directions (gizmo_axes), the pointer and
+// the handles' length when it was grabbed.
 struct GizmoDrag {
   int axis = -1;
   GizmoMode mode = GizmoMode::Move;
   Entity entity;
   glm::vec3 start{0.0f};
+  glm::mat3 axes{1.0f};
   glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};
   glm::vec3 scale{1.0f};
   glm::vec2 grab{0.0f};
@@ -152,11 +154,12 @@ bool gizmo_input(Document& doc, GizmoDrag& drag, GizmoMode mode, const CameraVie
   if (drag.axis < 0) {
     if (io.WantCaptureMouse || io.KeyCtrl || !ImGui::IsMouseClicked(ImGuiMouseButton_Left)) return false;
     const auto origin = gizmo_origin(world, doc.selection());
-    const auto handles = origin ? gizmo_handles(camera, *origin, size, mode) : std::nullopt;
+    const glm::mat3 axes = gizmo_axes(world, doc.selection(), mode);
+    const auto handles = origin ? gizmo_handles(camera, *origin, size, mode, axes) : std::nullopt;
     const int axis = handles ? pick_gizmo_axis(*handles, mouse) : -1;
     if (axis < 0) return false;
     const Transform& t = world.get<Transform>(doc.selection());
-    drag = GizmoDrag{axis, mode, doc.selection(), *origin, t.rotation, t.scale, mouse, handles->length};
+    drag = GizmoDrag{axis, mode, doc.selection(), *origin, axes, t.rotation, t.scale, mouse, handles->length};
     return true;
   }
   if (!world.alive(drag.entity) || !ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
@@ -164,8 +167,7 @@ bool gizmo_input(Document& doc, GizmoDrag& drag, GizmoMode mode, const CameraVie
     doc.undo().end_merge();
     return true;
   }
-  glm::vec3 axis(0.0f);
-  axis[drag.axis] = 1.0f;
+  const glm::vec3 axis = drag.axes[drag.axis];
   const glm::mat4 parent_world = parent_world_matrix(world, drag.entity);
   const char* field = "translation";
   FieldValue value;
@@ -341,7 +343,9 @@ int run(const Options& options) {
           const CameraView view = ui.camera.view(size.x / std::max(size.y, 1.0f));
           // Move and scale: from 60 % along the arrow, along it. Rotate: from the ring's point
           // farthest from the centre, across the screen (a turn about the centre).
-          const auto handles = origin ? gizmo_handles(view, *origin, size, ui.gizmo_mode) : std::nullopt;
+          const auto handles =
+              origin ? gizmo_handles(view, *origin, size, ui.gizmo_mode, gizmo_axes(doc.world(), doc.selection(), ui.gizmo_mode))
+                     : std::nullopt;
           const auto k = static_cast<std::size_t>(axis);
           std::optional<std::pair<glm::vec2, glm::vec2>> path;
           if (handles && ui.gizmo_mode != GizmoMode::Rotate && handles->tips[k]) {
@@ -379,7 +383,8 @@ int run(const Options& options) {
           draw_selection(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
           draw_lights(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
           if (const auto origin = gizmo_origin(doc.world(), doc.selection()))
-            draw_gizmo(ImGui::GetBackgroundDrawList(), camera, *origin, size, ui.gizmo_mode, gizmo.axis);
+            draw_gizmo(ImGui::GetBackgroundDrawList(), camera, *origin, size, ui.gizmo_mode,
+                       gizmo_axes(doc.world(), doc.selection(), ui.gizmo_mode), gizmo.axis);
           ViewContext view{doc.world(), doc.selection(), camera, size, ui.message};
           for (const EditorExtension& x : editor_extensions())
             if (x.draw_overlay) x.draw_overlay(view, ImGui::GetBackgroundDrawList());

@@ -59,8 +59,8 @@ void draw_selection(ImDrawList* dl, World& world, Entity selection, const Camera
 }
 
 void draw_gizmo(ImDrawList* dl, const CameraView& camera, glm::vec3 origin, glm::vec2 size, GizmoMode mode,
-                int active) {
-  const auto handles = gizmo_handles(camera, origin, size, mode);
+                const glm::mat3& axes, int active) {
+  const auto handles = gizmo_handles(camera, origin, size, mode, axes);
   if (!handles) return;
   const ImU32 colours[3] = {IM_COL32(230, 60, 60, 230), IM_COL32(80, 210, 80, 230), IM_COL32(70, 120, 255, 230)};
   for (int a = 0; a < 3; ++a) {

@@ -35,11 +35,11 @@ void draw_loop(ImDrawList* draw_list, const CameraView& camera, glm::vec2 size, 
 // The selection's highlight: the posed bounds of the meshes of its subtree as a white box (nothing
 // for an entity without meshes, e.g. a light: its icon turns white).
 void draw_selection(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
-// The gizmo at world point `origin` (gizmo.h): red, green and blue arrows along +X, +Y, +Z (Move:
-// round tips, Scale: square ones) or rings about them (Rotate), the one being dragged (`active`
-// axis, -1 none) brighter and thicker.
+// The gizmo at world point `origin` (gizmo.h): red, green and blue arrows along the columns of
+// `axes` (gizmo_axes; Move: round tips, Scale: square ones) or rings about them (Rotate), the one
+// being dragged (`active` axis, -1 none) brighter and thicker.
 void draw_gizmo(ImDrawList* draw_list, const CameraView& camera, glm::vec3 origin, glm::vec2 size, GizmoMode mode,
-                int active);
+                const glm::mat3& axes, int active);
 // Every light's icon (light_icons.h) in its colour, white when selected, with a dot at its marker.
 void draw_lights(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
 

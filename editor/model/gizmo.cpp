@@ -34,7 +34,7 @@ const char* to_string(GizmoMode mode) {
 }
 
 std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 origin, glm::vec2 size,
-                                          GizmoMode mode) {
+                                          GizmoMode mode, const glm::mat3& axes) {
   const auto o = project(camera, origin, size);
   if (!o) return std::nullopt;
   GizmoHandles h;
@@ -43,16 +43,12 @@ std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 or
   const glm::vec3 eye(glm::inverse(camera.view)[3]);
   h.length = std::max(0.2f * glm::distance(eye, origin), 1e-4f);
   for (int a = 0; a < 3; ++a) {
-    glm::vec3 axis(0.0f);
-    axis[a] = 1.0f;
     if (mode != GizmoMode::Rotate) {
-      h.tips[a] = project(camera, origin + h.length * axis, size);
+      h.tips[a] = project(camera, origin + h.length * axes[a], size);
       continue;
     }
     // The ring in the plane across the axis.
-    glm::vec3 u(0.0f), v(0.0f);
-    u[(a + 1) % 3] = 1.0f;
-    v[(a + 2) % 3] = 1.0f;
+    const glm::vec3 u = axes[(a + 1) % 3], v = axes[(a + 2) % 3];
     constexpr int kPoints = 48;
     for (int i = 0; i < kPoints; ++i) {
       const float t = 6.2831853f * float(i) / kPoints;
@@ -61,6 +57,18 @@ std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 or
     }
   }
   return h;
+}
+
+glm::mat3 gizmo_axes(const World& world, Entity e, GizmoMode mode) {
+  const WorldTransform* wt = world.try_get<WorldTransform>(e);
+  if (mode != GizmoMode::Scale || wt == nullptr) return glm::mat3(1.0f);
+  glm::mat3 axes(wt->matrix);
+  for (int a = 0; a < 3; ++a) {
+    const float length = glm::length(axes[a]);
+    if (!(length > 1e-12f) || !std::isfinite(length)) return glm::mat3(1.0f);
+    axes[a] /= length;
+  }
+  return axes;
 }
 
 int pick_gizmo_axis(const GizmoHandles& handles, glm::vec2 pointer, float reach) {

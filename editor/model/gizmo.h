@@ -1,7 +1,7 @@
 // The transform gizmo's math at the selection's position, which the pointer grabs and drags (the
-// app draws it and feeds the pointer; tests call these): in Move and Scale mode three arrows along
-// the world axes, in Rotate mode three rings about them. Scale multiplies the entity's own scale
-// of the same axis index (the same axis for an entity that is not rotated).
+// app draws it and feeds the pointer; tests call these): in Move mode three arrows along the world
+// axes, in Rotate mode three rings about them, in Scale mode three arrows along the entity's own
+// axes (gizmo_axes), each of which stretches the entity's scale of that axis.
 #pragma once
 
 #include <array>
@@ -9,6 +9,7 @@
 #include <optional>
 #include <vector>
 
+#include <glm/mat3x3.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -32,10 +33,15 @@ struct GizmoHandles {
 };
 
 // The handles at world point `origin` in a viewport of `size` pixels: arrows (rings) a fifth of
-// the distance to the camera long (wide), so they keep their size on screen. Nullopt when `origin`
-// is behind the camera. O(1) (48 points a ring).
+// the distance to the camera long (wide), so they keep their size on screen, along (about) the unit
+// columns of `axes`. Nullopt when `origin` is behind the camera. O(1) (48 points a ring).
 std::optional<GizmoHandles> gizmo_handles(const CameraView& camera, glm::vec3 origin, glm::vec2 size,
-                                          GizmoMode mode = GizmoMode::Move);
+                                          GizmoMode mode = GizmoMode::Move, const glm::mat3& axes = glm::mat3(1.0f));
+
+// The directions of `mode`'s handles for entity `e`, as unit columns: the world axes to move and
+// rotate along and about, the entity's own axes in the world (its WorldTransform's columns,
+// normalised) to scale along; the world axes when it has no WorldTransform or a degenerate one. O(1).
+glm::mat3 gizmo_axes(const World& world, Entity e, GizmoMode mode);
 
 // The axis (0 x, 1 y, 2 z) whose arrow (ring) passes within `reach` pixels of `pointer`, the
 // nearest; -1 for none. O(1).

@@ -3,6 +3,7 @@
 // the pixel of origin + 1.5 x moves by 1.5 along x, whatever else the pointer does across it).
 #include "gizmo.h"
 
+#include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
 
 #include "penumbra/ecs/transform.h"
@@ -82,6 +83,32 @@ TEST(Gizmo, RingsTurnRightHandedAndArrowsScale) {
               0.01f);
   const glm::vec2 back = *o - 3.0f * (*arrows->tips[0] - *o);
   EXPECT_EQ(scale_along_axis(camera, origin, glm::vec3(1, 0, 0), arrows->length, *o, back, kSize), 0.01f);
+}
+
+// Scale on a turned entity: its arrows run along its own axes, so a drag along the X arrow of an
+// entity turned a quarter about Y (its X is world -Z) goes along world -Z and scales its X.
+TEST(Gizmo, ScaleArrowsFollowTheEntitysOwnAxes) {
+  World world;
+  const Entity e = world.create();
+  Transform t;
+  t.rotation = glm::angleAxis(1.5707963f, glm::vec3(0, 1, 0));
+  t.scale = glm::vec3(2.0f, 1.0f, 1.0f);
+  world.add<Transform>(e, t);
+  update_world_transforms(world);
+  const glm::mat3 axes = gizmo_axes(world, e, GizmoMode::Scale);
+  EXPECT_NEAR(glm::distance(axes[0], glm::vec3(0, 0, -1)), 0.0f, 1e-6f);  // unit, though scaled by 2
+  EXPECT_NEAR(glm::distance(axes[2], glm::vec3(1, 0, 0)), 0.0f, 1e-6f);
+  EXPECT_EQ(gizmo_axes(world, e, GizmoMode::Move), glm::mat3(1.0f));
+  EXPECT_EQ(gizmo_axes(world, world.create(), GizmoMode::Scale), glm::mat3(1.0f));  // no WorldTransform
+
+  const glm::vec3 origin(0.0f);
+  const CameraView camera = look_at_view(glm::vec3(3.0f, 2.0f, 4.0f), origin, 0.8f, kSize.x / kSize.y, 0.05f, 100.0f);
+  const auto arrows = gizmo_handles(camera, origin, kSize, GizmoMode::Scale, axes);
+  ASSERT_TRUE(arrows && arrows->tips[0]);
+  EXPECT_NEAR(glm::distance(*arrows->tips[0], *screen(camera, origin + arrows->length * glm::vec3(0, 0, -1))), 0.0f,
+              1e-3f);
+  EXPECT_NEAR(scale_along_axis(camera, origin, axes[0], arrows->length, arrows->origin, *arrows->tips[0], kSize), 2.0f,
+              0.01f);
 }
 
 // The frame a drag edits a Transform in: the parent's world matrix, the identity for a root and
