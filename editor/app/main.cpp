@@ -292,10 +292,15 @@ int run(const Options& options) {
         const bool baking = model.bakes().running();
         if (model.poll()) {  // a bake ended: its outcome replaces "bake started"
           const BakeStatus& st = model.bakes().status();
-          char done[96];
-          std::snprintf(done, sizeof done, "bake done in %.2f s, %.1f KiB", st.seconds, double(st.bytes) / 1024.0);
+          char done[128];
+          if (st.estimate)
+            std::snprintf(done, sizeof done, "estimate done in %.2f s: the bake would take ~%.2f s", st.seconds,
+                          st.estimate->seconds());
+          else
+            std::snprintf(done, sizeof done, "bake done in %.2f s, %.1f KiB", st.seconds, double(st.bytes) / 1024.0);
+          const char* what = st.estimating ? "estimate " : "bake ";
           ui.message = st.state == BakeStatus::State::Done ? std::string(done)
-                                                           : "bake " + std::string(to_string(st.state)) + ": " + st.error;
+                                                           : what + std::string(to_string(st.state)) + ": " + st.error;
           std::printf("%s\n", ui.message.c_str());  // for scripted runs and logs
         }
         if (Status s = model.auto_bake_tick(glfwGetTime()); !s) ui.message = "auto-bake: " + s.error().message;

@@ -19,6 +19,7 @@
 #include "gizmo.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
+#include "penumbra/scene/entity_key.h"
 
 namespace penumbra::editor {
 
@@ -412,6 +413,11 @@ void bake_panel(EditorModel& model, UiState& ui) {
   if (ImGui::Button("Bake everything")) report(ui, model.bake({}), "bake started");
   ImGui::SameLine();
   if (ImGui::Button("Bake selection")) report(ui, model.bake_selection(), "bake started");
+  ImGui::SameLine();
+  if (ImGui::Button("Estimate")) report(ui, model.estimate(), "estimating the bake from samples of it");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("times a few samples of each component's bake at this preset and extrapolates: time and "
+                      "bytes per module and component, in a fraction of the bake's time");
   if (running) ImGui::EndDisabled();
   if (!running) ImGui::BeginDisabled();
   ImGui::SameLine();
@@ -427,7 +433,16 @@ void bake_panel(EditorModel& model, UiState& ui) {
     std::snprintf(overlay, sizeof overlay, "%zu/%d %s", i + 1, s.stage_count, s.stages[i].name.c_str());
     ImGui::ProgressBar(static_cast<float>(s.stages[i].fraction), ImVec2(-1, 0), overlay);
   }
-  if (s.state == BakeStatus::State::Done) {
+  const BakeEstimate* estimate = model.estimate_for(ui.input_hash);
+  if (estimate) {
+    ImGui::Text("estimate at %s: %.2f s", to_string(model.bake_settings.preset), estimate->seconds());
+    for (const BakeEstimate::Item& item : estimate->items)
+      ImGui::TextDisabled("%s: ~%.2f s, %s", item.baker.c_str(), item.seconds,
+                          item.bytes ? format_bytes(*item.bytes).c_str() : "bytes known after the bake");
+  } else if (s.state == BakeStatus::State::Done && s.estimating) {
+    ImGui::TextDisabled("the scene or the preset changed since the estimate: estimate again");
+  }
+  if (s.state == BakeStatus::State::Done && !s.estimating) {
     ImGui::Text("%s in %.2f s", format_bytes(s.bytes).c_str(), s.seconds);
     ImGui::TextDisabled("ray scene %.3f s, %zu triangles", s.report.ray_scene_seconds, s.report.triangles);
     for (const auto& item : s.report.items)
@@ -452,6 +467,18 @@ void bake_panel(EditorModel& model, UiState& ui) {
     ImGui::Text("%s  %s", state.module.c_str(), name.c_str());
     ImGui::Indent();
     bake_state_text(state);
+    // The estimate of this component's part of the bake (its groups: the entity key names them).
+    if (estimate && state.freshness != Freshness::UpToDate) {
+      const std::string key = state.entity ? entity_key(doc.world(), state.entity) : std::string();
+      double seconds = 0.0;
+      bool found = false;
+      for (const BakeEstimate::Group& g : estimate->groups)
+        if (g.baker == state.module && (!state.entity || g.name == key)) seconds += g.seconds, found = true;
+      if (found) {
+        ImGui::SameLine();
+        ImGui::TextDisabled("(baking it: ~%.2f s)", seconds);
+      }
+    }
     ImGui::Unindent();
     ImGui::PopID();
   }
@@ -669,6 +696,7 @@ void draw_panels(EditorModel& model, UiState& ui) {
   ui.add_preset = model.bake_settings.preset;  // an added component starts from the Bake panel's preset
   if (ImGui::GetTime() - ui.bake_states_time > 0.25 || ui.bake_states_document != &doc) {
     ui.bake_states = model.bake_states();
+    ui.input_hash = model.input_hash();
     ui.bake_states_time = ImGui::GetTime();
     ui.bake_states_document = &doc;
   }

@@ -79,6 +79,7 @@ struct UiState {
   // it hashes the scene.
   std::vector<BakeState> bake_states;
   double bake_states_time = -1.0;
+  std::uint64_t input_hash = 0;  // of a whole-scene bake now (EditorModel::input_hash), refreshed with them
   const Document* bake_states_document = nullptr;
   // A scene the menus asked to open. Opening replaces the Document, so the main loop does it
   // between frames (take_open_request), never while panels hold references into the old one.

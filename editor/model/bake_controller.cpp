@@ -151,11 +151,12 @@ Status BakeController::start(Document& doc, const BakeRequest& request) {
                       "with " + bakeable_components());
 
   std::shared_ptr<World> snap = snapshot(world, request.entities);
-  inputs_ = doc.bake_tracker().begin(world, request.bakers, request.entities, request.settings);
+  if (!request.estimate) inputs_ = doc.bake_tracker().begin(world, request.bakers, request.entities, request.settings);
   {
     std::lock_guard lock(mutex_);
     status_ = BakeStatus{};
     status_.state = BakeStatus::State::Running;
+    status_.estimating = request.estimate;
     finished_ = false;
   }
   cancel_ = std::make_unique<CancelToken>();
@@ -173,9 +174,16 @@ Status BakeController::start(Document& doc, const BakeRequest& request) {
       status_.stages[i].name = std::string(p.stage);
       status_.stages[i].fraction = p.fraction;
     }, cancel);
-    Result<BakeResult> outcome = bake_world(*snap, request.bakers, request.settings, jobs);
+    if (request.estimate) {
+      Result<BakeEstimate> estimate = estimate_bake(*snap, request.bakers, request.settings, jobs);
+      std::lock_guard lock(mutex_);
+      estimate_outcome_.emplace(std::move(estimate));
+    } else {
+      Result<BakeResult> outcome = bake_world(*snap, request.bakers, request.settings, jobs);
+      std::lock_guard lock(mutex_);
+      outcome_.emplace(std::move(outcome));
+    }
     std::lock_guard lock(mutex_);
-    outcome_.emplace(std::move(outcome));
     finished_ = true;
   });
   return {};
@@ -199,7 +207,7 @@ void BakeController::wait() { join(); }
 bool BakeController::poll(Document& doc) {
   {
     std::lock_guard lock(mutex_);
-    if (!finished_ || !outcome_) {
+    if (!finished_ || (!outcome_ && !estimate_outcome_)) {
       if (status_.state == BakeStatus::State::Running)
         status_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
       return false;
@@ -207,13 +215,23 @@ bool BakeController::poll(Document& doc) {
   }
   join();
   std::optional<Result<BakeResult>> outcome;
+  std::optional<Result<BakeEstimate>> estimate;
   {
     std::lock_guard lock(mutex_);
     outcome.swap(outcome_);
+    estimate.swap(estimate_outcome_);
   }
   BakeStatus next = status();
   next.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
-  if (!outcome->ok()) {
+  if (estimate) {
+    if (estimate->ok()) {
+      next.state = BakeStatus::State::Done;
+      next.estimate = std::move(estimate->value());
+    } else {
+      next.state = estimate->error().code == ErrorCode::Cancelled ? BakeStatus::State::Cancelled : BakeStatus::State::Failed;
+      next.error = estimate->error().message;
+    }
+  } else if (!outcome->ok()) {
     const Error& e = outcome->error();
     next.state = e.code == ErrorCode::Cancelled ? BakeStatus::State::Cancelled : BakeStatus::State::Failed;
     next.error = e.message;

@@ -1,5 +1,5 @@
-// Bakes in the background: the bake driver (bake_world, penumbra/bake/baker.h) runs on a worker
-// thread over a snapshot of the document's World, so the main thread keeps updating and drawing
+// Bakes in the background: the bake driver (bake_world, penumbra/bake/baker.h), or its estimate
+// (bake/estimate.h), runs on a worker thread over a snapshot of the document's World, so the main thread keeps updating and drawing
 // the live World; when the bake finishes, poll() (main thread) attaches the results to the
 // document and they show up in the next frame.
 //
@@ -21,6 +21,7 @@
 
 #include "document.h"
 #include "penumbra/bake/baker.h"
+#include "penumbra/bake/estimate.h"
 #include "penumbra/core/jobs.h"
 
 namespace penumbra::editor {
@@ -32,6 +33,8 @@ struct BakeRequest {
   BakeSettings settings;
   unsigned threads = 0;        // worker pool size; 0: one per hardware thread
   bool low_priority = true;    // nice the bake threads so the UI thread wins the CPU
+  // Estimate the bake instead (bake/estimate.h): BakeStatus::estimate has it; nothing is attached.
+  bool estimate = false;
 };
 
 // The authoring components a selection bake can bake (their type names joined by " or "), for messages.
@@ -53,6 +56,8 @@ struct BakeStatus {
   double seconds = 0.0;           // wall time so far / of the finished bake
   std::uint64_t bytes = 0;        // bytes of the chunks (when done)
   BakeReport report;              // per baker time, bytes and description (when done)
+  bool estimating = false;        // the request was an estimate
+  std::optional<BakeEstimate> estimate;  // an estimate's result (when done)
   std::string error;              // Failed / Cancelled, or the attach error
 };
 const char* to_string(BakeStatus::State state);
@@ -89,6 +94,7 @@ class BakeController {
   std::thread worker_;
   std::unique_ptr<CancelToken> cancel_;
   std::optional<Result<BakeResult>> outcome_;  // written by the worker, taken by poll()
+  std::optional<Result<BakeEstimate>> estimate_outcome_;  // likewise, for an estimate
   BakeTracker::Records inputs_;  // what the running bake read (main thread), kept when it is done
   const Document* document_ = nullptr;
   bool finished_ = false;  // the worker has stored its outcome

@@ -63,6 +63,44 @@ TEST(BakeController, BakesInTheBackgroundAndAttachesOnPoll) {
   EXPECT_FALSE(model.poll());  // collected once
 }
 
+// An estimate runs in the background like a bake, attaches nothing, and holds while the scene and
+// preset it estimated stay: the probe grid's bytes are those of the bake that follows, and each
+// component's groups are named by its entity key.
+TEST(BakeController, EstimatesInTheBackgroundWithoutAttaching) {
+  EditorModel model;
+  ASSERT_TRUE(model.open("builtin:courtyard", Preset::Draft).ok());
+  Document& doc = *model.document();
+  const Entity grid = *doc.find("probe grid");
+  ASSERT_TRUE(model.estimate().ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  const BakeStatus status = model.bakes().status();
+  ASSERT_EQ(status.state, BakeStatus::State::Done) << status.error;
+  EXPECT_TRUE(status.estimating);
+  EXPECT_EQ(doc.world().get<IrradianceProbeGrid>(grid).data, nullptr);
+  EXPECT_FALSE(doc.has_bake());
+  const BakeEstimate* estimate = model.estimate_for(model.input_hash());
+  ASSERT_NE(estimate, nullptr);
+  std::optional<std::uint64_t> grid_bytes;
+  for (const BakeEstimate::Item& item : estimate->items)
+    if (item.baker == "probe-grid") grid_bytes = item.bytes;
+  ASSERT_TRUE(grid_bytes);
+  bool named = false;
+  for (const BakeEstimate::Group& g : estimate->groups) named = named || g.name == entity_key(doc.world(), grid);
+  EXPECT_TRUE(named);
+  // Another preset, or an edit of the scene: the estimate no longer holds.
+  model.bake_settings.preset = Preset::High;
+  EXPECT_EQ(model.estimate_for(model.input_hash()), nullptr);
+  model.bake_settings.preset = Preset::Draft;
+  ASSERT_NE(model.estimate_for(model.input_hash()), nullptr);
+  ASSERT_TRUE(model.bake({"probe-grid"}).ok());
+  model.bakes().wait();
+  ASSERT_TRUE(model.poll());
+  EXPECT_EQ(model.bakes().status().bytes, *grid_bytes);
+  doc.world().patch<Light>(*doc.find("sun")).intensity *= 2.0f;
+  EXPECT_EQ(model.estimate_for(model.input_hash()), nullptr);
+}
+
 TEST(BakeController, MatchesAForegroundBakeBitForBit) {
   EditorModel model;
   ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());

@@ -12,6 +12,7 @@ Status EditorModel::open(std::string_view source, Preset preset) {
   bakes_.wait();
   if (document_) bakes_.poll(*document_);  // collect (and drop) the cancelled bake's outcome
   document_ = std::move(*doc);
+  estimate_.reset();
   bake_settings.preset = preset;  // the next bake at the preset the scene's components start from
   return {};
 }
@@ -39,7 +40,29 @@ Status EditorModel::bake_selection() {
   return bakes_.start(*document_, request);
 }
 
-bool EditorModel::poll() { return document_ && bakes_.poll(*document_); }
+Status EditorModel::estimate() {
+  if (!document_) return make_error(ErrorCode::InvalidArgument, "estimate: no scene is open; open one first");
+  BakeRequest request;
+  request.settings = bake_settings;
+  request.threads = bake_threads;
+  request.estimate = true;
+  pending_estimate_hash_ = input_hash();
+  return bakes_.start(*document_, request);
+}
+
+std::uint64_t EditorModel::input_hash() {
+  return document_ ? bake_input_hash(document_->world(), {}, bake_settings) : 0;
+}
+
+bool EditorModel::poll() {
+  if (!document_ || !bakes_.poll(*document_)) return false;
+  const BakeStatus status = bakes_.status();
+  if (status.estimate) {
+    estimate_ = status.estimate;
+    estimate_hash_ = pending_estimate_hash_;
+  }
+  return true;
+}
 
 Status EditorModel::auto_bake_tick(double now) {
   if (!auto_bake || !document_) {

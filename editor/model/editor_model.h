@@ -4,6 +4,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -25,6 +26,18 @@ class EditorModel {
   Status bake(std::vector<std::string> bakers);
   // Starts a background bake of the selected entity's lighting components only.
   Status bake_selection();
+  // Starts a background estimate (bake/estimate.h) of baking the whole scene with bake_settings:
+  // time and bytes per module and per component, from samples of the bake, in a fraction of its
+  // time. InvalidArgument while a bake runs.
+  Status estimate();
+  // The latest finished estimate, while the scene and settings it estimated are unchanged
+  // (its bake input hash equals `current_input_hash`); nullptr otherwise.
+  const BakeEstimate* estimate_for(std::uint64_t current_input_hash) const {
+    return estimate_ && estimate_hash_ == current_input_hash ? &*estimate_ : nullptr;
+  }
+  // The input hash a whole-scene bake with bake_settings would have now. Cost: hashes the scene.
+  std::uint64_t input_hash();
+
   // Once per frame: attaches a finished bake's results. True when one finished in this call.
   bool poll();
   // The bake state of each lighting component of the document (bake_state.h) against the next
@@ -49,6 +62,8 @@ class EditorModel {
  private:
   std::unique_ptr<Document> document_;
   BakeController bakes_;
+  std::optional<BakeEstimate> estimate_;
+  std::uint64_t estimate_hash_ = 0, pending_estimate_hash_ = 0;
   // Auto-bake: the stale components' signature, since when it has been the same, when the states
   // were last read, and the signature of the last bake that failed.
   std::string auto_signature_, auto_failed_;

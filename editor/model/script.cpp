@@ -85,6 +85,9 @@ std::string check_action(const ScriptAction& a) {
     if (n != 2) return "'" + v + "' takes an entity and a lighting component, e.g. " + v + " crate AOFieldCaster";
     if (find_authored_component(a.args[1]) == nullptr)
       return "'" + v + "': no lighting component '" + a.args[1] + "' can be added; use " + authored_component_names();
+  } else if (v == "estimate") {
+    if (n > 1 || (n == 1 && !preset_ok(a.args[0])))
+      return "'estimate' takes an optional preset (draft, medium, high); 'wait' then waits for it";
   } else if (v == "create") {
     if (n < 2 || n > 3 ||
         std::find(std::begin(Document::kEntityKinds), std::end(Document::kEntityKinds), a.args[0]) ==
@@ -145,8 +148,8 @@ std::string check_action(const ScriptAction& a) {
       return "'quit' takes an optional exit code from 0 to 255";
   } else {
     return "unknown action '" + v +
-           "'; actions: open, open-bake, save-bake, save-edits, save-gltf, select, set, add, remove, preset, undo, redo, "
-           "bake, cancel, wait, auto-bake, expect-bake, "
+           "'; actions: open, open-bake, save-bake, save-edits, save-gltf, select, set, add, remove, create, duplicate, "
+           "delete, preset, undo, redo, bake, estimate, cancel, wait, auto-bake, expect-bake, "
            "frames, screenshot, orbit, view, ui, click, drag-gizmo, reset-stats, gizmo, quit";
   }
   return {};
@@ -308,6 +311,10 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
     if (args[0] == "selection") return model.bake_selection();
     return model.bake(args[0] == "all" ? std::vector<std::string>{} : split_commas(args[0]));
   }
+  if (a.verb == "estimate") {
+    if (args.size() == 1) model.bake_settings.preset = *parse_preset(args[0]);
+    return model.estimate();
+  }
   if (a.verb == "cancel") {
     model.bakes().cancel();
     return {};
@@ -349,7 +356,8 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
     }
     const BakeStatus status = model.bakes().status();
     if (status.state == BakeStatus::State::Failed)
-      return make_error(ErrorCode::InvalidInput, "the bake failed: " + status.error);
+      return make_error(ErrorCode::InvalidInput, std::string(status.estimating ? "the estimate" : "the bake") +
+                                                     " failed: " + status.error);
     return {};
   }
   return make_error(ErrorCode::Internal, "unhandled action '" + a.verb + "'");

@@ -9,6 +9,7 @@
 #include "cli.h"
 #include "penumbra/runtime.h"
 #include "penumbra/bake/baker.h"
+#include "penumbra/bake/estimate.h"
 #include "penumbra/bake/shard.h"
 #include "penumbra/bakers.h"
 #include "penumbra/core/pbake.h"
@@ -37,11 +38,45 @@ std::string hex64(std::uint64_t v) {
   return buf;
 }
 
+// penumbra bake SCENE --estimate: what the bake would take, from measured samples of it
+// (bake/estimate.h), without writing anything.
+int estimate(const std::string& scene, const std::vector<std::string>& names, const BakeSettings& settings,
+             const std::vector<std::string>& pose_files, unsigned threads) {
+  World world;
+  if (Status s = load_world(world, scene, settings.preset); !s) return fail(kFailure, s.error().message);
+  for (const std::string& f : pose_files)
+    if (auto added = import_animations(world, f); !added) return fail(kFailure, "--poses: " + added.error().message);
+  ThreadPool pool(threads);
+  std::signal(SIGINT, on_interrupt);
+  JobContext jobs(&pool, terminal_progress(), &g_cancel);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto e = estimate_bake(world, names, settings, jobs);
+  std::signal(SIGINT, SIG_DFL);
+  if (!e) return fail(kFailure, scene + ": " + e.error().message);
+  if (std::all_of(e->groups.begin(), e->groups.end(), [](const BakeEstimate::Group& g) { return g.elements == 0; }))
+    return fail(kFailure, scene + ": nothing to bake, so nothing to estimate (no baker planned any work)");
+  const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("estimate of baking %s (preset %s, %u threads), from samples of the bake itself:\n", scene.c_str(),
+              to_string(settings.preset), pool.concurrency());
+  std::printf("  ray scene     %8.3f s\n", e->ray_scene_seconds);
+  for (const BakeEstimate::Item& item : e->items) {
+    std::uint64_t elements = 0, sampled = 0;
+    for (const BakeEstimate::Group& g : e->groups)
+      if (g.baker == item.baker) elements += g.elements, sampled += g.sampled;
+    std::printf("  %-12s  %8.3f s  %10s  (%llu of %llu elements run)\n", item.baker.c_str(), item.seconds,
+                item.bytes ? format_bytes(*item.bytes).c_str() : "after bake", static_cast<unsigned long long>(sampled),
+                static_cast<unsigned long long>(elements));
+  }
+  std::printf("  total         %8.3f s  (the estimate took %.3f s)\n", e->seconds(), spent);
+  return kSuccess;
+}
+
 }  // namespace
 
 int cmd_bake(Args args) {
   const bool list = args.take_flag("--list");
   const bool force = args.take_flag("--force");
+  const bool estimate_only = args.take_flag("--estimate");
   const auto out = args.take("-o");
   const auto only = args.take("--only");
   const auto preset = args.take("--preset");
@@ -68,7 +103,8 @@ int cmd_bake(Args args) {
   }
   if (args.rest().size() != 1 || args.rest()[0].starts_with("-"))
     return fail(kUsage, "bake takes one SCENE (a glTF file or builtin:NAME) and -o FILE.pbake");
-  if (!out) return fail(kUsage, "bake needs -o FILE.pbake");
+  if (!out && !estimate_only) return fail(kUsage, "bake needs -o FILE.pbake (or --estimate, to only estimate it)");
+  if (estimate_only && shard) return fail(kUsage, "--estimate estimates the whole bake; leave out --shard");
 
   BakeSettings settings;
   if (preset) {
@@ -86,6 +122,7 @@ int cmd_bake(Args args) {
   const std::vector<std::string> names = only ? split_list(*only) : std::vector<std::string>{};
 
   const std::string& scene = args.rest()[0];
+  if (estimate_only) return estimate(scene, names, settings, pose_files, *thread_count);
   // What -o may replace: never the scene being read; an existing file only when it is a .pbake
   // (or with --force); a symbolic link is written through (its target replaced, the link kept).
   std::filesystem::path out_path = *out;

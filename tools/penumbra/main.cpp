@@ -24,6 +24,10 @@ Commands:
       --shard I/N bakes only shard I (from 0) of N into a part file for 'penumbra merge': the work
       items (blocks of probe nodes, AO-field texels, poses, vertices) that a balanced, deterministic
       assignment gives it; an up-to-date part is not baked again.
+  bake SCENE --estimate [--only LIST] [--preset P] [--threads N] [--poses ...]
+      Print what that bake would take per baker, time and bytes, from a few timed samples of the
+      bake itself (a few ranges of each group's elements, then the global step on their results)
+      in a fraction of its time; writes nothing.
   merge PART.pbake... -o FILE.pbake [--threads N] [--force]
       Merge the parts of a sharded bake into FILE.pbake, byte-identical to a single-machine bake of
       the same scene and settings; runs the global steps (the probe grid's fill and fit, the
