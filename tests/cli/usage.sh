@@ -6,6 +6,11 @@ expect_exit 2 "$PENUMBRA" frobnicate;          expect_output "unknown command 'f
 expect_exit 2 "$PENUMBRA" bake builtin:cornell; expect_output "needs -o"
 expect_exit 2 "$PENUMBRA" bake builtin:cornell -o "$scratch/a.pbake" --threads lots; expect_output "non-negative integer"
 expect_exit 2 "$PENUMBRA" bake builtin:cornell -o "$scratch/a.pbake" --preset ultra; expect_output "ultra"
+expect_exit 2 "$PENUMBRA" bake builtin:cornell --estimate --shard 0/2; expect_output "leave out --shard"
+# An estimate writes nothing and names each baker; one of a scene with nothing to bake fails.
+expect_exit 0 "$PENUMBRA" bake builtin:cornell --estimate --preset draft --only vertex-ao,probe-grid
+expect_output "estimate of baking builtin:cornell"; expect_output "probe-grid"; expect_output "elements run"
+expect_exit 1 "$PENUMBRA" bake builtin:furnace --estimate --preset draft --only pose-ao; expect_output "nothing to bake"
 expect_exit 2 "$PENUMBRA" bench;               expect_output "one benchmark name"
 expect_exit 2 "$PENUMBRA" bench nosuch;        expect_output "no benchmark named 'nosuch'"
 expect_exit 0 "$PENUMBRA" bench --list;        expect_output "ecs"; expect_output "rays"; expect_output "probe-grid"; expect_output "ao-field"
