@@ -98,6 +98,22 @@ Result<Entity> Document::duplicate(Entity e) {
 
 Status Document::delete_entity(Entity e) {
   if (!world_.alive(e)) return make_error(ErrorCode::InvalidArgument, "delete: the entity no longer exists; select another");
+  // A skin needs every joint: a joint goes only with the meshes it deforms.
+  const std::vector<Entity> doomed = subtree_of(world_, e);
+  const auto in_subtree = [&](Entity x) { return std::find(doomed.begin(), doomed.end(), x) != doomed.end(); };
+  Status refused;
+  world_.each<Skin>([&](Entity mesh, Skin& skin) {
+    if (!refused.ok() || in_subtree(mesh)) return;
+    for (Entity joint : skin.joints)
+      if (in_subtree(joint)) {
+        std::string message = "delete: '";
+        message += label(joint) + "' is a joint of the skin of '" + label(mesh) +
+                   "', which needs every joint; delete the character (the entity above both) instead";
+        refused = make_error(ErrorCode::InvalidArgument, message);
+        return;
+      }
+  });
+  PENUMBRA_TRY(refused);
   PENUMBRA_TRY(undo_.delete_subtree(world_, e));
   if (!world_.alive(selection_)) selection_ = Entity::null();
   return {};

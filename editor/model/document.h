@@ -51,7 +51,7 @@ class Document {
   // InvalidArgument for a stale handle.
   Result<Entity> duplicate(Entity e);
   // Deletes `e` and everything below it (the selection is cleared when it was among them).
-  // InvalidArgument for a stale handle.
+  // InvalidArgument for a stale handle, or a joint of a skin whose mesh is not among them.
   Status delete_entity(Entity e);
 
   Entity selection() const { return selection_; }

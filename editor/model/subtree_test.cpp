@@ -229,11 +229,21 @@ TEST(Subtree, SkinsAndClipsFollowCopiedAndRestoredJoints) {
   });
   EXPECT_GE(copied_skins, 1);
 
-  // Delete the first joint's subtree (the whole skeleton), undo: skins and clips name live joints.
+  // A joint alone is refused (the skin needs it), naming it and the mesh.
   const Entity joint = w.get<Skin>(skinned).joints.front();
-  ASSERT_TRUE(doc->delete_entity(joint).ok());
+  const Status refused = doc->delete_entity(joint);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("is a joint of the skin of"), std::string::npos) << refused.error().message;
+  // The character's node with its skeleton and meshes, then undo: skins and clips name live joints.
+  const std::size_t skins = w.view<Skin>().count();
+  ASSERT_TRUE(doc->delete_entity(root).ok());
+  EXPECT_LT(w.view<Skin>().count(), skins);
   ASSERT_TRUE(doc->undo_edit());
-  for (Entity j : w.get<Skin>(skinned).joints) EXPECT_TRUE(w.alive(j));
+  EXPECT_FALSE(w.alive(skinned));  // back under a new handle
+  EXPECT_EQ(w.view<Skin>().count(), skins);
+  w.each<Skin>([&](Entity, Skin& s) {
+    for (Entity j : s.joints) EXPECT_TRUE(w.alive(j));
+  });
   w.each<Animator>([&](Entity, Animator& a) {
     for (const AnimationClip& c : *a.clips)
       for (Entity t : c.targets) EXPECT_TRUE(w.alive(t));

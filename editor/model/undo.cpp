@@ -146,7 +146,8 @@ void UndoStack::created(Entity root, std::string label) {
 Status UndoStack::delete_subtree(World& world, Entity root) {
   if (!world.alive(root))
     return make_error(ErrorCode::InvalidArgument, "delete: the entity no longer exists; select another");
-  Edit edit{root, "delete", {}};
+  const Name* name = world.try_get<Name>(root);
+  Edit edit{root, "delete '" + (name ? name->value : "#" + std::to_string(root.index)) + "'", {}};
   edit.subtree = Edit::Subtree::Deleted;
   take_out_subtree(world, edit);
   push(std::move(edit));
@@ -217,6 +218,7 @@ void UndoStack::clear() {
   entries_.clear();
   position_ = 0;
   merging_ = false;
+  restored_ = Entity::null();
 }
 
 }  // namespace penumbra::editor

@@ -53,7 +53,8 @@ std::vector<AuthoredComponent> authored_components(const World& world, Entity no
 // primitives (an entity with a Mesh and neither GltfNode nor GltfNodeCopy): created ones, and
 // copies (GltfNodeCopy), which take their node's mesh. Entities outside the file's root (a
 // viewer's default light) are not written. InvalidArgument, naming the entity, for what a glTF
-// cannot hold: a node with two copies of one mesh primitive (duplicate the node instead).
+// cannot hold: a node with two copies of one mesh primitive (duplicate the node instead), a skin
+// one of whose joints was deleted.
 // Cost: O(entities).
 Result<GltfEdits> gltf_edits(World& world);
 

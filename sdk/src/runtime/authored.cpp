@@ -146,12 +146,22 @@ Result<GltfEdits> gltf_edits(World& world) {
           for (Entity m : meshes)
             if (world.get<Mesh>(m).data == world.get<Mesh>(k).data)
               return make_error(ErrorCode::InvalidArgument,
-                                "'" + entity_key(world, k) + "': a second copy of a mesh primitive of its node, which a glTF "
-                                "node cannot hold; delete it and duplicate the node instead");
+                                entity_key(world, k) + ": a second copy of a mesh primitive of its node, which a glTF "
+                                                       "node cannot hold; delete it and duplicate the node instead");
           meshes.push_back(k);
         }
     return meshes;
   };
+  // A glTF skin names every joint by node: one deleted leaves the file's skin without it.
+  Status broken;
+  world.each<Skin>([&](Entity mesh, Skin& skin) {
+    for (Entity joint : skin.joints)
+      if (broken.ok() && !world.alive(joint))
+        broken = make_error(ErrorCode::InvalidArgument,
+                            entity_key(world, mesh) + ": a joint of its skin was deleted, and a glTF skin needs "
+                                                      "every joint; bring the joint back or delete the mesh too");
+  });
+  PENUMBRA_TRY(broken);
   GltfEdits edits;
   std::set<std::uint32_t> present;
   Status failed;

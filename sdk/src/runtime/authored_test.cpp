@@ -280,6 +280,14 @@ TEST(AuthoredLighting, NewAndDeletedEntitiesSaveAsAddedAndRemovedNodes) {
   const auto refused = gltf_edits(world);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.error().message.find("twin"), std::string::npos) << refused.error().message;
+
+  // A skin whose joint was deleted has no glTF form either (the file's skin names every joint).
+  World armature = imported(kCases / "scaled_armature.gltf");
+  destroy_hierarchy(armature, named(armature, "head"));
+  const auto jointless = gltf_edits(armature);
+  ASSERT_FALSE(jointless.ok());
+  EXPECT_NE(jointless.error().message.find("a joint of its skin was deleted"), std::string::npos)
+      << jointless.error().message;
   std::filesystem::remove(out);
   std::filesystem::remove(again);
 }
