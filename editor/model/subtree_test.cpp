@@ -228,6 +228,27 @@ TEST(Subtree, SkinsAndClipsFollowCopiedAndRestoredJoints) {
     }
   });
   EXPECT_GE(copied_skins, 1);
+  // Saved and reopened: the copy's skin is over the copy's joints (a new skin in the file), so it
+  // stands where it was moved to, not on the original's skeleton.
+  ASSERT_TRUE(doc->undo().set(w, *copy, *find_field("Transform", "translation"), FieldValue(glm::vec3(2, 0, 0))).ok());
+  const auto out = std::filesystem::temp_directory_path() / ("penumbra_cesium_" + std::to_string(::getpid()) + ".glb");
+  ASSERT_TRUE(doc->save_gltf(out).ok());
+  {
+    auto reopened = open(out.string());
+    ASSERT_TRUE(reopened);
+    World& r = reopened->world();
+    const Entity copy_root = *reopened->find(w.get<Name>(*copy).value);
+    std::set<std::uint32_t> below;
+    for (Entity e : subtree_of(r, copy_root)) below.insert(e.index);
+    int skins_below = 0;
+    r.each<Skin>([&](Entity e, Skin& s) {
+      const bool mine = below.contains(e.index);
+      skins_below += mine ? 1 : 0;
+      for (Entity j : s.joints) EXPECT_EQ(below.contains(j.index), mine);
+    });
+    EXPECT_GE(skins_below, 1);
+  }
+  std::filesystem::remove(out);
 
   // A joint alone is refused (the skin needs it), naming it and the mesh.
   const Entity joint = w.get<Skin>(skinned).joints.front();

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -276,6 +277,43 @@ Status add_and_remove_nodes(nlohmann::ordered_json& j, const std::string& file, 
     edit.lighting = a.lighting;
     edit.environment = a.environment;
     PENUMBRA_TRY(write_node(j, j["nodes"][index], where, edit));
+  }
+
+  // A copy's skin: when every joint of its node's skin was copied along with it (the same tree of
+  // added nodes), a new skin over those copies (the same inverse bind matrices); else it keeps the
+  // original skin, and so the original skeleton.
+  std::vector<std::size_t> tree(edits.added.size());  // each added node's top-most added ancestor
+  std::map<std::pair<std::size_t, std::uint64_t>, std::size_t> copies;  // (tree, node copied) -> new index
+  for (std::size_t i = 0; i < edits.added.size(); ++i) {
+    const GltfNewNode& a = edits.added[i];
+    tree[i] = a.added_parent ? tree[*a.added_parent] : i;
+    if (a.copy_of) copies[{tree[i], *a.copy_of}] = count + i;
+  }
+  for (std::size_t i = 0; i < edits.added.size(); ++i) {
+    const nlohmann::ordered_json& node = j["nodes"][count + i];
+    if (!node.contains("skin") || !node["skin"].is_number_unsigned() || !j.contains("skins") || !j["skins"].is_array() ||
+        node["skin"].get<std::uint64_t>() >= j["skins"].size())
+      continue;
+    nlohmann::ordered_json skin = j["skins"][node["skin"].get<std::size_t>()];
+    if (!skin.is_object() || !skin.contains("joints") || !skin["joints"].is_array()) continue;
+    bool all = true;
+    for (nlohmann::ordered_json& joint : skin["joints"]) {
+      const auto copy = joint.is_number_unsigned() ? copies.find({tree[i], joint.get<std::uint64_t>()}) : copies.end();
+      if (copy == copies.end()) {
+        all = false;
+        break;
+      }
+      joint = copy->second;
+    }
+    if (!all) continue;
+    if (skin.contains("skeleton")) {
+      const auto root = skin["skeleton"].is_number_unsigned() ? copies.find({tree[i], skin["skeleton"].get<std::uint64_t>()})
+                                                               : copies.end();
+      if (root != copies.end()) skin["skeleton"] = root->second;
+      else skin.erase("skeleton");
+    }
+    j["skins"].push_back(std::move(skin));
+    j["nodes"][count + i]["skin"] = j["skins"].size() - 1;
   }
   return {};
 }
