@@ -4,7 +4,7 @@
 // Invariants: an import succeeds with valid meshes, or fails with an error that starts with the
 // file's path and leaves no entity behind; applying the declarations succeeds or fails naming the
 // file; a file that imported saves (or fails with an error, never a crash) and what it saves
-// imports again; read as an animation file for a small character (import_animations), it adds
+// imports again, also with a node added, one copied and one deleted; read as an animation file for a small character (import_animations), it adds
 // clips whose targets and channels all lie in that character, or fails naming the file.
 #include "fuzz/fuzz.h"
 #include "penumbra/import/gltf.h"
@@ -35,6 +35,35 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       World again;
       auto reimported = import_gltf(again, saved, options);
       fuzz::require(reimported.ok(), "a saved file that does not import again");
+    }
+    // Then as an editor leaves it: a light added under the file's root, a copy of the first node
+    // beside it, the last leaf node that is no joint deleted. Saved, it imports again.
+    Entity last;
+    world.each<GltfNode>([&](Entity e, GltfNode&) {
+      bool joint = false;
+      world.each<Skin>([&](Entity, Skin& skin) {
+        for (Entity j : skin.joints) joint = joint || j == e;
+      });
+      if (!joint && !world.has<Children>(e)) last = e;
+    });
+    if (last) destroy_hierarchy(world, last);
+    const Entity light = world.create();
+    world.add<Name>(light, Name{"fuzz light"});
+    world.add<Transform>(light);
+    world.add<Light>(light);
+    set_parent(world, light, imported->root);
+    world.each<GltfNode>([&](Entity e, GltfNode& n) {
+      if (n.index != 0 || world.has<Skin>(e)) return;
+      const Entity copy = world.create();
+      world.add<Transform>(copy, world.get<Transform>(e));
+      world.add<GltfNodeCopy>(copy, GltfNodeCopy{n.index});
+      world.add<Name>(copy, Name{"fuzz copy"});
+      set_parent(world, copy, imported->root);
+    });
+    if (auto edits = gltf_edits(world); edits && save_gltf(path, saved, *edits)) {
+      World again;
+      auto reimported = import_gltf(again, saved, options);
+      fuzz::require(reimported.ok(), "a saved file with added and removed nodes that does not import again");
     }
     std::error_code ec;
     std::filesystem::remove(saved, ec);

@@ -747,9 +747,15 @@ Status Importer::read_lighting_extension(std::size_t ni, const nlohmann::json& e
 }
 
 Status Importer::load_skins() {
-  // Joint entities exist by now; inverse bind matrices default to identity.
+  // Joint entities exist by now; inverse bind matrices default to identity. Only the skins of the
+  // scene's nodes: one that no node there uses (its character left out of the scene) is not read.
   skins_.resize(model_.skins.size());
+  std::vector<bool> used(model_.skins.size(), false);
+  for (std::size_t i = 0; i < model_.nodes.size(); ++i)
+    if (out_.nodes[i] && model_.nodes[i].skin >= 0 && static_cast<std::size_t>(model_.nodes[i].skin) < used.size())
+      used[static_cast<std::size_t>(model_.nodes[i].skin)] = true;
   for (std::size_t s = 0; s < model_.skins.size(); ++s) {
+    if (!used[s]) continue;
     const tinygltf::Skin& src = model_.skins[s];
     const std::string where = element("skins", s);
     Skin& dst = skins_[s];
@@ -797,10 +803,12 @@ Status Importer::load_animations() {
         warn(cwhere, "target path '" + ch.target_path + "' (morph weights) is not supported; channel skipped");
         continue;
       }
-      if (ch.target_node < 0 || static_cast<std::size_t>(ch.target_node) >= model_.nodes.size() ||
-          !out_.nodes[static_cast<std::size_t>(ch.target_node)])
-        return fail(ErrorCode::InvalidInput, cwhere, "target node " + std::to_string(ch.target_node) +
-                                                         " does not exist or is not in the scene");
+      if (ch.target_node < 0 || static_cast<std::size_t>(ch.target_node) >= model_.nodes.size())
+        return fail(ErrorCode::InvalidInput, cwhere, "target node " + std::to_string(ch.target_node) + " does not exist");
+      if (!out_.nodes[static_cast<std::size_t>(ch.target_node)]) {  // a valid node the scene leaves out
+        warn(cwhere, "target node " + std::to_string(ch.target_node) + " is not in the scene; channel skipped");
+        continue;
+      }
       if (ch.sampler < 0 || static_cast<std::size_t>(ch.sampler) >= src.samplers.size())
         return fail(ErrorCode::InvalidInput, cwhere, "sampler " + std::to_string(ch.sampler) + " does not exist");
       const tinygltf::AnimationSampler& sampler = src.samplers[static_cast<std::size_t>(ch.sampler)];

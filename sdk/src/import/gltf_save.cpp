@@ -236,16 +236,23 @@ Status add_and_remove_nodes(nlohmann::ordered_json& j, const std::string& file, 
         if (from.contains(key)) node[key] = from[key];
     }
     if (a.light) {
+      // The file's lights list, made where absent; refused where the file has another shape.
       nlohmann::ordered_json& ext = j["extensions"];
-      if (!ext.is_object()) ext = nlohmann::ordered_json::object();
+      if (ext.is_null()) ext = nlohmann::ordered_json::object();
+      if (!ext.is_object()) return make_error(ErrorCode::InvalidInput, file + ": extensions is not an object");
       nlohmann::ordered_json& punctual = ext["KHR_lights_punctual"];
-      if (!punctual.is_object()) punctual = nlohmann::ordered_json::object();
+      if (punctual.is_null()) punctual = nlohmann::ordered_json::object();
+      if (!punctual.is_object())
+        return make_error(ErrorCode::InvalidInput, file + ": extensions.KHR_lights_punctual is not an object");
       nlohmann::ordered_json& lights = punctual["lights"];
-      if (!lights.is_array()) lights = nlohmann::ordered_json::array();
+      if (lights.is_null()) lights = nlohmann::ordered_json::array();
+      if (!lights.is_array())
+        return make_error(ErrorCode::InvalidInput, file + ": extensions.KHR_lights_punctual.lights is not an array");
       lights.push_back({{"type", "point"}});
       node["extensions"]["KHR_lights_punctual"] = {{"light", lights.size() - 1}};
       nlohmann::ordered_json& used = j["extensionsUsed"];
-      if (!used.is_array()) used = nlohmann::ordered_json::array();
+      if (used.is_null()) used = nlohmann::ordered_json::array();
+      if (!used.is_array()) return make_error(ErrorCode::InvalidInput, file + ": extensionsUsed is not an array");
       if (std::find(used.begin(), used.end(), "KHR_lights_punctual") == used.end()) used.push_back("KHR_lights_punctual");
     }
     nlohmann::ordered_json* parent = nullptr;
@@ -314,6 +321,40 @@ Status add_and_remove_nodes(nlohmann::ordered_json& j, const std::string& file, 
     }
     j["skins"].push_back(std::move(skin));
     j["nodes"][count + i]["skin"] = j["skins"].size() - 1;
+  }
+
+  // What the scene holds now; every skin a node of it uses must have its joints there too.
+  const nlohmann::ordered_json& all = j["nodes"];
+  std::vector<bool> in_scene(all.size(), false);
+  std::vector<std::size_t> stack;
+  const auto visit = [&](const nlohmann::ordered_json& list) {
+    if (!list.is_array()) return;
+    for (const nlohmann::ordered_json& v : list)
+      if (v.is_number_unsigned() && v.get<std::uint64_t>() < all.size() && !in_scene[v.get<std::size_t>()]) {
+        in_scene[v.get<std::size_t>()] = true;
+        stack.push_back(v.get<std::size_t>());
+      }
+  };
+  if (j["scenes"][scene].contains("nodes")) visit(j["scenes"][scene]["nodes"]);
+  while (!stack.empty()) {
+    const nlohmann::ordered_json& node = all[stack.back()];
+    stack.pop_back();
+    if (node.is_object() && node.contains("children")) visit(node["children"]);
+  }
+  for (std::size_t n = 0; n < all.size(); ++n) {
+    const nlohmann::ordered_json& node = all[n];
+    if (!in_scene[n] || !node.is_object() || !node.contains("skin") || !node["skin"].is_number_unsigned() ||
+        !j.contains("skins") || !j["skins"].is_array() || node["skin"].get<std::uint64_t>() >= j["skins"].size())
+      continue;
+    const nlohmann::ordered_json& skin = j["skins"][node["skin"].get<std::size_t>()];
+    if (!skin.is_object() || !skin.contains("joints") || !skin["joints"].is_array()) continue;
+    for (const nlohmann::ordered_json& joint : skin["joints"])
+      if (joint.is_number_unsigned() && joint.get<std::uint64_t>() < all.size() && !in_scene[joint.get<std::size_t>()])
+        return make_error(ErrorCode::InvalidArgument,
+                          file + ": nodes[" + std::to_string(n) + "] is skinned by skins[" +
+                              std::to_string(node["skin"].get<std::size_t>()) + "], whose joint nodes[" +
+                              std::to_string(joint.get<std::size_t>()) +
+                              "] the edits take out of the scene; keep the joint, or remove the skinned node too");
   }
   return {};
 }

@@ -6,8 +6,10 @@
 //   material            -> Material (baseColorFactor/Texture, emissiveFactor x
 //                          KHR_materials_emissive_strength, doubleSided)
 //   texture image       -> Texture (RGBA8, decoded by tinygltf through stb) with average_linear
-//   skin                -> Skin on each primitive entity of the skinned node
-//   animations          -> one AnimationClip each, shared by one Animator on the root entity
+//   skin                -> Skin on each primitive entity of the skinned node (a skin no node of the
+//                          scene uses is not read)
+//   animations          -> one AnimationClip each, shared by one Animator on the root entity (a
+//                          channel whose node is not in the scene is skipped with a warning)
 //   KHR_lights_punctual -> Light;  camera (perspective) -> Camera
 //   PENUMBRA_lighting   -> AuthoredLighting on the node's entity (apply_authored_lighting, runtime.h)
 // Each node's entity also gets GltfNode (its index in the file), which save_gltf writes back to.
