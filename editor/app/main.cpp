@@ -299,8 +299,9 @@ int run(const Options& options) {
           else
             std::snprintf(done, sizeof done, "bake done in %.2f s, %.1f KiB", st.seconds, double(st.bytes) / 1024.0);
           const char* what = st.estimating ? "estimate " : "bake ";
-          ui.message = st.state == BakeStatus::State::Done ? std::string(done)
-                                                           : what + std::string(to_string(st.state)) + ": " + st.error;
+          ui.message = st.state == BakeStatus::State::Done      ? std::string(done)
+                       : st.state == BakeStatus::State::Running ? "estimated a preset; estimating the next"
+                                                                : what + std::string(to_string(st.state)) + ": " + st.error;
           std::printf("%s\n", ui.message.c_str());  // for scripted runs and logs
         }
         if (Status s = model.auto_bake_tick(glfwGetTime()); !s) ui.message = "auto-bake: " + s.error().message;

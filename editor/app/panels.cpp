@@ -92,6 +92,27 @@ CostPlot read_cost_plot(const std::string& path, const std::string& x_column, co
   return plot;
 }
 
+CostPlot scene_cost_plot(const EditorModel& model, const std::uint64_t (&preset_hashes)[3]) {
+  CostPlot plot;
+  plot.x_label = "estimated bake time (s)";
+  plot.y_label = "chunk bytes (B)";
+  for (Preset q : {Preset::Draft, Preset::Medium, Preset::High}) {
+    const BakeEstimate* e = model.preset_estimate(q, preset_hashes[static_cast<int>(q)]);
+    if (e == nullptr) continue;
+    for (const BakeEstimate::Item& item : e->items)
+      if (item.bytes && *item.bytes > 0 && item.seconds > 0.0) {
+        plot.labels.push_back(item.baker + " " + to_string(q));
+        plot.x.push_back(static_cast<float>(item.seconds));
+        plot.y.push_back(static_cast<float>(*item.bytes));
+        plot.marked.push_back(q == model.bake_settings.preset);
+      }
+  }
+  if (plot.x.empty())
+    plot.error = "no estimate of this scene holds: press the button (each preset's bake is timed on samples of "
+                 "it, in a fraction of its time; an edit or another seed needs a new estimate)";
+  return plot;
+}
+
 namespace {
 
 void report(UiState& ui, const Status& s, const std::string& done = {}) {
@@ -439,7 +460,7 @@ void bake_panel(EditorModel& model, UiState& ui) {
     for (const BakeEstimate::Item& item : estimate->items)
       ImGui::TextDisabled("%s: ~%.2f s, %s", item.baker.c_str(), item.seconds,
                           item.bytes ? format_bytes(*item.bytes).c_str() : "bytes known after the bake");
-  } else if (s.state == BakeStatus::State::Done && s.estimating) {
+  } else if (model.estimated()) {
     ImGui::TextDisabled("the scene or the preset changed since the estimate: estimate again");
   }
   if (s.state == BakeStatus::State::Done && !s.estimating) {
@@ -574,9 +595,76 @@ CostPlotSource cost_plot_source(World& world, Entity e) {
   return {};
 }
 
-void plot_panel(Document& doc, UiState& ui) {
+// A log-log scatter of `plot` filling the rest of the window: decade ticks with their values on
+// both axes, the axes' names, marked points larger and yellow, the hovered point's label.
+void draw_log_plot(const CostPlot& plot) {
+  const ImVec2 corner = ImGui::GetCursorScreenPos();
+  const ImVec2 avail(ImGui::GetContentRegionAvail().x, std::max(ImGui::GetContentRegionAvail().y, 60.0f));
+  const float left = 44.0f, bottom = 30.0f;  // room for the tick values and the axis names
+  const ImVec2 origin(corner.x + left, corner.y);
+  const ImVec2 size(std::max(avail.x - left, 20.0f), std::max(avail.y - bottom, 20.0f));
+  ImDrawList* dl = ImGui::GetWindowDrawList();
+  dl->AddRectFilled(origin, ImVec2(origin.x + size.x, origin.y + size.y), IM_COL32(20, 20, 24, 255));
+  const auto [xmin, xmax] = std::minmax_element(plot.x.begin(), plot.x.end());
+  const auto [ymin, ymax] = std::minmax_element(plot.y.begin(), plot.y.end());
+  const auto lg = [](float v) { return std::log10(std::max(v, 1e-9f)); };
+  // Whole decades around the data, at least one wide.
+  const float x0 = std::floor(lg(*xmin)), x1 = std::max(std::ceil(lg(*xmax)), x0 + 1.0f);
+  const float y0 = std::floor(lg(*ymin)), y1 = std::max(std::ceil(lg(*ymax)), y0 + 1.0f);
+  const auto px = [&](float v) { return origin.x + 4 + (lg(v) - x0) / (x1 - x0) * (size.x - 8); };
+  const auto py = [&](float v) { return origin.y + size.y - 4 - (lg(v) - y0) / (y1 - y0) * (size.y - 8); };
+  const ImU32 grid = IM_COL32(70, 70, 80, 255), text = IM_COL32(200, 200, 200, 255);
+  char value[32];
+  for (float d = x0; d <= x1 + 0.5f; d += 1.0f) {
+    const float x = px(std::pow(10.0f, d));
+    dl->AddLine(ImVec2(x, origin.y), ImVec2(x, origin.y + size.y), grid);
+    std::snprintf(value, sizeof value, "%g", std::pow(10.0, d));
+    dl->AddText(ImVec2(x - 8, origin.y + size.y + 1), text, value);
+  }
+  for (float d = y0; d <= y1 + 0.5f; d += 1.0f) {
+    const float y = py(std::pow(10.0f, d));
+    dl->AddLine(ImVec2(origin.x, y), ImVec2(origin.x + size.x, y), grid);
+    std::snprintf(value, sizeof value, "%g", std::pow(10.0, d));
+    dl->AddText(ImVec2(corner.x, y - 7), text, value);
+  }
+  dl->AddText(ImVec2(origin.x + size.x - ImGui::CalcTextSize(plot.x_label.c_str()).x, origin.y + size.y + 14), text,
+              plot.x_label.c_str());
+  dl->AddText(ImVec2(origin.x + 4, origin.y + 2), text, plot.y_label.c_str());
+  const ImVec2 mouse = ImGui::GetIO().MousePos;
+  for (std::size_t i = 0; i < plot.x.size(); ++i) {
+    const ImVec2 p(px(plot.x[i]), py(plot.y[i]));
+    const bool marked = i < plot.marked.size() && plot.marked[i];
+    dl->AddCircleFilled(p, marked ? 4.0f : 3.0f, marked ? IM_COL32(255, 200, 60, 255) : IM_COL32(90, 180, 255, 255));
+    if (std::abs(mouse.x - p.x) < 4 && std::abs(mouse.y - p.y) < 4)
+      ImGui::SetTooltip("%s\n%s %.4g, %s %.4g", plot.labels[i].c_str(), plot.x_label.c_str(), plot.x[i],
+                        plot.y_label.c_str(), plot.y[i]);
+  }
+  ImGui::Dummy(avail);
+}
+
+void plot_panel(EditorModel& model, UiState& ui) {
+  Document& doc = *model.document();
   place(Panel::Plot, ui);
   ImGui::Begin("Error vs cost");
+  int mode = ui.plot_scene ? 1 : 0;
+  ImGui::RadioButton("bench results", &mode, 0);
+  ImGui::SameLine();
+  ImGui::RadioButton("this scene's presets", &mode, 1);
+  if ((mode == 1) != ui.plot_scene) ui.bake_states_time = -1.0;  // hash the presets now
+  ui.plot_scene = mode == 1;
+  if (ui.plot_scene) {
+    // The open scene: estimated time against bytes at each preset (bake/estimate.h).
+    const bool running = model.bakes().running();
+    if (running) ImGui::BeginDisabled();
+    if (ImGui::Button("Estimate draft, medium, high"))
+      report(ui, model.estimate_presets(), "estimating each preset from samples of its bake");
+    if (running) ImGui::EndDisabled();
+    const CostPlot plot = scene_cost_plot(model, ui.preset_hashes);
+    if (!plot.error.empty()) ImGui::TextWrapped("%s", plot.error.c_str());
+    else draw_log_plot(plot);
+    ImGui::End();
+    return;
+  }
   // The plot follows the selected component: its bench's CSV in the tool's default folder, the
   // rows of its current mode marked (cost_plot_source's default bench without a lighting selection).
   const CostPlotSource source = cost_plot_source(doc.world(), doc.selection());
@@ -595,30 +683,8 @@ void plot_panel(Document& doc, UiState& ui) {
     ImGui::SameLine();
     ImGui::TextDisabled("marked: %s", source.mark_value.c_str());
   }
-  if (!ui.plot.error.empty()) {
-    ImGui::TextWrapped("%s", ui.plot.error.c_str());
-  } else {
-    // A scatter plot of rmse against bake seconds, log-log, hovered point labelled.
-    const ImVec2 origin = ImGui::GetCursorScreenPos();
-    const ImVec2 size(ImGui::GetContentRegionAvail().x, std::max(ImGui::GetContentRegionAvail().y, 40.0f));
-    ImDrawList* dl = ImGui::GetWindowDrawList();
-    dl->AddRectFilled(origin, ImVec2(origin.x + size.x, origin.y + size.y), IM_COL32(20, 20, 24, 255));
-    const auto [xmin, xmax] = std::minmax_element(ui.plot.x.begin(), ui.plot.x.end());
-    const auto [ymin, ymax] = std::minmax_element(ui.plot.y.begin(), ui.plot.y.end());
-    const auto lg = [](float v) { return std::log10(std::max(v, 1e-9f)); };
-    const float x0 = lg(*xmin), x1 = std::max(lg(*xmax), x0 + 1e-3f), y0 = lg(*ymin), y1 = std::max(lg(*ymax), y0 + 1e-3f);
-    const ImVec2 mouse = ImGui::GetIO().MousePos;
-    for (std::size_t i = 0; i < ui.plot.x.size(); ++i) {
-      const ImVec2 p(origin.x + 4 + (lg(ui.plot.x[i]) - x0) / (x1 - x0) * (size.x - 8),
-                     origin.y + size.y - 4 - (lg(ui.plot.y[i]) - y0) / (y1 - y0) * (size.y - 8));
-      const bool marked = i < ui.plot.marked.size() && ui.plot.marked[i];
-      dl->AddCircleFilled(p, marked ? 4.0f : 3.0f, marked ? IM_COL32(255, 200, 60, 255) : IM_COL32(90, 180, 255, 255));
-      if (std::abs(mouse.x - p.x) < 4 && std::abs(mouse.y - p.y) < 4)
-        ImGui::SetTooltip("%s\n%s %.4g, %s %.4g", ui.plot.labels[i].c_str(), ui.plot.x_label.c_str(), ui.plot.x[i],
-                          ui.plot.y_label.c_str(), ui.plot.y[i]);
-    }
-    ImGui::Dummy(size);
-  }
+  if (!ui.plot.error.empty()) ImGui::TextWrapped("%s", ui.plot.error.c_str());
+  else draw_log_plot(ui.plot);
   ImGui::End();
 }
 
@@ -697,6 +763,9 @@ void draw_panels(EditorModel& model, UiState& ui) {
   if (ImGui::GetTime() - ui.bake_states_time > 0.25 || ui.bake_states_document != &doc) {
     ui.bake_states = model.bake_states();
     ui.input_hash = model.input_hash();
+    if (ui.plot_scene)
+      for (Preset q : {Preset::Draft, Preset::Medium, Preset::High})
+        ui.preset_hashes[static_cast<int>(q)] = model.input_hash(q);
     ui.bake_states_time = ImGui::GetTime();
     ui.bake_states_document = &doc;
   }
@@ -705,7 +774,7 @@ void draw_panels(EditorModel& model, UiState& ui) {
   bake_panel(model, ui);
   stats_panel(model, ui);
   view_panel(model, ui);
-  plot_panel(doc, ui);
+  plot_panel(model, ui);
   status_bar(ui);
   if (ui.entity_request) {
     std::exchange(ui.entity_request, {})(doc);

@@ -46,6 +46,10 @@ struct CostPlot {
 // Rows whose column `mark_column` equals `mark_value` are marked (the selected component's mode).
 CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column,
                         const std::string& mark_column = {}, const std::string& mark_value = {});
+// The open scene's cost at each preset whose estimate holds (EditorModel::preset_estimate): per
+// module with known bytes, a point (estimated seconds, chunk bytes) labelled "module preset",
+// the bake setting's preset marked. `error` says what to do when there is none.
+CostPlot scene_cost_plot(const EditorModel& model, const std::uint64_t (&preset_hashes)[3]);
 
 // The bench behind the selected entity's lighting component (the first editor extension that
 // applies to it; the first extension's, unmarked, for any other selection): extension.h.
@@ -80,6 +84,8 @@ struct UiState {
   std::vector<BakeState> bake_states;
   double bake_states_time = -1.0;
   std::uint64_t input_hash = 0;  // of a whole-scene bake now (EditorModel::input_hash), refreshed with them
+  std::uint64_t preset_hashes[3] = {0, 0, 0};  // the same at each preset, for the plot of this scene
+  bool plot_scene = false;  // the plot panel shows this scene's estimated presets, not a bench's CSV
   const Document* bake_states_document = nullptr;
   // A scene the menus asked to open. Opening replaces the Document, so the main loop does it
   // between frames (take_open_request), never while panels hold references into the old one.

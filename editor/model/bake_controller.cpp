@@ -1,6 +1,8 @@
 // Background bakes over a World snapshot (bake_controller.h).
 #include "bake_controller.h"
 
+#include "fields.h"
+
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -151,6 +153,13 @@ Status BakeController::start(Document& doc, const BakeRequest& request) {
                       "with " + bakeable_components());
 
   std::shared_ptr<World> snap = snapshot(world, request.entities);
+  if (request.component_preset)
+    for (const ComponentPreset& p : component_presets())
+      for (std::uint32_t i = 0, seen = 0; seen < snap->entity_count(); ++i)
+        if (const Entity e = snap->find_entity(i)) {
+          ++seen;
+          if (p.present(*snap, e)) p.apply(*snap, e, *request.component_preset);
+        }
   if (!request.estimate) inputs_ = doc.bake_tracker().begin(world, request.bakers, request.entities, request.settings);
   {
     std::lock_guard lock(mutex_);

@@ -35,6 +35,9 @@ struct BakeRequest {
   bool low_priority = true;    // nice the bake threads so the UI thread wins the CPU
   // Estimate the bake instead (bake/estimate.h): BakeStatus::estimate has it; nothing is attached.
   bool estimate = false;
+  // Set every lighting component of the snapshot to this preset first (ComponentPreset::apply):
+  // what the scene would cost at that preset. The live World is not changed.
+  std::optional<Preset> component_preset;
 };
 
 // The authoring components a selection bake can bake (their type names joined by " or "), for messages.

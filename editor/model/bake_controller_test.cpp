@@ -99,6 +99,27 @@ TEST(BakeController, EstimatesInTheBackgroundWithoutAttaching) {
   EXPECT_EQ(model.bakes().status().bytes, *grid_bytes);
   doc.world().patch<Light>(*doc.find("sun")).intensity *= 2.0f;
   EXPECT_EQ(model.estimate_for(model.input_hash()), nullptr);
+
+  // Every preset in turn, the components set to it in the snapshot: each holds at its own input
+  // hash and has more elements to bake than the one before (elements, not seconds: those are
+  // measured); the live components keep their settings.
+  const float spacing = doc.world().get<IrradianceProbeGrid>(grid).spacing;
+  ASSERT_TRUE(model.estimate_presets().ok());
+  for (int finished = 0; finished < 3;) {
+    model.bakes().wait();
+    if (model.poll()) ++finished;
+    ASSERT_EQ(model.bakes().status().state == BakeStatus::State::Failed, false) << model.bakes().status().error;
+  }
+  std::uint64_t previous = 0;
+  for (Preset q : {Preset::Draft, Preset::Medium, Preset::High}) {
+    const BakeEstimate* e = model.preset_estimate(q, model.input_hash(q));
+    ASSERT_NE(e, nullptr) << to_string(q);
+    std::uint64_t elements = 0;
+    for (const BakeEstimate::Group& g : e->groups) elements += g.elements;
+    EXPECT_GT(elements, previous) << to_string(q);
+    previous = elements;
+  }
+  EXPECT_EQ(doc.world().get<IrradianceProbeGrid>(grid).spacing, spacing);
 }
 
 TEST(BakeController, MatchesAForegroundBakeBitForBit) {

@@ -12,7 +12,9 @@ Status EditorModel::open(std::string_view source, Preset preset) {
   bakes_.wait();
   if (document_) bakes_.poll(*document_);  // collect (and drop) the cancelled bake's outcome
   document_ = std::move(*doc);
-  estimate_.reset();
+  current_ = {};
+  for (HeldEstimate& e : presets_) e = {};
+  estimate_queue_.clear();
   bake_settings.preset = preset;  // the next bake at the preset the scene's components start from
   return {};
 }
@@ -41,25 +43,52 @@ Status EditorModel::bake_selection() {
 }
 
 Status EditorModel::estimate() {
-  if (!document_) return make_error(ErrorCode::InvalidArgument, "estimate: no scene is open; open one first");
-  BakeRequest request;
-  request.settings = bake_settings;
-  request.threads = bake_threads;
-  request.estimate = true;
-  pending_estimate_hash_ = input_hash();
-  return bakes_.start(*document_, request);
+  estimate_queue_ = {bake_settings.preset};
+  queue_presets_ = false;
+  return start_estimate();
 }
 
-std::uint64_t EditorModel::input_hash() {
-  return document_ ? bake_input_hash(document_->world(), {}, bake_settings) : 0;
+Status EditorModel::estimate_presets() {
+  estimate_queue_ = {Preset::Draft, Preset::Medium, Preset::High};
+  queue_presets_ = true;
+  return start_estimate();
+}
+
+Status EditorModel::start_estimate() {
+  if (!document_) {
+    estimate_queue_.clear();
+    return make_error(ErrorCode::InvalidArgument, "estimate: no scene is open; open one first");
+  }
+  BakeRequest request;
+  request.settings = bake_settings;
+  request.settings.preset = estimate_queue_.front();
+  request.threads = bake_threads;
+  request.estimate = true;
+  if (queue_presets_) request.component_preset = request.settings.preset;
+  pending_estimate_hash_ = input_hash(request.settings.preset);
+  Status started = bakes_.start(*document_, request);
+  if (!started) estimate_queue_.clear();
+  return started;
+}
+
+std::uint64_t EditorModel::input_hash(Preset preset) {
+  BakeSettings settings = bake_settings;
+  settings.preset = preset;
+  return document_ ? bake_input_hash(document_->world(), {}, settings) : 0;
 }
 
 bool EditorModel::poll() {
   if (!document_ || !bakes_.poll(*document_)) return false;
   const BakeStatus status = bakes_.status();
-  if (status.estimate) {
-    estimate_ = status.estimate;
-    estimate_hash_ = pending_estimate_hash_;
+  if (status.estimating && !estimate_queue_.empty()) {
+    const Preset preset = estimate_queue_.front();
+    estimate_queue_.erase(estimate_queue_.begin());
+    if (status.estimate) {
+      (queue_presets_ ? presets_[static_cast<int>(preset)] : current_) = {status.estimate, pending_estimate_hash_};
+      if (!estimate_queue_.empty()) (void)start_estimate();  // the next preset; a failure ends the queue
+    } else {
+      estimate_queue_.clear();  // failed or cancelled: the rest is not started
+    }
   }
   return true;
 }

@@ -30,13 +30,24 @@ class EditorModel {
   // time and bytes per module and per component, from samples of the bake, in a fraction of its
   // time. InvalidArgument while a bake runs.
   Status estimate();
-  // The latest finished estimate, while the scene and settings it estimated are unchanged
-  // (its bake input hash equals `current_input_hash`); nullptr otherwise.
+  // Estimates with every lighting component (and the bake) at draft, medium and high, one after
+  // another: what each preset would cost for this scene (the plot panel's "this scene" plot).
+  Status estimate_presets();
+  // The latest finished estimate(), while the scene and settings it estimated are unchanged (its
+  // bake input hash equals `current_input_hash`); nullptr otherwise.
   const BakeEstimate* estimate_for(std::uint64_t current_input_hash) const {
-    return estimate_ && estimate_hash_ == current_input_hash ? &*estimate_ : nullptr;
+    return held(current_, current_input_hash);
   }
-  // The input hash a whole-scene bake with bake_settings would have now. Cost: hashes the scene.
-  std::uint64_t input_hash();
+  // Whether an estimate() finished since the scene was opened (held or not).
+  bool estimated() const { return current_.estimate.has_value(); }
+  // The same for estimate_presets()'s estimate at `preset` (`current_input_hash`: input_hash(preset)).
+  const BakeEstimate* preset_estimate(Preset preset, std::uint64_t current_input_hash) const {
+    return held(presets_[static_cast<int>(preset)], current_input_hash);
+  }
+  // The input hash a whole-scene bake with bake_settings (at `preset`) would have now. Cost:
+  // hashes the scene.
+  std::uint64_t input_hash() { return input_hash(bake_settings.preset); }
+  std::uint64_t input_hash(Preset preset);
 
   // Once per frame: attaches a finished bake's results. True when one finished in this call.
   bool poll();
@@ -62,8 +73,20 @@ class EditorModel {
  private:
   std::unique_ptr<Document> document_;
   BakeController bakes_;
-  std::optional<BakeEstimate> estimate_;
-  std::uint64_t estimate_hash_ = 0, pending_estimate_hash_ = 0;
+  struct HeldEstimate {
+    std::optional<BakeEstimate> estimate;
+    std::uint64_t input_hash = 0;  // of the scene when it started
+  };
+  static const BakeEstimate* held(const HeldEstimate& e, std::uint64_t hash) {
+    return e.estimate && e.input_hash == hash ? &*e.estimate : nullptr;
+  }
+  // Starts the estimate queued first: at its preset, with the components at it too when `presets`.
+  Status start_estimate();
+  HeldEstimate current_;     // estimate()
+  HeldEstimate presets_[3];  // estimate_presets(), by Preset
+  std::vector<Preset> estimate_queue_;  // front: the one running
+  bool queue_presets_ = false;          // the queue is estimate_presets()'s
+  std::uint64_t pending_estimate_hash_ = 0;
   // Auto-bake: the stale components' signature, since when it has been the same, when the states
   // were last read, and the signature of the last bake that failed.
   std::string auto_signature_, auto_failed_;
