@@ -13,19 +13,12 @@
 #include "penumbra/runtime.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/components.h"
+#include "test_courtyard.h"
 
 namespace penumbra {
 namespace {
 
-World courtyard() {
-  World world;
-  register_lighting(world);
-  register_bakers(world);
-  EXPECT_TRUE(load_builtin(world, "courtyard").ok());
-  world.update(0.0);
-  EXPECT_TRUE(add_default_lighting(world, Preset::Draft, false).ok());
-  return world;
-}
+World courtyard() { return test_scenes::courtyard_with_defaults(); }
 
 BakeSettings draft() {
   BakeSettings s;

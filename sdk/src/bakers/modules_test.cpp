@@ -20,21 +20,12 @@
 #include "penumbra/runtime.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/components.h"
+#include "test_courtyard.h"
 
 namespace penumbra {
 namespace {
 
-// The courtyard with every module's default components: a probe grid, AO-field casters and
-// receivers, pose-AO on the walker.
-World courtyard() {
-  World world;
-  register_lighting(world);
-  register_bakers(world);
-  EXPECT_TRUE(load_builtin(world, "courtyard").ok());
-  world.update(0.0);
-  EXPECT_TRUE(add_default_lighting(world, Preset::Draft, false).ok());
-  return world;
-}
+World courtyard() { return test_scenes::courtyard_with_defaults(); }
 
 // A value of the field's type, within its range, different from `v`.
 FieldValue changed(const FieldInfo& f, const FieldValue& v) {

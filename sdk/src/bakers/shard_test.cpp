@@ -19,6 +19,7 @@
 #include "penumbra/runtime.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/components.h"
+#include "test_courtyard.h"
 
 namespace penumbra {
 namespace {
@@ -27,12 +28,7 @@ namespace {
 // and the AO fields' representation, whose global steps differ.
 World courtyard(ProbeSampling sampling = ProbeSampling::Supersampled,
                 AOFieldRepresentation fields = AOFieldRepresentation::RadialFit) {
-  World world;
-  register_lighting(world);
-  register_bakers(world);
-  EXPECT_TRUE(load_builtin(world, "courtyard").ok());
-  world.update(0.0);
-  EXPECT_TRUE(add_default_lighting(world, Preset::Draft, false).ok());
+  World world = test_scenes::courtyard_with_defaults();
   for (Entity e : world.view<IrradianceProbeGrid>().sorted_entities()) world.patch<IrradianceProbeGrid>(e).sampling = sampling;
   for (Entity e : world.view<AOFieldCaster>().sorted_entities()) {
     AOFieldCaster& c = world.patch<AOFieldCaster>(e);
