@@ -47,8 +47,8 @@ struct CostPlot {
 CostPlot read_cost_plot(const std::string& path, const std::string& x_column, const std::string& y_column,
                         const std::string& mark_column = {}, const std::string& mark_value = {});
 // The open scene's cost at each preset whose estimate holds (EditorModel::preset_estimate): per
-// module with known bytes, a point (estimated seconds, chunk bytes) labelled "module preset",
-// the bake setting's preset marked. `error` says what to do when there is none.
+// module with known bytes, a point (seconds, chunk bytes) labelled "module preset (estimated)" or
+// "(baked)", the bake setting's preset marked. `error` says what to do when there is none.
 CostPlot scene_cost_plot(const EditorModel& model, const std::uint64_t (&preset_hashes)[3]);
 
 // The bench behind the selected entity's lighting component (the first editor extension that

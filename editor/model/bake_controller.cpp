@@ -1,14 +1,13 @@
 // Background bakes over a World snapshot (bake_controller.h).
 #include "bake_controller.h"
 
-#include "fields.h"
-
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
 
+#include "fields.h"
 #include "load_world.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/runtime.h"
@@ -160,12 +159,14 @@ Status BakeController::start(Document& doc, const BakeRequest& request) {
           ++seen;
           if (p.present(*snap, e)) p.apply(*snap, e, *request.component_preset);
         }
-  if (!request.estimate) inputs_ = doc.bake_tracker().begin(world, request.bakers, request.entities, request.settings);
+  if (!request.estimate && request.keep)
+    inputs_ = doc.bake_tracker().begin(world, request.bakers, request.entities, request.settings);
   {
     std::lock_guard lock(mutex_);
     status_ = BakeStatus{};
     status_.state = BakeStatus::State::Running;
     status_.estimating = request.estimate;
+    status_.kept = request.keep && !request.estimate;
     finished_ = false;
   }
   cancel_ = std::make_unique<CancelToken>();
@@ -252,7 +253,9 @@ bool BakeController::poll(Document& doc) {
     next.report = r.report;
     for (const BakeChunk& c : r.file.chunks) next.bytes += c.payload.size();
     // Swap the results in: the lighting systems and the renderer pick the patched components up.
-    if (Status s = doc.attach(std::move(r.file)); !s) {
+    if (!next.kept) {
+      next.state = BakeStatus::State::Done;  // measured only
+    } else if (Status s = doc.attach(std::move(r.file)); !s) {
       next.state = BakeStatus::State::Failed;
       next.error = "the bake finished but its results do not fit the scene any more (" + s.error().message + ")";
     } else {

@@ -38,6 +38,8 @@ struct BakeRequest {
   // Set every lighting component of the snapshot to this preset first (ComponentPreset::apply):
   // what the scene would cost at that preset. The live World is not changed.
   std::optional<Preset> component_preset;
+  // False: bake and report only (BakeStatus::report, bytes): nothing is attached or recorded.
+  bool keep = true;
 };
 
 // The authoring components a selection bake can bake (their type names joined by " or "), for messages.
@@ -60,6 +62,7 @@ struct BakeStatus {
   std::uint64_t bytes = 0;        // bytes of the chunks (when done)
   BakeReport report;              // per baker time, bytes and description (when done)
   bool estimating = false;        // the request was an estimate
+  bool kept = true;               // a bake's results were (to be) attached: BakeRequest::keep
   std::optional<BakeEstimate> estimate;  // an estimate's result (when done)
   std::string error;              // Failed / Cancelled, or the attach error
 };

@@ -44,13 +44,15 @@ Status EditorModel::bake_selection() {
 
 Status EditorModel::estimate() {
   estimate_queue_ = {bake_settings.preset};
-  queue_presets_ = false;
+  queue_presets_ = queue_exact_ = false;
   return start_estimate();
 }
 
-Status EditorModel::estimate_presets() {
-  estimate_queue_ = {Preset::Draft, Preset::Medium, Preset::High};
+Status EditorModel::estimate_presets(bool exact, std::vector<Preset> presets) {
+  if (presets.empty()) return make_error(ErrorCode::InvalidArgument, "estimate: no preset named");
+  estimate_queue_ = std::move(presets);
   queue_presets_ = true;
+  queue_exact_ = exact;
   return start_estimate();
 }
 
@@ -63,7 +65,8 @@ Status EditorModel::start_estimate() {
   request.settings = bake_settings;
   request.settings.preset = estimate_queue_.front();
   request.threads = bake_threads;
-  request.estimate = true;
+  request.estimate = !queue_exact_;
+  request.keep = false;
   if (queue_presets_) request.component_preset = request.settings.preset;
   pending_estimate_hash_ = input_hash(request.settings.preset);
   Status started = bakes_.start(*document_, request);
@@ -80,11 +83,20 @@ std::uint64_t EditorModel::input_hash(Preset preset) {
 bool EditorModel::poll() {
   if (!document_ || !bakes_.poll(*document_)) return false;
   const BakeStatus status = bakes_.status();
-  if (status.estimating && !estimate_queue_.empty()) {
+  if ((status.estimating || !status.kept) && !estimate_queue_.empty()) {
     const Preset preset = estimate_queue_.front();
     estimate_queue_.erase(estimate_queue_.begin());
-    if (status.estimate) {
-      (queue_presets_ ? presets_[static_cast<int>(preset)] : current_) = {status.estimate, pending_estimate_hash_};
+    std::optional<BakeEstimate> measured = status.estimate;
+    if (!status.estimating && status.state == BakeStatus::State::Done) {
+      // A whole bake's report, in the estimate's terms.
+      measured.emplace();
+      measured->ray_scene_seconds = status.report.ray_scene_seconds;
+      for (const BakeReport::Item& item : status.report.items)
+        measured->items.push_back({item.baker, item.seconds, 0.0, item.bytes, item.seconds});
+    }
+    if (measured) {
+      (queue_presets_ ? presets_[static_cast<int>(preset)] : current_) = {measured, pending_estimate_hash_,
+                                                                          !status.estimating};
       if (!estimate_queue_.empty()) (void)start_estimate();  // the next preset; a failure ends the queue
     } else {
       estimate_queue_.clear();  // failed or cancelled: the rest is not started

@@ -32,7 +32,10 @@ class EditorModel {
   Status estimate();
   // Estimates with every lighting component (and the bake) at draft, medium and high, one after
   // another: what each preset would cost for this scene (the plot panel's "this scene" plot).
-  Status estimate_presets();
+  // `exact`: bakes each instead (on the snapshot, keeping nothing): its time and bytes measured,
+  // at the whole bakes' cost. `presets`: which, in that order.
+  Status estimate_presets(bool exact = false,
+                          std::vector<Preset> presets = {Preset::Draft, Preset::Medium, Preset::High});
   // The latest finished estimate(), while the scene and settings it estimated are unchanged (its
   // bake input hash equals `current_input_hash`); nullptr otherwise.
   const BakeEstimate* estimate_for(std::uint64_t current_input_hash) const {
@@ -44,6 +47,8 @@ class EditorModel {
   const BakeEstimate* preset_estimate(Preset preset, std::uint64_t current_input_hash) const {
     return held(presets_[static_cast<int>(preset)], current_input_hash);
   }
+  // Whether that one was measured by a whole bake (estimate_presets(true)), not extrapolated.
+  bool preset_exact(Preset preset) const { return presets_[static_cast<int>(preset)].exact; }
   // The input hash a whole-scene bake with bake_settings (at `preset`) would have now. Cost:
   // hashes the scene.
   std::uint64_t input_hash() { return input_hash(bake_settings.preset); }
@@ -76,6 +81,7 @@ class EditorModel {
   struct HeldEstimate {
     std::optional<BakeEstimate> estimate;
     std::uint64_t input_hash = 0;  // of the scene when it started
+    bool exact = false;            // from a whole bake's report
   };
   static const BakeEstimate* held(const HeldEstimate& e, std::uint64_t hash) {
     return e.estimate && e.input_hash == hash ? &*e.estimate : nullptr;
@@ -86,6 +92,7 @@ class EditorModel {
   HeldEstimate presets_[3];  // estimate_presets(), by Preset
   std::vector<Preset> estimate_queue_;  // front: the one running
   bool queue_presets_ = false;          // the queue is estimate_presets()'s
+  bool queue_exact_ = false;            // ... with whole bakes
   std::uint64_t pending_estimate_hash_ = 0;
   // Auto-bake: the stale components' signature, since when it has been the same, when the states
   // were last read, and the signature of the last bake that failed.

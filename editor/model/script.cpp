@@ -86,9 +86,10 @@ std::string check_action(const ScriptAction& a) {
     if (find_authored_component(a.args[1]) == nullptr)
       return "'" + v + "': no lighting component '" + a.args[1] + "' can be added; use " + authored_component_names();
   } else if (v == "estimate") {
-    if (n > 1 || (n == 1 && !preset_ok(a.args[0]) && a.args[0] != "all"))
-      return "'estimate' takes an optional preset (draft, medium, high) or all (each in turn); 'wait' then waits "
-             "for it";
+    if (n > 2 || (n >= 1 && !preset_ok(a.args[0]) && a.args[0] != "all") ||
+        (n == 2 && (a.args[0] != "all" || a.args[1] != "exact")))
+      return "'estimate' takes an optional preset (draft, medium, high) or all (each in turn; 'all exact' bakes "
+             "each); 'wait' then waits for it";
   } else if (v == "create") {
     if (n < 2 || n > 3 ||
         std::find(std::begin(Document::kEntityKinds), std::end(Document::kEntityKinds), a.args[0]) ==
@@ -313,7 +314,7 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
     return model.bake(args[0] == "all" ? std::vector<std::string>{} : split_commas(args[0]));
   }
   if (a.verb == "estimate") {
-    if (args.size() == 1 && args[0] == "all") return model.estimate_presets();
+    if (!args.empty() && args[0] == "all") return model.estimate_presets(args.size() == 2);
     if (args.size() == 1) model.bake_settings.preset = *parse_preset(args[0]);
     return model.estimate();
   }

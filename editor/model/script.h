@@ -14,8 +14,9 @@
 //   preset REF MODULE PRESET            a lighting module's preset on REF's component, e.g. preset grid <module> draft
 //   undo | redo
 //   bake all|selection|BAKER[,BAKER...] [draft|medium|high]   starts a background bake
-//   estimate [draft|medium|high|all]    starts a background estimate of baking everything (bake/estimate.h);
-//                                       all: each preset in turn (the plot of this scene)
+//   estimate [draft|medium|high|all [exact]]   starts a background estimate of baking everything
+//                                       (bake/estimate.h); all: each preset in turn (the plot of this
+//                                       scene); all exact: bakes each instead, keeping nothing
 //   cancel                              cancels the running bake
 //   wait                                until the running bake ends; fails the script if it failed
 //   auto-bake on|off [DELAY]            bakes what is never baked or out of date once edits have
