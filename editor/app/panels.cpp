@@ -492,12 +492,17 @@ void bake_panel(EditorModel& model, UiState& ui) {
     if (estimate && state.freshness != Freshness::UpToDate) {
       const std::string key = state.entity ? entity_key(doc.world(), state.entity) : std::string();
       double seconds = 0.0;
-      bool found = false;
+      std::uint64_t bytes = 0;
+      bool found = false, sized = false;
       for (const BakeEstimate::Group& g : estimate->groups)
         if (g.baker == state.module && (!state.entity || g.name == key)) seconds += g.seconds, found = true;
-      if (found) {
+      for (const BakeEstimate::Part& p : estimate->parts)
+        if (p.baker == state.module && (!state.entity || p.key == key)) bytes += p.bytes, sized = true;
+      if (found || sized) {
         ImGui::SameLine();
-        ImGui::TextDisabled("(baking it: ~%.2f s)", seconds);
+        if (found && sized) ImGui::TextDisabled("(baking it: ~%.2f s, ~%s)", seconds, format_bytes(bytes).c_str());
+        else if (found) ImGui::TextDisabled("(baking it: ~%.2f s)", seconds);
+        else ImGui::TextDisabled("(baking it: ~%s, its time in another's)", format_bytes(bytes).c_str());
       }
     }
     ImGui::Unindent();

@@ -27,6 +27,7 @@ Baker baker_for(const LightingModule& module) {
   b.describe = module.describe;
   b.attach = module.attach;
   b.check = module.check;
+  b.chunk_key = module.chunk_key;
   return b;
 }
 

@@ -109,7 +109,10 @@ Result<BakeEstimate> estimate_bake(World& world, const std::vector<std::string>&
       if (!chunks) return Error{chunks.error().code, "finish on the sampled results: " + chunks.error().message};
       item.finish_seconds = seconds_since(start);
       std::uint64_t bytes = 0;
-      for (const BakeChunk& c : *chunks) bytes += c.payload.size();
+      for (const BakeChunk& c : *chunks) {
+        bytes += c.payload.size();
+        estimate.parts.push_back({b.name, b.chunk_key ? b.chunk_key(c) : std::string(), c.payload.size()});
+      }
       item.bytes = bytes;
       item.seconds += item.finish_seconds;
     }

@@ -51,6 +51,20 @@ TEST(BakeEstimate, BytesMatchTheBakeAndTheWorldIsLeftAlone) {
       EXPECT_LT(*item.bytes, actual[item.baker] * 2);
     }
   }
+  // The parts add up to each baker's bytes, and name the components: the probe grid's is its entity's.
+  std::map<std::string, std::uint64_t> part_bytes;
+  for (const BakeEstimate::Part& p : estimate->parts) part_bytes[p.baker] += p.bytes;
+  for (const BakeEstimate::Item& item : estimate->items)
+    if (item.bytes) {
+      EXPECT_EQ(part_bytes[item.baker], *item.bytes) << item.baker;
+    }
+  std::size_t grids = 0;
+  for (const BakeEstimate::Part& p : estimate->parts)
+    if (p.baker == "probe-grid") {
+      ++grids;
+      EXPECT_EQ(p.key, "probe grid");
+    }
+  EXPECT_EQ(grids, 1u);
   for (const BakeEstimate::Group& g : estimate->groups) {
     EXPECT_LE(g.sampled, g.elements) << g.baker << " " << g.name;
     EXPECT_GT(g.sampled, 0u) << g.baker << " " << g.name;

@@ -113,10 +113,13 @@ struct Baker {
   // Reads one of its chunks with every check, attaching nothing (the module's check): what a merge
   // checks its output with, since parts come from other machines.
   Status (*check)(const BakeChunk& chunk) = nullptr;
+  // The entity key one of its chunks belongs to, "" for a scene-wide chunk (the module's chunk_key;
+  // null when its chunks name no entity).
+  std::string (*chunk_key)(const BakeChunk& chunk) = nullptr;
 };
 
-// A Baker with the module's name, description, describe(), attach() and check(); the module sets
-// the rest.
+// A Baker with the module's name, description, describe(), attach(), check() and chunk_key(); the
+// module sets the rest.
 Baker baker_for(const LightingModule& module);
 
 // The bakers a World knows: world.resource<BakerRegistry>().

@@ -37,9 +37,17 @@ struct BakeEstimate {
     std::optional<std::uint64_t> bytes;   // of the chunks; unknown when results vary in size per element
     double sampled_seconds = 0.0;         // what the estimate itself spent on this baker
   };
+  // A chunk finish() made from the extrapolated results: the entity key it belongs to
+  // (Baker::chunk_key; "" for a scene-wide one) and its bytes. Per component where items are per module.
+  struct Part {
+    std::string baker;
+    std::string key;
+    std::uint64_t bytes = 0;
+  };
   double ray_scene_seconds = 0.0;
   std::vector<Group> groups;
   std::vector<Item> items;
+  std::vector<Part> parts;
   // The whole bake's estimate: the RayScene plus every item.
   double seconds() const;
 };
