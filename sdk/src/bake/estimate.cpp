@@ -55,7 +55,7 @@ Result<BakeEstimate> estimate_bake(World& world, const std::vector<std::string>&
         estimate.groups.push_back(std::move(out));
         continue;
       }
-      // Ranges long enough for every worker (and whole blocks), spread evenly; all of a small group.
+      // Ranges long enough for every worker (at least a block), spread evenly; all of a small group.
       Sampled& s = samples[g];
       s.length = std::min<std::uint64_t>(group.elements, std::max<std::uint64_t>(group.block, 4ull * jobs.concurrency()));
       if (group.elements <= std::uint64_t{ranges} * s.length) s.length = group.elements;  // small: all of it
