@@ -124,10 +124,9 @@ std::unique_ptr<HeldSubtree> take_out(World& world, Entity root) {
   return held;
 }
 
-Remap put_back(World& world, const HeldSubtree& held) {
-  HeldSubtree& source = const_cast<HeldSubtree&>(held);  // copy_components reads; it does not change the copies
+Remap put_back(World& world, HeldSubtree& held) {
   const Remap remap = build(world, held.handles, held.parent, held.root_parent, held.position,
-                            [&](std::size_t i, Entity e) { source.world.copy_components(source.held[i], world, e); });
+                            [&](std::size_t i, Entity e) { held.world.copy_components(held.held[i], world, e); });
   remap_references(world, to_map(remap), {});
   return remap;
 }

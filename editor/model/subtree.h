@@ -41,9 +41,9 @@ std::unique_ptr<HeldSubtree> take_out(World& world, Entity root);
 // Creates the held entities again with their components, each under its parent, the root under
 // root_parent at its old place (or as a root when that parent is gone), and rewrites the handles
 // the world's Parent, Children, Skin and Animator components hold of the old entities. Returns
-// the remap, root first. `held` stays as it was (a redo can put it back again).
+// the remap, root first. `held` stays as it was (copy_components only reads it).
 // Cost: O(components of the subtree + skins' joints and clips' targets in the world).
-Remap put_back(World& world, const HeldSubtree& held);
+Remap put_back(World& world, HeldSubtree& held);
 
 // Copies `root`'s subtree as new entities, the copy of root placed right after root among its
 // siblings and named `name`. Handles the copies hold of entities in the subtree point at their

@@ -12,13 +12,9 @@
 
 namespace penumbra {
 
-namespace {
-
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
-
-}  // namespace
 
 Baker baker_for(const LightingModule& module) {
   Baker b;

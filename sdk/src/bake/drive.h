@@ -1,12 +1,16 @@
 // The bake driver that bake_world and bake_shard share (internal to penumbra_bake).
 #pragma once
 
+#include <chrono>
 #include <functional>
 #include <vector>
 
 #include "penumbra/bake/baker.h"
 
 namespace penumbra {
+
+// Seconds from `start` to now (steady clock).
+double seconds_since(std::chrono::steady_clock::time_point start);
 
 // What a driver does with one baker's plan: run some of its groups' elements, record in `item`.
 using DriveStep = std::function<Status(const Baker& baker, BakeWork& work, BakeReport::Item& item)>;

@@ -11,11 +11,7 @@ namespace penumbra {
 
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// One group's samples: the first element and the results of each sampled range.
+// One group's samples: each sampled range's first element and its results.
 struct Sampled {
   std::vector<std::uint64_t> begin;
   std::vector<std::vector<std::byte>> results;
