@@ -22,6 +22,7 @@
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/scene/entity_key.h"
+#include "checkout_paths.h"
 
 namespace penumbra::bench {
 namespace {
@@ -96,7 +97,7 @@ Result<Report> run(const Options& options) {
   Report r;
   r.columns = {"model", "characters", "ms_per_frame", "us_per_character", "by_system_ms"};
   std::vector<std::pair<std::string, std::string>> models = {{"built-in walker", ""}};
-  const std::string cesium = std::string(PENUMBRA_SHARED_DIR) + "/assets/CesiumMan.glb";
+  const std::string cesium = std::string(checkout::kSharedDir) + "/assets/CesiumMan.glb";
   if (std::filesystem::exists(cesium)) models.push_back({"CesiumMan", cesium});
   else r.notes.push_back("CesiumMan rows skipped: " + cesium + " is absent");
   const std::vector<int> counts = options.quick ? std::vector<int>{1, 10} : std::vector<int>{1, 10, 50};

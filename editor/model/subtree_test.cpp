@@ -14,6 +14,7 @@
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/scene/entity_key.h"
+#include "checkout_paths.h"
 
 namespace penumbra::editor {
 namespace {
@@ -162,7 +163,7 @@ TEST(Subtree, CreatedLightsAreUndoableAndBadRequestsAreRefused) {
 // In a glTF document: what was duplicated, created and deleted is saved as the file's nodes and
 // comes back on reopening; undone, the file saves as it was.
 TEST(Subtree, EditsOfAGltfDocumentSaveAsItsNodes) {
-  const std::filesystem::path source = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf/valid.gltf";
+  const std::filesystem::path source = std::filesystem::path(checkout::kSourceDir) / "tests/data/gltf/valid.gltf";
   auto doc = open(source.string());
   ASSERT_TRUE(doc);
   World& w = doc->world();
@@ -201,7 +202,7 @@ TEST(Subtree, EditsOfAGltfDocumentSaveAsItsNodes) {
 // The skinned walker: its copy's skin names the copy's joints, and deleting then restoring a
 // joint's subtree gives the skin and the clips the restored joints.
 TEST(Subtree, SkinsAndClipsFollowCopiedAndRestoredJoints) {
-  const std::filesystem::path cesium = std::filesystem::path(PENUMBRA_SHARED_DIR) / "assets/CesiumMan.glb";
+  const std::filesystem::path cesium = std::filesystem::path(checkout::kSharedDir) / "assets/CesiumMan.glb";
   if (!std::filesystem::exists(cesium)) GTEST_SKIP() << cesium << " is absent (../shared/assets)";
   auto doc = open(cesium.string());
   ASSERT_TRUE(doc);

@@ -21,6 +21,7 @@
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/components.h"
 #include "test_courtyard.h"
+#include "checkout_paths.h"
 
 namespace penumbra {
 namespace {
@@ -261,7 +262,7 @@ TEST(LightingModules, AttachBakeRoutesChunksAndNamesMissingKeys) {
 // reversed) keeps every node's name path, so a bake of the original attaches to it: the same
 // fields on the same named entities.
 TEST(LightingModules, ABakeAttachesToAReexportWithReorderedNodes) {
-  const std::filesystem::path source = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf/lighting_extension.gltf";
+  const std::filesystem::path source = std::filesystem::path(checkout::kSourceDir) / "tests/data/gltf/lighting_extension.gltf";
   nlohmann::json doc = nlohmann::json::parse(std::ifstream(source));
   const std::size_t n = doc["nodes"].size();
   const auto moved = [n](std::size_t i) { return (i + 2) % n; };  // old index -> new

@@ -17,11 +17,12 @@
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
+#include "checkout_paths.h"
 
 namespace penumbra {
 namespace {
 
-const std::filesystem::path kCases = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf";
+const std::filesystem::path kCases = std::filesystem::path(checkout::kSourceDir) / "tests/data/gltf";
 
 std::size_t entity_count(World& world) {
   std::size_t n = 0;
@@ -458,7 +459,7 @@ TEST(GltfImport, IntegerWeightsMustBeNormalized) {
 }
 
 TEST(GltfImport, CesiumManSkinAnimationAndPose) {
-  const std::filesystem::path asset = std::filesystem::path(PENUMBRA_SHARED_DIR) / "assets/CesiumMan.glb";
+  const std::filesystem::path asset = std::filesystem::path(checkout::kSharedDir) / "assets/CesiumMan.glb";
   if (!std::filesystem::exists(asset)) GTEST_SKIP() << "shared asset folder absent: " << asset << " not found";
   World world;
   register_scene_systems(world);
@@ -514,7 +515,7 @@ TEST(GltfImport, CesiumManSkinAnimationAndPose) {
 }
 
 TEST(GltfImport, ImportIsDeterministic) {
-  const std::filesystem::path asset = std::filesystem::path(PENUMBRA_SHARED_DIR) / "assets/CesiumMan.glb";
+  const std::filesystem::path asset = std::filesystem::path(checkout::kSharedDir) / "assets/CesiumMan.glb";
   if (!std::filesystem::exists(asset)) GTEST_SKIP() << "shared asset folder absent: " << asset << " not found";
   World w1, w2;
   auto a = import_gltf(w1, asset);

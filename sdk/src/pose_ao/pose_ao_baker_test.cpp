@@ -19,6 +19,7 @@
 #include "penumbra/pose_ao/pose_ao_system.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
+#include "checkout_paths.h"
 
 namespace penumbra {
 namespace {
@@ -85,7 +86,7 @@ TEST(PoseAORig, MatchesTheAnimationSystem) {
 }
 
 TEST(PoseAORig, CesiumManMatchesTheAnimationSystem) {
-  const std::string path = std::string(PENUMBRA_SHARED_DIR) + "/assets/CesiumMan.glb";
+  const std::string path = std::string(checkout::kSharedDir) + "/assets/CesiumMan.glb";
   if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (the shared assets are not checked out)";
   World world;
   ASSERT_TRUE(load_scene(world, path));
@@ -454,7 +455,7 @@ TEST(PoseAOProductionRig, TheOptionalGroundDarkensTheFeetAndNotTheHead) {
 // CesiumMan stores its vertices Z-up under a node that turns them Y-up: the ground follows world
 // up into the mesh's frame and lies under the feet.
 TEST(PoseAOProductionRig, TheGroundLiesUnderAZUpCharactersFeet) {
-  const std::string path = std::string(PENUMBRA_SHARED_DIR) + "/assets/CesiumMan.glb";
+  const std::string path = std::string(checkout::kSharedDir) + "/assets/CesiumMan.glb";
   if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (the shared assets are not checked out)";
   World world;
   ASSERT_TRUE(load_scene(world, path));

@@ -37,6 +37,7 @@
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/import/gltf.h"
+#include "checkout_paths.h"
 
 namespace penumbra::bench {
 namespace {
@@ -118,7 +119,7 @@ Result<Report> run(const Options& options) {
   const std::vector<std::uint32_t> cluster_counts = quick ? std::vector<std::uint32_t>{1, 4} : std::vector<std::uint32_t>{1, 2, 4, 8, 16};
 
   std::vector<std::pair<std::string, std::string>> specs;
-  const std::string cesium = std::string(PENUMBRA_SHARED_DIR) + "/assets/CesiumMan.glb";
+  const std::string cesium = std::string(checkout::kSharedDir) + "/assets/CesiumMan.glb";
   Report report;
   if (std::filesystem::exists(cesium)) specs.emplace_back("CesiumMan", cesium);
   else report.notes.push_back("CesiumMan: " + cesium + " not found; its rows and goal are skipped");

@@ -37,6 +37,7 @@
 #include "shared/layout.h"
 #include "stb_image.h"
 #include "test_device.h"
+#include "checkout_paths.h"
 
 namespace penumbra {
 namespace {
@@ -51,7 +52,7 @@ Result<AOFieldGpuBuffer> pack_world_casters(World& w) {
 }
 
 constexpr std::uint32_t kWidth = 160, kHeight = 120;
-const std::filesystem::path kGoldenDir = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "sdk/src/render/golden";
+const std::filesystem::path kGoldenDir = std::filesystem::path(checkout::kSourceDir) / "sdk/src/render/golden";
 
 // A built-in scene with a draft probe grid baked in place (deterministic: seed 1); optionally draft
 // AO fields on its movable meshes (add_default_ao_field_casters) and draft pose-AO on its skinned

@@ -19,11 +19,12 @@
 #include "penumbra/probe_grid/probe_grid.h"
 #include "penumbra/runtime.h"
 #include "penumbra/scene/components.h"
+#include "checkout_paths.h"
 
 namespace penumbra {
 namespace {
 
-const std::filesystem::path kCases = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "tests/data/gltf";
+const std::filesystem::path kCases = std::filesystem::path(checkout::kSourceDir) / "tests/data/gltf";
 
 Entity named(World& world, const std::string& name) {
   Entity found;

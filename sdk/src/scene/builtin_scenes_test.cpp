@@ -10,6 +10,7 @@
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/import/gltf.h"
+#include "checkout_paths.h"
 
 namespace penumbra {
 namespace {
@@ -220,7 +221,7 @@ TEST(BuiltinScenes, CourtyardHasThinWallCratesLightsAndAWalkingCharacter) {
 
 TEST(BuiltinScenes, LoadSceneImportsGltfPaths) {
   World world;
-  const std::string path = std::string(PENUMBRA_SOURCE_DIR) + "/tests/data/gltf/valid.gltf";
+  const std::string path = std::string(checkout::kSourceDir) + "/tests/data/gltf/valid.gltf";
   auto scene = load_scene(world, path);
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   EXPECT_EQ(scene->name, "valid.gltf");
