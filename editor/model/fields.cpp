@@ -84,7 +84,15 @@ std::vector<FieldDesc> build_fields() {
 
   // Environment (scene): the sky.
   t.push_back(described(member("radiance", FieldKind::Color, &Environment::radiance, 0.0, kBig), "W/(m^2 sr)",
-                        "sky radiance, uniform over directions; lights the scene through the bakes"));
+                        "sky radiance, uniform over directions (without a map); lights the scene through the bakes"));
+  {
+    FieldDesc f = described(member("map", FieldKind::Text, &Environment::map, 0.0, 4096.0), "",
+                            "the sky's equirectangular OpenEXR map, as the glTF names it (set in the file)");
+    f.read_only = true;  // the texels come with the file; editing the name would not reload them
+    t.push_back(std::move(f));
+  }
+  t.push_back(described(member("map_scale", FieldKind::Float, &Environment::map_scale, 0.0, kBig, 0.01f), "",
+                        "the map's texels are multiplied by this (with a map)"));
 
   // Material (scene): base colour split into RGB and alpha.
   {

@@ -33,6 +33,8 @@ using mat4 = glm::mat4;
                                           // a the open fraction (the occluders' product)
 #define PENUMBRA_BINDING_AMBIENT_KEY 8    // sampler2D: per sample its surface, xyz the normal, w 1 / clip w
                                           // (linear in screen space on a plane): what the upsampling compares
+#define PENUMBRA_BINDING_SKY 9           // sampler2D: the environment map x its scale (equirectangular, +Y up:
+                                          // scene/components.h EnvironmentMap); a placeholder without one
 // Descriptor set 1 (per material): the base colour texture (sRGB; white when the material has none).
 #define PENUMBRA_BINDING_BASE_COLOR 0
 // Descriptor set 2: the render feature's own (its pipelines' layout, render/feature.h).

@@ -41,6 +41,24 @@ covered=$(grep -o '[0-9.]*% of the pixels not black' <<<"$out" | cut -d% -f1)
 awk -v c="${covered:-0}" 'BEGIN { exit !(c > 10) }' || fail "the character covers ${covered:-no}% of the image, expected > 10%"
 expect_exit 1 "$PENUMBRA" render "$armature" -o "$scratch/dark.png" --width 64 --height 48 --exposure 1e-9
 expect_output "the image is black"
+# --sky puts an equirectangular OpenEXR map behind and onto any scene (here an offline render of the
+# Cornell box serves as one): the bake under it differs from the bake under the courtyard's uniform
+# sky, and the render shows it; a missing map or a stray --sky-scale are refused.
+expect_exit 0 "$PENUMBRA" render builtin:cornell --offline mc --spp 1 --width 32 --height 16 -o "$scratch/sky.exr"
+expect_exit 0 "$PENUMBRA" bake builtin:courtyard --only probe-grid --preset draft --sky "$scratch/sky.exr" --sky-scale 4 \
+  -o "$scratch/mapped.pbake"
+expect_exit 0 "$PENUMBRA" bake builtin:courtyard --only probe-grid --preset draft -o "$scratch/uniform.pbake"
+cmp -s "$scratch/mapped.pbake" "$scratch/uniform.pbake" && fail "the sky map did not change the probe bake"
+expect_exit 0 "$PENUMBRA" render builtin:courtyard --bake "$scratch/mapped.pbake" --sky "$scratch/sky.exr" \
+  --sky-scale 4 -o "$scratch/mapped.png" --width 48 --height 32
+expect_exit 0 "$PENUMBRA" render builtin:courtyard --bake "$scratch/uniform.pbake" -o "$scratch/uniform.png" \
+  --width 48 --height 32
+cmp -s "$scratch/mapped.png" "$scratch/uniform.png" && fail "the sky map did not change the image"
+expect_exit 1 "$PENUMBRA" render builtin:cornell --sky "$scratch/nosky.exr" -o "$scratch/x.png"
+expect_output "--sky"; expect_output "nosky.exr"
+expect_exit 2 "$PENUMBRA" render builtin:cornell --sky-scale 2 -o "$scratch/x.png"; expect_output "give --sky"
+expect_exit 2 "$PENUMBRA" bake builtin:cornell --sky "$scratch/sky.exr" --sky-scale -1 -o "$scratch/x.pbake"
+expect_output "--sky-scale"
 # An ambient view of an unbaked scene is black too, and says to bake.
 expect_exit 1 "$PENUMBRA" render builtin:cornell -o "$scratch/dark.png" --width 32 --height 24 --view irradiance
 expect_output "--bake"

@@ -1,6 +1,7 @@
 #include "cli.h"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <mutex>
 #include <unistd.h>
@@ -63,6 +64,38 @@ std::optional<unsigned> parse_threads(const std::optional<std::string>& text) {
     return std::nullopt;
   }
   return static_cast<unsigned>(*n);
+}
+
+std::optional<double> parse_number(const std::string& text) {
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(text, &used);
+    if (used != text.size() || !std::isfinite(v)) return std::nullopt;
+    return v;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+std::optional<SkyOption> take_sky(Args& args, bool& ok) {
+  ok = true;
+  const auto path = args.take("--sky");
+  const auto scale = args.take("--sky-scale");
+  if (!path) {
+    if (scale) ok = fail(kUsage, "--sky-scale scales a --sky map; give --sky SKY.exr too") == kSuccess;
+    return std::nullopt;
+  }
+  SkyOption sky{*path, 1.0f};
+  if (scale) {
+    const auto v = parse_number(*scale);
+    if (!v || *v < 0.0 || *v > 3.0e38) {
+      ok = fail(kUsage, "--sky-scale takes a finite number >= 0 (the map's texels are multiplied by it), not '" +
+                            *scale + "'") == kSuccess;
+      return std::nullopt;
+    }
+    sky.scale = static_cast<float>(*v);
+  }
+  return sky;
 }
 
 ProgressCallback terminal_progress() {

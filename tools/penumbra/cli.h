@@ -42,6 +42,18 @@ std::optional<unsigned long long> parse_count(std::string_view option, const std
 // returns nullopt for anything but 1..1024.
 std::optional<unsigned> parse_threads(const std::optional<std::string>& text);
 
+// A finite number, the whole of `text`; nullopt otherwise.
+std::optional<double> parse_number(const std::string& text);
+
+// --sky SKY.exr [--sky-scale K] of bake and render (set_sky_map, load_world.h).
+struct SkyOption {
+  std::string path;
+  float scale = 1.0f;
+};
+// Takes both options from `args`: nullopt without --sky; false (after printing a usage error)
+// for --sky-scale without --sky or a scale that is not a finite number >= 0.
+std::optional<SkyOption> take_sky(Args& args, bool& ok);
+
 // A progress bar on stderr when it is a terminal; nothing in a pipe.
 ProgressCallback terminal_progress();
 

@@ -41,9 +41,11 @@ std::string hex64(std::uint64_t v) {
 // penumbra bake SCENE --estimate: what the bake would take, from measured samples of it
 // (bake/estimate.h), without writing anything.
 int estimate(const std::string& scene, const std::vector<std::string>& names, const BakeSettings& settings,
-             const std::vector<std::string>& pose_files, unsigned threads) {
+             const std::vector<std::string>& pose_files, const std::optional<SkyOption>& sky, unsigned threads) {
   World world;
   if (Status s = load_world(world, scene, settings.preset); !s) return fail(kFailure, s.error().message);
+  if (sky)
+    if (Status s = set_sky_map(world, sky->path, sky->scale); !s) return fail(kFailure, "--sky: " + s.error().message);
   for (const std::string& f : pose_files)
     if (auto added = import_animations(world, f); !added) return fail(kFailure, "--poses: " + added.error().message);
   ThreadPool pool(threads);
@@ -86,7 +88,10 @@ int cmd_bake(Args args) {
   std::vector<std::string> pose_files;
   while (const auto poses = args.take("--poses"))
     for (const std::string& f : split_list(*poses)) pose_files.push_back(f);
+  bool sky_ok = true;
+  const auto sky = take_sky(args, sky_ok);
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
+  if (!sky_ok) return kUsage;
   std::optional<ShardSpec> shard;
   if (shard_arg) {
     auto s = parse_shard(*shard_arg);
@@ -122,7 +127,7 @@ int cmd_bake(Args args) {
   const std::vector<std::string> names = only ? split_list(*only) : std::vector<std::string>{};
 
   const std::string& scene = args.rest()[0];
-  if (estimate_only) return estimate(scene, names, settings, pose_files, *thread_count);
+  if (estimate_only) return estimate(scene, names, settings, pose_files, sky, *thread_count);
   // What -o may replace: never the scene being read; an existing file only when it is a .pbake
   // (or with --force); a symbolic link is written through (its target replaced, the link kept).
   std::filesystem::path out_path = *out;
@@ -145,6 +150,8 @@ int cmd_bake(Args args) {
   const auto t0 = std::chrono::steady_clock::now();
   World world;
   if (Status s = load_world(world, scene, settings.preset); !s) return fail(kFailure, s.error().message);
+  if (sky)
+    if (Status s = set_sky_map(world, sky->path, sky->scale); !s) return fail(kFailure, "--sky: " + s.error().message);
   for (const std::string& f : pose_files) {
     auto added = import_animations(world, f);
     if (!added) return fail(kFailure, "--poses: " + added.error().message);

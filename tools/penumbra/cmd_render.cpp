@@ -20,17 +20,6 @@
 namespace penumbra::cli {
 namespace {
 
-std::optional<double> parse_number(const std::string& text) {
-  try {
-    std::size_t used = 0;
-    const double v = std::stod(text, &used);
-    if (used != text.size() || !std::isfinite(v)) return std::nullopt;
-    return v;
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-}
-
 double percentile(std::vector<double> sorted, double q) {
   std::sort(sorted.begin(), sorted.end());
   const double pos = q * double(sorted.size() - 1);
@@ -174,7 +163,10 @@ int cmd_render(Args args) {
   auto std_error_text = args.take("--std-error");
   auto threads_text = args.take("--threads");
   const bool animate = args.take_flag("--animate");
+  bool sky_ok = true;
+  const auto sky = take_sky(args, sky_ok);
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
+  if (!sky_ok) return kUsage;
   if (args.rest().size() != 1 || args.rest()[0].starts_with("-")) {
     return fail(kUsage, "render takes one SCENE (builtin:NAME or a .gltf/.glb path) and -o OUT.png|OUT.exr");
   }
@@ -258,6 +250,8 @@ int cmd_render(Args args) {
   const std::string& scene = args.rest()[0];
   World world;
   if (Status s = load_world(world, scene); !s) return fail(kFailure, s.error().message);
+  if (sky)
+    if (Status s = set_sky_map(world, sky->path, sky->scale); !s) return fail(kFailure, "--sky: " + s.error().message);
   if (const std::string notice = add_viewing_light(world, scene); !notice.empty()) log(LogLevel::Warning, notice);
   if (bake) {
     auto file = read_bake_file(*bake);

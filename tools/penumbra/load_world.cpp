@@ -5,6 +5,7 @@
 #include "penumbra/bakers.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/runtime.h"
+#include "penumbra/import/environment.h"
 #include "penumbra/import/gltf.h"
 #include "penumbra/scene/components.h"
 
@@ -40,6 +41,20 @@ std::string add_viewing_light(World& world, std::string_view scene) {
   world.add<Transform>(e, t);
   world.add<Light>(e, sun);
   return std::string(scene) + " has no lights: added a directional 'default light' (3 W/m^2 from above) to view it";
+}
+
+Status set_sky_map(World& world, const std::string& path, float scale) {
+  auto map = load_environment_map(path);
+  if (!map) return map.error();
+  const std::vector<Entity> skies = world.view<const Environment>().sorted_entities();
+  const Entity e = skies.empty() ? world.create() : skies.front();
+  if (skies.empty()) world.add<Name>(e, Name{"sky"});
+  Environment sky;
+  sky.map = path;
+  sky.map_data = std::move(*map);
+  sky.map_scale = scale;
+  world.add<Environment>(e, std::move(sky));
+  return {};
 }
 
 }  // namespace penumbra::cli

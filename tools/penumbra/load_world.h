@@ -2,6 +2,7 @@
 // (library penumbra_load_world), so that a module registered here is known to both.
 #pragma once
 
+#include <string>
 #include <string_view>
 
 #include "penumbra/bake/baker.h"
@@ -24,5 +25,10 @@ Status load_world(World& world, std::string_view scene, Preset preset = Preset::
 // framing camera looks) and returns a notice that says so, naming `scene`; "" when the scene has a
 // light. Only the viewers call it (render, the editor): a bake holds the lights the file declares.
 std::string add_viewing_light(World& world, std::string_view scene);
+
+// What `--sky FILE.exr` does in bake and render: the World's sky becomes the equirectangular
+// OpenEXR map at `path` times `scale`, on the entity of its first Environment (or a new entity
+// named "sky"). Errors name the file and the fix (load_environment_map, import/environment.h).
+Status set_sky_map(World& world, const std::string& path, float scale);
 
 }  // namespace penumbra::cli

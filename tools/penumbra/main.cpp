@@ -68,6 +68,9 @@ Commands:
       bench-results). 'penumbra bench --list' names them.
 
 Scenes: builtin:cornell, builtin:courtyard, builtin:furnace, or a .gltf/.glb path.
+bake and render take --sky SKY.exr [--sky-scale K]: the scene's sky becomes that equirectangular
+OpenEXR map (linear radiance, +Y up, -Z at the image's centre) times K (default 1), lighting the
+bakes and drawn behind the scene; give a render the --sky its bake had.
 Options of every command: --quiet (only errors on stderr), --verbose (the SDK's notes too); by
 default its warnings are shown.
 Exit codes: 0 success, 1 failure (with a message), 2 bad usage.

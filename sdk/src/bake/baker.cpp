@@ -97,6 +97,18 @@ void hash_mesh_entity(World& world, Entity e, Hasher& h) {
   }
 }
 
+// What hash_scene adds for the sky: its radiance, or with a map the map's digest and scale (the
+// authored path is left out: the same texels from another file bake the same).
+void hash_environment(World& world, Hasher& h) {
+  const Environment sky = world_environment(world);
+  if (!sky.map_data) {
+    h.add(sky.radiance);
+    return;
+  }
+  h.add(sky.map_data->digest);
+  h.add(sky.map_scale);
+}
+
 // What hash_scene adds for one entity with a Light (after its key). An enabled dynamic light's
 // world transform is left out: no bake holds its light (the indirect transport's operator does
 // not depend on where the light is), so carrying it around changes nothing baked.
@@ -121,7 +133,7 @@ void hash_scene(World& world, Hasher& h) {
     h.add(std::string_view(entity_key(world, e)));
     hash_mesh_entity(world, e, h);
   }
-  h.add(environment_radiance(world));
+  hash_environment(world, h);
   for (Entity e : world.view<Light>().sorted_entities()) {
     h.add(std::string_view(entity_key(world, e)));
     hash_light_entity(world, e, h);
@@ -141,7 +153,7 @@ std::vector<SceneInput> scene_inputs(World& world) {
     out.push_back({entity_key(world, e), SceneInput::Kind::Light, h.digest()});
   }
   Hasher sky;
-  sky.add(environment_radiance(world));
+  hash_environment(world, sky);
   out.push_back({"environment", SceneInput::Kind::Environment, sky.digest()});
   return out;
 }

@@ -207,6 +207,40 @@ TEST(Integrators, BuiltinFurnaceReference) {
 
 // --- (4) Direct light from each light type ------------------------------------------------------
 
+// An environment map lights by its directions: with L(d) = (max(0, d.x), max(0, d.y), max(0, -d.z))
+// (a 128 x 64 map of it) a point facing up receives E = (2/3, 2 pi / 3, 2/3) (the cosine-weighted
+// integrals over the upper hemisphere), up to the map's bilinear texels; the ray scene looks the
+// map up by direction.
+TEST(Integrators, AnEnvironmentMapLightsByItsDirections) {
+  World world;
+  add_mesh(world, make_quad(2000.0f, 2000.0f), floor_at({0.0f, 0.0f, 0.0f}), glm::vec3(0.5f));
+  const std::uint32_t w = 128, h = 64;
+  std::vector<glm::vec3> texels;
+  for (std::uint32_t y = 0; y < h; ++y)
+    for (std::uint32_t x = 0; x < w; ++x) {
+      const float phi = ((float(x) + 0.5f) / float(w) - 0.5f) * 2.0f * kPi, theta = (float(y) + 0.5f) / float(h) * kPi;
+      const glm::vec3 d(std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi));
+      texels.push_back(glm::max(glm::vec3(d.x, d.y, -d.z), glm::vec3(0.0f)));
+    }
+  auto map = make_environment_map(w, h, std::move(texels), "test map");
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  Environment sky;
+  sky.map_data = *map;
+  world.add<Environment>(world.create(), sky);
+  auto scene = RayScene::build(world);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  EXPECT_NEAR(scene->sky({1.0f, 0.0f, 0.0f}).x, 1.0f, 0.01f);
+  EXPECT_NEAR(scene->sky({-1.0f, 0.0f, 0.0f}).x, 0.0f, 0.01f);
+  IrradianceSettings s;
+  s.samples = 16384;
+  s.reference = true;
+  Rng rng = Rng::stream(7, 0);
+  const Estimate up = irradiance(*scene, {}, {0.0f, 0.01f, 0.0f}, {0.0f, 1.0f, 0.0f}, s, rng);
+  const glm::vec3 expected(2.0f / 3.0f, 2.0f * kPi / 3.0f, 2.0f / 3.0f);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(up.value[c], expected[c], 4.0f * up.std_error[c] + 0.01f * expected[c]) << c;
+}
+
 // A uniform sky of radiance L over an open floor of albedo rho: facing up E = pi L exactly (every
 // path leaves at once: no variance); facing the floor from just above it, E = pi rho L (the floor,
 // lit by the sky, is all it sees), up to the floor's finite size; in Indirect content the same

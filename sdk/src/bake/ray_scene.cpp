@@ -137,7 +137,7 @@ struct RayScene::Impl {
   std::size_t triangles = 0;
   std::size_t dropped = 0;
   glm::vec3 lo{std::numeric_limits<float>::max()}, hi{-std::numeric_limits<float>::max()};
-  glm::vec3 sky{0.0f};
+  Environment sky;
   mutable std::atomic<std::uint64_t> invalid_rays{0};
   std::atomic<std::int64_t> bytes{0};
   std::mutex error_mutex;
@@ -243,7 +243,7 @@ Result<RayScene> RayScene::build(World& world, const RaySceneOptions& options) {
   }
   rtcSetDeviceErrorFunction(s.device, &Impl::on_error, &s);
   rtcSetDeviceMemoryMonitorFunction(s.device, &Impl::on_memory, &s);
-  s.sky = environment_radiance(world);
+  s.sky = world_environment(world);
   const RTCBuildQuality quality = options.quality == RaySceneOptions::Quality::Low    ? RTC_BUILD_QUALITY_LOW
                                   : options.quality == RaySceneOptions::Quality::High ? RTC_BUILD_QUALITY_HIGH
                                                                                       : RTC_BUILD_QUALITY_MEDIUM;
@@ -570,7 +570,7 @@ std::uint64_t RayScene::bvh_bytes() const {
 glm::vec3 RayScene::bounds_min() const { return impl_->lo; }
 glm::vec3 RayScene::bounds_max() const { return impl_->hi; }
 
-glm::vec3 RayScene::sky(glm::vec3) const { return impl_->sky; }
+glm::vec3 RayScene::sky(glm::vec3 direction) const { return impl_->sky.toward(direction); }
 
 float RayScene::max_albedo() const {
   float m = 0.0f;

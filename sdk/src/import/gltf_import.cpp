@@ -23,6 +23,7 @@
 #include <tiny_gltf.h>
 
 #include "penumbra/core/log.h"
+#include "penumbra/import/environment.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/scene/mesh.h"
@@ -684,26 +685,56 @@ Status Importer::read_lighting_extension(std::size_t ni, const nlohmann::json& e
   for (const auto& [key, value] : ext.items())
     if (key != "version" && key != "components" && key != "environment")
       return fail(ErrorCode::InvalidInput, where, "unknown key \"" + key + "\" (version, components, environment)");
-  // "environment": {"radiance": [r, g, b]}, the sky (scene/components.h, Environment) on the node.
+  // "environment": {"radiance": [r, g, b]} or {"map": "sky.exr", "map_scale": s}, the sky
+  // (scene/components.h, Environment) on the node; the map's path is relative to the file.
   if (const auto sky = ext.find("environment"); sky != ext.end()) {
     const std::string swhere = where + ".environment";
-    if (!sky->is_object()) return fail(ErrorCode::InvalidInput, swhere, "is not an object; give {\"radiance\": [r, g, b]}");
+    if (!sky->is_object())
+      return fail(ErrorCode::InvalidInput, swhere, "is not an object; give {\"radiance\": [r, g, b]} or {\"map\": \"sky.exr\"}");
     for (const auto& [key, value] : sky->items())
-      if (key != "radiance") return fail(ErrorCode::InvalidInput, swhere, "unknown key \"" + key + "\" (radiance)");
-    const auto radiance = sky->find("radiance");
-    if (radiance == sky->end() || !radiance->is_array() || radiance->size() != 3)
-      return fail(ErrorCode::InvalidInput, swhere, "\"radiance\" is missing or not 3 numbers; give linear RGB in "
-                                                   "W/(m^2 sr), e.g. [0.2, 0.25, 0.35]");
+      if (key != "radiance" && key != "map" && key != "map_scale")
+        return fail(ErrorCode::InvalidInput, swhere, "unknown key \"" + key + "\" (radiance, map, map_scale)");
     Environment env;
-    for (std::size_t c = 0; c < 3; ++c) {
-      const nlohmann::json& v = (*radiance)[c];
-      const double x = v.is_number() ? v.get<double>() : -1.0;
-      if (!(std::isfinite(x) && x >= 0.0 && x <= 3.0e38))
-        return fail(ErrorCode::InvalidInput, swhere + ".radiance",
-                    "element " + std::to_string(c) + " is not a finite number >= 0; give linear RGB in W/(m^2 sr)");
-      env.radiance[static_cast<int>(c)] = static_cast<float>(x);
+    if (const auto map = sky->find("map"); map != sky->end()) {
+      if (!map->is_string() || map->get<std::string>().empty())
+        return fail(ErrorCode::InvalidInput, swhere + ".map", "is not a file name; give the equirectangular OpenEXR "
+                                                              "file's path relative to the glTF, e.g. \"sky.exr\"");
+      env.map = map->get<std::string>();
+      const std::filesystem::path full = std::filesystem::path(file_).parent_path() / env.map;
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(full, ec))
+        return fail(ErrorCode::NotFound, swhere + ".map", "'" + env.map + "' is not a file (looked for " +
+                                                               full.string() + "); put it next to the glTF or fix the path");
+      auto loaded = load_environment_map(full);
+      if (!loaded) return fail(loaded.error().code, swhere + ".map", loaded.error().message);
+      env.map_data = std::move(*loaded);
+      if (const auto scale = sky->find("map_scale"); scale != sky->end()) {
+        const double x = scale->is_number() ? scale->get<double>() : -1.0;
+        if (!(std::isfinite(x) && x >= 0.0 && x <= 3.0e38))
+          return fail(ErrorCode::InvalidInput, swhere + ".map_scale", "is not a finite number >= 0; give the factor "
+                                                                      "the map's texels are multiplied by (1: as stored)");
+        env.map_scale = static_cast<float>(x);
+      }
+      if (sky->contains("radiance"))
+        return fail(ErrorCode::InvalidInput, swhere, "gives both \"radiance\" and \"map\"; keep one (a map replaces "
+                                                     "the constant sky; scale it with \"map_scale\")");
+    } else {
+      if (sky->contains("map_scale"))
+        return fail(ErrorCode::InvalidInput, swhere, "gives \"map_scale\" without a \"map\"; add the map or drop the scale");
+      const auto radiance = sky->find("radiance");
+      if (radiance == sky->end() || !radiance->is_array() || radiance->size() != 3)
+        return fail(ErrorCode::InvalidInput, swhere, "\"radiance\" is missing or not 3 numbers; give linear RGB in "
+                                                     "W/(m^2 sr), e.g. [0.2, 0.25, 0.35] (or a \"map\")");
+      for (std::size_t c = 0; c < 3; ++c) {
+        const nlohmann::json& v = (*radiance)[c];
+        const double x = v.is_number() ? v.get<double>() : -1.0;
+        if (!(std::isfinite(x) && x >= 0.0 && x <= 3.0e38))
+          return fail(ErrorCode::InvalidInput, swhere + ".radiance",
+                      "element " + std::to_string(c) + " is not a finite number >= 0; give linear RGB in W/(m^2 sr)");
+        env.radiance[static_cast<int>(c)] = static_cast<float>(x);
+      }
     }
-    world_.add<Environment>(out_.nodes[ni], env);
+    world_.add<Environment>(out_.nodes[ni], std::move(env));
     if (!ext.contains("components")) return {};
   }
   if (!ext.contains("components") || !ext["components"].is_object())

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "penumbra/core/random.h"
+#include "penumbra/image/image.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/components.h"
@@ -372,9 +373,22 @@ TEST(GltfImport, LightingExtensionIsKeptPerNodeAndItsShapeChecked) {
        ErrorCode::InvalidInput, {"environment.radiance", "element 1 is not a finite number >= 0"}},
       {"sky with an unknown key",
        [](nlohmann::json& j) {
-         j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"] = {{"radiance", {0, 0, 0}}, {"map", "sky.exr"}};
+         j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"] = {{"radiance", {0, 0, 0}}, {"colour", 1}};
        },
-       ErrorCode::InvalidInput, {"environment", "unknown key \"map\" (radiance)"}},
+       ErrorCode::InvalidInput, {"environment", "unknown key \"colour\" (radiance, map, map_scale)"}},
+      {"sky map that is not there",
+       [](nlohmann::json& j) {
+         j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"] = {{"map", "penumbra_no_such_sky.exr"}};
+       },
+       ErrorCode::NotFound, {"environment.map", "penumbra_no_such_sky.exr", "is not a file"}},
+      {"sky map that is not a name",
+       [](nlohmann::json& j) { j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"] = {{"map", 3}}; },
+       ErrorCode::InvalidInput, {"environment.map", "is not a file name"}},
+      {"sky scale without a map",
+       [](nlohmann::json& j) {
+         j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"] = {{"radiance", {0, 0, 0}}, {"map_scale", 2}};
+       },
+       ErrorCode::InvalidInput, {"environment", "\"map_scale\" without a \"map\""}},
   };
   const std::filesystem::path path =
       std::filesystem::temp_directory_path() / ("penumbra_lighting_ext_" + std::to_string(::getpid()) + ".gltf");
@@ -401,10 +415,70 @@ TEST(GltfImport, LightingExtensionIsKeptPerNodeAndItsShapeChecked) {
     World w;
     auto r = import_gltf(w, path);
     ASSERT_TRUE(r.ok()) << r.error().message;
-    EXPECT_EQ(environment_radiance(w), glm::vec3(0.2f, 0.25f, 0.35f));
+    EXPECT_EQ(world_environment(w).radiance, glm::vec3(0.2f, 0.25f, 0.35f));
     std::size_t declared = 0;
     w.each<AuthoredLighting>([&](Entity, AuthoredLighting&) { ++declared; });
     EXPECT_EQ(declared, 1u);  // the crate's; the sky's node declares no components
+  }
+  // A sky map: "map" names an OpenEXR file relative to the glTF, "map_scale" multiplies it; a map
+  // and a radiance together, or a map with a bad texel, are refused naming the element.
+  {
+    const std::filesystem::path exr =
+        path.parent_path() / ("penumbra_lighting_sky_" + std::to_string(::getpid()) + ".exr");
+    Image image;
+    image.width = 4;
+    image.height = 2;
+    for (int i = 0; i < 8; ++i) {
+      const float v = i < 4 ? 1.0f : 0.25f;  // the upper row, then the lower
+      image.rgba32f.insert(image.rgba32f.end(), {v, 2.0f * v, 3.0f * v, 1.0f});
+    }
+    ASSERT_TRUE(write_image(image, exr.string()).ok());
+    nlohmann::json j = base;
+    j["nodes"][3]["extensions"]["PENUMBRA_lighting"] = {
+        {"version", 1}, {"environment", {{"map", exr.filename().string()}, {"map_scale", 2.0}}}};
+    std::ofstream(path) << j.dump();
+    World w;
+    auto r = import_gltf(w, path);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const Environment sky = world_environment(w);
+    ASSERT_TRUE(sky.map_data);
+    EXPECT_EQ(sky.map, exr.filename().string());
+    EXPECT_EQ(sky.map_data->width, 4u);
+    EXPECT_EQ(sky.toward({0.0f, 1.0f, 0.0f}), glm::vec3(2.0f, 4.0f, 6.0f));
+    EXPECT_EQ(sky.toward({0.0f, -1.0f, 0.0f}), glm::vec3(0.5f, 1.0f, 1.5f));
+    // Saved, the sky keeps its map's name and a new scale; reopened, the same texels.
+    GltfEdits edits;
+    GltfNodeEdit& edit = edits.nodes.emplace_back();
+    edit.node = 3;
+    edit.environment = sky;
+    edit.environment->map_scale = 0.5f;
+    const std::filesystem::path saved = path.parent_path() / ("penumbra_lighting_saved_" + std::to_string(::getpid()) + ".gltf");
+    ASSERT_TRUE(save_gltf(path, saved, edits).ok());
+    World reopened;
+    ASSERT_TRUE(import_gltf(reopened, saved).ok());
+    const Environment again = world_environment(reopened);
+    ASSERT_TRUE(again.map_data);
+    EXPECT_EQ(again.map_data->digest, sky.map_data->digest);
+    EXPECT_EQ(again.toward({0.0f, 1.0f, 0.0f}), glm::vec3(0.5f, 1.0f, 1.5f));
+    std::filesystem::remove(saved);
+
+    j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"]["radiance"] = {0.1, 0.1, 0.1};
+    std::ofstream(path) << j.dump();
+    World both;
+    auto refused = import_gltf(both, path);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.error().message.find("gives both \"radiance\" and \"map\""), std::string::npos);
+    image.rgba32f[5] = -1.0f;  // texel (1, 0), green
+    ASSERT_TRUE(write_image(image, exr.string()).ok());
+    j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"].erase("radiance");
+    std::ofstream(path) << j.dump();
+    World negative;
+    auto bad = import_gltf(negative, path);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().message.find("environment.map"), std::string::npos) << bad.error().message;
+    EXPECT_NE(bad.error().message.find("texel (1, 0)"), std::string::npos) << bad.error().message;
+    EXPECT_EQ(entity_count(negative), 0u);
+    std::filesystem::remove(exr);
   }
   for (const Mutation& m : mutations) {
     nlohmann::json j = base;

@@ -164,7 +164,15 @@ Status write_node(nlohmann::ordered_json& j, nlohmann::ordered_json& node, const
     }
     nlohmann::ordered_json ext = {{"version", kLightingExtensionVersion}};
     if (!edit.lighting.empty()) ext["components"] = std::move(components);
-    if (edit.environment) {
+    if (edit.environment && edit.environment->map_data) {
+      const Environment& sky = *edit.environment;
+      if (sky.map.empty())
+        return make_error(ErrorCode::InvalidArgument, where + ": the sky's map has no file name; set Environment::map "
+                                                              "to its OpenEXR file's path relative to the glTF");
+      if (!(std::isfinite(sky.map_scale) && sky.map_scale >= 0.0f))
+        return make_error(ErrorCode::InvalidArgument, where + ": the sky's map_scale is negative or not finite");
+      ext["environment"] = {{"map", sky.map}, {"map_scale", sky.map_scale}};
+    } else if (edit.environment) {
       const glm::vec3 l = edit.environment->radiance;
       if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z) && l.x >= 0.0f && l.y >= 0.0f && l.z >= 0.0f))
         return make_error(ErrorCode::InvalidArgument, where + ": the sky's radiance is negative or not finite");

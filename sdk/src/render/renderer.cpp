@@ -14,6 +14,7 @@
 #include <glm/ext/matrix_clip_space.hpp>
 #include <glm/ext/matrix_transform.hpp>
 #include <glm/ext/vector_uint4_sized.hpp>
+#include <glm/gtc/packing.hpp>
 
 #include "feature_pipeline.h"
 #include "penumbra/bake/integrators.h"
@@ -168,16 +169,22 @@ struct Renderer::Impl final : RenderContext {
   VkDescriptorSetLayout frame_layout = VK_NULL_HANDLE, material_layout = VK_NULL_HANDLE;
   VkPipelineLayout renderer_layout = VK_NULL_HANDLE;
   VkShaderModule forward_vert = VK_NULL_HANDLE, forward_frag = VK_NULL_HANDLE, shadow_vert = VK_NULL_HANDLE,
-                 gbuffer_frag = VK_NULL_HANDLE, screen_vert = VK_NULL_HANDLE, ambient_key_frag = VK_NULL_HANDLE;
-  glm::vec3 sky{0.0f};  // the World's environment radiance at the last sync (the lit view's background)
+                 gbuffer_frag = VK_NULL_HANDLE, screen_vert = VK_NULL_HANDLE, ambient_key_frag = VK_NULL_HANDLE,
+                 sky_frag = VK_NULL_HANDLE;
+  Environment sky;  // the World's environment at the last sync (the lit view's background)
+  // The environment map's texels x its scale, uploaded when the map or the scale changes.
+  ImageResource sky_image;
+  std::uint64_t sky_digest = 0;
+  float sky_scale = 0.0f;
   std::shared_ptr<const MeshData> emitter_quad;  // a unit quad: every rect light's emitter
   // The graphics pipelines by pass, colour format, view, flag, shadow taps, light count and
   // whether a light is a rect (see pipeline()).
-  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AmbientKey, Forward };
+  enum class Pass { Shadow, DepthPrepass, GBufferPrepass, AmbientKey, Forward, Sky };
   std::map<std::tuple<Pass, VkFormat, std::uint32_t, bool, std::uint32_t, std::uint32_t, bool>, VkPipeline> pipelines;
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet frame_set = VK_NULL_HANDLE;
   VkSampler texture_sampler = VK_NULL_HANDLE, linear_clamp_sampler = VK_NULL_HANDLE, shadow_sampler = VK_NULL_HANDLE,
+            sky_sampler = VK_NULL_HANDLE,
             point_sampler = VK_NULL_HANDLE;
   // The render features, and what the renderer made for them through RenderContext.
   RenderFeatures features;
@@ -233,13 +240,13 @@ struct Renderer::Impl final : RenderContext {
     alloc->destroy(white.image);
     for (auto& [k, b] : vertex_ao) alloc->destroy(b.buffer);
     for (Buffer* b : {&ones, &frame_buffer, &light_buffer, &shadow_matrix_buffer, &joint_buffer, &readback}) alloc->destroy(*b);
-    for (ImageResource* i : {&depth, &gbuffer, &ambient, &ambient_key, &ambient_depth, &shadow_map, &offscreen})
+    for (ImageResource* i : {&depth, &gbuffer, &ambient, &ambient_key, &ambient_depth, &shadow_map, &offscreen, &sky_image})
       alloc->destroy(*i);
     for (VkImageView v : shadow_layer_views) vkDestroyImageView(vk, v, nullptr);
     for (auto& [key, p] : pipelines) vkDestroyPipeline(vk, p, nullptr);
-    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert, gbuffer_frag, screen_vert, ambient_key_frag})
+    for (VkShaderModule m : {forward_vert, forward_frag, shadow_vert, gbuffer_frag, screen_vert, ambient_key_frag, sky_frag})
       if (m) vkDestroyShaderModule(vk, m, nullptr);
-    for (VkSampler s : {texture_sampler, linear_clamp_sampler, shadow_sampler, point_sampler})
+    for (VkSampler s : {texture_sampler, linear_clamp_sampler, shadow_sampler, point_sampler, sky_sampler})
       if (s) vkDestroySampler(vk, s, nullptr);
     if (pool) vkDestroyDescriptorPool(vk, pool, nullptr);
     if (renderer_layout) vkDestroyPipelineLayout(vk, renderer_layout, nullptr);
@@ -248,6 +255,8 @@ struct Renderer::Impl final : RenderContext {
   }
 
   Status init();
+  // Uploads the environment map x its scale when either changed since the last upload.
+  Status upload_sky();
 
   // RenderContext.
   VkDevice device() const override { return vk; }
@@ -300,6 +309,7 @@ Status Renderer::Impl::init() {
       {PENUMBRA_BINDING_GBUFFER, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_AMBIENT, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_AMBIENT_KEY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_SKY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   };
   auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
   layout_info.bindingCount = std::size(frame_bindings);
@@ -329,7 +339,7 @@ Status Renderer::Impl::init() {
   const VkDescriptorPoolSize sizes[] = {
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3},
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 5 + kMaxMaterialSets},
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 6 + kMaxMaterialSets},
   };
   auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
   pool_info.maxSets = 1 + kMaxMaterialSets;
@@ -347,7 +357,8 @@ Status Renderer::Impl::init() {
   }
 
   // Samplers: textures (linear, repeat), the features' (trilinear, clamp), shadow map
-  // (comparison), the screen images the passes read with texelFetch (nearest, clamp).
+  // (comparison), the screen images the passes read with texelFetch (nearest, clamp), the sky
+  // (linear, around the longitudes, clamped at the poles as sample_environment_map).
   auto sampler = vk_struct<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
   sampler.magFilter = VK_FILTER_LINEAR;
   sampler.minFilter = VK_FILTER_LINEAR;
@@ -357,6 +368,9 @@ Status Renderer::Impl::init() {
   VkResult r = vkCreateSampler(vk, &sampler, nullptr, &texture_sampler);
   sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &linear_clamp_sampler);
+  sampler.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &sky_sampler);
+  sampler.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   sampler.magFilter = sampler.minFilter = VK_FILTER_NEAREST;
   if (r == VK_SUCCESS) r = vkCreateSampler(vk, &sampler, nullptr, &point_sampler);
   sampler.magFilter = sampler.minFilter = VK_FILTER_LINEAR;
@@ -385,7 +399,9 @@ Status Renderer::Impl::init() {
   gbuffer_frag = make_module(vk, shaders::renderer("gbuffer.frag"));
   screen_vert = make_module(vk, shaders::renderer("screen.vert"));
   ambient_key_frag = make_module(vk, shaders::renderer("ambient_key.frag"));
-  if (!forward_vert || !forward_frag || !shadow_vert || !gbuffer_frag || !screen_vert || !ambient_key_frag) {
+  sky_frag = make_module(vk, shaders::renderer("sky.frag"));
+  if (!forward_vert || !forward_frag || !shadow_vert || !gbuffer_frag || !screen_vert || !ambient_key_frag ||
+      !sky_frag) {
     return make_error(ErrorCode::Internal, "Renderer: the embedded SPIR-V is missing or invalid; rebuild the SDK");
   }
 
@@ -543,6 +559,35 @@ Status Renderer::Impl::upload_image(ImageResource& dst, const VkImageCreateInfo&
   });
   alloc->destroy(*staging);
   return s;
+}
+
+Status Renderer::Impl::upload_sky() {
+  const std::uint64_t digest = sky.map_data ? sky.map_data->digest : 0;
+  const float scale = sky.map_data ? sky.map_scale : 0.0f;
+  if (digest == sky_digest && scale == sky_scale) return {};
+  if (sky_image.image) {
+    vkDeviceWaitIdle(vk);  // the previous frame may still sample it
+    alloc->destroy(sky_image);
+  }
+  sky_digest = digest;
+  sky_scale = scale;
+  descriptors_dirty = true;
+  if (!sky.map_data) return {};
+  // Half floats: linear filtering of them is required of every device (of 32-bit floats it is not);
+  // radiance above their range (65504) saturates in the background only, never in the bakes.
+  const EnvironmentMap& map = *sky.map_data;
+  std::vector<glm::uint64> texels(map.texels.size());
+  for (std::size_t i = 0; i < texels.size(); ++i)
+    texels[i] = glm::packHalf4x16(glm::vec4(glm::min(map.texels[i] * scale, glm::vec3(65504.0f)), 1.0f));
+  auto image = vk_struct<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+  image.imageType = VK_IMAGE_TYPE_2D;
+  image.format = VK_FORMAT_R16G16B16A16_SFLOAT;
+  image.extent = {map.width, map.height, 1};
+  image.mipLevels = 1;
+  image.arrayLayers = 1;
+  image.samples = VK_SAMPLE_COUNT_1_BIT;
+  image.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  return upload_image(sky_image, image, VK_IMAGE_VIEW_TYPE_2D, texels.data(), texels.size() * sizeof(glm::uint64));
 }
 
 Result<const GpuMesh*> Renderer::Impl::mesh(const std::shared_ptr<const MeshData>& data) {
@@ -754,7 +799,9 @@ void Renderer::Impl::write_descriptors() {
       {point_sampler, ambient_pass ? gbuffer.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
       {point_sampler, ambient_pass ? ambient.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
       {point_sampler, ambient_pass ? ambient_key.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}};
-  VkWriteDescriptorSet writes[9];
+  const VkDescriptorImageInfo sky_info{sky_sampler, sky_image.view ? sky_image.view : white.image.view,
+                                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkWriteDescriptorSet writes[10];
   auto buffer_write = [&](int i, std::uint32_t binding, VkDescriptorType type, const VkDescriptorBufferInfo* info) {
     writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
     writes[i].dstSet = frame_set;
@@ -780,6 +827,7 @@ void Renderer::Impl::write_descriptors() {
   image_write(6, PENUMBRA_BINDING_GBUFFER, 1, &screen_info[1]);
   image_write(7, PENUMBRA_BINDING_AMBIENT, 1, &screen_info[2]);
   image_write(8, PENUMBRA_BINDING_AMBIENT_KEY, 1, &screen_info[3]);
+  image_write(9, PENUMBRA_BINDING_SKY, 1, &sky_info);
   vkUpdateDescriptorSets(vk, std::size(writes), writes, 0, nullptr);
 }
 
@@ -798,7 +846,9 @@ void Renderer::Impl::write_descriptors() {
 //                   taps (constant_id 2; 0 without shadows), on the light count (constant_id
 //                   3; 0: not fixed) and on whether any light is a rect (constant_id 4: the
 //                   polygon irradiance is compiled out without one; on llvmpipe it made a frame
-//                   of the courtyard, which has none, 3.4x slower).
+//                   of the courtyard, which has none, 3.4x slower);
+//   Sky             one triangle at the far plane after the forward pass (depth LESS_OR_EQUAL, no
+//                   writes): the environment map wherever nothing was drawn, in the lit view.
 Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uint32_t view, bool flag,
                                             std::uint32_t shadow_taps, std::uint32_t light_count, bool rect_lights) {
   if (pass != Pass::Forward) view = shadow_taps = light_count = 0, flag = rect_lights = false;
@@ -806,8 +856,9 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   const auto key = std::tuple{pass, format, view, flag, shadow_taps, light_count, rect_lights};
   if (auto it = pipelines.find(key); it != pipelines.end()) return it->second;
   const bool shadow = pass == Pass::Shadow, forward = pass == Pass::Forward, screen = pass == Pass::AmbientKey;
+  const bool sky_pass = pass == Pass::Sky;
   const bool depth_writes = pass == Pass::Shadow || pass == Pass::DepthPrepass || pass == Pass::GBufferPrepass;
-  const bool forward_vertex = !shadow && !screen;  // the pre-passes run the forward vertex stage: equal depths
+  const bool forward_vertex = !shadow && !screen && !sky_pass;  // the pre-passes run the forward vertex stage: equal depths
   const struct {
     std::uint32_t view;
     VkBool32 flag;
@@ -824,13 +875,13 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   VkPipelineShaderStageCreateInfo stages[2];
   for (auto& s : stages) s = vk_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = screen ? screen_vert : forward_vertex ? forward_vert : shadow_vert;
+  stages[0].module = screen || sky_pass ? screen_vert : forward_vertex ? forward_vert : shadow_vert;
   stages[0].pName = "main";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = screen ? ambient_key_frag : forward ? forward_frag : gbuffer_frag;
+  stages[1].module = sky_pass ? sky_frag : screen ? ambient_key_frag : forward ? forward_frag : gbuffer_frag;
   stages[1].pName = "main";
   stages[1].pSpecializationInfo = forward ? &specialization : nullptr;
-  const bool has_fragment = forward || screen || pass == Pass::GBufferPrepass;
+  const bool has_fragment = forward || screen || sky_pass || pass == Pass::GBufferPrepass;
 
   const VkVertexInputBindingDescription bindings[] = {
       {0, sizeof(GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX},
@@ -850,10 +901,10 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
       {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(GpuVertex, weights)},
   };
   auto vertex_input = vk_struct<VkPipelineVertexInputStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
-  vertex_input.vertexBindingDescriptionCount = screen ? 0 : (forward_vertex ? 2 : 1);
+  vertex_input.vertexBindingDescriptionCount = screen || sky_pass ? 0 : (forward_vertex ? 2 : 1);
   vertex_input.pVertexBindingDescriptions = bindings;
   vertex_input.vertexAttributeDescriptionCount =
-      screen ? 0 : (forward_vertex ? std::size(forward_attributes) : std::size(shadow_attributes));
+      screen || sky_pass ? 0 : (forward_vertex ? std::size(forward_attributes) : std::size(shadow_attributes));
   vertex_input.pVertexAttributeDescriptions = forward_vertex ? forward_attributes : shadow_attributes;
   auto assembly = vk_struct<VkPipelineInputAssemblyStateCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
   assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
@@ -875,6 +926,7 @@ Result<VkPipeline> Renderer::Impl::pipeline(Pass pass, VkFormat format, std::uin
   depth_state.depthWriteEnable = depth_writes || screen ? VK_TRUE : VK_FALSE;
   depth_state.depthCompareOp = depth_writes ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_EQUAL;
   if (screen) depth_state.depthCompareOp = VK_COMPARE_OP_ALWAYS;
+  if (sky_pass) depth_state.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;  // only where the clear's 1 is left
   VkPipelineColorBlendAttachmentState blend_attachment{};
   blend_attachment.colorWriteMask = pass != Pass::DepthPrepass ? VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
                                                                      VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT
@@ -945,7 +997,8 @@ Status Renderer::sync(World& world) {
   r.draws.clear();
   r.joints.clear();
   r.bounds = Aabb{};
-  r.sky = environment_radiance(world);
+  r.sky = world_environment(world);
+  PENUMBRA_TRY(r.upload_sky());
   r.stats.vertex_ao_uploads = 0;
   r.stats.counters.clear();
   std::uint32_t max_vertices = 0;
@@ -1117,6 +1170,14 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   if (!prepass) return prepass.error();
   auto shadow = pipeline(Pass::Shadow, VK_FORMAT_UNDEFINED);
   if (!shadow) return shadow.error();
+  // The environment map behind the scene in the lit view (without a map the clear colour is the sky).
+  const bool sky_map = own_view == PENUMBRA_VIEW_LIT && !view_feature && sky.map_data != nullptr;
+  VkPipeline sky_pipeline = VK_NULL_HANDLE;
+  if (sky_map) {
+    auto made = pipeline(Pass::Sky, target.format);
+    if (!made) return made.error();
+    sky_pipeline = *made;
+  }
   VkPipeline key = VK_NULL_HANDLE;
   if (ambient_pass && !sources) {
     auto made = pipeline(Pass::AmbientKey, kAmbientFormat);
@@ -1231,12 +1292,13 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, 0,
                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
   color_attachment.imageView = target.view;
-  // The background: the sky in the lit view (exposed and tone mapped as the forward pass does), else black.
+  // The background: a constant sky in the lit view (exposed and tone mapped as the forward pass
+  // does; a map is drawn after the forward pass), else black.
   glm::vec3 background(0.0f);
-  if (own_view == PENUMBRA_VIEW_LIT && !view_feature)
+  if (own_view == PENUMBRA_VIEW_LIT && !view_feature && !sky_map)
     background = is_float_format(target.format)
-                     ? sky * settings.exposure
-                     : display_colour(sky, settings.exposure, is_unorm_format(target.format));
+                     ? sky.radiance * settings.exposure
+                     : display_colour(sky.radiance, settings.exposure, is_unorm_format(target.format));
   color_attachment.clearValue.color = {{background.r, background.g, background.b, 1.0f}};
   info.pDepthAttachment = view_feature ? nullptr : &depth_attachment;
   vkCmdBeginRendering(cmd, &info);
@@ -1251,6 +1313,10 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *forward);
     draw_all(cmd, Pass::Forward);
+    if (sky_map) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sky_pipeline);
+      vkCmdDraw(cmd, 3, 1, 0, 0);
+    }
   }
   vkCmdEndRendering(cmd);
   PENUMBRA_TRY(drawn);

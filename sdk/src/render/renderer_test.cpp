@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <numbers>
 
 #include <glm/gtc/quaternion.hpp>
 #include <glm/ext/matrix_transform.hpp>
@@ -375,6 +376,54 @@ TEST_F(RendererTest, RectLightEmittersAndTheSkyAreDrawn) {
   const glm::vec3 shown = display_colour({0.1f, 0.2f, 0.3f}, 1.0f, true);
   EXPECT_GT(shown.b, shown.g);
   EXPECT_GT(shown.g, shown.r);
+}
+
+// An environment map is drawn behind the scene in the lit view as the CPU looks it up
+// (sample_environment_map): every pixel that is background without a sky shows the map toward its
+// direction (a map that varies along every axis, so a turned or mirrored lookup fails), within
+// half-float and filtering precision; the direct view stays black there.
+TEST_F(RendererTest, TheEnvironmentMapIsTheBackgroundAsTheCpuSeesIt) {
+  auto s = bake_scene("cornell");
+  ASSERT_TRUE(s);
+  const CameraView cam = camera(*s);
+  const std::uint32_t w = 64, h = 32;
+  std::vector<glm::vec3> texels(std::size_t{w} * h);
+  for (std::uint32_t y = 0; y < h; ++y)
+    for (std::uint32_t x = 0; x < w; ++x) {
+      const float pi = std::numbers::pi_v<float>;
+      const float phi = ((float(x) + 0.5f) / float(w) - 0.5f) * 2.0f * pi, theta = (float(y) + 0.5f) / float(h) * pi;
+      const glm::vec3 d(std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi));
+      texels[std::size_t{y} * w + x] = 0.3f * (0.5f + 0.5f * glm::vec3(d.x, d.y, -d.z)) + 0.01f;
+    }
+  auto map = make_environment_map(w, h, std::move(texels), "test map");
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  const auto without = linear_view(s->world, cam, kWidth, kHeight, "lit", 2);
+  const Entity sky = s->world.create();
+  Environment env;
+  env.map_data = *map;
+  env.map_scale = 2.0f;
+  s->world.add<Environment>(sky, env);
+  const auto lit = linear_view(s->world, cam, kWidth, kHeight, "lit", 2);
+  const auto direct = linear_view(s->world, cam, kWidth, kHeight, "direct", 2);
+  s->world.destroy(sky);
+  ASSERT_FALSE(without.empty() || lit.empty() || direct.empty());
+  const glm::mat4 clip_to_world = glm::inverse(cam.projection * cam.view);
+  std::size_t background = 0;
+  for (std::uint32_t py = 0; py < kHeight; ++py)
+    for (std::uint32_t px = 0; px < kWidth; ++px) {
+      const std::size_t at = 4 * (std::size_t{py} * kWidth + px);
+      if (without[at] != 0.0f || without[at + 1] != 0.0f || without[at + 2] != 0.0f) continue;
+      ++background;
+      const glm::vec2 ndc = (glm::vec2(float(px), float(py)) + 0.5f) / glm::vec2(kWidth, kHeight) * 2.0f - 1.0f;
+      const glm::vec4 n = clip_to_world * glm::vec4(ndc, 0.0f, 1.0f), f = clip_to_world * glm::vec4(ndc, 1.0f, 1.0f);
+      const glm::vec3 d = glm::normalize(glm::vec3(f) / f.w - glm::vec3(n) / n.w);
+      const glm::vec3 expected = env.toward(d);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(lit[at + c], expected[c], 0.01f * expected[c] + 1e-3f) << px << ", " << py << " channel " << c;
+        EXPECT_EQ(direct[at + c], 0.0f);
+      }
+    }
+  EXPECT_GT(background, kWidth * kHeight / 50) << "the camera sees too little past the box to test the sky";
 }
 
 // Up to PENUMBRA_UNROLLED_LIGHTS lights the forward pipeline is specialised on their count; more

@@ -149,7 +149,7 @@ TEST(AuthoredLighting, SavedGltfReopensWithTheEditsAndKeepsTheRest) {
   EXPECT_EQ(reopened.get<IrradianceProbeGrid>(named(reopened, "probes")).sh_order, ProbeShOrder::L1);
   EXPECT_EQ(reopened.get<Transform>(named(reopened, "probes")).translation, glm::vec3(1.0f, 1.5f, -1.0f));
   EXPECT_EQ(reopened.get<Light>(named(reopened, "sun")).intensity, 5.0f);
-  EXPECT_EQ(environment_radiance(reopened), glm::vec3(0.1f, 0.2f, 0.3f));
+  EXPECT_EQ(world_environment(reopened).radiance, glm::vec3(0.1f, 0.2f, 0.3f));
   std::size_t casters = 0;
   reopened.each<AOFieldCaster>([&](Entity, AOFieldCaster& c) {
     ++casters;

@@ -111,8 +111,8 @@ class RayScene {
   std::uint64_t bvh_bytes() const;           // bytes Embree holds now (memory monitor)
   glm::vec3 bounds_min() const;
   glm::vec3 bounds_max() const;
-  // What a ray that hits nothing sees: the World's environment radiance at build()
-  // (environment_radiance, scene/components.h), uniform over directions. O(1).
+  // What a ray that hits nothing sees toward `direction` (normalised): the World's environment at
+  // build() (world_environment, scene/components.h; its map, if any, is shared, not copied). O(1).
   glm::vec3 sky(glm::vec3 direction) const;
   // The largest albedo channel of any surface it holds (0 when empty): what bounds how much light
   // survives each bounce. Cost: O(parts).

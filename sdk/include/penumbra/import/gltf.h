@@ -66,8 +66,8 @@ Result<ImportedScene> import_gltf(World& world, const std::filesystem::path& pat
 // (meshes, buffers, images, animations, extras, other extensions; a node's transform is rewritten,
 // as translation/rotation/scale, and a light's settings, only where they differ from the file's
 // beyond float rounding): a .gltf stays JSON with the same
-// buffer and image URIs (relative ones resolve against out's folder: save next to the source, or
-// copy its external files), a .glb keeps its binary chunk byte for byte. `out` has the source's
+// buffer, image and environment-map URIs (relative ones resolve against out's folder: save next
+// to the source, or copy its external files), a .glb keeps its binary chunk byte for byte. `out` has the source's
 // extension; it is written atomically (core/file.h), so it may be `source` itself. extensionsUsed
 // lists PENUMBRA_lighting exactly when some node declares it. Removed nodes are unlinked from
 // their parents and the scenes (a file without scenes gets one listing its parentless nodes);

@@ -132,16 +132,47 @@ inline float punctual_window(const Light& light, glm::vec3 direction, glm::vec3 
   return f;
 }
 
-// The sky: the radiance a ray that leaves the scene sees, uniform over every direction
-// (W/(m^2 sr) per channel; a constant sky colour). The World's environment is the first entity
-// with one, in entity order; none: black. It lights the scene through the bakes (every escaping
-// ray of the integrators and the probe grid brings it), and the renderer draws it as the
-// background.
-struct Environment {
-  glm::vec3 radiance{0.0f};
+// An equirectangular radiance map (W/(m^2 sr) per texel and channel), +Y up as in glTF: direction d
+// is at u = 0.5 + atan2(d.x, -d.z) / 2pi across the width (-Z at the centre, +X at three quarters)
+// and v = acos(d.y) / pi down the height (the top row looks up). Immutable once made; share it.
+struct EnvironmentMap {
+  std::uint32_t width = 0, height = 0;
+  std::vector<glm::vec3> texels;  // width x height, row-major from the top row
+  std::uint64_t digest = 0;       // of the size and texels (what bake input hashes add)
 };
-// The World's environment radiance (above): the first Environment's, else black. O(entities with one).
-glm::vec3 environment_radiance(World& world);
+// Wraps texels into a map, its digest computed. InvalidArgument naming `context` and the fix: a
+// zero size, texels.size() != width x height, a side over 16384, or a texel that is negative, NaN
+// or infinite (naming its x, y). O(texels).
+Result<std::shared_ptr<const EnvironmentMap>> make_environment_map(std::uint32_t width, std::uint32_t height,
+                                                                   std::vector<glm::vec3> texels,
+                                                                   std::string_view context);
+// The map's radiance toward `direction` (normalised): bilinear between texel centres, wrapping
+// across the width, clamped at the poles' rows. O(1).
+glm::vec3 sample_environment_map(const EnvironmentMap& map, glm::vec3 direction);
+
+// The sky: the radiance a ray that leaves the scene sees. The World's environment is the first
+// entity with one, in entity order; none: black. It lights the scene through the bakes (every
+// escaping ray of the integrators, the probe grid and the offline renderer brings it), and the
+// renderer draws it as the background.
+struct Environment {
+  // Without a map: the radiance from every direction (a constant sky colour).
+  glm::vec3 radiance{0.0f};
+  // The equirectangular OpenEXR file of the map as authored (in a glTF, relative to the file;
+  // load_environment_map, import/environment.h, reads it into map_data); empty: no map.
+  std::string map;
+  // The map's texels, or null: with one, the sky toward d is map_scale x the map at d and
+  // `radiance` is not used.
+  std::shared_ptr<const EnvironmentMap> map_data;
+  float map_scale = 1.0f;
+
+  // The radiance seen toward `direction` (normalised). O(1).
+  glm::vec3 toward(glm::vec3 direction) const {
+    return map_data ? map_scale * sample_environment_map(*map_data, direction) : radiance;
+  }
+};
+// The World's environment (above): a copy of the first Environment, else a black one. O(entities
+// with one).
+Environment world_environment(World& world);
 
 struct Camera {
   float yfov = 0.8f;   // radians
