@@ -195,6 +195,44 @@ bool gizmo_input(Document& doc, GizmoDrag& drag, GizmoMode mode, const CameraVie
   return true;
 }
 
+// The reference map the View panel or a script asked for (UiState::reference_requested): the
+// real-time lit view at the map's size (its cells follow the viewport's aspect), then the offline
+// reference in the background.
+void start_reference_map(UiState& ui, Document& doc, Renderer& renderer, const CameraView& camera, glm::vec2 size) {
+  ui.reference_requested = false;
+  ReferenceMapRequest request;
+  request.camera = camera;
+  request.columns =
+      std::max(1u, static_cast<std::uint32_t>(std::lround(float(request.rows) * size.x / std::max(size.y, 1.0f))));
+  request.spp = static_cast<std::uint32_t>(ui.reference_spp);
+  RenderSettings lit = ui.render;
+  lit.view = "lit";
+  auto image = renderer.render_image(doc.world(), camera, request.width(), request.height(), lit, true);
+  if (!image) {
+    ui.message = "reference map: " + image.error().message;
+    return;
+  }
+  std::vector<glm::vec3> tested(std::size_t{request.width()} * request.height());
+  for (std::size_t i = 0; i < tested.size(); ++i)
+    tested[i] = {image->rgba32f[4 * i], image->rgba32f[4 * i + 1], image->rgba32f[4 * i + 2]};
+  const Status started = ui.reference_job.start(doc.world(), std::move(tested), request);
+  ui.message = started ? "rendering the offline reference of this frame (" + std::to_string(request.spp) +
+                             " paths per pixel) in the background"
+                       : "reference map: " + started.error().message;
+}
+
+// Takes the finished reference map, if any, into the UI (or its error into the status bar).
+void collect_reference_map(UiState& ui) {
+  auto done = ui.reference_job.take();
+  if (!done) return;
+  if (done->ok()) {
+    ui.reference_map = std::move(done->value());
+    ui.message = describe_reference_map(*ui.reference_map);
+  } else {
+    ui.message = "reference map: " + done->error().message;
+  }
+}
+
 int run(const Options& options) {
   // The script first: a bad script is reported before any window opens.
   std::optional<ScriptRunner> runner;
@@ -202,6 +240,7 @@ int run(const Options& options) {
   ui.render.shadows = options.shadow_map_size > 0;
   ui.render.shadow_map_size = std::max(options.shadow_map_size, 64u);
   std::string pending_screenshot;
+  bool reference_started = false;  // by the running script's `reference-map`
   ScriptedPointer pointer;
   std::optional<std::pair<int, float>> gizmo_request;  // drag-gizmo AXIS PIXELS, resolved in the next frame
   GizmoDrag gizmo;
@@ -211,7 +250,25 @@ int run(const Options& options) {
       std::fprintf(stderr, "penumbra-editor: %s\n", script.error().message.c_str());
       return 1;
     }
-    runner.emplace(std::move(*script), [&](const ScriptAction& a) -> Status {
+    runner.emplace(std::move(*script), [&](const ScriptAction& a, bool& again) -> Status {
+      if (a.verb == "reference-map") {
+        // Asks for the map at the next frame, then waits for it and prints its line.
+        if (!reference_started) {
+          ui.reference_spp = std::stoi(a.args[0]);
+          ui.reference_map.reset();
+          ui.reference_requested = reference_started = again = true;
+          return {};
+        }
+        collect_reference_map(ui);
+        if (ui.reference_requested || ui.reference_job.running()) {
+          again = true;
+          return {};
+        }
+        reference_started = false;
+        if (!ui.reference_map) return make_error(ErrorCode::InvalidInput, ui.message);
+        std::printf("%s\n", describe_reference_map(*ui.reference_map).c_str());
+        return {};
+      }
       if (a.verb == "screenshot") {
         pending_screenshot = a.args[0];
       } else if (a.verb == "orbit") {
@@ -384,6 +441,8 @@ int run(const Options& options) {
         draw_panels(model, ui);
         const CameraView camera = ui.camera.view(size.x / std::max(size.y, 1.0f));
         ui.camera_now = camera;
+        if (ui.reference_requested) start_reference_map(ui, doc, (*viewport)->renderer(), camera, size);
+        collect_reference_map(ui);
         if (!gizmo_busy) click_select(doc, camera, size, ui.message);
         if (ui.show_ui) {
           draw_selection(ImGui::GetBackgroundDrawList(), doc.world(), doc.selection(), camera, size);
@@ -391,6 +450,7 @@ int run(const Options& options) {
           if (const auto origin = gizmo_origin(doc.world(), doc.selection()))
             draw_gizmo(ImGui::GetBackgroundDrawList(), camera, *origin, size, ui.gizmo_mode,
                        gizmo_axes(doc.world(), doc.selection(), ui.gizmo_mode), gizmo.axis);
+          if (ui.reference_map) draw_error_map(*ui.reference_map, size, ImGui::GetBackgroundDrawList());
           ViewContext view{doc.world(), doc.selection(), camera, size, ui.message};
           for (const EditorExtension& x : editor_extensions())
             if (x.draw_overlay) x.draw_overlay(view, ImGui::GetBackgroundDrawList());

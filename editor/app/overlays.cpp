@@ -102,4 +102,20 @@ void draw_lights(ImDrawList* dl, World& world, Entity selection, const CameraVie
   });
 }
 
+void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* dl) {
+  const float w = size.x / static_cast<float>(map.columns), h = size.y / static_cast<float>(map.rows);
+  for (std::uint32_t r = 0; r < map.rows; ++r)
+    for (std::uint32_t c = 0; c < map.columns; ++c) {
+      const std::size_t i = std::size_t{r} * map.columns + c;
+      const float e = map.relative_error[i];
+      if (std::isnan(e)) continue;
+      const float t = std::clamp(e / 0.5f, 0.0f, 1.0f);  // 0 blue .. 0.5 and more red
+      const ImU32 colour = map.cell_above_noise(i)
+                               ? ImGui::ColorConvertFloat4ToU32(ImVec4(t, 0.2f * (1.0f - t), 1.0f - t, 0.55f))
+                               : IM_COL32(128, 128, 128, 110);
+      dl->AddRectFilled(ImVec2(static_cast<float>(c) * w, static_cast<float>(r) * h),
+                        ImVec2(static_cast<float>(c + 1) * w, static_cast<float>(r + 1) * h), colour);
+    }
+}
+
 }  // namespace penumbra::editor

@@ -10,6 +10,7 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
+#include "error_map.h"
 #include "gizmo.h"
 #include "picking.h"
 #include "penumbra/ecs/world.h"
@@ -40,6 +41,9 @@ void draw_selection(ImDrawList* draw_list, World& world, Entity selection, const
 // being dragged (`active` axis, -1 none) brighter and thicker.
 void draw_gizmo(ImDrawList* draw_list, const CameraView& camera, glm::vec3 origin, glm::vec2 size, GizmoMode mode,
                 const glm::mat3& axes, int active);
+// An error heat map's cells over the viewport of `size` (blue: exact, red: 50 % or more off; grey:
+// within twice the cell's reference noise, where the map cannot tell).
+void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* draw_list);
 // Every light's icon (light_icons.h) in its colour, white when selected, with a dot at its marker.
 void draw_lights(ImDrawList* draw_list, World& world, Entity selection, const CameraView& camera, glm::vec2 size);
 

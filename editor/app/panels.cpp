@@ -584,6 +584,23 @@ void view_panel(EditorModel& model, UiState& ui) {
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("look through the scene's first camera");
   ImGui::SameLine();
   if (ImGui::Button("Frame all")) ui.camera.frame(posed_bounds(world));
+  // The whole real-time path against the offline reference of this frame (reference_map.h).
+  if (ui.reference_job.running()) {
+    if (ImGui::Button("Lit view vs reference: rendering (cancel)")) ui.reference_job.cancel();
+  } else if (ImGui::Button("Lit view vs offline reference")) {
+    ui.reference_requested = true;
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("heat map of the lit view against a converged CPU render of this frame, in the background");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(120.0f);
+  ImGui::SliderInt("reference spp", &ui.reference_spp, 4, 1024, "%d", ImGuiSliderFlags_Logarithmic);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("the reference's paths per pixel: its noise falls as 1 / sqrt(spp), its time grows with them");
+  if (ui.reference_map) {
+    ImGui::TextWrapped("%s", describe_reference_map(*ui.reference_map).c_str());
+    if (ImGui::SmallButton("clear the reference map")) ui.reference_map.reset();
+  }
   // Each module's controls (overlays, its own views).
   ViewContext view{model.document()->world(), model.document()->selection(), ui.camera_now, {}, ui.message};
   for (const EditorExtension& x : editor_extensions())

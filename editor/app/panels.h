@@ -12,6 +12,7 @@
 #include "editor_model.h"
 #include "extension.h"
 #include "gizmo.h"
+#include "reference_map.h"
 #include "viewport.h"
 #include "penumbra/render/renderer.h"
 
@@ -93,6 +94,13 @@ struct UiState {
   // A create, duplicate or delete the panels asked for: done once every panel is drawn, since
   // they walk the hierarchy it changes.
   std::function<void(Document&)> entity_request;
+  // The lit view against the offline reference (reference_map.h): the View panel asks for it, the
+  // main loop renders the real-time image and starts the job (it holds the renderer), the overlay
+  // shows the map until cleared.
+  int reference_spp = 64;
+  bool reference_requested = false;
+  ReferenceMapJob reference_job;
+  std::optional<ErrorMap> reference_map;
   // The window size the panels were last laid out for, and whether this frame lays them out again.
   glm::vec2 laid_out_for{0.0f};
   bool relayout = true;

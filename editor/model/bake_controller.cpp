@@ -70,6 +70,8 @@ std::unique_ptr<World> snapshot(World& src, const std::vector<Entity>& only) {
     copy_component<Mesh>(src, *dst, s, d);
     copy_component<Material>(src, *dst, s, d);
     copy_component<Light>(src, *dst, s, d);
+    copy_component<DynamicLight>(src, *dst, s, d);  // a bake of fixed lighting leaves enabled ones out
+    copy_component<Environment>(src, *dst, s, d);   // the sky every escaping ray brings
     copy_component<Static>(src, *dst, s, d);
     copy_component<Name>(src, *dst, s, d);
     // The source's key, so that the chunks name the document's entities (scene/entity_key.h).

@@ -145,9 +145,12 @@ TEST(BakeController, EstimatesInTheBackgroundWithoutAttaching) {
   EXPECT_TRUE(found);
 }
 
-TEST(BakeController, MatchesAForegroundBakeBitForBit) {
+// On the Cornell box and on the courtyard, whose sky and dynamic lamp the snapshot must carry.
+class BakeControllerScenes : public testing::TestWithParam<const char*> {};
+
+TEST_P(BakeControllerScenes, MatchesAForegroundBakeBitForBit) {
   EditorModel model;
-  ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());
+  ASSERT_TRUE(model.open(GetParam(), Preset::Draft).ok());
   model.bake_settings.preset = Preset::Draft;
   model.bake_settings.seed = 7;
   model.bake_threads = 2;
@@ -157,7 +160,7 @@ TEST(BakeController, MatchesAForegroundBakeBitForBit) {
   ASSERT_EQ(model.bakes().status().state, BakeStatus::State::Done) << model.bakes().status().error;
 
   World world;
-  ASSERT_TRUE(cli::load_world(world, "builtin:cornell", Preset::Draft).ok());
+  ASSERT_TRUE(cli::load_world(world, GetParam(), Preset::Draft).ok());
   JobContext serial;
   BakeSettings settings;
   settings.preset = Preset::Draft;
@@ -173,6 +176,11 @@ TEST(BakeController, MatchesAForegroundBakeBitForBit) {
     EXPECT_TRUE(mine.chunks[i].payload == direct->file.chunks[i].payload) << mine.chunks[i].label;
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(BakeController, BakeControllerScenes, testing::Values("builtin:cornell", "builtin:courtyard"),
+                         [](const testing::TestParamInfo<const char*>& p) {
+                           return std::string(p.param).substr(8);  // after "builtin:"
+                         });
 
 TEST(BakeController, CancelStopsTheBakeAndAttachesNothing) {
   EditorModel model;

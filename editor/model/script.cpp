@@ -15,8 +15,7 @@ namespace {
 // The actions the window carries out (at the next frame).
 bool is_viewport_action(const std::string& verb) {
   return verb == "screenshot" || verb == "orbit" || verb == "view" || verb == "ui" || verb == "click" ||
-         verb == "gizmo" || verb == "drag-gizmo" ||
-         verb == "reset-stats";
+         verb == "gizmo" || verb == "drag-gizmo" || verb == "reset-stats" || verb == "reference-map";
 }
 
 // Splits a line into words; "double quotes" group words. False on an unterminated quote.
@@ -144,6 +143,10 @@ std::string check_action(const ScriptAction& a) {
     if (n != 2 || (a.args[0] != "x" && a.args[0] != "y" && a.args[0] != "z") || !parse_number(a.args[1], pixels) ||
         std::abs(pixels) > 4096.0)
       return "'drag-gizmo' takes an axis (x, y or z) and a distance in pixels along its arrow (-4096 to 4096)";
+  } else if (v == "reference-map") {
+    long long spp = 0;
+    if (n != 1 || !parse_int(a.args[0], spp) || spp < 2 || spp > 65536)
+      return "'reference-map' takes the offline reference's paths per pixel (2 to 65536); it waits for the map";
   } else if (v == "quit") {
     long long k = 0;
     if (n > 1 || (n == 1 && (!parse_int(a.args[0], k) || k < 0 || k > 255)))
@@ -152,7 +155,7 @@ std::string check_action(const ScriptAction& a) {
     return "unknown action '" + v +
            "'; actions: open, open-bake, save-bake, save-edits, save-gltf, select, set, add, remove, create, duplicate, "
            "delete, preset, undo, redo, bake, estimate, cancel, wait, auto-bake, expect-bake, "
-           "frames, screenshot, orbit, view, ui, click, drag-gizmo, reset-stats, gizmo, quit";
+           "frames, screenshot, orbit, view, ui, click, drag-gizmo, reset-stats, gizmo, reference-map, quit";
   }
   return {};
 }
@@ -237,7 +240,7 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
   }
   if (is_viewport_action(a.verb)) {
     if (!viewport_) return make_error(ErrorCode::Unsupported, "needs the window (run without --headless)");
-    return viewport_(a);
+    return viewport_(a, wait_here);
   }
 
   Document* doc = model.document();

@@ -71,11 +71,12 @@ Result<Script> load_script(const std::filesystem::path& path);
 
 // Replays a script against an EditorModel. step() runs actions until one has to wait for frames
 // (wait, frames, and the viewport actions, which take effect at the next frame), then returns;
-// call it once per frame. Viewport actions go to `viewport` (Unsupported without one); `quit`
-// ends the script.
+// call it once per frame. Viewport actions go to `viewport` (Unsupported without one), which sets
+// its bool to be called with the same action again next frame (an action that waits, e.g.
+// reference-map); `quit` ends the script.
 class ScriptRunner {
  public:
-  using ViewportFn = std::function<Status(const ScriptAction&)>;
+  using ViewportFn = std::function<Status(const ScriptAction&, bool& again)>;
   ScriptRunner(Script script, ViewportFn viewport = {});
 
   // Errors carry "NAME:LINE: " before the action's message; the script stops there.

@@ -204,7 +204,7 @@ TEST(ScriptRunner, RunTimeErrorsNameTheLineAndStopTheScript) {
 TEST(ScriptRunner, ViewportActionsGoToTheHostOneFrameEach) {
   std::vector<std::string> seen;
   ScriptRunner runner(*parse_script("open builtin:cornell\norbit 10 20\nview albedo\nclick 5 6\nquit\n", "v.txt"),
-                      [&](const ScriptAction& a) {
+                      [&](const ScriptAction& a, bool&) {
                         seen.push_back(a.verb);
                         return Status{};
                       });

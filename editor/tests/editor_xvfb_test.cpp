@@ -103,6 +103,8 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
               "frames 2\n"
               "screenshot " << d << "/editor.png\n"
               "save-bake " << d << "/courtyard.pbake\n"
+              // The lit view against the offline reference of this frame, in the background.
+              "reference-map 8\n"
               // The walker keeps walking: still up to date; the sun's change makes the grid out
               // of date.
               "frames 10\n"
@@ -117,6 +119,13 @@ TEST(EditorXvfb, BakesTheCourtyardThroughTheUiAndSavesScreenshotAndBake) {
   const std::string output = run_editor(dir / "bake.txt", status);
   ASSERT_EQ(status, 0) << output;  // includes: no validation message
   EXPECT_NE(output.find("validation messages: 0"), std::string::npos);
+  // The reference map's line: the lit view (only the probe grid baked) within 40 % of the
+  // reference's luminance.
+  const std::size_t ratio_at = output.find("x the reference's");
+  ASSERT_NE(ratio_at, std::string::npos) << output;
+  const double ratio = std::stod(output.substr(output.rfind(' ', ratio_at - 1) + 1));
+  EXPECT_GT(ratio, 0.6) << output;
+  EXPECT_LT(ratio, 1.4) << output;
 
   // The saved .pbake holds what the editor baked, and a game's runtime attaches it to a fresh
   // courtyard (the same keys).

@@ -99,24 +99,6 @@ void view_options(ViewContext& view) {
   ImGui::Checkbox("grid bounds", &s.overlay.bounds);
 }
 
-// The heat map's cells over the viewport (blue: exact, red: 50% or more off; grey: within twice
-// the cell's reference noise, where the map cannot tell).
-void draw_error_map(const ErrorMap& map, glm::vec2 size, ImDrawList* dl) {
-  const float w = size.x / static_cast<float>(map.columns), h = size.y / static_cast<float>(map.rows);
-  for (std::uint32_t r = 0; r < map.rows; ++r)
-    for (std::uint32_t c = 0; c < map.columns; ++c) {
-      const std::size_t i = std::size_t{r} * map.columns + c;
-      const float e = map.relative_error[i];
-      if (std::isnan(e)) continue;
-      const float t = std::clamp(e / 0.5f, 0.0f, 1.0f);  // 0 blue .. 0.5 and more red
-      const ImU32 colour = map.cell_above_noise(i)
-                               ? ImGui::ColorConvertFloat4ToU32(ImVec4(t, 0.2f * (1.0f - t), 1.0f - t, 0.55f))
-                               : IM_COL32(128, 128, 128, 110);
-      dl->AddRectFilled(ImVec2(static_cast<float>(c) * w, static_cast<float>(r) * h),
-                        ImVec2(static_cast<float>(c + 1) * w, static_cast<float>(r + 1) * h), colour);
-    }
-}
-
 // Every IrradianceProbeGrid: its bounds always, its nodes once baked.
 void draw_overlay(ViewContext& view, ImDrawList* dl) {
   const State& s = state();

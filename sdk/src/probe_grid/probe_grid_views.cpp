@@ -56,6 +56,7 @@ Result<ErrorMap> compute(const Scene& scene, const ErrorMapRequest& request, Job
   map.relative_error.assign(cells, std::numeric_limits<float>::quiet_NaN());
   map.relative_noise.assign(cells, std::numeric_limits<float>::quiet_NaN());
   std::vector<float>& noise = map.relative_noise;
+  std::vector<float> tested(cells, 0.0f), reference(cells, 0.0f);  // luminances of the cells with a value
   IrradianceSettings settings = request.reference;
   settings.reference = true;
   settings.samples = std::max(settings.samples, 2u);
@@ -95,23 +96,17 @@ Result<ErrorMap> compute(const Scene& scene, const ErrorMapRequest& request, Job
       const float e_probe = luminance(evaluate(*grid, x, n));
       map.relative_error[i] = std::abs(e_probe - e_ref) / e_ref;
       noise[i] = luminance(ref.std_error) / e_ref;
+      tested[i] = e_probe;
+      reference[i] = e_ref;
     }
   });
   if (!s) return s.error();
-  double sum = 0.0, noise_sum = 0.0, squares = 0.0, noise_squares = 0.0;
-  for (std::size_t i = 0; i < cells; ++i)
-    if (!std::isnan(map.relative_error[i])) {
-      sum += map.relative_error[i];
-      noise_sum += noise[i];
-      squares += double(map.relative_error[i]) * map.relative_error[i];
-      noise_squares += double(noise[i]) * noise[i];
-      ++map.cells;
-    }
-  if (map.cells > 0) {
-    map.mean = static_cast<float>(sum / map.cells);
-    map.reference_noise = static_cast<float>(noise_sum / map.cells);
-    map.noise_corrected_rms = static_cast<float>(std::sqrt(std::max(0.0, (squares - noise_squares) / map.cells)));
+  double tested_sum = 0.0, reference_sum = 0.0;  // in cell order: the same at any thread count
+  for (std::size_t i = 0; i < cells; ++i) {
+    tested_sum += tested[i];
+    reference_sum += reference[i];
   }
+  summarise_error_map(map, tested_sum, reference_sum);
   map.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return map;
 }
@@ -124,43 +119,13 @@ Result<ErrorMap> compute_error_map(World& world, const ErrorMapRequest& request,
   return compute(*scene, request, jobs);
 }
 
-ErrorMapJob::~ErrorMapJob() {
-  cancel();
-  if (worker_.joinable()) worker_.join();
-}
-
 Status ErrorMapJob::start(World& world, const ErrorMapRequest& request) {
   if (running()) return make_error(ErrorCode::InvalidArgument, "error map: one is being computed; wait for it");
-  if (worker_.joinable()) worker_.join();
   auto scene = gather(world);
   if (!scene) return scene.error();
-  done_ = false;
-  {
-    std::lock_guard lock(mutex_);
-    result_.reset();
-  }
-  cancel_ = std::make_unique<CancelToken>();
   auto shared = std::make_shared<Scene>(std::move(*scene));
-  worker_ = std::thread([this, shared, request, cancel = cancel_.get()] {
-    ThreadPool pool(request.threads);
-    JobContext jobs(&pool, {}, cancel);
-    Result<ErrorMap> map = compute(*shared, request, jobs);
-    std::lock_guard lock(mutex_);
-    result_.emplace(std::move(map));
-    done_ = true;
-  });
-  return {};
-}
-
-bool ErrorMapJob::running() const { return worker_.joinable() && !done_; }
-
-std::optional<Result<ErrorMap>> ErrorMapJob::take() {
-  if (!done_) return std::nullopt;
-  if (worker_.joinable()) worker_.join();
-  std::lock_guard lock(mutex_);
-  std::optional<Result<ErrorMap>> out;
-  out.swap(result_);
-  return out;
+  return job_.start("error map", request.threads,
+                    [shared, request](JobContext& jobs) { return compute(*shared, request, jobs); });
 }
 
 }  // namespace penumbra::editor

@@ -569,9 +569,9 @@ Status Renderer::Impl::upload_sky() {
     vkDeviceWaitIdle(vk);  // the previous frame may still sample it
     alloc->destroy(sky_image);
   }
-  sky_digest = digest;
-  sky_scale = scale;
   descriptors_dirty = true;
+  sky_digest = 0;  // set once the new map is up, so that a failed upload is tried again
+  sky_scale = 0.0f;
   if (!sky.map_data) return {};
   // Half floats: linear filtering of them is required of every device (of 32-bit floats it is not);
   // radiance above their range (65504) saturates in the background only, never in the bakes.
@@ -587,7 +587,10 @@ Status Renderer::Impl::upload_sky() {
   image.arrayLayers = 1;
   image.samples = VK_SAMPLE_COUNT_1_BIT;
   image.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  return upload_image(sky_image, image, VK_IMAGE_VIEW_TYPE_2D, texels.data(), texels.size() * sizeof(glm::uint64));
+  PENUMBRA_TRY(upload_image(sky_image, image, VK_IMAGE_VIEW_TYPE_2D, texels.data(), texels.size() * sizeof(glm::uint64)));
+  sky_digest = digest;
+  sky_scale = scale;
+  return {};
 }
 
 Result<const GpuMesh*> Renderer::Impl::mesh(const std::shared_ptr<const MeshData>& data) {
