@@ -98,7 +98,7 @@ Status ReferenceMapJob::start(World& world, std::vector<glm::vec3> tested, const
   if (!rays) return rays.error();
   auto snapshot = std::make_shared<Snapshot>(Snapshot{std::move(*rays), gather_lights(world), SurfaceTextures::gather(world)});
   auto image = std::make_shared<const std::vector<glm::vec3>>(std::move(tested));
-  return job_.start("reference map", request.threads, [snapshot, image, request](JobContext& jobs) -> Result<ErrorMap> {
+  return BackgroundJob::start("reference map", request.threads, [snapshot, image, request](JobContext& jobs) -> Result<ErrorMap> {
     const auto start = std::chrono::steady_clock::now();
     OfflineSettings settings;
     settings.mode = OfflineMode::Reference;

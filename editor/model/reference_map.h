@@ -9,7 +9,6 @@
 #pragma once
 
 #include <cstdint>
-#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -47,21 +46,15 @@ Result<ErrorMap> compare_with_reference(std::span<const glm::vec3> tested, const
 // luminance ratio (the bias), or that the error is within the noise; the cells and the time.
 std::string describe_reference_map(const ErrorMap& map);
 
-// The reference on a worker thread, then compare_with_reference.
-class ReferenceMapJob {
+// The reference on a worker thread, then compare_with_reference (running, take and cancel as
+// BackgroundJob's).
+class ReferenceMapJob : public BackgroundJob<ErrorMap> {
  public:
   // Snapshots the World (a RayScene of everything as posed now, its lights, its textures) and
   // starts the reference. `tested`: the real-time lit view of request.camera at the request's
   // size. InvalidArgument when one is running, a size does not match or spp < 2. Cost of the
   // reference: about width x height x spp paths.
   Status start(World& world, std::vector<glm::vec3> tested, const ReferenceMapRequest& request);
-  bool running() const { return job_.running(); }
-  // The finished map (or its error) once, then nullopt.
-  std::optional<Result<ErrorMap>> take() { return job_.take(); }
-  void cancel() { job_.cancel(); }
-
- private:
-  BackgroundJob<ErrorMap> job_;
 };
 
 }  // namespace penumbra::editor

@@ -124,8 +124,8 @@ Status ErrorMapJob::start(World& world, const ErrorMapRequest& request) {
   auto scene = gather(world);
   if (!scene) return scene.error();
   auto shared = std::make_shared<Scene>(std::move(*scene));
-  return job_.start("error map", request.threads,
-                    [shared, request](JobContext& jobs) { return compute(*shared, request, jobs); });
+  return BackgroundJob::start("error map", request.threads,
+                              [shared, request](JobContext& jobs) { return compute(*shared, request, jobs); });
 }
 
 }  // namespace penumbra::editor

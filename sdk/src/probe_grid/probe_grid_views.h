@@ -6,7 +6,6 @@
 #pragma once
 
 #include <cstdint>
-#include <optional>
 
 #include "penumbra/bake/integrators.h"
 #include "penumbra/core/jobs.h"
@@ -30,18 +29,12 @@ struct ErrorMapRequest {
 Result<ErrorMap> compute_error_map(World& world, const ErrorMapRequest& request, JobContext& jobs);
 
 // compute_error_map on a worker thread over what it needs from the World (a RayScene of the
-// static geometry, the lights, the grids' data), so the World stays free for the main thread.
-class ErrorMapJob {
+// static geometry, the lights, the grids' data), so the World stays free for the main thread
+// (running, take and cancel as BackgroundJob's).
+class ErrorMapJob : public BackgroundJob<ErrorMap> {
  public:
   // Errors as compute_error_map's, or InvalidArgument when one is running.
   Status start(World& world, const ErrorMapRequest& request);
-  bool running() const { return job_.running(); }
-  // The finished map (or its error) once, then nullopt.
-  std::optional<Result<ErrorMap>> take() { return job_.take(); }
-  void cancel() { job_.cancel(); }
-
- private:
-  BackgroundJob<ErrorMap> job_;
 };
 
 }  // namespace penumbra::editor
