@@ -393,6 +393,10 @@ int run(const Options& options) {
           ui.camera = CameraControl{};  // from the front and above, as the default light shines
           if (!look_through_scene_camera(doc.world(), bounds, ui.camera)) ui.camera.frame(bounds);
           opened_source = doc.source();
+          // The reference map is of the scene before: dropped, and a running one stopped.
+          ui.reference_map.reset();
+          ui.reference_job.cancel();
+          (void)ui.reference_job.take();
           if (!doc.notice().empty()) ui.message = doc.notice();
           std::snprintf(ui.gltf_path, sizeof ui.gltf_path, "%s", doc.source().starts_with("builtin:") ? "scene.glb"
                                                                                                   : doc.source().c_str());
