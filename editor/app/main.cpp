@@ -218,10 +218,11 @@ void start_reference_map(UiState& ui, Document& doc, Renderer& renderer, const C
   const Status started = ui.reference_job.start(doc.world(), std::move(tested), request);
   ui.message = started ? "rendering the offline reference of this frame (" + std::to_string(request.spp) +
                              " paths per pixel) in the background"
-                       : "reference map: " + started.error().message;
+                       : started.error().message;
 }
 
-// Takes the finished reference map, if any, into the UI (or its error into the status bar).
+// Takes the finished reference map, if any, into the UI (or its error, which names the map, into
+// the status bar).
 void collect_reference_map(UiState& ui) {
   auto done = ui.reference_job.take();
   if (!done) return;
@@ -229,7 +230,7 @@ void collect_reference_map(UiState& ui) {
     ui.reference_map = std::move(done->value());
     ui.message = describe_reference_map(*ui.reference_map);
   } else {
-    ui.message = "reference map: " + done->error().message;
+    ui.message = done->error().message;
   }
 }
 

@@ -65,12 +65,14 @@ Result<ErrorMap> compare_with_reference(std::span<const glm::vec3> tested, const
     reference_sum += r;
   }
   summarise_error_map(map, tested_sum, reference_sum);
+  if (map.cells == 0)
+    return make_error(ErrorCode::InvalidArgument, "reference map: no cell of the view sees a lit surface; point the "
+                                                  "camera at the scene (or give it light)");
   return map;
 }
 
 std::string describe_reference_map(const ErrorMap& m) {
   char line[320];
-  if (m.cells == 0) return "lit view against the offline reference: no cell sees a lit surface";
   if (m.above_noise())
     std::snprintf(line, sizeof line,
                   "lit view against the offline reference: %.1f%% off per cell (mean |E_rt - E_ref| / E_ref %.1f%%, "
@@ -107,7 +109,7 @@ Status ReferenceMapJob::start(World& world, std::vector<glm::vec3> tested, const
     settings.spp = request.spp;
     settings.seed = request.seed;
     auto reference = render_offline(snapshot->rays, snapshot->lights, request.camera, settings, jobs, &snapshot->textures);
-    if (!reference) return reference.error();
+    if (!reference) return make_error(reference.error().code, "reference map: " + reference.error().message);
     auto map = compare_with_reference(*image, *reference, request);
     if (map) map->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return map;

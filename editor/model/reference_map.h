@@ -37,8 +37,8 @@ struct ReferenceMapRequest {
 // The map of `tested` (linear radiance, row-major from the top-left: the real-time lit view read
 // back as float) against `reference` (the offline reference of the same camera), both
 // request.width() x height(). A cell compares the pixels the reference covers; one whose reference
-// luminance is 0 has no value. InvalidArgument when a size does not match or the reference has no
-// standard error. O(pixels).
+// luminance is 0 has no value. InvalidArgument when a size does not match, the reference has no
+// standard error or no cell has a value. O(pixels).
 Result<ErrorMap> compare_with_reference(std::span<const glm::vec3> tested, const OfflineImage& reference,
                                         const ReferenceMapRequest& request);
 

@@ -2,6 +2,7 @@
 // the whole job in the furnace, whose lit view has the closed form Le / (1 - rho) everywhere.
 #include "reference_map.h"
 
+#include <algorithm>
 #include <cmath>
 #include <thread>
 
@@ -55,6 +56,11 @@ TEST(ReferenceMap, ComparesCellMeansWithTheReferencesNoise) {
   EXPECT_EQ(same->mean, 0.0f);
   EXPECT_FALSE(same->above_noise());
   EXPECT_FALSE(compare_with_reference(std::span(tested).first(5), ref, r).ok());
+  OfflineImage unlit = ref;
+  std::fill(unlit.lit.begin(), unlit.lit.end(), glm::vec3(0.0f));
+  auto dark = compare_with_reference(tested, unlit, r);
+  ASSERT_FALSE(dark.ok()) << "a map without a cell";
+  EXPECT_NE(dark.error().message.find("no cell"), std::string::npos);
   OfflineImage no_error = ref;
   no_error.lit_std_error.clear();
   auto refused = compare_with_reference(tested, no_error, r);
