@@ -110,7 +110,7 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
     return true;
   }
   // Swap-and-pop: the last component moves into the hole.
-  const std::uint32_t last = pop_slot(pos);
+  const std::uint32_t last = pop_slot(pos, index(pos));
   if (pos != last)
     move_last_into(pos, last);
   else
@@ -175,6 +175,7 @@ void PoolBase::prune_listeners() {
   const auto disconnected = [](const std::shared_ptr<Listener>& l) { return !l->connected; };
   std::erase_if(on_add_, disconnected);
   std::erase_if(on_remove_, disconnected);
+  refresh_plain_pop();
 }
 
 // --- GroupBase ---------------------------------------------------------------------------------
@@ -239,10 +240,12 @@ World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
 
 Entity World::create() {
-  ++alive_count_;
-  if (!free_.empty()) {
-    const std::uint32_t index = free_.back();
-    free_.pop_back();
+  ++entities_.alive;
+  if (entities_.free_head != detail::kNone) {
+    const std::uint32_t index = entities_.free_head;
+    std::uint64_t& link = masks_[std::size_t{index} * mask_words_];
+    entities_.free_head = static_cast<std::uint32_t>(link);
+    link = 0;
     slots_[index] &= ~kDeadBit;
     return Entity{index, slots_[index]};
   }
@@ -259,32 +262,11 @@ void World::add_mask_rows() {
 }
 
 void World::create(std::span<Entity> out) {
-  const std::size_t fresh = out.size() > free_.size() ? out.size() - free_.size() : 0;
+  const std::size_t free = slots_.size() - entities_.alive - entities_.retired;
+  const std::size_t fresh = out.size() > free ? out.size() - free : 0;
   slots_.reserve(slots_.size() + fresh);
   add_mask_rows();
   for (Entity& e : out) e = create();
-}
-
-void World::destroy(Entity e) {
-  if (!alive(e)) return;
-  // Components in bit order, as destroy_components() removes them: from pools with nothing to tell
-  // and no group by a typed swap-and-pop straight from the mask, until one needs the general path.
-  bool general = iterating_ > 0;
-  std::uint64_t* row = &masks_[std::size_t{e.index} * mask_words_];
-  for (std::uint32_t word = 0; word < mask_words_ && !general; ++word) {
-    for (std::uint64_t bits = row[word]; bits != 0; bits &= bits - 1) {
-      const auto bit = static_cast<std::uint32_t>(std::countr_zero(bits));
-      detail::PoolBase& p = *by_bit_[word * 64u + bit];
-      if (!p.on_remove_.empty() || !p.groups_.empty()) {
-        general = true;
-        break;
-      }
-      row[word] &= ~mask_bit(bit);
-      p.pop_(p, p.position(e.index));
-    }
-  }
-  if (general && !destroy_components(e)) return;
-  release(e);
 }
 
 bool World::destroy_components(Entity e) {
@@ -307,20 +289,7 @@ bool World::destroy_components(Entity e) {
   return alive(e);  // false: a listener destroyed it already
 }
 
-void World::release(Entity e) {
-  --alive_count_;
-  // Bump the generation so old handles turn stale; an exhausted index is retired, never reused.
-  const std::uint32_t next = e.generation + 1;
-  if (next == kDeadBit) {
-    slots_[e.index] = kDeadBit | e.generation;
-  } else {
-    slots_[e.index] = kDeadBit | next;
-    free_.push_back(e.index);
-  }
-}
-
 void World::destroy(std::span<const Entity> entities) {
-  free_.reserve(free_.size() + entities.size());
   for (const Entity e : entities) destroy(e);
 }
 
@@ -398,6 +367,8 @@ detail::GroupBase& World::make_group(std::vector<detail::PoolBase*> owned, std::
   for (detail::PoolBase* p : g->owned) p->owner_ = g.get();
   for (detail::PoolBase* p : g->owned) p->groups_.push_back(g.get());
   for (detail::PoolBase* p : g->observed) p->groups_.push_back(g.get());
+  for (detail::PoolBase* p : g->owned) p->refresh_plain_pop();
+  for (detail::PoolBase* p : g->observed) p->refresh_plain_pop();
   if (iterating_ > 0) {
     g->dirty = true;
     dirty_groups_.push_back(g.get());
@@ -467,6 +438,7 @@ Connection World::connect(detail::PoolBase& p, std::vector<std::shared_ptr<detai
   auto listener = std::make_shared<detail::Listener>();
   listener->fn = std::move(fn);
   list.push_back(listener);
+  p.refresh_plain_pop();
   return Connection(listener);
 }
 

@@ -947,5 +947,38 @@ TEST(World, DestroyFindsComponentsOfMoreTypesThanAMaskWord) {
   EXPECT_EQ(w.entity_count(), 0u);
 }
 
+// Freed indices wait in their mask rows (word 0) and come back most recently freed first, with
+// empty masks, after the masks widen; a moved-from World starts again from index 0.
+TEST(World, FreedIndicesComeBackMostRecentFirstWithEmptyMasks) {
+  World w;
+  std::vector<Entity> es(5);
+  w.create(es);
+  for (const Entity e : es) w.add<Position>(e, 1.0f, 2.0f);
+  for (const std::size_t i : {1, 3, 4}) w.destroy(es[i]);
+  add_tags(w, es[0], std::make_integer_sequence<int, 70>{});  // two mask words per entity from here
+  std::vector<Entity> again(4);
+  w.create(again);
+  EXPECT_EQ(again, (std::vector<Entity>{{4, 1}, {3, 1}, {1, 1}, {5, 0}}));
+  for (const Entity e : again) {
+    EXPECT_FALSE(w.has<Position>(e));
+    EXPECT_FALSE(w.has<Tag<0>>(e));
+    EXPECT_FALSE(w.has<Tag<69>>(e));
+    w.add<Tag<69>>(e);
+  }
+  EXPECT_EQ(w.entity_count(), 6u);
+  EXPECT_EQ(w.count<Tag<69>>(), 5u);
+  w.destroy(again[1]);  // a typed pop for each of them: no listeners
+  w.destroy(es[0]);
+  EXPECT_EQ(w.count<Tag<69>>(), 3u);
+  EXPECT_EQ(tag_components(w, std::make_integer_sequence<int, 70>{}), 3u);
+  EXPECT_EQ(w.create(), (Entity{0, 1}));
+  EXPECT_EQ(w.create(), (Entity{3, 2}));
+
+  World moved = std::move(w);
+  EXPECT_EQ(moved.entity_count(), 6u);
+  EXPECT_EQ(w.entity_count(), 0u);  // NOLINT(bugprone-use-after-move): a moved-from World is empty
+  EXPECT_EQ(w.create(), (Entity{0, 0}));
+}
+
 }  // namespace
 }  // namespace penumbra

@@ -40,6 +40,7 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cassert>
 #include <cstddef>
 #include <cstdint>
@@ -260,11 +261,11 @@ class PoolBase {
   // Removes the component at `pos`: swap-and-pop, or a tombstone while `iterating`.
   // Returns true when a tombstone was left (the pool then needs compact()).
   bool erase(std::uint32_t pos, bool iterating);
-  // Swap-and-pop of slot `pos` for the entities, ticks and sparse array: the last slot's entity
-  // takes `pos`. Returns that last slot, whose component the caller moves to `pos` (unless they
-  // are the same) and destroys.
-  std::uint32_t pop_slot(std::uint32_t pos) {
-    const std::uint32_t removed = index(pos), last = size_ - 1;
+  // Swap-and-pop of slot `pos`, which holds entity `removed`, for the entities, ticks and sparse
+  // array: the last slot's entity takes `pos`. Returns that last slot, whose component the caller
+  // moves to `pos` (unless they are the same) and destroys.
+  std::uint32_t pop_slot(std::uint32_t pos, std::uint32_t removed) {
+    const std::uint32_t last = size_ - 1;
     ++layout_version_;
     sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
     if (pos != last) {
@@ -305,8 +306,24 @@ class PoolBase {
   std::uint32_t bit_ = 0;                // this pool's bit in the World's per-entity masks
   GroupBase* owner_ = nullptr;           // the group that orders this pool, if any
   std::vector<GroupBase*> groups_;       // every group that has this pool's type, owned or observed
-  // Pool<T>::pop for this pool's T: the typed swap-and-pop, without a virtual call per step.
-  void (*pop_)(PoolBase&, std::uint32_t pos) = nullptr;
+  // destroy()'s removal of one entity's components, pool after pool: pops the component of
+  // entity `entity_index` from this pool (the lowest bit of `bits`, the entity's mask word), then
+  // goes on, by a tail call, with the pool of the next bit in `pools` (the World's pools by bit)
+  // while that pool's plain_pop_ is set. Returns the bits of the components left (0: all gone).
+  using PopFn = std::uint64_t (*)(PoolBase&, std::uint32_t entity_index, std::uint64_t bits, PoolBase* const* pools);
+  // Pool<T>'s PopFn: the typed swap-and-pop, without a virtual call per step.
+  PopFn typed_pop_ = nullptr;
+  // typed_pop_ while removing a component needs nothing else (no on_remove listener, no group),
+  // else null. Kept by refresh_plain_pop() whenever listeners or groups change.
+  PopFn plain_pop_ = nullptr;
+  // The PopFn step after this pool's pop: on to the next bit's pool, or back with what is left.
+  static std::uint64_t pop_next(std::uint32_t entity_index, std::uint64_t bits, PoolBase* const* pools) {
+    bits &= bits - 1;
+    if (bits == 0) return 0;
+    PoolBase& next = *pools[std::countr_zero(bits)];
+    return next.plain_pop_ ? next.plain_pop_(next, entity_index, bits, pools) : bits;
+  }
+  void refresh_plain_pop() { plain_pop_ = on_remove_.empty() && groups_.empty() ? typed_pop_ : nullptr; }
 
  protected:
   virtual void destroy_at(std::uint32_t pos) = 0;
@@ -335,7 +352,11 @@ template <class T>
 class Pool final : public PoolBase {
  public:
   Pool() {
-    pop_ = [](PoolBase& p, std::uint32_t pos) { static_cast<Pool&>(p).pop(pos); };
+    typed_pop_ = [](PoolBase& p, std::uint32_t entity_index, std::uint64_t bits, PoolBase* const* pools) {
+      static_cast<Pool&>(p).pop(p.position(entity_index), entity_index);
+      return pop_next(entity_index, bits, pools);
+    };
+    refresh_plain_pop();
   }
   ~Pool() override {
     for (std::uint32_t i = 0; i < size(); ++i)
@@ -346,11 +367,12 @@ class Pool final : public PoolBase {
   T& at(std::uint32_t pos) { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
   const T& at(std::uint32_t pos) const { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
   T* page(std::uint32_t p) { return pages_[p]; }
-  // erase(pos, false) without the virtual calls.
-  void pop(std::uint32_t pos) {
-    const std::uint32_t last = pop_slot(pos);
-    if (pos != last) at(pos) = std::move(at(last));
-    at(last).~T();
+  // erase(pos, false) without the virtual calls; `entity_index` is the entity at `pos`.
+  void pop(std::uint32_t pos, std::uint32_t entity_index) {
+    const std::uint32_t last = pop_slot(pos, entity_index);
+    T& from = at(last);
+    if (pos != last) at(pos) = std::move(from);
+    from.~T();
   }
 
   // Constructs a new component at the end of the pool.
@@ -459,7 +481,8 @@ class World {
   // the index's generation so every handle to it turns stale. A stale or null handle is ignored.
   // Components go in the order their types were first used in this World, so an on_remove
   // listener sees those of later types still there. Cost: O(number of components the entity
-  // has); a pool with no on_remove listener and no group takes a typed swap-and-pop.
+  // has); in a World of up to 64 component types, a pool with no on_remove listener and no group
+  // takes a typed swap-and-pop (no virtual call, nothing allocated).
   void destroy(Entity e);
   // destroy() of each, in order.
   void destroy(std::span<const Entity> entities);
@@ -468,7 +491,7 @@ class World {
     return e.index < slots_.size() && slots_[e.index] == e.generation;
   }
   // Number of alive entities.
-  std::size_t entity_count() const { return alive_count_; }
+  std::size_t entity_count() const { return entities_.alive; }
   // The handle of the alive entity with this index (for code that stores indices).
   // Precondition: an entity with this index is alive.
   Entity handle(std::uint32_t index) const { return Entity{index, slots_[index]}; }
@@ -683,13 +706,28 @@ class World {
   // exhausted is retired: dead forever, never reused.
   static constexpr std::uint32_t kDeadBit = 0x80000000u;
   std::vector<std::uint32_t> slots_;
-  std::vector<std::uint32_t> free_;
-  std::size_t alive_count_ = 0;
+  // The free indices, most recently freed first: free_head, then the index held in word 0 of
+  // each free index's mask row (kNone ends the list). The row is otherwise unused while the index
+  // is free, and destroy() has just read it, so freeing writes no memory a live entity did not use.
+  // With the counts of alive and retired indices; a moved-from World is left with none.
+  struct EntityList {
+    std::uint32_t free_head = detail::kNone;
+    std::size_t alive = 0, retired = 0;
+    EntityList() = default;
+    EntityList(EntityList&& other) noexcept { *this = std::move(other); }
+    EntityList& operator=(EntityList&& other) noexcept {
+      free_head = std::exchange(other.free_head, detail::kNone);
+      alive = std::exchange(other.alive, 0);
+      retired = std::exchange(other.retired, 0);
+      return *this;
+    }
+  };
+  EntityList entities_;
   // Pools by ComponentId (null for types this World never used), and the same pools by bit_.
   std::vector<std::unique_ptr<detail::PoolBase>> pools_;
   std::vector<detail::PoolBase*> by_bit_;
   // Per entity index, mask_words_ 64-bit words: bit b set while by_bit_[b] holds its component.
-  // At least one row per entity slot; a free index's row is all zero.
+  // At least one row per entity slot; a free index's row is zero but for its free-list link.
   detail::ZeroedWords masks_;
   std::uint32_t mask_words_ = 1;
   std::vector<std::unique_ptr<detail::GroupBase>> groups_;
@@ -989,6 +1027,39 @@ bool detail::Pool<T>::copy_to(std::uint32_t pos, World& to, Entity dst) {
   }
 }
 
+inline void World::destroy(Entity e) {
+  if (!alive(e)) return;
+  // Components in bit order, as destroy_components() removes them: those of pools with nothing
+  // to tell and no group by the pools' chain of typed swap-and-pops (PoolBase::PopFn), until one
+  // needs the general path, which takes what is left. The chain covers Worlds with up to 64
+  // component types (one mask word); the general path takes the components of wider ones.
+  bool plain = iterating_ == 0 && mask_words_ == 1;
+  if (plain) {
+    std::uint64_t& word = masks_[e.index];
+    if (word != 0) {
+      detail::PoolBase& first = *by_bit_[std::countr_zero(word)];
+      if (first.plain_pop_) word = first.plain_pop_(first, e.index, word, by_bit_.data());
+      plain = word == 0;
+    }
+  }
+  if (!plain && !destroy_components(e)) return;
+  release(e);
+}
+
+inline void World::release(Entity e) {
+  --entities_.alive;
+  // Bump the generation so old handles turn stale; an exhausted index is retired, never reused.
+  const std::uint32_t next = e.generation + 1;
+  if (next == kDeadBit) {
+    slots_[e.index] = kDeadBit | e.generation;
+    ++entities_.retired;
+  } else {
+    slots_[e.index] = kDeadBit | next;
+    masks_[std::size_t{e.index} * mask_words_] = entities_.free_head;  // the row is zero: its components are gone
+    entities_.free_head = e.index;
+  }
+}
+
 template <class T, class... Args>
 T& World::add(Entity e, Args&&... args) {
   return add_to(storage<T>(), e, std::forward<Args>(args)...);
@@ -1042,12 +1113,12 @@ bool World::remove(Entity e) {
   assert(write_declared(component_id<T>()) && "a system removes a component it did not declare in SystemDesc::writes");
   auto* p = pool_if<T>();
   if (!p || !alive(e)) return false;
-  if (!p->on_remove_.empty() || !p->groups_.empty() || iterating_ > 0) return remove_from(*p, e);
+  if (!p->plain_pop_ || iterating_ > 0) return remove_from(*p, e);
   // Nothing to tell and no slot to keep: the typed swap-and-pop.
   const std::uint32_t pos = p->find(e.index);
   if (pos == detail::kNone) return false;
   mask_word(e.index, p->bit_) &= ~mask_bit(p->bit_);
-  p->pop(pos);
+  p->pop(pos, e.index);
   return true;
 }
 
