@@ -39,7 +39,9 @@
 #include "penumbra/bake/baker.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/bakers.h"
+#include "penumbra/core/colour.h"
 #include "penumbra/core/jobs.h"
+#include "penumbra/image/image.h"
 #include "penumbra/offline/offline_renderer.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/runtime.h"
@@ -48,13 +50,6 @@
 
 namespace penumbra::bench {
 namespace {
-
-
-float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
-
-glm::vec3 pixel(const Image& image, std::size_t i) {
-  return {image.rgba32f[4 * i], image.rgba32f[4 * i + 1], image.rgba32f[4 * i + 2]};
-}
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -68,7 +63,7 @@ Status write_pair(const Options& options, const std::string& stem, const Image& 
   Image png = linear;
   png.rgba8.resize(linear.rgba32f.size());
   for (std::size_t i = 0; i < linear.rgba32f.size() / 4; ++i) {
-    const glm::vec3 c = display_colour(pixel(linear, i), 1.0f, true);  // as the renderer's 8-bit targets
+    const glm::vec3 c = display_colour(pixel_rgb(linear, i), 1.0f, true);  // as the renderer's 8-bit targets
     for (int k = 0; k < 3; ++k) png.rgba8[4 * i + k] = static_cast<std::uint8_t>(std::lround(255.0f * c[k]));
     png.rgba8[4 * i + 3] = 255;
   }
@@ -134,11 +129,11 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
       const auto [origin, dir] = camera_ray(clip_to_world, {float(x) + 0.5f, float(y) + 0.5f}, width, height);
       Hit hit;
       if (!rays->intersect(Ray{origin, 0.0f, dir}, hit)) continue;
-      const glm::vec3 p = pixel(views["position"], i);
+      const glm::vec3 p = pixel_rgb(views["position"], i);
       const glm::vec3 q = origin + hit.t * dir;
       if (!(glm::distance(p, q) <= 0.005f * glm::distance(origin, q))) continue;
-      if (!(glm::length(pixel(views["normal"], i)) > 0.5f)) continue;
-      if (pixel(views["albedo"], i) == glm::vec3(0.0f)) continue;  // reflects nothing, or a rect light's emitter
+      if (!(glm::length(pixel_rgb(views["normal"], i)) > 0.5f)) continue;
+      if (pixel_rgb(views["albedo"], i) == glm::vec3(0.0f)) continue;  // reflects nothing, or a rect light's emitter
       const auto* name = world.try_get<Name>(hit.entity);
       const std::string region =
           (name && !name->value.empty() ? name->value : "entity " + std::to_string(hit.entity.index)) + " " +
@@ -181,7 +176,7 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
       ref.rgba32f[4 * i + 3] = 1.0f;
       ref_lum[k] = luminance(ref_view[i]);
       ref_se[k] = luminance(ref_error[i]);
-      rt_lum[k] = luminance(pixel(rt, i));
+      rt_lum[k] = luminance(pixel_rgb(rt, i));
       mean_ref += ref_lum[k];
     }
     mean_ref /= double(counted.size());

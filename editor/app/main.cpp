@@ -214,7 +214,7 @@ void start_reference_map(UiState& ui, Document& doc, Renderer& renderer, const C
   }
   std::vector<glm::vec3> tested(std::size_t{request.width()} * request.height());
   for (std::size_t i = 0; i < tested.size(); ++i)
-    tested[i] = {image->rgba32f[4 * i], image->rgba32f[4 * i + 1], image->rgba32f[4 * i + 2]};
+    tested[i] = pixel_rgb(*image, i);
   const Status started = ui.reference_job.start(doc.world(), std::move(tested), request);
   ui.message = started ? "rendering the offline reference of this frame (" + std::to_string(request.spp) +
                              " paths per pixel) in the background"

@@ -9,12 +9,11 @@
 
 #include "penumbra/bake/integrators.h"
 #include "penumbra/bake/ray_scene.h"
+#include "penumbra/core/colour.h"
 #include "penumbra/offline/surface_textures.h"
 
 namespace penumbra::editor {
 namespace {
-
-float luminance(glm::vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
 // What the reference reads, detached from the World.
 struct Snapshot {

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/core/colour.h"
+
 namespace penumbra {
 namespace {
 
@@ -13,8 +15,6 @@ bool compared(const Image& a, std::size_t i) {
   const float* p = &a.rgba32f[4 * i];
   return p[3] > 0.0f && std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
 }
-
-float luminance(const float* p) { return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2]; }
 
 Status check_pair(const Image& a, const Image& b, const char* what) {
   if (a.width != b.width || a.height != b.height)
@@ -64,11 +64,8 @@ Result<ImageComparison> compare_images(const Image& image, const Image& referenc
   std::vector<float> ya(n), yr(n);
   for (std::size_t i = 0; i < n; ++i) {
     if (!both[i]) continue;
-    const glm::vec3 da = display_colour({image.rgba32f[4 * i], image.rgba32f[4 * i + 1], image.rgba32f[4 * i + 2]}, 1.0f, true);
-    const glm::vec3 dr = display_colour(
-        {reference.rgba32f[4 * i], reference.rgba32f[4 * i + 1], reference.rgba32f[4 * i + 2]}, 1.0f, true);
-    ya[i] = luminance(&da.x);
-    yr[i] = luminance(&dr.x);
+    ya[i] = luminance(display_colour(pixel_rgb(image, i), 1.0f, true));
+    yr[i] = luminance(display_colour(pixel_rgb(reference, i), 1.0f, true));
   }
   constexpr double kC1 = 0.01 * 0.01, kC2 = 0.03 * 0.03;
   constexpr int kRadius = 3;
@@ -117,7 +114,7 @@ Image difference_image(const Image& image, const Image& reference) {
       p[0] = p[1] = p[2] = 48;
       continue;
     }
-    const float a = luminance(&image.rgba32f[4 * i]), r = luminance(&reference.rgba32f[4 * i]);
+    const float a = luminance(pixel_rgb(image, i)), r = luminance(pixel_rgb(reference, i));
     const float rel = r > 0.0f ? (a - r) / r : (a > 0.0f ? 1.0f : 0.0f);
     const auto level = static_cast<std::uint8_t>(std::lround(std::clamp(std::abs(rel) / 0.5f, 0.0f, 1.0f) * 255.0f));
     p[0] = rel > 0.0f ? level : 0;

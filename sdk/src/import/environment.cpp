@@ -10,7 +10,7 @@ Result<std::shared_ptr<const EnvironmentMap>> load_environment_map(const std::fi
   if (!image) return image.error();
   std::vector<glm::vec3> texels(std::size_t{image->width} * image->height);
   for (std::size_t i = 0; i < texels.size(); ++i)
-    texels[i] = {image->rgba32f[4 * i], image->rgba32f[4 * i + 1], image->rgba32f[4 * i + 2]};
+    texels[i] = pixel_rgb(*image, i);
   return make_environment_map(image->width, image->height, std::move(texels), path.string());
 }
 

@@ -32,6 +32,14 @@ namespace penumbra {
 
 namespace {
 
+// A sky value of the lighting extension (a radiance channel, a map scale): a JSON number that is
+// finite, >= 0 and fits a float; nullopt otherwise.
+std::optional<float> radiance_value(const nlohmann::json& v) {
+  const double x = v.is_number() ? v.get<double>() : -1.0;
+  if (!(std::isfinite(x) && x >= 0.0 && x <= 3.0e38)) return std::nullopt;
+  return static_cast<float>(x);
+}
+
 using gltf_detail::json_depth;
 using gltf_detail::kMaxJsonDepth;
 
@@ -699,6 +707,16 @@ Status Importer::read_lighting_extension(std::size_t ni, const nlohmann::json& e
       if (!map->is_string() || map->get<std::string>().empty())
         return fail(ErrorCode::InvalidInput, swhere + ".map", "is not a file name; give the equirectangular OpenEXR "
                                                               "file's path relative to the glTF, e.g. \"sky.exr\"");
+      if (sky->contains("radiance"))
+        return fail(ErrorCode::InvalidInput, swhere, "gives both \"radiance\" and \"map\"; keep one (a map replaces "
+                                                     "the constant sky; scale it with \"map_scale\")");
+      if (const auto scale = sky->find("map_scale"); scale != sky->end()) {
+        const std::optional<float> x = radiance_value(*scale);
+        if (!x)
+          return fail(ErrorCode::InvalidInput, swhere + ".map_scale", "is not a finite number >= 0; give the factor "
+                                                                      "the map's texels are multiplied by (1: as stored)");
+        env.map_scale = *x;
+      }
       env.map = map->get<std::string>();
       const std::filesystem::path full = std::filesystem::path(file_).parent_path() / env.map;
       std::error_code ec;
@@ -708,16 +726,6 @@ Status Importer::read_lighting_extension(std::size_t ni, const nlohmann::json& e
       auto loaded = load_environment_map(full);
       if (!loaded) return fail(loaded.error().code, swhere + ".map", loaded.error().message);
       env.map_data = std::move(*loaded);
-      if (const auto scale = sky->find("map_scale"); scale != sky->end()) {
-        const double x = scale->is_number() ? scale->get<double>() : -1.0;
-        if (!(std::isfinite(x) && x >= 0.0 && x <= 3.0e38))
-          return fail(ErrorCode::InvalidInput, swhere + ".map_scale", "is not a finite number >= 0; give the factor "
-                                                                      "the map's texels are multiplied by (1: as stored)");
-        env.map_scale = static_cast<float>(x);
-      }
-      if (sky->contains("radiance"))
-        return fail(ErrorCode::InvalidInput, swhere, "gives both \"radiance\" and \"map\"; keep one (a map replaces "
-                                                     "the constant sky; scale it with \"map_scale\")");
     } else {
       if (sky->contains("map_scale"))
         return fail(ErrorCode::InvalidInput, swhere, "gives \"map_scale\" without a \"map\"; add the map or drop the scale");
@@ -726,12 +734,11 @@ Status Importer::read_lighting_extension(std::size_t ni, const nlohmann::json& e
         return fail(ErrorCode::InvalidInput, swhere, "\"radiance\" is missing or not 3 numbers; give linear RGB in "
                                                      "W/(m^2 sr), e.g. [0.2, 0.25, 0.35] (or a \"map\")");
       for (std::size_t c = 0; c < 3; ++c) {
-        const nlohmann::json& v = (*radiance)[c];
-        const double x = v.is_number() ? v.get<double>() : -1.0;
-        if (!(std::isfinite(x) && x >= 0.0 && x <= 3.0e38))
+        const std::optional<float> x = radiance_value((*radiance)[c]);
+        if (!x)
           return fail(ErrorCode::InvalidInput, swhere + ".radiance",
                       "element " + std::to_string(c) + " is not a finite number >= 0; give linear RGB in W/(m^2 sr)");
-        env.radiance[static_cast<int>(c)] = static_cast<float>(x);
+        env.radiance[static_cast<int>(c)] = *x;
       }
     }
     world_.add<Environment>(out_.nodes[ni], std::move(env));

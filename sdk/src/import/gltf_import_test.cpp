@@ -468,9 +468,16 @@ TEST(GltfImport, LightingExtensionIsKeptPerNodeAndItsShapeChecked) {
     auto refused = import_gltf(both, path);
     ASSERT_FALSE(refused.ok());
     EXPECT_NE(refused.error().message.find("gives both \"radiance\" and \"map\""), std::string::npos);
+    j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"].erase("radiance");
+    j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"]["map_scale"] = -2.0;
+    std::ofstream(path) << j.dump();
+    World scaled;
+    auto bad_scale = import_gltf(scaled, path);
+    ASSERT_FALSE(bad_scale.ok());
+    EXPECT_NE(bad_scale.error().message.find("environment.map_scale"), std::string::npos) << bad_scale.error().message;
+    j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"]["map_scale"] = 2.0;
     image.rgba32f[5] = -1.0f;  // texel (1, 0), green
     ASSERT_TRUE(write_image(image, exr.string()).ok());
-    j["nodes"][3]["extensions"]["PENUMBRA_lighting"]["environment"].erase("radiance");
     std::ofstream(path) << j.dump();
     World negative;
     auto bad = import_gltf(negative, path);

@@ -10,6 +10,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "penumbra/core/colour.h"
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/sampling.h"
 
@@ -28,7 +29,6 @@ std::uint32_t sectors(std::uint32_t rays) {
 }
 
 bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-float luminance(glm::vec3 v) { return 0.2126f * v.x + 0.7152f * v.y + 0.0722f * v.z; }
 
 }  // namespace
 
@@ -174,7 +174,7 @@ Status irradiance_cache(std::span<const CachePixel> pixels, std::uint32_t width,
       const auto px = static_cast<std::int64_t>(p % width), py = static_cast<std::int64_t>(p / width);
       // Gradient limit: the translation cannot extrapolate the luminance below zero within R.
       glm::vec3 grad(0.0f);
-      for (int c = 0; c < 3; ++c) grad += glm::vec3(0.2126f, 0.7152f, 0.0722f)[c] * r.translational[c];
+      for (int c = 0; c < 3; ++c) grad += kLuminanceWeights[c] * r.translational[c];
       const float g = glm::length(grad);
       if (g > 0.0f) r.radius = std::min(r.radius, luminance(r.irradiance) / g);
       r.radius = std::max(r.radius, lo);

@@ -9,6 +9,7 @@
 #include <glm/gtc/matrix_inverse.hpp>
 
 #include "penumbra/bake/ray_scene.h"
+#include "penumbra/core/colour.h"
 #include "penumbra/core/random.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/probe_grid/probe_grid.h"
@@ -16,8 +17,6 @@
 namespace penumbra::editor {
 
 namespace {
-
-float luminance(glm::vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
 struct GridRef {
   std::shared_ptr<const ProbeGridData> data;

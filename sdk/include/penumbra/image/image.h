@@ -2,6 +2,7 @@
 // and the one display transform (tone mapping) every path shares.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -23,6 +24,12 @@ struct Image {
   std::vector<std::uint8_t> rgba8;  // when read as 8-bit
   std::vector<float> rgba32f;       // when read as float
 };
+// The linear RGB of pixel i (row-major from the top row) of a float image. Precondition: rgba32f
+// holds it. O(1).
+inline glm::vec3 pixel_rgb(const Image& image, std::size_t i) {
+  return {image.rgba32f[4 * i], image.rgba32f[4 * i + 1], image.rgba32f[4 * i + 2]};
+}
+
 // PNG (8-bit; from rgba8) or OpenEXR (32-bit float RGBA; from rgba32f) by the extension of `path`;
 // atomic (temporary file, then rename). Errors name the path and the fix (unknown extension, the
 // image lacks the pixels the format needs, the directory is not writable).
