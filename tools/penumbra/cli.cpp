@@ -47,6 +47,14 @@ int fail(int code, std::string_view message) {
   return code;
 }
 
+std::optional<int> reject_unknown_options(const Args& args, std::string_view command) {
+  for (const std::string& word : args.rest())
+    if (word.size() > 1 && word.starts_with("-"))
+      return fail(kUsage, std::string(command) + ": unknown option " + word +
+                              " ('penumbra --help' lists the options of each command)");
+  return std::nullopt;
+}
+
 std::optional<unsigned long long> parse_count(std::string_view option, const std::string& text) {
   if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos || text.size() > 18) {
     fail(kUsage, std::string(option) + " takes a non-negative integer, not '" + text + "'");

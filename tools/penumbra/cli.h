@@ -35,6 +35,9 @@ class Args {
 
 // Prints "penumbra: message" to stderr and returns `code`.
 int fail(int code, std::string_view message);
+// After `command` took every option it knows from `args`: a usage error (kUsage, printed) naming the
+// first word left that looks like an option (-x or --name), or nullopt when none is left.
+std::optional<int> reject_unknown_options(const Args& args, std::string_view command);
 // Parses a non-negative integer option; prints a usage error on failure.
 std::optional<unsigned long long> parse_count(std::string_view option, const std::string& text);
 

@@ -106,7 +106,8 @@ int cmd_bake(Args args) {
       std::printf("%-12s %s\n", b.name.c_str(), b.description.c_str());
     return kSuccess;
   }
-  if (args.rest().size() != 1 || args.rest()[0].starts_with("-"))
+  if (const auto unknown = reject_unknown_options(args, "bake")) return *unknown;
+  if (args.rest().size() != 1)
     return fail(kUsage, "bake takes one SCENE (a glTF file or builtin:NAME) and -o FILE.pbake");
   if (!out && !estimate_only) return fail(kUsage, "bake needs -o FILE.pbake (or --estimate, to only estimate it)");
   if (estimate_only && shard) return fail(kUsage, "--estimate estimates the whole bake; leave out --shard");
@@ -219,8 +220,7 @@ int cmd_merge(Args args) {
   const auto threads = args.take("--threads");
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
   if (!out) return fail(kUsage, "merge needs -o FILE.pbake");
-  for (const std::string& a : args.rest())
-    if (a.starts_with("-")) return fail(kUsage, "merge: unknown option " + a);
+  if (const auto unknown = reject_unknown_options(args, "merge")) return *unknown;
   if (args.rest().empty()) return fail(kUsage, "merge takes the part files ('penumbra bake --shard I/N' wrote) and -o FILE");
   const std::optional<unsigned> thread_count = parse_threads(threads);
   if (!thread_count) return kUsage;
@@ -290,7 +290,8 @@ int describe_part(const std::string& path, const BakeFile& file, bool verbose) {
 }  // namespace
 
 int cmd_info(Args args) {
-  if (args.rest().size() != 1 || args.rest()[0].starts_with("-")) return fail(kUsage, "info takes one FILE.pbake");
+  if (const auto unknown = reject_unknown_options(args, "info")) return *unknown;
+  if (args.rest().size() != 1) return fail(kUsage, "info takes one FILE.pbake");
   const std::string& path = args.rest()[0];
   auto file = read_bake_file(path);
   if (!file) return fail(kFailure, file.error().message);
@@ -323,7 +324,8 @@ int cmd_info(Args args) {
 // Checks FILE without baking: a .pbake as `info` does (every chunk through its module's check), a
 // glTF by importing it into a scratch World with every check the importer makes.
 int cmd_validate(Args args) {
-  if (args.rest().size() != 1 || args.rest()[0].starts_with("-"))
+  if (const auto unknown = reject_unknown_options(args, "validate")) return *unknown;
+  if (args.rest().size() != 1)
     return fail(kUsage, "validate takes one FILE (.gltf, .glb or .pbake)");
   const std::filesystem::path path = args.rest()[0];
   const std::string ext = path.extension().string();

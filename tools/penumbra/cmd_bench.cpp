@@ -25,7 +25,8 @@ int cmd_bench(Args args) {
     for (const auto& e : bench::registry()) std::printf("%-12s %s\n", e.name.c_str(), e.description.c_str());
     return kSuccess;
   }
-  if (args.rest().size() != 1 || args.rest()[0].starts_with("--"))
+  if (const auto unknown = reject_unknown_options(args, "bench")) return *unknown;
+  if (args.rest().size() != 1)
     return fail(kUsage, "bench takes one benchmark name ('penumbra bench --list' names them)");
   const std::string& name = args.rest()[0];
 

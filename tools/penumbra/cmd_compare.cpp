@@ -12,7 +12,8 @@ int cmd_compare(Args args) {
   auto error_path = args.take("--reference-error");
   auto out = args.take("-o");
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
-  if (args.rest().size() != 2 || args.rest()[0].starts_with("-") || args.rest()[1].starts_with("-"))
+  if (const auto unknown = reject_unknown_options(args, "compare")) return *unknown;
+  if (args.rest().size() != 2)
     return fail(kUsage, "compare takes IMAGE.exr REFERENCE.exr [--reference-error E.exr] [-o DIFF.png]");
   if (out && !out->ends_with(".png")) return fail(kUsage, "-o " + *out + ": the difference map is a .png");
   const std::string& a_path = args.rest()[0];

@@ -167,7 +167,8 @@ int cmd_render(Args args) {
   const auto sky = take_sky(args, sky_ok);
   if (args.missing_value) return fail(kUsage, args.missing_name + " needs a value");
   if (!sky_ok) return kUsage;
-  if (args.rest().size() != 1 || args.rest()[0].starts_with("-")) {
+  if (const auto unknown = reject_unknown_options(args, "render")) return *unknown;
+  if (args.rest().size() != 1) {
     return fail(kUsage, "render takes one SCENE (builtin:NAME or a .gltf/.glb path) and -o OUT.png|OUT.exr");
   }
   if (!out) return fail(kUsage, "render needs -o OUT.png or -o OUT.exr");
