@@ -2,7 +2,9 @@
 // Forward pass, fragment stage: Lambertian shading with
 //   direct light   directional / point / spot (KHR_lights_punctual, as bake/light_sampling.h) and
 //                  rect lights by their exact unshadowed irradiance (the polygon formula, clipped to
-//                  the horizon), each with a PCF-filtered shadow map (a rect's from its centre);
+//                  the horizon), each with a PCF-filtered shadow map (a rect's is a cube from its
+//                  centre, at 16 taps filtered over the penumbra the rect casts: percentage-closer
+//                  soft shadows);
 //   indirect light the ambient image's irradiance times its open fraction (what the render
 //                  features' sources and occluders drew into it before this pass;
 //                  render/feature.h), upsampled; times the draw's entity-wide open fraction and
@@ -16,6 +18,7 @@
 
 layout(std430, set = 0, binding = PENUMBRA_BINDING_LIGHTS) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = PENUMBRA_BINDING_SHADOW_MAP) uniform sampler2DArrayShadow shadow_map;
+layout(set = 0, binding = PENUMBRA_BINDING_SHADOW_DEPTH) uniform sampler2DArray shadow_depth;
 layout(set = 0, binding = PENUMBRA_BINDING_AMBIENT) uniform sampler2D ambient_image;
 layout(set = 0, binding = PENUMBRA_BINDING_AMBIENT_KEY) uniform sampler2D ambient_key;
 layout(set = 1, binding = PENUMBRA_BINDING_BASE_COLOR) uniform sampler2D base_color_texture;
@@ -33,7 +36,8 @@ layout(constant_id = 0) const uint kView = PENUMBRA_VIEW_LIT;
 // The ambient image was drawn (an active render feature and a view that shows it): else its code
 // is compiled out.
 layout(constant_id = 1) const bool kAmbient = false;
-// Shadow-map taps per light (RenderSettings::shadow_taps; 0: no shadows this frame, compiled out).
+// Shadow-map taps per light (RenderSettings::shadow_taps; 0: no shadows this frame, compiled out;
+// 16: rect lights by percentage-closer soft shadows, the others as 4).
 layout(constant_id = 2) const uint kShadowTaps = 4u;
 // The light count when the renderer fixes it (up to PENUMBRA_UNROLLED_LIGHTS): the loop over the
 // lights is unrolled and every light's data is read at a constant offset, which llvmpipe loads
@@ -64,6 +68,84 @@ float shadow_factor(uint layer, vec3 p) {
               texture(shadow_map, vec4(uv + vec2(-h, h), float(layer), depth)) +
               texture(shadow_map, vec4(uv + vec2(h, h), float(layer), depth));
   return 0.25 * lit;
+}
+
+// The widest penumbra and blocker search, in shadow-map uv (a cube face spans 0..1).
+const float kMaxPenumbra = 0.08;
+
+// A rect light's lit fraction at world point p (normal-offset), by percentage-closer soft shadows
+// (Fernando 2005) on its shadow cube from the centre, the rect taken as the disc of its area
+// (radius r): a face maps tangent t to uv 0.5 + 0.5 t, so a blocker at depth z_b hides part of
+// the light from a receiver at depth z_r within k (z_r / z_b - 1) of its uv, k = r / (2 z_r)
+// (similar triangles). The blocker search covers blockers down to a third of z_r (4x4 depth taps
+// over +-2k) and keeps those that can hide part of the light (within that distance of uv, give or
+// take a tap's spacing: a wall beside p is no blocker of it); their mean depth gives the penumbra, over which 4x4 comparison taps (each the
+// hardware's 2x2 filter) average. Each tap compares against the depth of the receiver's plane
+// (through p, normal n) at its own uv, not p's (receiver plane depth bias, Isidoro 2006), less
+// the plane's depth change over a texel, so a wide kernel does not shadow the receiver by itself. No blocker: lit. near / far: the cube's
+// planes, which linearise the stored depths.
+vec3 shadow_uv_depth(uint layer, vec3 p) {
+  vec4 clip = shadow_matrices[layer] * vec4(p, 1.0);
+  return vec3(clip.xy / clip.w * 0.5 + 0.5, clip.z / clip.w);
+}
+float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, float r, float near, float far) {
+  mat4 m = shadow_matrices[layer];
+  vec4 clip = m * vec4(p, 1.0);
+  if (clip.w <= 0.0) return 1.0;
+  vec3 ndc = clip.xyz / clip.w;
+  if (ndc.z > 1.0) return 1.0;
+  vec2 uv = ndc.xy * 0.5 + 0.5;
+  float depth = ndc.z - frame.shadow_params.y;
+  float z_r = clip.w;  // a perspective face's w is the depth along its axis
+  // The plane's depth gradient in uv, from two steps along it: d(uv, depth) = [a b] c for plane
+  // coordinates c, so depth(uv + o) = depth + g . o with g = [a b]^-T (a.z, b.z). Seen edge-on
+  // (no gradient to take) the taps keep p's depth.
+  vec3 t1 = normalize(cross(n, abs(n.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
+  vec3 t2 = cross(n, t1);
+  vec3 here = vec3(uv, ndc.z);
+  vec3 a = shadow_uv_depth(layer, p + t1 * (1e-2 * z_r)) - here;
+  vec3 b = shadow_uv_depth(layer, p + t2 * (1e-2 * z_r)) - here;
+  mat2 jac = mat2(a.xy, b.xy);
+  float det = determinant(jac);
+  vec2 g = abs(det) > 1e-12 ? inverse(transpose(jac)) * vec2(a.z, b.z) : vec2(0.0);
+  float texel = frame.shadow_params.x;
+  // The map holds depths at texel centres, up to a texel from a tap's uv: the plane's depth
+  // change over that is given up (slope-scaled bias).
+  depth -= (abs(g.x) + abs(g.y)) * texel;
+  float k = 0.5 * r / z_r;
+  float search = clamp(2.0 * k, texel, kMaxPenumbra);
+  // The face sees direction forward + t.x right + t.y up at uv = 0.5 + 0.5 t (the rows of its
+  // matrix); a tap whose direction leaves the rect's lit side (emit) sees what lies behind the
+  // light (the ceiling it hangs from): no blocker there, and lit.
+  float e_right = dot(vec3(m[0][0], m[1][0], m[2][0]), emit);
+  float e_up = dot(vec3(m[0][1], m[1][1], m[2][1]), emit);
+  float e_forward = dot(vec3(m[0][3], m[1][3], m[2][3]), emit);
+  float blockers = 0.0, z_sum = 0.0;
+  for (int j = 0; j < 4; ++j) {
+    for (int i = 0; i < 4; ++i) {
+      vec2 o = (vec2(i, j) - 1.5) * (search / 1.5);
+      vec2 t = 2.0 * (uv + o) - 1.0;
+      if (e_forward + t.x * e_right + t.y * e_up <= 0.0) continue;
+      float d = texture(shadow_depth, vec3(uv + o, float(layer))).r;
+      float z = near * far / (far - d * (far - near));
+      if (d < depth + dot(g, o) && length(o) <= k * (z_r / z - 1.0) + search / 1.5) {  // can hide some light
+        z_sum += z;
+        blockers += 1.0;
+      }
+    }
+  }
+  if (blockers == 0.0) return 1.0;
+  float z_b = z_sum / blockers;
+  float penumbra = clamp(k * (z_r / z_b - 1.0), 0.5 * texel, kMaxPenumbra);
+  float lit = 0.0;
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 4; ++i)
+    {
+      vec2 o = (vec2(i, j) - 1.5) * (penumbra / 1.5);
+      vec2 t = 2.0 * (uv + o) - 1.0;
+      lit += e_forward + t.x * e_right + t.y * e_up <= 0.0 ? 1.0 : texture(shadow_map, vec4(uv + o, float(layer), depth + dot(g, o)));
+    }
+  return lit / 16.0;
 }
 
 // The cube face of a point/rect light's six shadow layers that sees direction d (from the light).
@@ -139,7 +221,12 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
     if (kShadowTaps != 0u && light.cone_shadow.z >= 0.0) {
       uint layer = uint(light.cone_shadow.z);
       if (light.cone_shadow.w > 1.0) layer += cube_face(p - light.position_type.xyz);
-      visible = shadow_factor(layer, p_offset);
+      if (kRectLights && kShadowTaps == 16u && type == PENUMBRA_LIGHT_RECT) {
+        float r = sqrt(4.0 / kPi * length(light.half_x.xyz) * length(light.half_y.xyz));  // the disc of its area
+        visible = rect_shadow_factor(layer, p_offset, n, light.direction_range.xyz, r, light.half_x.w, light.half_y.w);
+      } else {
+        visible = shadow_factor(layer, p_offset);
+      }
     }
     e += power * (cos_x * visible);
   }

@@ -571,9 +571,10 @@ void view_panel(EditorModel& model, UiState& ui) {
   int shadow = static_cast<int>(ui.render.shadow_map_size);
   if (ImGui::InputInt("shadow map", &shadow, 256)) ui.render.shadow_map_size = static_cast<std::uint32_t>(std::clamp(shadow, 64, 4096));
   // The renderer's speed/quality trades (RenderSettings::shadow_taps, ambient_step).
-  bool soft = ui.render.shadow_taps == 4, half = ui.render.ambient_step == 2;
-  if (ImGui::Checkbox("soft shadows (4 taps)", &soft)) ui.render.shadow_taps = soft ? 4 : 1;
-  ImGui::SameLine();
+  int taps = ui.render.shadow_taps == 1 ? 0 : ui.render.shadow_taps == 4 ? 1 : 2;
+  if (ImGui::Combo("shadow filter", &taps, "hard (1 tap)\0tent (4 taps)\0rect lights soft (16 taps)\0"))
+    ui.render.shadow_taps = taps == 0 ? 1u : taps == 1 ? 4u : 16u;
+  bool half = ui.render.ambient_step == 2;
   if (ImGui::Checkbox("ambient at half resolution", &half)) ui.render.ambient_step = half ? 2 : 1;
   int mode = ui.camera.mode() == CameraControl::Mode::Orbit ? 0 : 1;
   if (ImGui::Combo("camera", &mode, "orbit (drag, wheel, middle-drag)\0fly (drag, WASD QE)\0"))

@@ -35,6 +35,8 @@ using mat4 = glm::mat4;
                                           // (linear in screen space on a plane): what the upsampling compares
 #define PENUMBRA_BINDING_SKY 9           // sampler2D: the environment map x its scale (equirectangular, +Y up:
                                           // scene/components.h EnvironmentMap); a placeholder without one
+#define PENUMBRA_BINDING_SHADOW_DEPTH 10  // sampler2DArray: the shadow map's depths (nearest, no comparison),
+                                          // for the rect lights' blocker search
 // Descriptor set 1 (per material): the base colour texture (sRGB; white when the material has none).
 #define PENUMBRA_BINDING_BASE_COLOR 0
 // Descriptor set 2: the render feature's own (its pipelines' layout, render/feature.h).
@@ -82,8 +84,8 @@ struct GpuLight {
   vec4 direction_range; // xyz unit direction light travels (directional, spot, rect normal), w range (0: infinite)
   vec4 color;           // rgb colour x intensity, w unused
   vec4 cone_shadow;     // x cos outer, y cos inner (spot), z first shadow layer (-1: none), w layer count (1 or 6)
-  vec4 half_x;          // rect: xyz half-size vector along its local X (world space)
-  vec4 half_y;          // rect: xyz half-size vector along its local Y
+  vec4 half_x;          // rect: xyz half-size vector along its local X (world space), w its shadow cube's near plane
+  vec4 half_y;          // rect: xyz half-size vector along its local Y, w its shadow cube's far plane
 };
 
 // Push constants of every draw (forward, pre-pass, shadow; a feature's passes use them as they

@@ -205,8 +205,9 @@ int cmd_render(Args args) {
     if (*v > 0) settings.shadow_map_size = static_cast<std::uint32_t>(*v);
   }
   if (taps_text) {
-    if (*taps_text != "1" && *taps_text != "4") return fail(kUsage, "--shadow-taps must be 1 or 4");
-    settings.shadow_taps = *taps_text == "1" ? 1 : 4;
+    if (*taps_text != "1" && *taps_text != "4" && *taps_text != "16")
+      return fail(kUsage, "--shadow-taps must be 1, 4 or 16");
+    settings.shadow_taps = static_cast<std::uint32_t>(std::stoul(*taps_text));
   }
   if (step_text) {
     if (*step_text != "1" && *step_text != "2") return fail(kUsage, "--ambient-step must be 1 or 2");

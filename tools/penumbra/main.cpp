@@ -36,7 +36,7 @@ Commands:
   info FILE.pbake
       Show the file's version, input hash, chunks, their sizes and what they hold.
   render SCENE [--bake FILE] -o OUT.png|OUT.exr [--width W] [--height H] [--camera NAME] [--time T]
-         [--frames N [--animate]] [--view V] [--exposure E] [--shadow-map S] [--shadow-taps 1|4]
+         [--frames N [--animate]] [--view V] [--exposure E] [--shadow-map S] [--shadow-taps 1|4|16]
          [--ambient-step 1|2] [--offline MODE [--spp N | --seconds S] [--std-error E.exr] [--threads N]]
       Render SCENE with the Vulkan renderer (lavapipe without a GPU) at W x H (default 1280x720),
       with the lighting data of FILE.pbake, at animation time T seconds. --frames N first renders N

@@ -310,6 +310,7 @@ Status Renderer::Impl::init() {
       {PENUMBRA_BINDING_AMBIENT, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_AMBIENT_KEY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
       {PENUMBRA_BINDING_SKY, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+      {PENUMBRA_BINDING_SHADOW_DEPTH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
   };
   auto layout_info = vk_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
   layout_info.bindingCount = std::size(frame_bindings);
@@ -339,7 +340,7 @@ Status Renderer::Impl::init() {
   const VkDescriptorPoolSize sizes[] = {
       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3},
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 6 + kMaxMaterialSets},
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 7 + kMaxMaterialSets},
   };
   auto pool_info = vk_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
   pool_info.maxSets = 1 + kMaxMaterialSets;
@@ -696,9 +697,11 @@ void Renderer::Impl::plan_shadows(const std::vector<WorldLight>& world_lights) {
     } else {
       static const glm::vec3 kFaces[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
       static const glm::vec3 kUps[6] = {{0, 1, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}};
-      const float zfar = l.range > 0.0f ? l.range : far_from(wl.position);
+      const float zfar = l.range > 0.0f ? l.range : far_from(wl.position), znear = zfar * 1e-3f;
+      g.half_x.w = znear;  // the rect's soft shadows linearise the cube's depths
+      g.half_y.w = zfar;
       for (int f = 0; f < 6; ++f) {
-        shadow_matrices.push_back(glm::perspectiveRH_ZO(glm::radians(90.0f), 1.0f, zfar * 1e-3f, zfar) *
+        shadow_matrices.push_back(glm::perspectiveRH_ZO(glm::radians(90.0f), 1.0f, znear, zfar) *
                                   glm::lookAtRH(wl.position, wl.position + kFaces[f], kUps[f]));
       }
       g.cone_shadow.w = 6.0f;
@@ -793,6 +796,7 @@ void Renderer::Impl::write_descriptors() {
   const VkDescriptorBufferInfo matrix_info{shadow_matrix_buffer.buffer, 0, VK_WHOLE_SIZE};
   const VkDescriptorBufferInfo joint_info{joint_buffer.buffer, 0, VK_WHOLE_SIZE};
   const VkDescriptorImageInfo shadow_info{shadow_sampler, shadow_map.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  const VkDescriptorImageInfo shadow_depth_info{point_sampler, shadow_map.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
   // The screen images, or the white texture where they do not exist (only pipelines that do not
   // run then read them).
   const bool ambient_pass = gbuffer.view != VK_NULL_HANDLE;
@@ -804,7 +808,7 @@ void Renderer::Impl::write_descriptors() {
       {point_sampler, ambient_pass ? ambient_key.view : white.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}};
   const VkDescriptorImageInfo sky_info{sky_sampler, sky_image.view ? sky_image.view : white.image.view,
                                        VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkWriteDescriptorSet writes[10];
+  VkWriteDescriptorSet writes[11];
   auto buffer_write = [&](int i, std::uint32_t binding, VkDescriptorType type, const VkDescriptorBufferInfo* info) {
     writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
     writes[i].dstSet = frame_set;
@@ -831,6 +835,7 @@ void Renderer::Impl::write_descriptors() {
   image_write(7, PENUMBRA_BINDING_AMBIENT, 1, &screen_info[2]);
   image_write(8, PENUMBRA_BINDING_AMBIENT_KEY, 1, &screen_info[3]);
   image_write(9, PENUMBRA_BINDING_SKY, 1, &sky_info);
+  image_write(10, PENUMBRA_BINDING_SHADOW_DEPTH, 1, &shadow_depth_info);
   vkUpdateDescriptorSets(vk, std::size(writes), writes, 0, nullptr);
 }
 
@@ -1121,7 +1126,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_map_size " + std::to_string(settings.shadow_map_size) +
                                                       " is outside [16, 8192]");
   }
-  if (settings.shadow_taps != 1 && settings.shadow_taps != 4) {
+  if (settings.shadow_taps != 1 && settings.shadow_taps != 4 && settings.shadow_taps != 16) {
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_taps " + std::to_string(settings.shadow_taps) +
                                                       " is neither 1 (bilinear) nor 4 (tent over 3x3 texels)");
   }

@@ -481,6 +481,41 @@ TEST_F(RendererTest, ShadowTapsChangeOnlyShadowEdges) {
   EXPECT_GE(none.differing, 200u) << "without shadows the shadowed ground should be lit";
 }
 
+// At 16 taps a rect light's shadows soften with the distance to their blocker (percentage-closer
+// soft shadows), and nothing else changes: on the Cornell box's direct view (its ceiling rect) the
+// pixels partly in shadow (10-90 % of the unshadowed light) at least double against the 4-tap
+// tent, the frame's mean light stays within 3 % (the filter neither shadows lit surfaces by
+// themselves nor lights the umbra), and the courtyard (sun and point lamp, no rect) is the same
+// image bit for bit.
+TEST_F(RendererTest, SixteenTapsSoftenOnlyTheRectLightsShadows) {
+  auto draw = [&](BakedScene& s, std::uint32_t taps, bool shadows) {
+    RenderSettings settings;
+    settings.view = "direct";
+    settings.shadow_taps = taps;
+    settings.shadows = shadows;
+    auto image = renderer_->render_image(s.world, camera(s), kWidth, kHeight, settings, true);
+    EXPECT_TRUE(image.ok()) << (image.ok() ? "" : image.error().message);
+    return image.ok() ? std::move(image->rgba32f) : std::vector<float>{};
+  };
+  BakedScene& cornell = scene("cornell");
+  const auto open = draw(cornell, 4, false), tent = draw(cornell, 4, true), soft = draw(cornell, 16, true);
+  ASSERT_FALSE(open.empty() || tent.empty() || soft.empty());
+  std::size_t partial_tent = 0, partial_soft = 0;
+  double sum_tent = 0.0, sum_soft = 0.0;
+  for (std::size_t p = 0; p < open.size(); p += 4) {
+    sum_tent += tent[p + 1];
+    sum_soft += soft[p + 1];
+    if (open[p + 1] < 1e-4f) continue;
+    const float v_tent = tent[p + 1] / open[p + 1], v_soft = soft[p + 1] / open[p + 1];
+    partial_tent += v_tent > 0.1f && v_tent < 0.9f;
+    partial_soft += v_soft > 0.1f && v_soft < 0.9f;
+  }
+  EXPECT_GE(partial_soft, 2 * partial_tent) << "tent " << partial_tent << ", soft " << partial_soft;
+  EXPECT_NEAR(sum_soft / sum_tent, 1.0, 0.03);
+  BakedScene& courtyard = scene("courtyard");
+  EXPECT_EQ(draw(courtyard, 16, true), draw(courtyard, 4, true));
+}
+
 // The ambient image holds probe irradiance in half floats scaled by 1 / a bound over the grid, so
 // a grid a million times brighter (lights of 1e6 intensity) draws the same indirect view times 1e6
 // (linear floats, within 0.5 %), finite everywhere, instead of overflowing half floats at 65504.

@@ -25,7 +25,8 @@
 // background.
 // Shadow maps: directional orthographic over the bounds of every mesh, spot perspective over the
 // outer cone, point and rect six 90-degree faces; PCF over the 2x2 comparison filter (a 3x3 tent
-// of four taps, or one tap: RenderSettings::shadow_taps). Emissive meshes cast no shadows (an
+// of four taps, or one tap; at 16 taps a rect light's shadows are percentage-closer soft shadows:
+// RenderSettings::shadow_taps). Emissive meshes cast no shadows (an
 // emitter would occlude its own light).
 // Indirect: L = albedo / pi x E x AO, E the ambient image's irradiance (its sources: the probe
 // grid's feature), AO = VertexAO x the ambient image's open fraction (its occluders: the AO-field
@@ -75,7 +76,10 @@ struct RenderSettings {
   std::uint32_t shadow_map_size = 1024;
   // Taps of the hardware 2x2 comparison filter per shadow lookup: 4 (default) a tent over 3x3
   // texels, 1 a bilinear 2x2 footprint with harder edges, about 10 ms less per 1280x720 frame on
-  // 2-core lavapipe (README's renderer row). InvalidArgument otherwise.
+  // 2-core lavapipe (README's renderer row); 16 as 4 for every light but rects, whose shadows
+  // soften with the distance to their blocker as the rect's size says (percentage-closer soft
+  // shadows: 16 depth taps to find the blockers, 16 filter taps over the penumbra; the Cornell
+  // box's frame on lavapipe about 2.2x the 4-tap one). InvalidArgument otherwise.
   std::uint32_t shadow_taps = 4;
   // The ambient image (the render features' irradiance and occlusion, in the lit, indirect and AO
   // views) holds every ambient_step-th pixel per axis: 1 every pixel, 2
