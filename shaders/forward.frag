@@ -73,21 +73,24 @@ float shadow_factor(uint layer, vec3 p) {
 // The widest penumbra and blocker search, in shadow-map uv (a cube face spans 0..1).
 const float kMaxPenumbra = 0.08;
 
+// Shadow-map uv and depth of world point p in layer `layer`.
+vec3 shadow_uv_depth(uint layer, vec3 p) {
+  vec4 clip = shadow_matrices[layer] * vec4(p, 1.0);
+  return vec3(clip.xy / clip.w * 0.5 + 0.5, clip.z / clip.w);
+}
+
 // A rect light's lit fraction at world point p (normal-offset), by percentage-closer soft shadows
 // (Fernando 2005) on its shadow cube from the centre, the rect taken as the disc of its area
 // (radius r): a face maps tangent t to uv 0.5 + 0.5 t, so a blocker at depth z_b hides part of
 // the light from a receiver at depth z_r within k (z_r / z_b - 1) of its uv, k = r / (2 z_r)
 // (similar triangles). The blocker search covers blockers down to a third of z_r (4x4 depth taps
-// over +-2k) and keeps those that can hide part of the light (within that distance of uv, give or
-// take a tap's spacing: a wall beside p is no blocker of it); their mean depth gives the penumbra, over which 4x4 comparison taps (each the
-// hardware's 2x2 filter) average. Each tap compares against the depth of the receiver's plane
-// (through p, normal n) at its own uv, not p's (receiver plane depth bias, Isidoro 2006), less
-// the plane's depth change over a texel, so a wide kernel does not shadow the receiver by itself. No blocker: lit. near / far: the cube's
-// planes, which linearise the stored depths.
-vec3 shadow_uv_depth(uint layer, vec3 p) {
-  vec4 clip = shadow_matrices[layer] * vec4(p, 1.0);
-  return vec3(clip.xy / clip.w * 0.5 + 0.5, clip.z / clip.w);
-}
+// over +-2k) and keeps those that can hide part of the light (within that distance of uv, give
+// or take a tap's spacing: a wall beside p is no blocker of it); their mean depth gives the
+// penumbra, over which 4x4 comparison taps (each the hardware's 2x2 filter) average. Each tap
+// compares against the depth of the receiver's plane (through p, normal n) at its own uv, not
+// p's (receiver plane depth bias, Isidoro 2006), less the plane's depth change over a texel, so
+// a wide kernel does not shadow the receiver by itself. No blocker: lit. emit: the direction the
+// rect's light travels; near / far: the cube's planes, which linearise the stored depths.
 float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, float r, float near, float far) {
   mat4 m = shadow_matrices[layer];
   vec4 clip = m * vec4(p, 1.0);
@@ -128,7 +131,7 @@ float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, float r, float n
       if (e_forward + t.x * e_right + t.y * e_up <= 0.0) continue;
       float d = texture(shadow_depth, vec3(uv + o, float(layer))).r;
       float z = near * far / (far - d * (far - near));
-      if (d < depth + dot(g, o) && length(o) <= k * (z_r / z - 1.0) + search / 1.5) {  // can hide some light
+      if (d < depth + dot(g, o) && length(o) <= k * (z_r / z - 1.0) + search / 1.5) {
         z_sum += z;
         blockers += 1.0;
       }
@@ -138,13 +141,14 @@ float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, float r, float n
   float z_b = z_sum / blockers;
   float penumbra = clamp(k * (z_r / z_b - 1.0), 0.5 * texel, kMaxPenumbra);
   float lit = 0.0;
-  for (int j = 0; j < 4; ++j)
-    for (int i = 0; i < 4; ++i)
-    {
+  for (int j = 0; j < 4; ++j) {
+    for (int i = 0; i < 4; ++i) {
       vec2 o = (vec2(i, j) - 1.5) * (penumbra / 1.5);
       vec2 t = 2.0 * (uv + o) - 1.0;
-      lit += e_forward + t.x * e_right + t.y * e_up <= 0.0 ? 1.0 : texture(shadow_map, vec4(uv + o, float(layer), depth + dot(g, o)));
+      bool behind = e_forward + t.x * e_right + t.y * e_up <= 0.0;
+      lit += behind ? 1.0 : texture(shadow_map, vec4(uv + o, float(layer), depth + dot(g, o)));
     }
+  }
   return lit / 16.0;
 }
 
