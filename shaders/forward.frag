@@ -80,18 +80,20 @@ vec3 shadow_uv_depth(uint layer, vec3 p) {
 }
 
 // A rect light's lit fraction at world point p (normal-offset), by percentage-closer soft shadows
-// (Fernando 2005) on its shadow cube from the centre, the rect taken as the disc of its area
-// (radius r): a face maps tangent t to uv 0.5 + 0.5 t, so a blocker at depth z_b hides part of
-// the light from a receiver at depth z_r within k (z_r / z_b - 1) of its uv, k = r / (2 z_r)
-// (similar triangles). The blocker search covers blockers down to a third of z_r (4x4 depth taps
-// over +-2k) and keeps those that can hide part of the light (within that distance of uv, give
-// or take a tap's spacing: a wall beside p is no blocker of it); their mean depth gives the
-// penumbra, over which 4x4 comparison taps (each the hardware's 2x2 filter) average. Each tap
+// (Fernando 2005) on its shadow cube from the centre. A face maps tangent t to uv 0.5 + 0.5 t, so
+// a blocker at depth z_b hides part of a light of half-extent L (along a face axis) from a
+// receiver at depth z_r within k (z_r / z_b - 1) of its uv, k = L / (2 z_r) (similar triangles),
+// per axis: L is the rect's half-extent along the face's right and up axes (hx, hy its half-size
+// vectors), so a rect seen edge-on casts sharp edges that way. The blocker search covers blockers
+// down to a third of z_r (4x4 depth taps over +-2k) and keeps those that can hide part of the
+// light (within that distance of uv, give or take a tap's spacing: a wall beside p is no blocker
+// of it); their mean depth gives the penumbra, over which 4x4 comparison taps (each the
+// hardware's 2x2 filter) average. Each tap
 // compares against the depth of the receiver's plane (through p, normal n) at its own uv, not
 // p's (receiver plane depth bias, Isidoro 2006), less the plane's depth change over a texel, so
 // a wide kernel does not shadow the receiver by itself. No blocker: lit. emit: the direction the
 // rect's light travels; near / far: the cube's planes, which linearise the stored depths.
-float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, float r, float near, float far) {
+float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, vec3 hx, vec3 hy, float near, float far) {
   mat4 m = shadow_matrices[layer];
   vec4 clip = m * vec4(p, 1.0);
   if (clip.w <= 0.0) return 1.0;
@@ -115,13 +117,14 @@ float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, float r, float n
   // The map holds depths at texel centres, up to a texel from a tap's uv: the plane's depth
   // change over that is given up (slope-scaled bias).
   depth -= (abs(g.x) + abs(g.y)) * texel;
-  float k = 0.5 * r / z_r;
-  float search = clamp(2.0 * k, texel, kMaxPenumbra);
+  vec3 right = vec3(m[0][0], m[1][0], m[2][0]), up = vec3(m[0][1], m[1][1], m[2][1]);
+  vec2 k = vec2(abs(dot(hx, right)) + abs(dot(hy, right)), abs(dot(hx, up)) + abs(dot(hy, up))) * (0.5 / z_r);
+  vec2 search = clamp(2.0 * k, vec2(texel), vec2(kMaxPenumbra));
   // The face sees direction forward + t.x right + t.y up at uv = 0.5 + 0.5 t (the rows of its
   // matrix); a tap whose direction leaves the rect's lit side (emit) sees what lies behind the
   // light (the ceiling it hangs from): no blocker there, and lit.
-  float e_right = dot(vec3(m[0][0], m[1][0], m[2][0]), emit);
-  float e_up = dot(vec3(m[0][1], m[1][1], m[2][1]), emit);
+  float e_right = dot(right, emit);
+  float e_up = dot(up, emit);
   float e_forward = dot(vec3(m[0][3], m[1][3], m[2][3]), emit);
   float blockers = 0.0, z_sum = 0.0;
   for (int j = 0; j < 4; ++j) {
@@ -131,7 +134,7 @@ float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, float r, float n
       if (e_forward + t.x * e_right + t.y * e_up <= 0.0) continue;
       float d = texture(shadow_depth, vec3(uv + o, float(layer))).r;
       float z = near * far / (far - d * (far - near));
-      if (d < depth + dot(g, o) && length(o) <= k * (z_r / z - 1.0) + search / 1.5) {
+      if (d < depth + dot(g, o) && all(lessThanEqual(abs(o), k * (z_r / z - 1.0) + search / 1.5))) {
         z_sum += z;
         blockers += 1.0;
       }
@@ -139,7 +142,7 @@ float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, float r, float n
   }
   if (blockers == 0.0) return 1.0;
   float z_b = z_sum / blockers;
-  float penumbra = clamp(k * (z_r / z_b - 1.0), 0.5 * texel, kMaxPenumbra);
+  vec2 penumbra = clamp(k * (z_r / z_b - 1.0), vec2(0.5 * texel), vec2(kMaxPenumbra));
   float lit = 0.0;
   for (int j = 0; j < 4; ++j) {
     for (int i = 0; i < 4; ++i) {
@@ -226,8 +229,8 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
       uint layer = uint(light.cone_shadow.z);
       if (light.cone_shadow.w > 1.0) layer += cube_face(p - light.position_type.xyz);
       if (kRectLights && kShadowTaps == 16u && type == PENUMBRA_LIGHT_RECT) {
-        float r = sqrt(4.0 / kPi * length(light.half_x.xyz) * length(light.half_y.xyz));  // the disc of its area
-        visible = rect_shadow_factor(layer, p_offset, n, light.direction_range.xyz, r, light.half_x.w, light.half_y.w);
+        visible = rect_shadow_factor(layer, p_offset, n, light.direction_range.xyz, light.half_x.xyz,
+                                     light.half_y.xyz, light.half_x.w, light.half_y.w);
       } else {
         visible = shadow_factor(layer, p_offset);
       }
