@@ -85,14 +85,14 @@ vec3 shadow_uv_depth(uint layer, vec3 p) {
 // receiver at depth z_r within k (z_r / z_b - 1) of its uv, k = L / (2 z_r) (similar triangles),
 // per axis: L is the rect's half-extent along the face's right and up axes (hx, hy its half-size
 // vectors), so a rect seen edge-on casts sharp edges that way. The blocker search covers blockers
-// down to a third of z_r (4x4 depth taps over +-2k) and keeps those that can hide part of the
-// light (within that distance of uv, give or take a tap's spacing: a wall beside p is no blocker
-// of it); their mean depth gives the penumbra, over which 4x4 comparison taps (each the
-// hardware's 2x2 filter) average. Each tap
-// compares against the depth of the receiver's plane (through p, normal n) at its own uv, not
-// p's (receiver plane depth bias, Isidoro 2006), less the plane's depth change over a texel, so
-// a wide kernel does not shadow the receiver by itself. No blocker: lit. emit: the direction the
-// rect's light travels; near / far: the cube's planes, which linearise the stored depths.
+// down to a third of z_r (5x5 depth taps over +-2k, one at uv) and keeps those that can hide part
+// of the light (within that distance of uv: a wall beside p is no blocker of it); their mean
+// depth gives the penumbra, over which 4x4 comparison taps (each the hardware's 2x2 filter)
+// average. Each tap compares against the depth of the receiver's plane (through p, normal n) at
+// its own uv, not p's (receiver plane depth bias, Isidoro 2006), less the plane's depth change
+// over a texel, so a wide kernel does not shadow the receiver by itself. No blocker: lit. emit:
+// the direction the rect's light travels; near / far: the cube's planes, which linearise the
+// stored depths.
 float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, vec3 hx, vec3 hy, float near, float far) {
   mat4 m = shadow_matrices[layer];
   vec4 clip = m * vec4(p, 1.0);
@@ -127,14 +127,14 @@ float rect_shadow_factor(uint layer, vec3 p, vec3 n, vec3 emit, vec3 hx, vec3 hy
   float e_up = dot(up, emit);
   float e_forward = dot(vec3(m[0][3], m[1][3], m[2][3]), emit);
   float blockers = 0.0, z_sum = 0.0;
-  for (int j = 0; j < 4; ++j) {
-    for (int i = 0; i < 4; ++i) {
-      vec2 o = (vec2(i, j) - 1.5) * (search / 1.5);
+  for (int j = 0; j < 5; ++j) {
+    for (int i = 0; i < 5; ++i) {
+      vec2 o = (vec2(i, j) - 2.0) * (search / 2.0);
       vec2 t = 2.0 * (uv + o) - 1.0;
       if (e_forward + t.x * e_right + t.y * e_up <= 0.0) continue;
       float d = texture(shadow_depth, vec3(uv + o, float(layer))).r;
       float z = near * far / (far - d * (far - near));
-      if (d < depth + dot(g, o) && all(lessThanEqual(abs(o), k * (z_r / z - 1.0) + search / 1.5))) {
+      if (d < depth + dot(g, o) && all(lessThanEqual(abs(o), k * (z_r / z - 1.0)))) {
         z_sum += z;
         blockers += 1.0;
       }

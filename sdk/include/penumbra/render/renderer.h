@@ -78,7 +78,7 @@ struct RenderSettings {
   // texels, 1 a bilinear 2x2 footprint with harder edges, about 10 ms less per 1280x720 frame on
   // 2-core lavapipe (README's renderer row); 16 as 4 for every light but rects, whose shadows
   // soften with the distance to their blocker as the rect's size says (percentage-closer soft
-  // shadows: 16 depth taps to find the blockers, 16 filter taps over the penumbra; the Cornell
+  // shadows: 25 depth taps to find the blockers, 16 filter taps over the penumbra; the Cornell
   // box's frame on lavapipe about 2.2x the 4-tap one). InvalidArgument otherwise.
   std::uint32_t shadow_taps = 4;
   // The ambient image (the render features' irradiance and occlusion, in the lit, indirect and AO
