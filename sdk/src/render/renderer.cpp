@@ -1128,7 +1128,7 @@ Status Renderer::Impl::record(VkCommandBuffer cmd, const RenderTarget& target, c
   }
   if (settings.shadow_taps != 1 && settings.shadow_taps != 4 && settings.shadow_taps != 16) {
     return make_error(ErrorCode::InvalidArgument, "Renderer: shadow_taps " + std::to_string(settings.shadow_taps) +
-                                                      " is neither 1 (bilinear) nor 4 (tent over 3x3 texels)");
+                                                      " is not 1 (bilinear), 4 (tent over 3x3 texels) or 16 (rect lights soft)");
   }
   if (settings.ambient_step < 1 || settings.ambient_step > 2) {
     return make_error(ErrorCode::InvalidArgument, "Renderer: ambient_step " + std::to_string(settings.ambient_step) +
