@@ -72,8 +72,10 @@ Status check(const OfflineSettings& s) {
     return bad("the cache's accuracy must be positive and 0 < min_radius <= max_radius");
   if (s.direct_samples == 0 || s.rect_light_samples == 0 || s.path_rect_light_samples == 0)
     return bad("direct_samples, rect_light_samples and path_rect_light_samples must be at least 1");
-  if (!(s.filter.a > 0.0f) || !std::isfinite(s.filter.a) || s.filter.max_radius > 256)
-    return bad("the filter's a must be positive and max_radius at most 256");
+  if (!(s.filter.a > 0.0f) || !std::isfinite(s.filter.a) || s.filter.max_radius > kMaxFilterRadius ||
+      s.filter.predictor_radius > kMaxPredictorRadius)
+    return bad("the filter's a must be positive, max_radius at most " + std::to_string(kMaxFilterRadius) +
+               " and predictor_radius at most " + std::to_string(kMaxPredictorRadius));
   if (!(s.target_support > 0.0f) || !std::isfinite(s.target_support) || s.max_boost == 0 || s.max_boost > 1024)
     return bad("target_support must be positive and max_boost in 1..1024");
   return {};

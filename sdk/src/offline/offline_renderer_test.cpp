@@ -353,6 +353,44 @@ TEST(OfflineRenderer, CornellErrorsShrinkWithRaysAndTheFilterBeatsMonteCarlo) {
   EXPECT_LE(filtered.indirect_samples, 16u * 4u * filtered.covered_pixels);
 }
 
+// At one ray per pixel the filter's predictor pools the rays of each pixel's 3x3 neighbourhood on
+// its surface. With each pixel's own ray alone, whether that ray escaped decided how widely the
+// pixel blurred, and the courtyard's sunlit walls came out under-weighted: a dark bias.
+TEST(OfflineRenderer, APooledPredictorCutsTheErrorAtOneRayPerPixel) {
+  World world;
+  ASSERT_TRUE(load_builtin(world, "courtyard").ok());
+  update_world_transforms(world);
+  Entity cam = world.view<const Camera>().sorted_entities().front();
+  OfflineSettings s;
+  s.width = 96;
+  s.height = 54;
+  const CameraView camera = camera_view(world, cam, float(s.width) / float(s.height));
+  s.mode = OfflineMode::Reference;
+  s.spp = 512;
+  const OfflineImage ref = render(world, camera, s);
+  const auto errors = [&](const OfflineImage& image) {
+    double err = 0.0, bias = 0.0, norm = 0.0, total = 0.0;
+    for (std::size_t i = 0; i < image.indirect.size(); ++i) {
+      if (!ref.covered[i]) continue;
+      const glm::dvec3 d = glm::dvec3(image.indirect[i]) - glm::dvec3(ref.indirect[i]);
+      err += glm::dot(d, d);
+      bias += d.x + d.y + d.z;
+      norm += glm::dot(glm::dvec3(ref.indirect[i]), glm::dvec3(ref.indirect[i]));
+      total += double(ref.indirect[i].x) + ref.indirect[i].y + ref.indirect[i].z;
+    }
+    return std::pair{std::sqrt(err / norm), bias / total};
+  };
+  s.mode = OfflineMode::IrradianceFilter;
+  s.spp = 1;
+  s.filter.predictor_radius = 0;
+  const auto [own_error, own_bias] = errors(render(world, camera, s));
+  s.filter.predictor_radius = 1;
+  const auto [pooled_error, pooled_bias] = errors(render(world, camera, s));
+  EXPECT_LT(pooled_error, 0.6 * own_error) << "own " << own_error << " pooled " << pooled_error;
+  EXPECT_LT(std::abs(pooled_bias), 0.5 * std::abs(own_bias)) << "own " << own_bias << " pooled " << pooled_bias;
+  EXPECT_LT(own_bias, 0.0) << "the pixel's own ray makes the frame too dark";
+}
+
 // Samples that come out non-finite (a light of infinite intensity) are dropped and counted; no
 // pixel turns NaN.
 TEST(OfflineRenderer, NonFiniteSamplesAreCountedAndDropped) {
@@ -393,6 +431,11 @@ TEST(OfflineRenderer, SettingsOutOfRangeAreRefusedByName) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("spp >= 2"), std::string::npos) << r.error().message;
   s = OfflineSettings{};
+  s.filter.predictor_radius = kMaxPredictorRadius + 1;
+  r = render_offline(*scene, {}, camera, s, jobs);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("predictor_radius"), std::string::npos) << r.error().message;
+  s.filter.predictor_radius = 1;
   s.filter.a = 0.0f;
   EXPECT_FALSE(render_offline(*scene, {}, camera, s, jobs).ok());
   EXPECT_EQ(parse_offline_mode("irradiance-filter"), OfflineMode::IrradianceFilter);
