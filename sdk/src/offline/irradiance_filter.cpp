@@ -54,14 +54,21 @@ inline float kernel_exp(float u) {
   return p * scale;
 }
 
+// The gather's rows run in blocks of kLanes taps: the kernel loop and the partial sums (LaneSums)
+// vectorise without a scalar tail.
+constexpr std::size_t kLanes = 8;
+std::vector<float> padded(std::span<const FilterPixel> pixels) { return std::vector<float>(pixels.size() + kLanes, 0.0f); }
+
 // The pixels as the gather reads them: one array per quantity.
 struct Columns {
   std::vector<float> x, y, z, nx, ny, nz;
   std::vector<float> inv_m;   // 1 / m_q, the pooled predictor (0: every ray escaped)
   std::vector<float> valid;   // 1 where samples > 0, else 0 (such a pixel gets weight 0)
+  // Each array holds kLanes zeros past the last pixel, so a row's loop may run to a multiple of
+  // kLanes.
   Columns(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height, std::uint32_t pool)
-      : x(pixels.size()), y(pixels.size()), z(pixels.size()), nx(pixels.size()), ny(pixels.size()),
-        nz(pixels.size()), inv_m(pixels.size()), valid(pixels.size()) {
+      : x(padded(pixels)), y(padded(pixels)), z(padded(pixels)), nx(padded(pixels)), ny(padded(pixels)),
+        nz(padded(pixels)), inv_m(padded(pixels)), valid(padded(pixels)) {
     for (std::size_t i = 0; i < pixels.size(); ++i) {
       const FilterPixel& p = pixels[i];
       const bool ok = p.samples != 0;
@@ -99,8 +106,9 @@ struct Columns {
   }
 };
 
-// Calls row(q0, w, count) for each row of p's window, in order: w[k] = K(ε_pq / a) for the pixel
-// q = q0 + k (0 where q has no samples or lies beyond the kernel's support t = 2).
+// Calls row(q0, w, n) for each row of p's window, in order, until it returns false: w[k] = K(ε_pq / a) for the pixel
+// q = q0 + k (0 where q has no samples or lies beyond the kernel's support t = 2, and for the taps
+// past the row's end that round n up to a multiple of kLanes).
 template <class Row>
 void gather(const Columns& c, std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
             const IrradianceFilterSettings& s, std::size_t p, float* w, Row&& row) {
@@ -115,14 +123,16 @@ void gather(const Columns& c, std::span<const FilterPixel> pixels, std::uint32_t
   const std::int64_t r = radius;
   const std::int64_t x0 = std::max<std::int64_t>(0, px - r), x1 = std::min<std::int64_t>(width - 1, px + r);
   const std::int64_t y0 = std::max<std::int64_t>(0, py - r), y1 = std::min<std::int64_t>(height - 1, py + r);
-  const std::size_t count = std::size_t(x1 - x0 + 1);
+  const std::size_t count = std::size_t(x1 - x0 + 1), blocks = (count + kLanes - 1) / kLanes * kLanes;
   const float cx = c.x[p], cy = c.y[p], cz = c.z[p], cnx = c.nx[p], cny = c.ny[p], cnz = c.nz[p];
   const float inv_m = c.inv_m[p], inv_a = 1.0f / s.a;
   for (std::int64_t yy = y0; yy <= y1; ++yy) {
     const std::size_t q0 = std::size_t(yy) * width + std::size_t(x0);
-    const float *qx = &c.x[q0], *qy = &c.y[q0], *qz = &c.z[q0], *qnx = &c.nx[q0], *qny = &c.ny[q0],
-                *qnz = &c.nz[q0], *qm = &c.inv_m[q0], *qv = &c.valid[q0];
-    for (std::size_t k = 0; k < count; ++k) {
+    const float *__restrict qx = &c.x[q0], *__restrict qy = &c.y[q0], *__restrict qz = &c.z[q0],
+                           *__restrict qnx = &c.nx[q0], *__restrict qny = &c.ny[q0], *__restrict qnz = &c.nz[q0],
+                           *__restrict qm = &c.inv_m[q0], *__restrict qv = &c.valid[q0];
+    float* __restrict out = w;
+    for (std::size_t k = 0; k < blocks; ++k) {
       // Ward's distance: the change predicted by moving along the surface and by turning, the
       // surface term by the nearer geometry of the two pixels (a corner's pixel does not blur
       // into an open neighbour's kernel, nor the open one into the corner's).
@@ -132,26 +142,23 @@ void gather(const Columns& c, std::span<const FilterPixel> pixels, std::uint32_t
       const float t = eps * inv_a;
       const float u = t * t < 4.0f ? t * t : 4.0f;  // also maps a NaN (a degenerate pixel) into range
       const float k_u = kernel_exp(u) * qv[k];
-      w[k] = t <= 2.0f ? k_u : 0.0f;
+      out[k] = t <= 2.0f ? k_u : 0.0f;
     }
-    row(q0, w, count);
+    for (std::size_t k = count; k < blocks; ++k) out[k] = 0.0f;  // taps of the next row, or padding
+    if (!row(q0, w, blocks)) return;
   }
 }
 
 // Sums of w[k] v_j[k] over a row, kept in kLanes interleaved partial sums per quantity j (lane
-// k % kLanes) so that the loop vectorises; lanes() adds the partial sums in a fixed order.
-constexpr std::size_t kLanes = 8;
+// k % kLanes) so that the loop vectorises; total() adds the partial sums in a fixed order.
 template <std::size_t J>
 struct LaneSums {
   float lane[J][kLanes] = {};
-  // Adds w[k] * v[j][q0 + k] for k < n to quantity j.
+  // Adds w[k] * v[j][q0 + k] for k < n to quantity j. Precondition: n is a multiple of kLanes.
   void add(const float* w, std::size_t n, const std::array<const float*, J>& v, std::size_t q0) {
-    std::size_t k = 0;
-    for (; k + kLanes <= n; k += kLanes)
+    for (std::size_t k = 0; k < n; k += kLanes)
       for (std::size_t j = 0; j < J; ++j)
         for (std::size_t l = 0; l < kLanes; ++l) lane[j][l] += w[k + l] * v[j][q0 + k + l];
-    for (std::size_t l = 0; k < n; ++k, ++l)
-      for (std::size_t j = 0; j < J; ++j) lane[j][l] += w[k] * v[j][q0 + k];
   }
   float total(std::size_t j) const {
     const float* a = lane[j];
@@ -162,18 +169,22 @@ struct LaneSums {
 }  // namespace
 
 Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
-                                 const IrradianceFilterSettings& settings, std::span<float> out, JobContext& jobs) {
+                                 const IrradianceFilterSettings& settings, float limit, std::span<float> out,
+                                 JobContext& jobs) {
   PENUMBRA_TRY(check(pixels.size(), out.size(), width, height, settings, "irradiance_filter_support"));
   const Columns columns(pixels, width, height, settings.predictor_radius);
   jobs.begin_stage("filter support", pixels.size());
   const std::array<const float*, 1> ones{columns.valid.data()};  // the weights are already 0 off the surface
   return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
-    float w[2 * kMaxFilterRadius + 1];
+    float w[(2 * kMaxFilterRadius + kLanes) / kLanes * kLanes];
     for (std::size_t p = begin; p < end; ++p) {
       LaneSums<1> sum;
       if (pixels[p].samples != 0)
         gather(columns, pixels, width, height, settings, p, w,
-               [&](std::size_t q0, const float* row, std::size_t n) { sum.add(row, n, ones, q0); });
+               [&](std::size_t q0, const float* row, std::size_t n) {
+                 sum.add(row, n, ones, q0);
+                 return sum.total(0) < limit;
+               });
       out[p] = sum.total(0);
     }
   });
@@ -184,7 +195,7 @@ Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t widt
   PENUMBRA_TRY(check(pixels.size(), out.size(), width, height, settings, "filter_irradiance"));
   const Columns columns(pixels, width, height, settings.predictor_radius);
   // Each pixel's rays N_q and their sum N_q Ê_q, so the kernel's weight K N_q averages every ray once.
-  std::vector<float> rays(pixels.size()), red(pixels.size()), green(pixels.size()), blue(pixels.size());
+  std::vector<float> rays(padded(pixels)), red(padded(pixels)), green(padded(pixels)), blue(padded(pixels));
   for (std::size_t i = 0; i < pixels.size(); ++i) {
     const float n = float(pixels[i].samples);
     rays[i] = n;
@@ -195,12 +206,15 @@ Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t widt
   const std::array<const float*, 4> values{red.data(), green.data(), blue.data(), rays.data()};
   jobs.begin_stage("irradiance filter", pixels.size());
   return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
-    float w[2 * kMaxFilterRadius + 1];
+    float w[(2 * kMaxFilterRadius + kLanes) / kLanes * kLanes];
     for (std::size_t p = begin; p < end; ++p) {
       LaneSums<4> sum;
       if (pixels[p].samples != 0)
         gather(columns, pixels, width, height, settings, p, w,
-               [&](std::size_t q0, const float* row, std::size_t n) { sum.add(row, n, values, q0); });
+               [&](std::size_t q0, const float* row, std::size_t n) {
+                 sum.add(row, n, values, q0);
+                 return true;
+               });
       // The pixel itself always has weight K(0) N_p > 0, so the weight is 0 only without a surface.
       const float weight = sum.total(3);
       out[p] = weight > 0.0f ? glm::vec3(sum.total(0), sum.total(1), sum.total(2)) / weight : glm::vec3(0.0f);

@@ -281,7 +281,7 @@ Result<OfflineImage> render_offline(const RayScene& scene, std::span<const World
     // Adaptive sampling: a pixel whose kernel holds less than target_support of neighbours (its
     // predictor expects fast change) gets rays in proportion, up to max_boost x spp in all.
     std::vector<float> support(count);
-    PENUMBRA_TRY(irradiance_filter_support(pixels, width, height, s.filter, support, jobs));
+    PENUMBRA_TRY(irradiance_filter_support(pixels, width, height, s.filter, s.target_support, support, jobs));
     std::vector<std::uint32_t> extra(count, 0);
     for (std::size_t i = 0; i < count; ++i) {
       if (pixels[i].samples == 0 || !(support[i] < s.target_support)) continue;

@@ -64,13 +64,16 @@ struct IrradianceFilterSettings {
 };
 
 // The filter's support at each pixel: sum_q K(ε_pq / a) over its window (1 for a kernel that
-// holds only the pixel itself; 0 where samples == 0). What adaptive sampling sizes the rays by: a
-// pixel whose kernel holds few neighbours needs more rays of its own. Preconditions (else an
+// holds only the pixel itself; 0 where samples == 0), or a value of at least `limit` where the
+// rows gathered so far reach it (the gather stops there: open surfaces cost a few rows). What
+// adaptive sampling sizes the rays by: a pixel whose kernel holds few neighbours needs more rays
+// of its own. Preconditions (else an
 // InvalidArgument error): pixels.size() == out.size() == width * height, a > 0 and the radii within
 // their limits. Cost: O(pixels x (window taps + predictor taps)), the window's in parallel on
 // `jobs` (stage "filter support"). Cancelled when the host cancels.
 Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
-                                 const IrradianceFilterSettings& settings, std::span<float> out, JobContext& jobs);
+                                 const IrradianceFilterSettings& settings, float limit, std::span<float> out,
+                                 JobContext& jobs);
 
 // Ē at every pixel (0 where samples == 0). Same preconditions and cost (stage "irradiance filter").
 // Deterministic: each output is a fixed-order sum over its window.
