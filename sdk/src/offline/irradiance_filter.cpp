@@ -2,8 +2,9 @@
 //
 // The window is gathered a row at a time: the kernel weights of a row's taps are computed into a
 // small buffer by a loop without branches over structure-of-arrays copies of the pixels (the
-// compiler turns it into SIMD code), then summed in order. Every sum keeps the row-major order,
-// so the output does not depend on how the work is split.
+// compiler turns it into SIMD code), then added into eight interleaved partial sums. Every sum is
+// taken in an order fixed by the image and the window alone, so the output does not depend on how
+// the work is split.
 #include "penumbra/offline/irradiance_filter.h"
 
 #include <algorithm>
@@ -96,7 +97,9 @@ struct Columns {
           rays += double(q.samples);
         }
       }
-      inv_m[i] = float(inverse / rays);  // p itself is on its surface: rays >= N_p > 0
+      // p counts itself unless its normal is degenerate; then its own rays decide.
+      inv_m[i] = rays > 0.0 ? float(inverse / rays)
+                            : (std::isfinite(p.harmonic_distance) ? 1.0f / p.harmonic_distance : 0.0f);
     }
   }
   // Whether q lies on p's surface: normals within about 25 degrees and q within one pixel
