@@ -180,10 +180,6 @@ std::uint64_t ProbeGridData::bytes_per_node() const {
   return static_cast<std::uint64_t>(sh_coefficients(sh_order)) * sizeof(glm::vec3) + (reach.empty() ? 0 : 6);
 }
 
-bool probe_node_inside_surface(float validity, float height) {
-  return validity < 1.0f && height < -kProbePlaneSlack;
-}
-
 bool probe_node_sees(const std::uint8_t* reach, glm::vec3 offset) {
   for (int a = 0; a < 3; ++a) {
     const float r = float(reach[2 * a + (offset[a] < 0.0f ? 1 : 0)]) * (1.0f / 255.0f);
@@ -195,25 +191,17 @@ bool probe_node_sees(const std::uint8_t* reach, glm::vec3 offset) {
 glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells) {
   if (data.reach.empty()) return f;
   const float len = glm::length(normal_cells);
-  const bool surface = len > 0.0f;  // false also for a NaN normal
-  const glm::vec3 test = surface ? f + normal_cells * (kProbeNormalBias / len) : f;
-  // The visible corners' weighted mean, without (seen) and with (front) the surface's own solid.
-  float seen_sum = 0.0f, front_sum = 0.0f;
-  glm::vec3 seen_mean(0.0f), front_mean(0.0f);
+  const glm::vec3 test = len > 0.0f ? f + normal_cells * (kProbeNormalBias / len) : f;
+  float wsum = 0.0f;
+  glm::vec3 mean(0.0f);
   for (std::uint32_t corner = 0; corner < 8; ++corner) {
     const glm::uvec3 o(corner & 1u, (corner >> 1) & 1u, (corner >> 2) & 1u);
-    const std::size_t node = data.layout.node_index(base + o);
-    if (!probe_node_sees(&data.reach[6 * node], test - glm::vec3(o))) continue;
+    if (!probe_node_sees(&data.reach[6 * data.layout.node_index(base + o)], test - glm::vec3(o))) continue;
     const float w = (o.x ? f.x : 1.0f - f.x) * (o.y ? f.y : 1.0f - f.y) * (o.z ? f.z : 1.0f - f.z);
-    seen_sum += w;
-    seen_mean += w * glm::vec3(o);
-    const float validity = node < data.validity.size() ? data.validity[node] : 0.0f;  // as the GPU texels
-    if (surface && probe_node_inside_surface(validity, glm::dot(normal_cells, glm::vec3(o) - f) / len)) continue;
-    front_sum += w;
-    front_mean += w * glm::vec3(o);
+    wsum += w;
+    mean += w * glm::vec3(o);
   }
-  if (front_sum > 1e-6f) return front_mean / front_sum;
-  return seen_sum > 1e-6f ? seen_mean / seen_sum : f;
+  return wsum > 1e-6f ? mean / wsum : f;
 }
 
 SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {

@@ -20,13 +20,9 @@
 // the shader 8 unfiltered fetches more and no extra SH fetch. The bake averages each node's samples
 // over the part of its tent that the node sees, and the fit fits the guarded basis. A node inside a
 // thick solid (a block's interior near a face) is left open on every side, so the paper's
-// in-domain average extrapolates the light outside into it; a node inside a solid thinner than a
-// cell (a wall) stays hidden. The reach looks along the axes only, so a receiver on a thick
-// solid's face (and on any face oblique to the grid) also drops the corners that lie in the solid
-// under it: those with out-of-domain samples (validity < 1) more than kProbePlaneSlack cells
-// behind its tangent plane (probe_node_inside_surface). That took the Cornell box's block fronts
-// from 1.50x and 1.10x the reference to 1.09x and 1.00x (penumbra bench image-accuracy). When that
-// rule would leave no corner, the reach's corners alone decide.
+// in-domain average extrapolates the light outside into it as before; a node inside a solid thinner
+// than a cell (a wall) stays hidden. Limit: the test looks along the axes only, so a surface
+// oblique to the grid hides a corner only where it crosses the corner's axis lines.
 //
 // This header holds the authoring component (IrradianceProbeGrid), the receiver component
 // (ProbeLit), the baked data (ProbeGridData) and its PRBG chunk, the grid's geometry
@@ -221,23 +217,15 @@ struct ProbeGridData {
 // quantisation step (kProbeReachSlack) from o, so a receiver on a surface is seen by the nodes on
 // its side of it. The test point is f moved kProbeNormalBias cells along `normal_cells` (the
 // receiver's normal in grid units; zero for a point in free space), which only decides for
-// surfaces of no thickness, seen by the nodes on both sides. For a receiver on a surface (a
-// non-zero normal) the corners in the solid under it are hidden too (probe_node_inside_surface),
-// unless that hides every corner the reach leaves. Returns f itself without reach data or when
-// every corner is hidden. Cost: 8 x 5 compares. Thread-safe. The shader (probe_grid.glsl) does the
-// same arithmetic.
+// surfaces of no thickness, seen by the nodes on both sides. Returns f itself without reach data
+// or when every corner is hidden. Cost: 8 x 3 compares. Thread-safe. The shader (forward.frag) does
+// the same arithmetic.
 inline constexpr float kProbeReachSlack = 1.0f / 255.0f;
 inline constexpr float kProbeNormalBias = 0.01f;
-inline constexpr float kProbePlaneSlack = 0.15f;  // cells: a node this close to the plane still counts
 // Whether a node with reach bytes `reach` (6 of ProbeGridData::reach) sees the point `offset`
 // cells from it: along every axis the offset is within the node's reach that way plus
 // kProbeReachSlack. The one visibility test of the lookup and of the bake. Cost: 3 compares.
 bool probe_node_sees(const std::uint8_t* reach, glm::vec3 offset);
-// Whether a node with this validity lies in the solid under a surface receiver: it has samples out
-// of the domain (validity < 1: it sits in or against geometry) and lies more than
-// kProbePlaneSlack cells behind the receiver's tangent plane (`height`: its signed distance from
-// that plane in cells). Cost: 2 compares.
-bool probe_node_inside_surface(float validity, float height);
 glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells);
 
 // Interpolation of the node expansions at world point x (clamped into the box): trilinear, at the

@@ -13,8 +13,7 @@ layout(constant_id = 0) const uint kGrids = 1u;
 
 // Grid g's atlas texture coordinate at p on a surface with normal n (probe_grid.h: node centres
 // at texel centres). With the leak guard's reach, the trilinear lookup moves to the weighted mean
-// of the cell corners that no surface hides from p and that are not in the solid under p's surface
-// (probe_lookup_fraction in probe_grid.cpp).
+// of the cell corners that no surface hides from p (probe_lookup_fraction in probe_grid.cpp).
 vec3 probe_uvw(uint g, vec3 p, vec3 n) {
   ProbeGridGpu grid = probe.grids[g];
   vec3 res = grid.resolution.xyz;
@@ -26,13 +25,11 @@ vec3 probe_uvw(uint g, vec3 p, vec3 n) {
     vec3 nc = mat3(grid.world_to_grid) * n * (res - 1.0);
     float len = length(nc);
     vec3 t = len > 0.0 ? f + nc * (PENUMBRA_PROBE_NORMAL_BIAS / len) : f;  // towards the open side
-    // The visible corners' weighted mean, without (seen) and with (front) the surface's own solid.
-    float seen_sum = 0.0, front_sum = 0.0;
-    vec3 seen_mean = vec3(0.0), front_mean = vec3(0.0);
+    float wsum = 0.0;
+    vec3 mean = vec3(0.0);
     for (int c = 0; c < 8; ++c) {
       vec3 o = vec3(float(c & 1), float((c >> 1) & 1), float((c >> 2) & 1));
-      vec3 node = texelFetch(probe_nodes, ivec3(origin + base + o), 0).rgb;
-      uvec2 packed = uvec2(node.gb);
+      uvec2 packed = uvec2(texelFetch(probe_nodes, ivec3(origin + base + o), 0).gb);
       vec3 d = t - o;
       // Reach bytes: g = +x, -x, +y; b = -y, +z, -z (pack_probe_node_texels).
       uvec3 plus = uvec3(packed.x & 255u, packed.x >> 16, (packed.y >> 8) & 255u);
@@ -41,15 +38,10 @@ vec3 probe_uvw(uint g, vec3 p, vec3 n) {
       if (any(greaterThan(abs(d), r))) continue;
       vec3 w3 = mix(1.0 - f, f, o);
       float w = w3.x * w3.y * w3.z;
-      seen_sum += w;
-      seen_mean += w * o;
-      // probe_node_inside_surface: a node in or against a solid, behind the receiver's tangent plane.
-      if (len > 0.0 && node.r < 1.0 && dot(nc, o - f) / len < -PENUMBRA_PROBE_PLANE_SLACK) continue;
-      front_sum += w;
-      front_mean += w * o;
+      wsum += w;
+      mean += w * o;
     }
-    if (front_sum > 1e-6) f = front_mean / front_sum;
-    else if (seen_sum > 1e-6) f = seen_mean / seen_sum;
+    if (wsum > 1e-6) f = mean / wsum;
     u = base + f;
   }
   return (origin + u + 0.5) / probe.atlas.xyz;
