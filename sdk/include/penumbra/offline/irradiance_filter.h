@@ -12,8 +12,8 @@
 //   that lies on p's surface (predictor_radius r; the paper takes p's own rays, r = 0). The rays
 //   that estimate Ê_p then no longer decide alone how widely p is blurred: with one ray per pixel,
 //   a pixel whose ray escaped to the sky blurred over every other escaped ray and away from those
-//   that met a wall, which made the courtyard 5 % too dark (relative error 0.108 at 1 spp, 0.043
-//   pooled; penumbra bench irradiance-filter).
+//   that met a wall, which made the courtyard 5 % too dark (net relative error 0.109 at 1 spp,
+//   0.040 pooled; penumbra bench irradiance-filter).
 // - The surface term takes the nearer geometry of the two pixels (the paper's predictor uses the
 //   receiver's m_p alone): a corner pixel then stays out of an open neighbour's kernel as well as
 //   the open one out of the corner's, which halved the courtyard's error at 8 rays per pixel.
@@ -67,10 +67,10 @@ struct IrradianceFilterSettings {
 // holds only the pixel itself; 0 where samples == 0), or a value of at least `limit` where the
 // rows gathered so far reach it (the gather stops there: open surfaces cost a few rows). What
 // adaptive sampling sizes the rays by: a pixel whose kernel holds few neighbours needs more rays
-// of its own. Preconditions (else an
-// InvalidArgument error): pixels.size() == out.size() == width * height, a > 0 and the radii within
-// their limits. Cost: O(pixels x (window taps + predictor taps)), the window's in parallel on
-// `jobs` (stage "filter support"). Cancelled when the host cancels.
+// of its own. Preconditions (else an InvalidArgument error): pixels.size() == out.size() ==
+// width * height, a > 0 and the radii within their limits. Cost: O(pixels x (window taps +
+// predictor taps)), the window's in parallel on `jobs` (stage "filter support"). Cancelled when
+// the host cancels.
 Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
                                  const IrradianceFilterSettings& settings, float limit, std::span<float> out,
                                  JobContext& jobs);
