@@ -14,6 +14,19 @@ mat4 skin_matrix(uvec4 joint_index, vec4 weight) {
          weight.z * joints[base + joint_index.z] + weight.w * joints[base + joint_index.w];
 }
 
+// The G-buffer's w: the draw's receiver code r >= 0 (push.feature.x, DrawFeatureValues::receiver),
+// stored as -(r + 1) on the level's static geometry (push.feature.z). Half floats hold both
+// exactly for r up to 2047.
+float gbuffer_w() {
+  return push.feature.z != 0.0 ? -(push.feature.x + 1.0) : push.feature.x;
+}
+float gbuffer_receiver(vec4 g) {
+  return g.w < 0.0 ? -g.w - 1.0 : g.w;
+}
+bool gbuffer_on_static(vec4 g) {
+  return g.w < 0.0;
+}
+
 // The full-resolution pixel that sample q of the ambient image stands for (RenderSettings::
 // ambient_step s: pixel (s q.x, s q.y), clamped to the target).
 ivec2 ambient_sample_pixel(ivec2 q) {

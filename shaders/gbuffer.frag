@@ -1,6 +1,7 @@
 #version 450
 // Depth pre-pass with the ambient image or a feature's view, fragment stage: the G-buffer, the
-// shading normal as the forward pass computes it and the draw's receiver code (layout.h).
+// shading normal as the forward pass computes it, the draw's receiver code and whether it is static
+// geometry (common.glsl gbuffer_w).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
@@ -15,5 +16,5 @@ layout(location = 0) out vec4 out_gbuffer;
 void main() {
   vec3 n = normalize(in_normal);
   if (!gl_FrontFacing) n = -n;  // the side the camera sees, as forward.frag
-  out_gbuffer = vec4(n, push.feature.x);
+  out_gbuffer = vec4(n, gbuffer_w());
 }

@@ -27,7 +27,8 @@ using mat4 = glm::mat4;
 // they do not run), all read with texelFetch: the pre-pass depth and G-buffer, the ambient image
 // and its key (at 1 / RenderSettings::ambient_step of the target's size).
 #define PENUMBRA_BINDING_SCENE_DEPTH 5    // sampler2D: the camera's depth (pre-pass)
-#define PENUMBRA_BINDING_GBUFFER 6        // sampler2D: xyz shading normal, w the draw's receiver code
+#define PENUMBRA_BINDING_GBUFFER 6        // sampler2D: xyz shading normal, w the draw's receiver code and
+                                          // whether it is static geometry (common.glsl gbuffer_receiver)
                                           // (DrawPush::feature.x: a render feature's tag, 0 none)
 #define PENUMBRA_BINDING_AMBIENT 7        // sampler2D: rgb the sources' irradiance x open x ambient_scale.x,
                                           // a the open fraction (the occluders' product)
@@ -97,7 +98,8 @@ struct DrawPush {
   uvec4 draw;           // x first joint (skinned), y 1 when skinned, z shadow layer (shadow pass), w 1 when
                         // the vertex AO is the static geometry's (VertexAO::static_occluders)
   vec4 feature;         // the render features' DrawFeatureValues: x receiver code (G-buffer w), y the
-                        // entity-wide open fraction (1: unoccluded), zw unused
+                        // entity-wide open fraction (1: unoccluded); z 1 on the level's static geometry
+                        // (the Static tag), else 0; w unused
 };
 
 #ifdef __cplusplus

@@ -188,23 +188,37 @@ bool probe_node_sees(const std::uint8_t* reach, glm::vec3 offset) {
   return true;
 }
 
-glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells) {
-  if (data.reach.empty()) return f;
-  const float len = glm::length(normal_cells);
-  const glm::vec3 test = len > 0.0f ? f + normal_cells * (kProbeNormalBias / len) : f;
-  float wsum = 0.0f;
-  glm::vec3 mean(0.0f);
-  for (std::uint32_t corner = 0; corner < 8; ++corner) {
-    const glm::uvec3 o(corner & 1u, (corner >> 1) & 1u, (corner >> 2) & 1u);
-    if (!probe_node_sees(&data.reach[6 * data.layout.node_index(base + o)], test - glm::vec3(o))) continue;
-    const float w = (o.x ? f.x : 1.0f - f.x) * (o.y ? f.y : 1.0f - f.y) * (o.z ? f.z : 1.0f - f.z);
-    wsum += w;
-    mean += w * glm::vec3(o);
-  }
-  return wsum > 1e-6f ? mean / wsum : f;
+bool probe_node_inside_surface(float validity, float height) {
+  return validity < 1.0f && height < -kProbePlaneSlack;
 }
 
-SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {
+glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells,
+                                ProbeReceiver receiver) {
+  if (data.reach.empty()) return f;
+  const float len = glm::length(normal_cells);
+  const bool surface = len > 0.0f;  // false also for a NaN normal
+  const bool solid_rule = surface && receiver == ProbeReceiver::Static;
+  const glm::vec3 test = surface ? f + normal_cells * (kProbeNormalBias / len) : f;
+  // The visible corners' weighted mean, without (seen) and with (front) the static surface's own solid.
+  float seen_sum = 0.0f, front_sum = 0.0f;
+  glm::vec3 seen_mean(0.0f), front_mean(0.0f);
+  for (std::uint32_t corner = 0; corner < 8; ++corner) {
+    const glm::uvec3 o(corner & 1u, (corner >> 1) & 1u, (corner >> 2) & 1u);
+    const std::size_t node = data.layout.node_index(base + o);
+    if (!probe_node_sees(&data.reach[6 * node], test - glm::vec3(o))) continue;
+    const float w = (o.x ? f.x : 1.0f - f.x) * (o.y ? f.y : 1.0f - f.y) * (o.z ? f.z : 1.0f - f.z);
+    seen_sum += w;
+    seen_mean += w * glm::vec3(o);
+    const float validity = node < data.validity.size() ? data.validity[node] : 0.0f;  // as the GPU texels
+    if (solid_rule && probe_node_inside_surface(validity, glm::dot(normal_cells, glm::vec3(o) - f) / len)) continue;
+    front_sum += w;
+    front_mean += w * glm::vec3(o);
+  }
+  if (front_sum > 1e-6f) return front_mean / front_sum;
+  return seen_sum > 1e-6f ? seen_mean / seen_sum : f;
+}
+
+SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n, ProbeReceiver receiver) {
   const ProbeGridLayout& g = data.layout;
   // Grid coordinates of x in node units, clamped into the box.
   const glm::vec3 cells(g.resolution - 1u);
@@ -213,7 +227,7 @@ SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {
   if (!std::isfinite(u.x) || !std::isfinite(u.y) || !std::isfinite(u.z)) return out;
   const glm::uvec3 base = glm::min(glm::uvec3(u), g.resolution - 2u);
   const glm::vec3 n_cells = glm::mat3(g.world_to_grid) * n * cells;
-  const glm::vec3 f = probe_lookup_fraction(data, base, u - glm::vec3(base), n_cells);
+  const glm::vec3 f = probe_lookup_fraction(data, base, u - glm::vec3(base), n_cells, receiver);
   const int count = sh_coefficients(data.sh_order);
   // Trilinear weights B_i(x) of the eight surrounding nodes.
   for (std::uint32_t corner = 0; corner < 8; ++corner) {
@@ -225,8 +239,8 @@ SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {
   return out;
 }
 
-glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n) {
-  return sh_evaluate_non_negative(interpolate(data, x, n), n, data.sh_order == ProbeShOrder::L1 ? 2 : 3);
+glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n, ProbeReceiver receiver) {
+  return sh_evaluate_non_negative(interpolate(data, x, n, receiver), n, data.sh_order == ProbeShOrder::L1 ? 2 : 3);
 }
 
 }  // namespace penumbra

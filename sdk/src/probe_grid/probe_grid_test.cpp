@@ -272,6 +272,40 @@ TEST(ProbeGridLeakGuard, CornersBehindAWallAreSkipped) {
   EXPECT_NEAR(interpolate(d, {0.5f, 0.5f, z})[0].x, 1.0f + 9.0f * z, 1e-5f);
 }
 
+// A thick solid fills the cell below z = 0.3: its nodes (z = 0) are open on every side, as a node
+// inside a block is, but have samples out of the domain, and hold light extrapolated from elsewhere
+// (1 against the 10 in front of the face). A receiver on the solid's face, static geometry, takes
+// only the nodes in front of it, also when the face is turned from the grid's axes; a moving
+// receiver there, a free-space point, or a node layer without out-of-domain samples keeps the plain
+// trilinear blend.
+TEST(ProbeGridLeakGuard, NodesInsideTheSolidUnderAStaticReceiverAreSkipped) {
+  ProbeGridData d = walled_cell();
+  d.reach.assign(8 * 6, 255);
+  for (std::uint32_t n = 0; n < 4; ++n) d.validity[n] = 0.4f;  // the z = 0 layer
+  const glm::vec3 up(0, 0, 1);
+  const float blend = 1.0f + 9.0f * 0.3f;
+  for (float x : {0.1f, 0.5f, 0.9f})
+    for (float y : {0.2f, 0.7f}) {
+      EXPECT_FLOAT_EQ(interpolate(d, {x, y, 0.3f}, up, ProbeReceiver::Static)[0].x, 10.0f) << x << " " << y;
+      EXPECT_NEAR(interpolate(d, {x, y, 0.3f}, up, ProbeReceiver::Moving)[0].x, blend, 1e-5f) << "a moving receiver";
+      EXPECT_NEAR(interpolate(d, {x, y, 0.3f}, glm::vec3(0.0f), ProbeReceiver::Static)[0].x, blend, 1e-5f)
+          << "a point in free space";
+    }
+  // A face turned 10 degrees about y: both solid corners of the receiver's row lie more than
+  // kProbePlaneSlack behind its plane (0.3 cos 10 -/+ 0.5 sin 10 = 0.21, 0.38 cells).
+  const float tilt = glm::radians(10.0f);
+  EXPECT_FLOAT_EQ(
+      interpolate(d, {0.5f, 0.5f, 0.3f}, {std::sin(tilt), 0, std::cos(tilt)}, ProbeReceiver::Static)[0].x, 10.0f);
+  // The rule never leaves a receiver without corners: with the wall at z = 0.4 back, the reach
+  // leaves only the solid's nodes, all behind the plane, and those decide.
+  ProbeGridData walled = walled_cell();
+  walled.validity = d.validity;
+  EXPECT_FLOAT_EQ(interpolate(walled, {0.5f, 0.5f, 0.3f}, up, ProbeReceiver::Static)[0].x, 1.0f);
+  for (std::uint32_t n = 0; n < 4; ++n) d.validity[n] = 1.0f;
+  EXPECT_NEAR(interpolate(d, {0.5f, 0.5f, 0.3f}, up, ProbeReceiver::Static)[0].x, blend, 1e-5f)
+      << "nodes in free space behind a receiver still count";
+}
+
 TEST(ProbeGridLeakGuard, OpenCellsAndFullyHiddenCellsInterpolateAsPlainTrilinear) {
   ProbeGridData d = walled_cell();
   ProbeGridData plain = d;

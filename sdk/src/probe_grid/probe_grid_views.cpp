@@ -92,7 +92,7 @@ Result<ErrorMap> compute(const Scene& scene, const ErrorMapRequest& request, Job
       const Estimate ref = irradiance(scene.rays, scene.lights, x, n, matching, rng);
       const float e_ref = luminance(ref.value);
       if (!(e_ref > 1e-6f)) continue;  // unlit: a relative error means nothing there
-      const float e_probe = luminance(evaluate(*grid, x, n));
+      const float e_probe = luminance(evaluate(*grid, x, n, ProbeReceiver::Static));  // the bake's static geometry
       map.relative_error[i] = std::abs(e_probe - e_ref) / e_ref;
       noise[i] = luminance(ref.std_error) / e_ref;
       tested[i] = e_probe;

@@ -59,9 +59,9 @@ TEST(ErrorMap, FurnaceGridMatchesTheReferenceWithinItsNoise) {
   EXPECT_NEAR(map->mean, expected, 0.04f) << "reference noise " << map->reference_noise;
   EXPECT_GT(map->reference_noise, 0.0f);
   EXPECT_EQ(map->relative_noise.size(), map->relative_error.size());
-  // The reference's noise against its paths: 8, 64 (above) and 512 a cell. It falls as
+  // The reference's noise against its paths: 8, 64 (above) and 2048 a cell. It falls as
   // 1 / sqrt(paths); the raw mean error falls with it towards the grid's own error, which the
-  // noise-corrected RMS estimates alike at 64 and 512 paths (the grid's truncation and its own bake
+  // noise-corrected RMS estimates alike at 64 and 2048 paths (the grid's truncation and its own bake
   // noise). At 8 paths the noise swamps the error, and the map says so.
   const auto at = [&](std::uint32_t paths) {
     ErrorMapRequest r = request;
@@ -73,10 +73,10 @@ TEST(ErrorMap, FurnaceGridMatchesTheReferenceWithinItsNoise) {
                 paths, m->mean, m->reference_noise, m->noise_corrected_rms, int(m->above_noise()));
     return *m;
   };
-  const ErrorMap coarse = at(8), fine = at(512);
+  const ErrorMap coarse = at(8), fine = at(2048);
   at(64);
   EXPECT_FALSE(coarse.above_noise());
-  EXPECT_NEAR(fine.reference_noise / map->reference_noise, std::sqrt(64.0f / 512.0f), 0.1f);
+  EXPECT_NEAR(fine.reference_noise / map->reference_noise, std::sqrt(64.0f / 2048.0f), 0.05f);
   EXPECT_LT(fine.mean, map->mean);
   EXPECT_TRUE(fine.above_noise());
   EXPECT_NEAR(fine.noise_corrected_rms, map->noise_corrected_rms, 0.25f * fine.noise_corrected_rms);

@@ -1062,7 +1062,7 @@ Status Renderer::sync(World& world) {
     }
     DrawFeatureValues values;
     for (const auto& f : r.features) f->draw_values(world, e, values);
-    d.push.feature = glm::vec4(values.receiver, values.open, 0.0f, 0.0f);
+    d.push.feature = glm::vec4(values.receiver, values.open, world.has<Static>(e) ? 1.0f : 0.0f, 0.0f);
     max_vertices = std::max(max_vertices, d.mesh->vertex_count);
     extend_by_box(r.bounds, m.data->bounds, d.push.model);  // the scene's bounds, unposed
     r.draws.push_back(d);

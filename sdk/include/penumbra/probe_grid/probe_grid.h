@@ -20,9 +20,18 @@
 // the shader 8 unfiltered fetches more and no extra SH fetch. The bake averages each node's samples
 // over the part of its tent that the node sees, and the fit fits the guarded basis. A node inside a
 // thick solid (a block's interior near a face) is left open on every side, so the paper's
-// in-domain average extrapolates the light outside into it as before; a node inside a solid thinner
-// than a cell (a wall) stays hidden. Limit: the test looks along the axes only, so a surface
-// oblique to the grid hides a corner only where it crosses the corner's axis lines.
+// in-domain average extrapolates the light outside into it; a node inside a solid thinner than a
+// cell (a wall) stays hidden. The reach looks along the axes only, so a receiver on a thick solid's
+// face (and on any face oblique to the grid) could still blend in the nodes inside the solid. A
+// receiver on the level's static geometry (ProbeReceiver::Static), the geometry the grid was baked
+// from, therefore also drops the corners that lie in the solid under it: those with out-of-domain
+// samples (validity < 1) more than kProbePlaneSlack cells behind its tangent plane
+// (probe_node_inside_surface). On the Cornell box's turned blocks that took the fronts from 1.50x
+// and 1.10x the reference to about 1.09x and 1.00x (penumbra bench image-accuracy). A moving
+// receiver (ProbeReceiver::Moving: a ProbeLit object, a point in free space) keeps the reach alone:
+// its tangent plane does not bound a solid, and the rule cost the probe-grid bench's free-space
+// receivers near the Cornell blocks a 1.5x larger leak. When the rule would leave no corner, the
+// reach's corners alone decide.
 //
 // This header holds the authoring component (IrradianceProbeGrid), the receiver component
 // (ProbeLit), the baked data (ProbeGridData) and its PRBG chunk, the grid's geometry
@@ -211,32 +220,48 @@ struct ProbeGridData {
   std::uint64_t bytes_per_node() const;  // runtime payload: coefficients (12 x 4 or 9 B) + reach (6 B)
 };
 
+// What a receiver of the grid's light stands on, for the leak guard's lookup (header).
+enum class ProbeReceiver : std::uint8_t {
+  Moving,  // a point in free space or a moving object's surface: the reach alone decides
+  Static,  // the level's static geometry (the Static tag), which the bake saw: the solid under it is dropped too
+};
+
 // The leak guard's lookup (header): the fraction inside cell `base` (grid units, node base at
 // `base`) at which the trilinear basis is evaluated for a receiver at fraction f of that cell.
 // Corner o is hidden when, along some axis, the test point lies more than o's reach plus one
 // quantisation step (kProbeReachSlack) from o, so a receiver on a surface is seen by the nodes on
 // its side of it. The test point is f moved kProbeNormalBias cells along `normal_cells` (the
 // receiver's normal in grid units; zero for a point in free space), which only decides for
-// surfaces of no thickness, seen by the nodes on both sides. Returns f itself without reach data
-// or when every corner is hidden. Cost: 8 x 3 compares. Thread-safe. The shader (forward.frag) does
-// the same arithmetic.
+// surfaces of no thickness, seen by the nodes on both sides. For a Static receiver with a normal,
+// the corners in the solid under it are hidden too (probe_node_inside_surface), unless that hides
+// every corner the reach leaves. Returns f itself without reach data or when every corner is
+// hidden. Cost: 8 x 5 compares. Thread-safe. The shader (probe_grid.glsl) does the same
+// arithmetic.
 inline constexpr float kProbeReachSlack = 1.0f / 255.0f;
 inline constexpr float kProbeNormalBias = 0.01f;
+inline constexpr float kProbePlaneSlack = 0.15f;  // cells: a node this close to the plane still counts
 // Whether a node with reach bytes `reach` (6 of ProbeGridData::reach) sees the point `offset`
 // cells from it: along every axis the offset is within the node's reach that way plus
 // kProbeReachSlack. The one visibility test of the lookup and of the bake. Cost: 3 compares.
 bool probe_node_sees(const std::uint8_t* reach, glm::vec3 offset);
-glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells);
+// Whether a node with this validity lies in the solid under a static receiver: it has samples out
+// of the domain (validity < 1: it sits in or against geometry) and lies more than
+// kProbePlaneSlack cells behind the receiver's tangent plane (`height`: its signed distance from
+// that plane in cells). Cost: 2 compares.
+bool probe_node_inside_surface(float validity, float height);
+glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm::vec3 f, glm::vec3 normal_cells,
+                                ProbeReceiver receiver = ProbeReceiver::Moving);
 
 // Interpolation of the node expansions at world point x (clamped into the box): trilinear, at the
 // leak guard's lookup fraction when the grid has reach data, tested from the side `n` points to
-// (zero: x is a free-space point, as for ProbeLit receivers). Cost: 8 x coefficients multiply-adds.
-// Thread-safe.
-SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n = glm::vec3(0.0f));
+// (zero: x is a free-space point, as for ProbeLit receivers) for a receiver of that kind. Cost: 8
+// x coefficients multiply-adds. Thread-safe.
+SH9rgb interpolate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n = glm::vec3(0.0f),
+                   ProbeReceiver receiver = ProbeReceiver::Moving);
 // E(x, n) = the interpolated expansion (for a receiver on a surface with unit normal n) evaluated
 // at n, never negative. The same math as the shader. Cost: about 60-200 ns (measured by the
 // probe-grid bench). Thread-safe.
-glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n);
+glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n, ProbeReceiver receiver = ProbeReceiver::Moving);
 
 // The "PRBG" chunk of one grid (label "probe-grid:<key>") and its reader. read() checks the
 // version, sizes, resolution and that every value is finite, and names the chunk in its errors.

@@ -28,7 +28,8 @@ void main() {
   // Receiver code: 0 not a receiver, else 2 + the pixel's own caster record (ao_field_layout.h).
   // (No discard: it would turn llvmpipe's early depth and stencil tests, which cull the box's
   // samples, into late ones.)
-  if (g.w < 1.0 || depth >= 1.0 || int(g.w) - 2 == int(caster) || !(distance(x, reach.xyz) < reach.w)) {
+  float code = gbuffer_receiver(g);
+  if (code < 1.0 || depth >= 1.0 || int(code) - 2 == int(caster) || !(distance(x, reach.xyz) < reach.w)) {
     out_factor = vec4(1.0);
     return;
   }

@@ -12,9 +12,11 @@ layout(set = 2, binding = PENUMBRA_PROBE_BINDING_NODES) uniform sampler3D probe_
 layout(constant_id = 0) const uint kGrids = 1u;
 
 // Grid g's atlas texture coordinate at p on a surface with normal n (probe_grid.h: node centres
-// at texel centres). With the leak guard's reach, the trilinear lookup moves to the weighted mean
-// of the cell corners that no surface hides from p (probe_lookup_fraction in probe_grid.cpp).
-vec3 probe_uvw(uint g, vec3 p, vec3 n) {
+// at texel centres), on the level's static geometry when on_static. With the leak guard's reach,
+// the trilinear lookup moves to the weighted mean of the cell corners that no surface hides from p
+// and, on static geometry, that are not in the solid under p's surface (probe_lookup_fraction in
+// probe_grid.cpp).
+vec3 probe_uvw(uint g, vec3 p, vec3 n, bool on_static) {
   ProbeGridGpu grid = probe.grids[g];
   vec3 res = grid.resolution.xyz;
   vec3 origin = vec3(0.0, 0.0, grid.size.w);  // the grid's first texel in the atlas
@@ -25,11 +27,14 @@ vec3 probe_uvw(uint g, vec3 p, vec3 n) {
     vec3 nc = mat3(grid.world_to_grid) * n * (res - 1.0);
     float len = length(nc);
     vec3 t = len > 0.0 ? f + nc * (PENUMBRA_PROBE_NORMAL_BIAS / len) : f;  // towards the open side
-    float wsum = 0.0;
-    vec3 mean = vec3(0.0);
+    bool solid_rule = on_static && len > 0.0;
+    // The visible corners' weighted mean, without (seen) and with (front) the static surface's own solid.
+    float seen_sum = 0.0, front_sum = 0.0;
+    vec3 seen_mean = vec3(0.0), front_mean = vec3(0.0);
     for (int c = 0; c < 8; ++c) {
       vec3 o = vec3(float(c & 1), float((c >> 1) & 1), float((c >> 2) & 1));
-      uvec2 packed = uvec2(texelFetch(probe_nodes, ivec3(origin + base + o), 0).gb);
+      vec3 node = texelFetch(probe_nodes, ivec3(origin + base + o), 0).rgb;
+      uvec2 packed = uvec2(node.gb);
       vec3 d = t - o;
       // Reach bytes: g = +x, -x, +y; b = -y, +z, -z (pack_probe_node_texels).
       uvec3 plus = uvec3(packed.x & 255u, packed.x >> 16, (packed.y >> 8) & 255u);
@@ -38,10 +43,15 @@ vec3 probe_uvw(uint g, vec3 p, vec3 n) {
       if (any(greaterThan(abs(d), r))) continue;
       vec3 w3 = mix(1.0 - f, f, o);
       float w = w3.x * w3.y * w3.z;
-      wsum += w;
-      mean += w * o;
+      seen_sum += w;
+      seen_mean += w * o;
+      // probe_node_inside_surface: a node in or against a solid, behind the receiver's tangent plane.
+      if (solid_rule && node.r < 1.0 && dot(nc, o - f) / len < -PENUMBRA_PROBE_PLANE_SLACK) continue;
+      front_sum += w;
+      front_mean += w * o;
     }
-    if (wsum > 1e-6) f = mean / wsum;
+    if (front_sum > 1e-6) f = front_mean / front_sum;
+    else if (seen_sum > 1e-6) f = seen_mean / seen_sum;
     u = base + f;
   }
   return (origin + u + 0.5) / probe.atlas.xyz;
@@ -59,8 +69,8 @@ float probe_coverage(uint g, vec3 p) {
 
 // Grid g's E(p, n) = the trilinearly interpolated SH expansion evaluated at n, clamped at 0
 // (evaluate() in probe_grid.cpp; basis and signs of core/sh.h).
-vec3 probe_grid_irradiance(uint g, vec3 p, vec3 n) {
-  vec3 uvw = probe_uvw(g, p, n);
+vec3 probe_grid_irradiance(uint g, vec3 p, vec3 n, bool on_static) {
+  vec3 uvw = probe_uvw(g, p, n, on_static);
   // Slot s of the 27: channel s % 3 of coefficient s / 3 (constant sampler indices, no dynamic indexing).
   vec4 t0 = texture(probe_sh[0], uvw), t1 = texture(probe_sh[1], uvw), t2 = texture(probe_sh[2], uvw);
   vec3 c[4];
@@ -84,13 +94,13 @@ vec3 probe_grid_irradiance(uint g, vec3 p, vec3 n) {
 // The blend of the grids (probe_grid_weights): by descending priority each covering grid takes its
 // coverage of the weight the grids before it left, the last covering one all that is left; where
 // none covers, the first grid's clamped lookup.
-vec3 probe_irradiance(vec3 p, vec3 n) {
-  if (kGrids == 1u) return probe_grid_irradiance(0u, p, n);
+vec3 probe_irradiance(vec3 p, vec3 n, bool on_static) {
+  if (kGrids == 1u) return probe_grid_irradiance(0u, p, n, on_static);
   vec3 sum = vec3(0.0), last = vec3(0.0);
   float left = 1.0;
   for (uint g = 0u; g < kGrids; ++g) {
     float f = probe_coverage(g, p);
-    vec3 e = probe_grid_irradiance(g, p, n);
+    vec3 e = probe_grid_irradiance(g, p, n, on_static);
     if (g == 0u || f > 0.0) last = e;
     sum += (left * f) * e;
     left -= left * f;
@@ -99,11 +109,11 @@ vec3 probe_irradiance(vec3 p, vec3 n) {
 }
 
 // The validity (0: no valid samples, 1: fully valid) the same way.
-float probe_validity(vec3 p, vec3 n) {
+float probe_validity(vec3 p, vec3 n, bool on_static) {
   float sum = 0.0, last = 0.0, left = 1.0;
   for (uint g = 0u; g < kGrids; ++g) {
     float f = kGrids == 1u ? 1.0 : probe_coverage(g, p);
-    float v = texture(probe_nodes, probe_uvw(g, p, n)).r;
+    float v = texture(probe_nodes, probe_uvw(g, p, n, on_static)).r;
     if (g == 0u || f > 0.0) last = v;
     sum += (left * f) * v;
     left -= left * f;

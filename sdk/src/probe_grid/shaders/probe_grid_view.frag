@@ -23,12 +23,14 @@ void main() {
     out_color = vec4(0.0, 0.0, 0.0, 1.0);
     return;
   }
-  vec3 n = normalize(texelFetch(gbuffer, pixel, 0).xyz);
+  vec4 g = texelFetch(gbuffer, pixel, 0);
+  vec3 n = normalize(g.xyz);
+  bool on_static = gbuffer_on_static(g);
   vec3 x = world_at_pixel(pixel, depth);
   if (kView == 0u) {
-    float v = kGrids > 0u ? probe_validity(x, n) : 0.0;
+    float v = kGrids > 0u ? probe_validity(x, n, on_static) : 0.0;
     out_color = output_colour(kGrids > 0u ? vec3(1.0 - v, v, 0.0) : vec3(0.0, 0.0, 1.0), false);
   } else {
-    out_color = output_colour(kGrids > 0u ? probe_irradiance(x, n) : vec3(0.0), true);
+    out_color = output_colour(kGrids > 0u ? probe_irradiance(x, n, on_static) : vec3(0.0), true);
   }
 }
