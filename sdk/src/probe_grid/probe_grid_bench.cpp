@@ -8,6 +8,10 @@
 // reference mode (all bounces). Leak receivers: courtyard points within one spacing of the thin
 // wall, on either side; on the Cornell box, points within one spacing of the bounds of its two
 // closed blocks (outside them: the paper's case, nodes inside solid geometry), in the same column.
+// Face receivers (Cornell): points on the blocks' side faces, static geometry, found by rays from
+// the leak receivers' shell towards a block, with the faces' normals; the guarded indirect grids
+// are evaluated there as a moving receiver and as a static one (ProbeReceiver, probe_grid.h), whose
+// lookup also drops the nodes in the solid under the face.
 // Errors are relative to the mean reference irradiance. An L1 row reuses the
 // L2 bake truncated to its first four coefficients (same bake time; only the stored bytes differ).
 // Goals: at the same spacing, leak RMSE <= 0.5 x point with bake time <= 1.5 x point; the
@@ -121,16 +125,47 @@ Result<Receivers> make_receivers(const RayScene& scene, std::span<const WorldLig
   return r;
 }
 
+// Points on the side faces (normal within 60 degrees of horizontal) of the blocks bounded by
+// `solids`: each from a random in-domain point within `h` of a block's bounds (and in `box`),
+// the first hit of a ray towards a random point of those bounds, kept when it is a front face
+// inside them. Their normals are the faces'.
+Receivers face_receivers(const RayScene& scene, std::span<const Aabb> solids, const Aabb& box, float h,
+                         std::size_t count, std::uint64_t seed) {
+  Receivers r;
+  Rng rng = Rng::stream(seed, 0);
+  const auto uniform = [&](glm::vec3 lo, glm::vec3 hi) {
+    return lo + (hi - lo) * glm::vec3(rng.next_float(), rng.next_float(), rng.next_float());
+  };
+  for (std::size_t tries = 0; r.points.size() < count && tries < 50 * count; ++tries) {
+    const Aabb& b = solids[std::min(solids.size() - 1, std::size_t(rng.next_float() * float(solids.size())))];
+    const glm::vec3 from = uniform(glm::max(b.min - h, box.min), glm::min(b.max + h, box.max));
+    if (!in_domain(scene, from, rng)) continue;
+    const glm::vec3 dir = glm::normalize(uniform(b.min, b.max) - from);
+    Hit hit;
+    if (!scene.intersect(Ray{from, 0.0f, dir, 1e30f}, hit) || hit.back_face) continue;
+    const glm::vec3 x = from + hit.t * dir;
+    if (std::abs(hit.normal.y) > 0.5f || glm::any(glm::lessThan(x, b.min - 1e-3f)) ||
+        glm::any(glm::greaterThan(x, b.max + 1e-3f)))
+      continue;
+    r.points.push_back({x, hit.normal});
+  }
+  return r;
+}
+
 struct Errors {
   double rmse = 0.0, mae = 0.0, max = 0.0;  // relative to the mean reference
+  double ratio = 0.0;                       // mean grid irradiance / mean reference
 };
 
 // `norm`: the irradiance the errors are relative to (0: the receivers' mean reference).
-Errors errors(const ProbeGridData& d, const Receivers& r, double norm = 0.0) {
+Errors errors(const ProbeGridData& d, const Receivers& r, double norm = 0.0,
+              ProbeReceiver kind = ProbeReceiver::Moving) {
   Errors e;
-  double sq = 0.0, abs_sum = 0.0;
+  double sq = 0.0, abs_sum = 0.0, grid_sum = 0.0;
   for (std::size_t i = 0; i < r.points.size(); ++i) {
-    const glm::vec3 diff = evaluate(d, r.points[i].position, r.points[i].normal) - r.reference[i].value;
+    const glm::vec3 value = evaluate(d, r.points[i].position, r.points[i].normal, kind);
+    const glm::vec3 diff = value - r.reference[i].value;
+    grid_sum += (double(value.x) + value.y + value.z) / 3.0;
     for (int c = 0; c < 3; ++c) {
       const double v = std::abs(double(diff[c]));
       sq += v * v;
@@ -143,6 +178,7 @@ Errors errors(const ProbeGridData& d, const Receivers& r, double norm = 0.0) {
   e.rmse = std::sqrt(sq / n) / mean;
   e.mae = abs_sum / n / mean;
   e.max /= mean;
+  e.ratio = r.mean > 0.0 ? grid_sum / double(std::max<std::size_t>(1, r.points.size())) / r.mean : 0.0;
   return e;
 }
 
@@ -377,11 +413,27 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                            fmt(100.0 * ind.mean / receivers->mean, 3) +
                            "% of the total; RMSE / mean total, all grid -> direct exact + indirect grid:";
         const std::string key = std::string(sc.name) + "/" + fmt(h) + "/" + std::to_string(samples);
+        Receivers faces;  // header: static receivers on the blocks' side faces
+        std::string face_line;
+        if (!sc.solids.empty()) {
+          faces = face_receivers(*scene, sc.solids, sc.box, h, leak_count / 2, 303 + si);
+          PENUMBRA_TRY(compute_reference(*scene, lights, ref_samples, 303 + si, LightingContent::Indirect, faces, jobs));
+          face_line = std::string(sc.name) + " indirect grids (h " + fmt(h) + ", S " + std::to_string(samples) +
+                      ") on the blocks' side faces (" + std::to_string(faces.points.size()) + " receivers, mean E " +
+                      fmt(faces.mean) + " W/m^2, reference std error " +
+                      fmt(100.0 * faces.mean_stderr / std::max(faces.mean, 1e-30), 3) +
+                      "%), RMSE / mean E and mean ratio, evaluated as a moving receiver -> as static geometry:";
+        }
         std::map<Variant, ModeResult> indirect;
         for (const Variant& mode : kVariants) {
           double bake_s = 0.0;
           auto data = bake(sc.box, mode, samples, bake_s, LightingContent::Indirect);
           if (!data) return data.error();
+          if (mode.second && !faces.points.empty()) {
+            const Errors moving = errors(*data, faces), fixed = errors(*data, faces, 0.0, ProbeReceiver::Static);
+            face_line += std::string(" ") + name(mode) + " " + fmt(moving.rmse, 3) + " (" + fmt(moving.ratio, 3) +
+                         "x) -> " + fmt(fixed.rmse, 3) + " (" + fmt(fixed.ratio, 3) + "x);";
+          }
           const Errors e = errors(*data, ind, receivers->mean);
           const Errors le = has_leak ? errors(*data, ind_leak, leak.mean) : Errors{};
           indirect[mode] = {le.rmse, e.rmse, bake_s};
@@ -393,6 +445,7 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                   " (" + fmt(errors(*data, ind).rmse, 3) + " of the mean indirect E);";
         }
         report.notes.push_back(line);
+        if (!face_line.empty()) report.notes.push_back(face_line);
         // The goal's ratios on the indirect grids (the content the SDK renderer uses).
         const ModeResult point = indirect[Variant{ProbeSampling::Point, false}];
         if (has_leak && point.leak > 0.0) {
