@@ -348,6 +348,62 @@ TEST(ProbeBaker, BitIdenticalAtOneAndTwoThreads) {
   }
 }
 
+// The noise target (IrradianceProbeGrid::noise) on the Cornell box's indirect light: the nodes
+// noisier than the target trace more rays, so the node values of two seeds differ less (the
+// bake's own noise falls), still bit-identical at one and two threads; a target every node meets
+// changes nothing.
+TEST(ProbeBaker, ANoiseTargetTracesMoreRaysWhereTheNodesAreNoisy) {
+  World w;
+  ASSERT_TRUE(load_builtin(w, "cornell").ok());
+  update_world_transforms(w);
+  auto scene = RayScene::build(w);
+  ASSERT_TRUE(scene.ok());
+  IrradianceProbeGrid g = small_grid({0.1f, 0.1f, 0.1f}, {0.5f, 0.5f, 0.5f}, {3, 3, 3}, ProbeSampling::Supersampled);
+  g.lighting = LightingContent::Indirect;
+  g.bounces = 2;
+  g.rays_per_sample = 8;
+  // Relative RMS difference of the nodes' constant terms between seeds 1 and 2.
+  const auto spread = [&](const IrradianceProbeGrid& grid, ProbeGridData* first = nullptr) {
+    auto a = bake(grid, w, *scene, 2, 1), b = bake(grid, w, *scene, 2, 2);
+    EXPECT_TRUE(a.ok() && b.ok());
+    if (!a.ok() || !b.ok()) return 0.0;
+    double sq = 0.0, mean = 0.0;
+    const std::size_t count = a->coefficients.size() / a->node_count();
+    for (std::size_t n = 0; n < a->node_count(); ++n) {
+      const glm::vec3 ca = a->coefficients[n * count], cb = b->coefficients[n * count];
+      const double d = (ca.x + ca.y + ca.z - cb.x - cb.y - cb.z) / 3.0;
+      sq += d * d;
+      mean += (ca.x + ca.y + ca.z + cb.x + cb.y + cb.z) / 6.0;
+    }
+    if (first) *first = *a;
+    const double nodes = double(a->node_count());
+    return std::sqrt(sq / nodes) / (mean / nodes);
+  };
+  ProbeGridData plain_data, target_data;
+  const double plain = spread(g, &plain_data);
+  EXPECT_EQ(plain_data.refined_nodes, 0u);
+  EXPECT_EQ(plain_data.ray_factor, 1.0f);
+  g.noise = 0.01f;
+  const double target = spread(g, &target_data);
+  EXPECT_GT(target_data.refined_nodes, 0u);
+  EXPECT_GT(target_data.ray_factor, 1.5f);
+  EXPECT_LE(target_data.ray_factor, float(kProbeMaxRayFactor));
+  EXPECT_LT(target, 0.7 * plain) << "seed-to-seed spread " << plain << " -> " << target << " at "
+                                 << target_data.ray_factor << "x the rays";
+  RecordProperty("spread_plain", std::to_string(plain));
+  RecordProperty("spread_target", std::to_string(target));
+  RecordProperty("ray_factor", std::to_string(target_data.ray_factor));
+  auto one = bake(g, w, *scene, 1, 1);
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(one->coefficients, target_data.coefficients);
+  EXPECT_EQ(one->refined_nodes, target_data.refined_nodes);
+  g.noise = 1.0f;
+  auto met = bake(g, w, *scene, 2, 1);
+  ASSERT_TRUE(met.ok());
+  EXPECT_EQ(met->refined_nodes, 0u);
+  EXPECT_EQ(met->coefficients, plain_data.coefficients);
+}
+
 // --- Geometry swallowing the grid ----------------------------------------------------------------
 
 TEST(ProbeBaker, EveryProbeInsideGeometryIsAClearErrorAndPartlyInsideIsFilled) {

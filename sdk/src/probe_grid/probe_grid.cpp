@@ -39,6 +39,7 @@ IrradianceProbeGrid IrradianceProbeGrid::preset(Preset preset) {
       g.rays_per_sample = 16;
       g.truncation = 0.05f;
       g.cells = 6;
+      g.noise = 0.02f;  // the Cornell box: 5.4x the rays, its indirect view's RMSE 0.13 -> 0.10; the courtyard 1.08x
       g.sampling = ProbeSampling::Fitted;  // the probe-grid bench: lower RMSE and leak at ~1.1x the time
       break;
     case Preset::High:
@@ -46,6 +47,7 @@ IrradianceProbeGrid IrradianceProbeGrid::preset(Preset preset) {
       g.rays_per_sample = 32;
       g.truncation = 0.01f;
       g.cells = 12;
+      g.noise = 0.01f;
       g.sampling = ProbeSampling::Fitted;
       break;
   }

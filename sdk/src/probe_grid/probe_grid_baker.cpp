@@ -35,17 +35,29 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::uint32_t kRectLightSamples = 16;
 constexpr std::uint32_t kRayBlock = 64;  // rays traced per packet call (four packets of 16)
 
+float channel_mean(glm::vec3 v) { return (v.x + v.y + v.z) / 3.0f; }
+
 // Incident radiance from the lights at free point y, projected: each light sample is a delta in
 // direction l carrying its irradiance at normal incidence (light models: light_sampling.h).
-void add_lights(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 y, Rng& rng, SH9rgb& sh) {
-  for_each_light_sample(scene, lights, y, y, glm::vec3(0.0f), kRectLightSamples, rng,
-                        [&](glm::vec3 l, glm::vec3 e) { sh_add_sample(sh, l, e); });
+// Returns their part of the mean radiance over the sphere (channel mean).
+float add_lights(const RayScene& scene, std::span<const WorldLight> lights, glm::vec3 y, Rng& rng, SH9rgb& sh) {
+  float mean = 0.0f;
+  for_each_light_sample(scene, lights, y, y, glm::vec3(0.0f), kRectLightSamples, rng, [&](glm::vec3 l, glm::vec3 e) {
+    sh_add_sample(sh, l, e);
+    mean += channel_mean(e) / (4.0f * kPi);
+  });
+  return mean;
 }
 
-// What one sample point contributes: its radiance expansion and whether it is in the domain.
+// What one sample point contributes: its radiance expansion, whether it is in the domain, and for
+// the noise target the mean incident radiance over the sphere (channel mean): from all its rays
+// and the lights (`mean`), and from each half of its rays alone (`halves`: indices below rays / 2,
+// the rest), two randomised QMC estimates of the rays' part.
 struct PointSample {
   SH9rgb radiance;
   bool in_domain = false;
+  float mean = 0.0f;
+  glm::vec2 halves{0.0f};
 };
 
 struct SampleSettings {
@@ -89,11 +101,14 @@ PointSample sample_point(const RayScene& scene, std::span<const WorldLight> ligh
   out.in_domain = float(back) <= s.back_face_threshold * float(s.rays);
   if (!out.in_domain && s.skip_outside) return out;
 
+  const std::uint32_t half = s.rays / 2;
+  glm::vec2 sums(0.0f);
   for (std::uint32_t i = 0; i < s.rays; ++i) {
     const glm::vec3 dir = uniform_sphere(sobol_2d(i, scramble));
     if (!all_mask[i]) {  // the sky, which the renderer draws no light of: in Indirect grids too
       const glm::vec3 sky = scene.sky(dir);
       if (sky != glm::vec3(0.0f)) sh_add_sample(out.radiance, dir, sky * weight);
+      sums[i < half ? 0 : 1] += channel_mean(sky);
       continue;
     }
     const Hit& h = all_hits[i];
@@ -106,9 +121,39 @@ PointSample sample_point(const RayScene& scene, std::span<const WorldLight> ligh
       radiance += h.material.albedo * (e.value / kPi);
     }
     if (radiance != glm::vec3(0.0f)) sh_add_sample(out.radiance, dir, radiance * weight);
+    sums[i < half ? 0 : 1] += channel_mean(radiance);
   }
-  if (s.direct) add_lights(scene, lights, y, rng, out.radiance);
+  out.mean = (sums.x + sums.y) / float(s.rays);
+  if (half > 0) out.halves = glm::vec2(sums.x / float(half), sums.y / float(s.rays - half));
+  if (s.direct) out.mean += add_lights(scene, lights, y, rng, out.radiance);
   return out;
+}
+
+// The noise target's estimate for one node: the relative standard error of the mean over its
+// averaged points of their mean radiance, from the halves of each point's rays (PointSample):
+// var(v_k) ~ (a_k - b_k)^2 / 4 for the mean v_k of two estimates a_k, b_k.
+struct NodeNoise {
+  double sum = 0.0, variance = 0.0;
+  std::uint32_t points = 0;
+  void add(const PointSample& p) {
+    sum += p.mean;
+    const double d = double(p.halves.x) - double(p.halves.y);
+    variance += d * d / 4.0;
+    ++points;
+  }
+  float relative_error() const {
+    if (points == 0 || !(sum > 0.0)) return 0.0f;  // nothing averaged, or black: nothing to refine
+    return static_cast<float>(std::sqrt(variance) / sum);
+  }
+};
+
+// The rays factor for a node whose relative error is `ratio` x the target: the fewest of 2, 4, 8
+// (up to kProbeMaxRayFactor) whose rays bring it to the target if the error falls as
+// 1 / sqrt(rays) (quasi-Monte Carlo falls faster: the factor errs on the safe side).
+std::uint32_t probe_ray_factor(float ratio) {
+  std::uint32_t f = 2;
+  while (f < kProbeMaxRayFactor && ratio * ratio > float(f)) f *= 2;
+  return f;
 }
 
 // Per axis tent offset in cells: xi1 + xi2 - 1 has the density max(0, 1 - |t|) on [-1, 1]
@@ -225,8 +270,9 @@ struct ProbeFinishSettings {
 // A grid as a group of nodes, node n drawing from Rng::stream(seed, n): prepare(), run() over
 // node ranges (steps 0 and 1, which need only the node itself), finish_probe_grid() (steps 2-4,
 // which need every node: the fill from neighbours, the least-squares fit, the convolution).
-// Node n's results: its reach (leak guard; 6 bytes), validity (float), radiance SH (27 floats)
-// and, fitted, its S samples' grid position, domain flag and radiance.
+// Node n's results: its reach (leak guard; 6 bytes), validity (float), ray factor (1 byte: the
+// noise target's, 1 when not refined), radiance SH (27 floats) and, fitted, its S samples' grid
+// position, domain flag and radiance.
 class ProbeBake {
  public:
   static Result<std::shared_ptr<ProbeBake>> prepare(const IrradianceProbeGrid& grid, const glm::mat4& world_matrix,
@@ -256,7 +302,7 @@ std::size_t probe_columns(std::uint8_t sh_order) {
 // Bytes of one node's results.
 std::size_t node_result_bytes(const ProbeFinishSettings& f) {
   const bool fitted = static_cast<ProbeSampling>(f.sampling) == ProbeSampling::Fitted;
-  return (f.leak_guard ? 6 : 0) + sizeof(float) + sizeof(SH9rgb) +
+  return (f.leak_guard ? 6 : 0) + sizeof(float) + 1 + sizeof(SH9rgb) +
          (fitted ? std::size_t{f.samples_per_node} * (sizeof(glm::vec3) + 1 + probe_columns(f.sh_order) * sizeof(float))
                  : 0);
 }
@@ -349,8 +395,8 @@ Result<std::vector<std::byte>> ProbeBake::run(std::uint64_t first, std::uint64_t
   const auto ijk_of = [&](std::size_t n) {
     return glm::uvec3(n % res.x, (n / res.x) % res.y, n / (std::size_t{res.x} * res.y));
   };
-  const std::size_t reach_at = 0, validity_at = f.leak_guard ? 6 : 0, radiance_at = validity_at + sizeof(float),
-                    samples_at = radiance_at + sizeof(SH9rgb);
+  const std::size_t reach_at = 0, validity_at = f.leak_guard ? 6 : 0, factor_at = validity_at + sizeof(float),
+                    radiance_at = factor_at + 1, samples_at = radiance_at + sizeof(SH9rgb);
   const std::size_t sample_bytes = sizeof(glm::vec3) + 1 + columns * sizeof(float);
 
   // Step 0 (leak guard): each node's reach, which step 1 needs at the node (6 rays a node; the
@@ -364,23 +410,33 @@ Result<std::vector<std::byte>> ProbeBake::run(std::uint64_t first, std::uint64_t
     }));
   }
 
-  // Step 1: per node, radiance SH from its sample points (node n from its own stream).
+  // Step 1: per node, radiance SH from its sample points (node n from its own stream), traced
+  // again with more rays when the noise target asks for it (probe_ray_factor).
   PENUMBRA_TRY(jobs.parallel_for(count, 4, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const std::size_t n = static_cast<std::size_t>(first) + i;
       std::byte* o = out.data() + i * each;
       const std::uint8_t* reach = reinterpret_cast<const std::uint8_t*>(o + reach_at);
-      Rng rng = Rng::stream(seed_, n);
       const glm::uvec3 ijk = ijk_of(n);
       const glm::vec3 u = glm::vec3(ijk) * cell;
       float validity = 0.0f;
       SH9rgb radiance;
-      if (point) {
-        // The classic irradiance volume: everything at the node.
-        const PointSample p = sample_point(scene, lights_, layout.node_position(ijk), s_, rng);
-        radiance = p.radiance;
-        validity = p.in_domain ? 1.0f : 0.0f;
-      } else {
+      // One pass at `rays` rays per point: validity, radiance (fitted: the samples in `o`) and the
+      // estimated relative standard error of the mean radiance over the points it averages.
+      const auto trace = [&](std::uint32_t rays) {
+        SampleSettings settings = s_;
+        settings.rays = rays;
+        Rng rng = Rng::stream(seed_, n);
+        NodeNoise noise;
+        radiance = SH9rgb{};
+        if (point) {
+          // The classic irradiance volume: everything at the node.
+          const PointSample p = sample_point(scene, lights_, layout.node_position(ijk), settings, rng);
+          radiance = p.radiance;
+          validity = p.in_domain ? 1.0f : 0.0f;
+          if (p.in_domain) noise.add(p);
+          return noise.relative_error();
+        }
         // Supersampling: S points from the tent B_i, averaged over those in the domain (and, with
         // the leak guard, seen by the node); fitted mode keeps each one for the least-squares step.
         const std::array<std::uint32_t, 3> scrambles{rng.next_u32(), rng.next_u32(), rng.next_u32()};
@@ -392,7 +448,7 @@ Result<std::vector<std::byte>> ProbeBake::run(std::uint64_t first, std::uint64_t
           const bool seen = !grid.leak_guard || probe_node_sees(reach, t);
           if (!seen && !fitted) continue;  // supersampled: no rays for a point the node never serves
           const glm::vec3 y(layout.grid_to_world * glm::vec4(u + t * cell, 1.0f));
-          const PointSample p = sample_point(scene, lights_, y, s_, rng);
+          const PointSample p = sample_point(scene, lights_, y, settings, rng);
           if (fitted) {
             std::byte* smp = o + samples_at + k * sample_bytes;
             const glm::vec3 at = glm::vec3(ijk) + t;
@@ -406,12 +462,21 @@ Result<std::vector<std::byte>> ProbeBake::run(std::uint64_t first, std::uint64_t
           }
           if (!p.in_domain || !seen) continue;
           sum += p.radiance;
+          noise.add(p);
           ++inside;
         }
         validity = float(inside) / float(grid.samples_per_node);
         if (inside > 0) radiance = sum * (1.0f / float(inside));
+        return noise.relative_error();
+      };
+      std::uint8_t factor = 1;
+      const float error = trace(s_.rays);
+      if (grid.noise > 0.0f && error > grid.noise) {
+        factor = static_cast<std::uint8_t>(probe_ray_factor(error / grid.noise));
+        trace(s_.rays * factor);
       }
       std::memcpy(o + validity_at, &validity, sizeof validity);
+      std::memcpy(o + factor_at, &factor, 1);
       std::memcpy(o + radiance_at, &radiance, sizeof radiance);
     }
   }));
@@ -440,8 +505,8 @@ Result<ProbeGridData> finish_probe_grid(const ProbeGridLayout& layout, const Pro
   const std::size_t count = static_cast<std::size_t>(sh_coefficients(static_cast<ProbeShOrder>(f.sh_order)));
   const std::size_t columns = count * 3;
   const std::size_t each = node_result_bytes(f);
-  const std::size_t validity_at = f.leak_guard ? 6 : 0, radiance_at = validity_at + sizeof(float),
-                    samples_at = radiance_at + sizeof(SH9rgb);
+  const std::size_t validity_at = f.leak_guard ? 6 : 0, factor_at = validity_at + sizeof(float),
+                    radiance_at = factor_at + 1, samples_at = radiance_at + sizeof(SH9rgb);
   const std::size_t sample_bytes = sizeof(glm::vec3) + 1 + columns * sizeof(float);
 
   ProbeGridData data;
@@ -457,15 +522,20 @@ Result<ProbeGridData> finish_probe_grid(const ProbeGridLayout& layout, const Pro
   std::vector<glm::vec3> sample_position(fitted ? nodes * S : 0);
   std::vector<std::uint8_t> sample_in_domain(fitted ? nodes * S : 0);
   std::vector<float> sample_values(fitted ? nodes * S * columns : 0);
+  std::uint64_t factor_sum = 0;
   for (std::size_t n = 0; n < nodes; ++n) {
     const std::byte* o = results.data() + n * each;
     if (f.leak_guard) std::memcpy(&data.reach[6 * n], o, 6);
     std::memcpy(&data.validity[n], o + validity_at, sizeof(float));
     std::memcpy(&radiance[n], o + radiance_at, sizeof(SH9rgb));
-    if (!(data.validity[n] >= 0.0f && data.validity[n] <= 1.0f))
+    const auto factor = static_cast<std::uint32_t>(o[factor_at]);
+    if (!(data.validity[n] >= 0.0f && data.validity[n] <= 1.0f) || factor == 0 || factor > kProbeMaxRayFactor)
       return make_error(ErrorCode::InvalidInput, std::string(context) + ": node " + std::to_string(n) +
                                                      " has validity " + std::to_string(data.validity[n]) +
+                                                     " and ray factor " + std::to_string(factor) +
                                                      "; the part is corrupt, re-bake it");
+    factor_sum += factor;
+    data.refined_nodes += factor > 1 ? 1 : 0;
     for (std::size_t k = 0; fitted && k < S; ++k) {
       const std::byte* smp = o + samples_at + k * sample_bytes;
       const std::size_t i = n * S + k;
@@ -480,6 +550,8 @@ Result<ProbeGridData> finish_probe_grid(const ProbeGridLayout& layout, const Pro
                                                        " lies outside the grid; the part is corrupt, re-bake it");
     }
   }
+
+  data.ray_factor = static_cast<float>(double(factor_sum) / double(nodes));
 
   // Step 2: fill nodes with no in-domain sample (supersampled and fitted; point mode keeps the
   // classic values).

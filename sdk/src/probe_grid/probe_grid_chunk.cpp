@@ -21,6 +21,8 @@ BakeChunk write_probe_grid_chunk(const ProbeGridData& data) {
   w.write(static_cast<std::uint32_t>(data.sampling));
   w.write(static_cast<std::uint32_t>(data.lighting));
   w.write(data.bounces);
+  w.write(data.refined_nodes);
+  w.write(data.ray_factor);
   w.write_vector(data.coefficients);
   w.write_vector(data.validity);
   w.write_vector(data.filled);
@@ -44,6 +46,8 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(sampling));
   PENUMBRA_TRY(r.read(lighting));
   PENUMBRA_TRY(r.read(data.bounces));
+  PENUMBRA_TRY(r.read(data.refined_nodes));
+  PENUMBRA_TRY(r.read(data.ray_factor));
   const glm::uvec3 res = data.layout.resolution;
   if (res.x < 2 || res.y < 2 || res.z < 2 || std::uint64_t{res.x} * res.y * res.z > kMaxProbeNodes)
     return bad("resolution " + std::to_string(res.x) + "x" + std::to_string(res.y) + "x" + std::to_string(res.z) +
@@ -65,6 +69,10 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   data.layout.spacing =
       glm::vec3(glm::length(axes[0]), glm::length(axes[1]), glm::length(axes[2])) / glm::vec3(res - 1u);
   const std::size_t nodes = data.node_count();
+  if (data.refined_nodes > nodes || !(data.ray_factor >= 1.0f && data.ray_factor <= float(kProbeMaxRayFactor)))
+    return bad(std::to_string(data.refined_nodes) + " refined nodes or a ray factor of " +
+               std::to_string(data.ray_factor) + " is outside the grid's " + std::to_string(nodes) + " nodes and 1.." +
+               std::to_string(kProbeMaxRayFactor));
   const std::size_t count = static_cast<std::size_t>(sh_coefficients(data.sh_order));
   PENUMBRA_TRY(r.read_vector(data.coefficients, nodes * count));
   PENUMBRA_TRY(r.read_vector(data.validity, nodes));
@@ -104,6 +112,12 @@ std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk) {
                 format_bytes(data->node_count() * data->bytes_per_node()).c_str(),
                 static_cast<unsigned long long>(data->bytes_per_node()));
   out.emplace_back(line);
+  if (data->refined_nodes > 0) {
+    std::snprintf(line, sizeof line, "noise target: %u nodes (%.1f%%) traced more rays, %.2fx the rays on average",
+                  data->refined_nodes, 100.0 * double(data->refined_nodes) / double(data->node_count()),
+                  static_cast<double>(data->ray_factor));
+    out.emplace_back(line);
+  }
   return out;
 }
 

@@ -60,6 +60,10 @@ constexpr FieldInfo kGridFields[] = {
                                               .help = "indirect light that stopping may leave out (bounces follow the "
                                                       "scene's albedo); 0 uses bounces",
                                               .preset = true, .hashed = true, .speed = 0.005f}),
+    member<&IrradianceProbeGrid::noise>({.name = "noise", .type = T::Float, .min = 0, .max = 1,
+                                         .help = "relative standard error a node's irradiance may keep; noisier nodes "
+                                                 "trace up to 8x the rays (0: rays_per_sample everywhere)",
+                                         .preset = true, .hashed = true, .speed = 0.002f}),
     member<&IrradianceProbeGrid::hit_samples>({.name = "hit_samples", .type = T::Count, .min = 2, .max = 1e6,
                                                .unit = "paths", .help = "irradiance paths at each ray hit",
                                                .hashed = true, .speed = 0.1f}),

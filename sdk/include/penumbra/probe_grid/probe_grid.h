@@ -78,6 +78,8 @@ constexpr int sh_coefficients(ProbeShOrder order) {
   return order == ProbeShOrder::L1 ? kSHCoefficientsL1 : kSHCoefficientsL2;
 }
 
+// The most a node's rays per sample point may grow to reach IrradianceProbeGrid::noise.
+inline constexpr std::uint32_t kProbeMaxRayFactor = 8;
 // `bounces` value meaning "every bounce" (Russian roulette at ray hits, as the reference).
 inline constexpr std::uint32_t kProbeAllBounces = ~0u;
 
@@ -111,6 +113,14 @@ struct IrradianceProbeGrid {
   // given; the presets set a truncation.
   float truncation = 0.0f;
   std::uint32_t hit_samples = 2;  // irradiance paths at each ray hit (>= 2)
+  // When > 0, a node whose estimate is noisier than this traces its sample points again with 2,
+  // 4 or 8 x rays_per_sample (at most kProbeMaxRayFactor): the fewest that bring the estimated
+  // relative standard error of its irradiance (the mean over its sample points of the radiance's
+  // constant term, channel-averaged) to `noise`. The error is estimated from the two halves of each
+  // point's rays (a pair of randomised quasi-Monte Carlo estimates, whose difference over-states
+  // the error of their mean rather than under-states it). Nodes decide alone, so the bake stays
+  // deterministic at any thread and shard count. 0: every node rays_per_sample. The presets set it.
+  float noise = 0.0f;
   // What the nodes store (lighting/settings.h, LightingContent). Indirect (the default, and every
   // preset's): only light that reflected at least once (no lights' direct light, no emission seen
   // straight from the node), for a renderer that draws direct light itself with shadow maps, as the
@@ -201,6 +211,10 @@ struct ProbeGridData {
   ProbeSampling sampling = ProbeSampling::Supersampled;
   LightingContent lighting = LightingContent::All;  // what the coefficients hold
   std::uint32_t bounces = 0;  // the bounces baked (kProbeAllBounces: all), as probe_bounces chose them
+  // The noise target's refinement (IrradianceProbeGrid::noise): the nodes that traced more rays
+  // and the mean over all nodes of their rays per sample point / rays_per_sample (1: none refined).
+  std::uint32_t refined_nodes = 0;
+  float ray_factor = 1.0f;
   // Node n's coefficient c is coefficients[n * sh_coefficients(sh_order) + c] (RGB).
   std::vector<glm::vec3> coefficients;
   // In-domain coverage per node in [0, 1]: the fraction of its samples in the domain of interest
@@ -266,7 +280,7 @@ glm::vec3 evaluate(const ProbeGridData& data, glm::vec3 x, glm::vec3 n, ProbeRec
 // The "PRBG" chunk of one grid (label "probe-grid:<key>") and its reader. read() checks the
 // version, sizes, resolution and that every value is finite, and names the chunk in its errors.
 inline constexpr std::uint32_t kProbeGridChunkType = fourcc("PRBG");
-inline constexpr std::uint32_t kProbeGridChunkVersion = 5;  // 5: the bounces baked
+inline constexpr std::uint32_t kProbeGridChunkVersion = 6;  // 6: the noise target's refinement
 BakeChunk write_probe_grid_chunk(const ProbeGridData& data);
 Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk);
 // Lines for `penumbra info`: grid size, order, mode, lighting, valid fraction, filled nodes, bytes.
