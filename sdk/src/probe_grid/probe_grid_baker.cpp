@@ -265,6 +265,7 @@ struct ProbeFinishSettings {
   std::uint32_t samples_per_node = 0;
   float deringing_window = 0.0f;
   std::uint32_t bounces = 0;  // as baked (probe_bounces): kept in the chunk for its report
+  float noise = 0.0f;         // the noise target, kept in the chunk for its report
 };
 
 // A grid as a group of nodes, node n drawing from Rng::stream(seed, n): prepare(), run() over
@@ -310,7 +311,7 @@ std::size_t node_result_bytes(const ProbeFinishSettings& f) {
 ProbeFinishSettings finish_settings(const IrradianceProbeGrid& g) {
   return {static_cast<std::uint8_t>(g.sh_order), static_cast<std::uint8_t>(g.sampling),
           static_cast<std::uint8_t>(g.lighting), static_cast<std::uint8_t>(g.leak_guard ? 1 : 0), g.samples_per_node,
-          g.deringing_window, g.bounces};
+          g.deringing_window, g.bounces, g.noise};
 }
 
 ProbeFinishSettings ProbeBake::finish() const { return finish_settings(grid_); }
@@ -515,6 +516,7 @@ Result<ProbeGridData> finish_probe_grid(const ProbeGridLayout& layout, const Pro
   data.sampling = sampling;
   data.lighting = static_cast<LightingContent>(f.lighting);
   data.bounces = f.bounces;
+  data.noise = f.noise;
   std::vector<SH9rgb> radiance(nodes);
   data.validity.assign(nodes, 0.0f);
   data.filled.assign(nodes, 0);

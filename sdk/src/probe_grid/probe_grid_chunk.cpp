@@ -21,6 +21,7 @@ BakeChunk write_probe_grid_chunk(const ProbeGridData& data) {
   w.write(static_cast<std::uint32_t>(data.sampling));
   w.write(static_cast<std::uint32_t>(data.lighting));
   w.write(data.bounces);
+  w.write(data.noise);
   w.write(data.refined_nodes);
   w.write(data.ray_factor);
   w.write_vector(data.coefficients);
@@ -46,6 +47,7 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read(sampling));
   PENUMBRA_TRY(r.read(lighting));
   PENUMBRA_TRY(r.read(data.bounces));
+  PENUMBRA_TRY(r.read(data.noise));
   PENUMBRA_TRY(r.read(data.refined_nodes));
   PENUMBRA_TRY(r.read(data.ray_factor));
   const glm::uvec3 res = data.layout.resolution;
@@ -69,10 +71,11 @@ Result<ProbeGridData> read_probe_grid_chunk(const BakeChunk& chunk) {
   data.layout.spacing =
       glm::vec3(glm::length(axes[0]), glm::length(axes[1]), glm::length(axes[2])) / glm::vec3(res - 1u);
   const std::size_t nodes = data.node_count();
-  if (data.refined_nodes > nodes || !(data.ray_factor >= 1.0f && data.ray_factor <= float(kProbeMaxRayFactor)))
-    return bad(std::to_string(data.refined_nodes) + " refined nodes or a ray factor of " +
-               std::to_string(data.ray_factor) + " is outside the grid's " + std::to_string(nodes) + " nodes and 1.." +
-               std::to_string(kProbeMaxRayFactor));
+  if (!(data.noise >= 0.0f && data.noise <= 1.0f) || data.refined_nodes > nodes ||
+      !(data.ray_factor >= 1.0f && data.ray_factor <= float(kProbeMaxRayFactor)))
+    return bad("noise target " + std::to_string(data.noise) + ", " + std::to_string(data.refined_nodes) +
+               " refined nodes or a ray factor of " + std::to_string(data.ray_factor) + " is outside 0..1, the grid's " +
+               std::to_string(nodes) + " nodes or 1.." + std::to_string(kProbeMaxRayFactor));
   const std::size_t count = static_cast<std::size_t>(sh_coefficients(data.sh_order));
   PENUMBRA_TRY(r.read_vector(data.coefficients, nodes * count));
   PENUMBRA_TRY(r.read_vector(data.validity, nodes));
@@ -112,10 +115,15 @@ std::vector<std::string> describe_probe_grid_chunk(const BakeChunk& chunk) {
                 format_bytes(data->node_count() * data->bytes_per_node()).c_str(),
                 static_cast<unsigned long long>(data->bytes_per_node()));
   out.emplace_back(line);
-  if (data->refined_nodes > 0) {
-    std::snprintf(line, sizeof line, "noise target: %u nodes (%.1f%%) traced more rays, %.2fx the rays on average",
-                  data->refined_nodes, 100.0 * double(data->refined_nodes) / double(data->node_count()),
-                  static_cast<double>(data->ray_factor));
+  if (data->noise > 0.0f) {
+    if (data->refined_nodes > 0)
+      std::snprintf(line, sizeof line, "noise target %.3g%%: %u nodes (%.1f%%) traced more rays, %.2fx the rays on average",
+                    100.0 * static_cast<double>(data->noise), data->refined_nodes,
+                    100.0 * double(data->refined_nodes) / double(data->node_count()),
+                    static_cast<double>(data->ray_factor));
+    else
+      std::snprintf(line, sizeof line, "noise target %.3g%%: every node met it with its rays_per_sample",
+                    100.0 * static_cast<double>(data->noise));
     out.emplace_back(line);
   }
   return out;

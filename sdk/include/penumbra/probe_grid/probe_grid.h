@@ -211,8 +211,10 @@ struct ProbeGridData {
   ProbeSampling sampling = ProbeSampling::Supersampled;
   LightingContent lighting = LightingContent::All;  // what the coefficients hold
   std::uint32_t bounces = 0;  // the bounces baked (kProbeAllBounces: all), as probe_bounces chose them
-  // The noise target's refinement (IrradianceProbeGrid::noise): the nodes that traced more rays
-  // and the mean over all nodes of their rays per sample point / rays_per_sample (1: none refined).
+  // The noise target (IrradianceProbeGrid::noise; 0: none) and its refinement: the nodes that
+  // traced more rays and the mean over all nodes of their rays per sample point / rays_per_sample
+  // (1: none refined).
+  float noise = 0.0f;
   std::uint32_t refined_nodes = 0;
   float ray_factor = 1.0f;
   // Node n's coefficient c is coefficients[n * sh_coefficients(sh_order) + c] (RGB).
