@@ -61,6 +61,13 @@ IrradianceProbeGrid small_grid(glm::vec3 lo, glm::vec3 hi, glm::uvec3 res, Probe
   return g;
 }
 
+// Built-in scene `name` loaded into `w`, its transforms updated, and its ray scene.
+Result<RayScene> builtin_ray_scene(World& w, const char* name) {
+  if (auto loaded = load_builtin(w, name); !loaded) return loaded.error();
+  update_world_transforms(w);
+  return RayScene::build(w);
+}
+
 Result<ProbeGridData> bake(const IrradianceProbeGrid& g, World& w, const RayScene& scene, unsigned threads = 1,
                            std::uint64_t seed = 1) {
   ThreadPool pool(threads);
@@ -74,10 +81,8 @@ Result<ProbeGridData> bake(const IrradianceProbeGrid& g, World& w, const RayScen
 
 TEST(ProbeBaker, FurnaceEveryNodeAndNormal) {
   World w;
-  ASSERT_TRUE(load_builtin(w, "furnace").ok());
-  update_world_transforms(w);
-  auto scene = RayScene::build(w);
-  ASSERT_TRUE(scene.ok());
+  auto scene = builtin_ray_scene(w, "furnace");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
   for (ProbeSampling mode : {ProbeSampling::Point, ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
     IrradianceProbeGrid g = small_grid(glm::vec3(-0.25f), glm::vec3(0.25f), {3, 3, 3}, mode);
     // Tents reach 0.5 m from the centre per axis: every sample is inside the unit sphere.
@@ -331,10 +336,8 @@ TEST(ProbeBaker, LightsOfZeroAndHugeIntensity) {
 
 TEST(ProbeBaker, BitIdenticalAtOneAndTwoThreads) {
   World w;
-  ASSERT_TRUE(load_builtin(w, "cornell").ok());
-  update_world_transforms(w);
-  auto scene = RayScene::build(w);
-  ASSERT_TRUE(scene.ok());
+  auto scene = builtin_ray_scene(w, "cornell");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
   for (ProbeSampling mode : {ProbeSampling::Supersampled, ProbeSampling::Fitted}) {
     IrradianceProbeGrid g = small_grid({0.1f, 0.1f, 0.1f}, {0.5f, 0.5f, 0.5f}, {3, 3, 3}, mode);
     // The Cornell box is about 0.55 m wide, from the origin: the grid sits inside it.
@@ -354,10 +357,8 @@ TEST(ProbeBaker, BitIdenticalAtOneAndTwoThreads) {
 // changes nothing.
 TEST(ProbeBaker, ANoiseTargetTracesMoreRaysWhereTheNodesAreNoisy) {
   World w;
-  ASSERT_TRUE(load_builtin(w, "cornell").ok());
-  update_world_transforms(w);
-  auto scene = RayScene::build(w);
-  ASSERT_TRUE(scene.ok());
+  auto scene = builtin_ray_scene(w, "cornell");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
   IrradianceProbeGrid g = small_grid({0.1f, 0.1f, 0.1f}, {0.5f, 0.5f, 0.5f}, {3, 3, 3}, ProbeSampling::Supersampled);
   g.lighting = LightingContent::Indirect;
   g.bounces = 2;
