@@ -493,7 +493,8 @@ Result<ProbeGridData> finish_probe_grid(const ProbeGridLayout& layout, const Pro
   if (f.sh_order > static_cast<std::uint8_t>(ProbeShOrder::L2) || f.sampling > static_cast<std::uint8_t>(ProbeSampling::Fitted) ||
       f.leak_guard > 1 || (f.lighting != static_cast<std::uint8_t>(LightingContent::All) &&
                            f.lighting != static_cast<std::uint8_t>(LightingContent::Indirect)) ||
-      f.samples_per_node == 0 || glm::any(glm::lessThan(layout.resolution, glm::uvec3(2u))) ||
+      f.samples_per_node == 0 || !(f.noise >= 0.0f && f.noise <= 1.0f) ||
+      glm::any(glm::lessThan(layout.resolution, glm::uvec3(2u))) ||
       nodes > kMaxProbeNodes || results.size() / node_result_bytes(f) != nodes ||
       results.size() % node_result_bytes(f) != 0)
     return make_error(ErrorCode::InvalidInput, std::string(context) + ": the header or the " +

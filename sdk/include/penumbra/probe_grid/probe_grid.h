@@ -119,7 +119,9 @@ struct IrradianceProbeGrid {
   // constant term, channel-averaged) to `noise`. The error is estimated from the two halves of each
   // point's rays (a pair of randomised quasi-Monte Carlo estimates, whose difference over-states
   // the error of their mean rather than under-states it). Nodes decide alone, so the bake stays
-  // deterministic at any thread and shard count. 0: every node rays_per_sample. The presets set it.
+  // deterministic at any thread and shard count. A refined node pays for its first pass too:
+  // 1 + factor times its rays. 0: every node rays_per_sample (so does rays_per_sample 1, which
+  // gives no estimate). The presets set it.
   float noise = 0.0f;
   // What the nodes store (lighting/settings.h, LightingContent). Indirect (the default, and every
   // preset's): only light that reflected at least once (no lights' direct light, no emission seen
