@@ -1,12 +1,13 @@
 // Render features: a lighting module's part of the frame, plugged into the renderer.
 //
 // The renderer owns the frame: meshes, materials, lights and shadows, the depth pre-pass with the
-// G-buffer (shading normal, a per-draw receiver code), the ambient image (rgb: indirect
-// irradiance times FrameUniforms::ambient_scale.x; a: the open fraction, 1 - the occlusion) at
-// 1 / RenderSettings::ambient_step of the target's size, and the forward pass that shades with
-// it. A render feature owns what its technique adds: its GPU copy of the components it draws, its
-// descriptor set (set 2 of its pipelines; sets 0 and 1 are the renderer's, shaders/shared/
-// layout.h), its shaders and passes, and its debug views. Each frame the renderer
+// G-buffer (shading normal, a per-draw receiver code and whether the draw is static geometry),
+// the ambient image (rgb: indirect irradiance times FrameUniforms::ambient_scale.x; a: the open
+// fraction, 1 - the occlusion) at 1 / RenderSettings::ambient_step of the target's size, and the
+// forward pass that shades with it. A render feature owns what its technique adds: its GPU copy of
+// the components it draws, its descriptor set (set 2 of its pipelines; sets 0 and 1 are the
+// renderer's, shaders/shared/layout.h), its shaders and passes, and its debug views. Each frame
+// the renderer
 //   1. sync():   the feature mirrors what changed in the World into its GPU resources;
 //   2. per draw: draw_values() tags the draw (a receiver code in the G-buffer, an open fraction
 //                over the whole entity);
@@ -54,7 +55,9 @@ struct ViewInfo {
 
 // A draw's values for the features (gpu::DrawPush::feature, shaders/shared/layout.h).
 struct DrawFeatureValues {
-  float receiver = 0.0f;  // the G-buffer's w at the draw's pixels: a feature's receiver code (0: none)
+  // The G-buffer's w at the draw's pixels: a feature's receiver code (0: none), 0..2047; shaders
+  // read it with gbuffer_receiver() (common.glsl), which undoes the static-geometry flag's sign.
+  float receiver = 0.0f;
   float open = 1.0f;      // multiplies the open fraction at every pixel of the draw (entity-wide occlusion)
 };
 
