@@ -12,6 +12,9 @@
 // the leak receivers' shell towards a block, with the faces' normals; the guarded indirect grids
 // are evaluated there as a moving receiver and as a static one (ProbeReceiver, probe_grid.h), whose
 // lookup also drops the nodes in the solid under the face.
+// Noise target: the fitted+guard indirect grids baked again with the medium and high presets'
+// noise targets (IrradianceProbeGrid::noise, 2 % and 1 %), their error and bake time beside the
+// grid without one.
 // Errors are relative to the mean reference irradiance. An L1 row reuses the
 // L2 bake truncated to its first four coefficients (same bake time; only the stored bytes differ).
 // Goals: at the same spacing, leak RMSE <= 0.5 x point with bake time <= 1.5 x point; the
@@ -344,7 +347,8 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                                " W/m^2, reference std error " + fmt(100.0 * leak.mean_stderr / leak.mean, 3) + "%");
       // One bake of the bench's grid over `box`: the data and the seconds it took.
       const auto bake = [&](const Aabb& grid_box, Variant v, std::uint32_t samples, double& seconds,
-                            LightingContent lighting = LightingContent::All) -> Result<ProbeGridData> {
+                            LightingContent lighting = LightingContent::All,
+                            float noise = 0.0f) -> Result<ProbeGridData> {
         const auto [mode, guard] = v;
         IrradianceProbeGrid grid;
         grid.leak_guard = guard;
@@ -355,6 +359,7 @@ Result<Report> run_probe_grid_bench(const Options& options) {
         grid.samples_per_node = samples;
         grid.rays_per_sample = 16;
         grid.bounces = kProbeAllBounces;
+        grid.noise = noise;
         MemoryBudget budget;
         const auto t0 = std::chrono::steady_clock::now();
         auto data = bake_probe_grid(grid, glm::mat4(1.0f), *scene, lights, 7, jobs, budget,
@@ -425,6 +430,8 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                       "%), RMSE / mean E and mean ratio, evaluated as a moving receiver -> as static geometry:";
         }
         std::map<Variant, ModeResult> indirect;
+        const Variant fitted_guard{ProbeSampling::Fitted, true};
+        double fitted_guard_rmse = 0.0;  // of the mean indirect E, without a noise target
         for (const Variant& mode : kVariants) {
           double bake_s = 0.0;
           auto data = bake(sc.box, mode, samples, bake_s, LightingContent::Indirect);
@@ -443,9 +450,32 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                                  fmt(e.max), has_leak ? fmt(le.rmse) : "", fmt(ind.mean_stderr / receivers->mean)});
           line += std::string(" ") + name(mode) + " " + fmt(results[key][mode].rmse, 3) + " -> " + fmt(e.rmse, 3) +
                   " (" + fmt(errors(*data, ind).rmse, 3) + " of the mean indirect E);";
+          if (mode == fitted_guard) fitted_guard_rmse = errors(*data, ind).rmse;
         }
         report.notes.push_back(line);
         if (!face_line.empty()) report.notes.push_back(face_line);
+        // The noise target (header): fitted+guard again with the medium and high presets' targets.
+        std::string noise_line = std::string(sc.name) + " indirect grids (h " + fmt(h) + ", S " +
+                                 std::to_string(samples) + "), fitted+guard with a noise target, RMSE / mean indirect E " +
+                                 "(the reference's own relative standard error " +
+                                 fmt(ind.mean_stderr / std::max(ind.mean, 1e-30), 3) + "): none " +
+                                 fmt(fitted_guard_rmse, 3) + " (" + fmt(indirect[fitted_guard].seconds) + " s)";
+        for (const float target : {0.02f, 0.01f}) {
+          double bake_s = 0.0;
+          auto data = bake(sc.box, fitted_guard, samples, bake_s, LightingContent::Indirect, target);
+          if (!data) return data.error();
+          const Errors e = errors(*data, ind, receivers->mean);
+          const std::string label = name(fitted_guard) + " noise " + fmt(100.0 * target) + "%";
+          report.rows.push_back({sc.name, label, to_string(LightingContent::Indirect), fmt(h), std::to_string(samples),
+                                 to_string(ProbeShOrder::L2), fmt(bake_s),
+                                 std::to_string(data->node_count() * data->bytes_per_node()), fmt(e.rmse), fmt(e.mae),
+                                 fmt(e.max), has_leak ? fmt(errors(*data, ind_leak, leak.mean).rmse) : "",
+                                 fmt(ind.mean_stderr / receivers->mean)});
+          noise_line += "; " + fmt(100.0 * target) + " %: " + fmt(errors(*data, ind).rmse, 3) + " (" + fmt(bake_s) +
+                        " s, " + fmt(data->ray_factor, 3) + "x the rays, " +
+                        fmt(100.0 * double(data->refined_nodes) / double(data->node_count()), 3) + " % of nodes refined)";
+        }
+        report.notes.push_back(noise_line);
         // The goal's ratios on the indirect grids (the content the SDK renderer uses).
         const ModeResult point = indirect[Variant{ProbeSampling::Point, false}];
         if (has_leak && point.leak > 0.0) {
