@@ -200,7 +200,8 @@ glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm:
   const float len = glm::length(normal_cells);
   const bool surface = len > 0.0f;  // false also for a NaN normal
   const bool solid_rule = surface && receiver == ProbeReceiver::Static;
-  const glm::vec3 test = surface ? f + normal_cells * (kProbeNormalBias / len) : f;
+  const float bias = solid_rule ? kProbeStaticNormalBias : kProbeNormalBias;
+  const glm::vec3 test = surface ? f + normal_cells * (bias / len) : f;
   // The visible corners' weighted mean, without (seen) and with (front) the static surface's own solid.
   float seen_sum = 0.0f, front_sum = 0.0f;
   glm::vec3 seen_mean(0.0f), front_mean(0.0f);

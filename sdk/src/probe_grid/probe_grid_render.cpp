@@ -22,6 +22,7 @@
 
 // The shader's leak-guard constants are the CPU lookup's (probe_grid.h).
 static_assert(float(PENUMBRA_PROBE_NORMAL_BIAS) == penumbra::kProbeNormalBias);
+static_assert(float(PENUMBRA_PROBE_STATIC_NORMAL_BIAS) == penumbra::kProbeStaticNormalBias);
 static_assert(float(PENUMBRA_PROBE_REACH_SLACK) == penumbra::kProbeReachSlack);
 static_assert(float(PENUMBRA_PROBE_PLANE_SLACK) == penumbra::kProbePlaneSlack);
 

@@ -297,10 +297,11 @@ TEST(ProbeGridLeakGuard, NodesInsideTheSolidUnderAStaticReceiverAreSkipped) {
   EXPECT_FLOAT_EQ(
       interpolate(d, {0.5f, 0.5f, 0.3f}, {std::sin(tilt), 0, std::cos(tilt)}, ProbeReceiver::Static)[0].x, 10.0f);
   // The rule never leaves a receiver without corners: with the wall at z = 0.4 back, the reach
-  // leaves only the solid's nodes, all behind the plane, and those decide.
+  // leaves only the solid's nodes, all behind the plane, and those decide. (A static receiver's
+  // test point sits kProbeStaticNormalBias above it, so this one stands 0.2 below the wall.)
   ProbeGridData walled = walled_cell();
   walled.validity = d.validity;
-  EXPECT_FLOAT_EQ(interpolate(walled, {0.5f, 0.5f, 0.3f}, up, ProbeReceiver::Static)[0].x, 1.0f);
+  EXPECT_FLOAT_EQ(interpolate(walled, {0.5f, 0.5f, 0.2f}, up, ProbeReceiver::Static)[0].x, 1.0f);
   for (std::uint32_t n = 0; n < 4; ++n) d.validity[n] = 1.0f;
   EXPECT_NEAR(interpolate(d, {0.5f, 0.5f, 0.3f}, up, ProbeReceiver::Static)[0].x, blend, 1e-5f)
       << "nodes in free space behind a receiver still count";

@@ -252,11 +252,16 @@ enum class ProbeReceiver : std::uint8_t {
 // receiver's normal in grid units; zero for a point in free space), which only decides for
 // surfaces of no thickness, seen by the nodes on both sides. For a Static receiver with a normal,
 // the corners in the solid under it are hidden too (probe_node_inside_surface), unless that hides
-// every corner the reach leaves. Returns f itself without reach data or when every corner is
+// every corner the reach leaves, and the test point moves kProbeStaticNormalBias cells instead:
+// the solid rule handles the receiver's own solid, so the reach's axis test need not decide at the
+// surface itself, where an oblique face hides the nodes in front of it from parts of it (bands
+// across the Cornell blocks' fronts). The price: a static receiver facing another surface closer
+// than that sees the nodes beyond it. Returns f itself without reach data or when every corner is
 // hidden. Cost: 8 x 5 compares. Thread-safe. The shader (probe_grid.glsl) does the same
 // arithmetic.
 inline constexpr float kProbeReachSlack = 1.0f / 255.0f;
 inline constexpr float kProbeNormalBias = 0.01f;
+inline constexpr float kProbeStaticNormalBias = 0.1f;  // cells
 inline constexpr float kProbePlaneSlack = 0.15f;  // cells: a node this close to the plane still counts
 // Whether a node with reach bytes `reach` (6 of ProbeGridData::reach) sees the point `offset`
 // cells from it: along every axis the offset is within the node's reach that way plus

@@ -26,8 +26,9 @@ vec3 probe_uvw(uint g, vec3 p, vec3 n, bool on_static) {
     vec3 f = u - base;
     vec3 nc = mat3(grid.world_to_grid) * n * (res - 1.0);
     float len = length(nc);
-    vec3 t = len > 0.0 ? f + nc * (PENUMBRA_PROBE_NORMAL_BIAS / len) : f;  // towards the open side
     bool solid_rule = on_static && len > 0.0;
+    float bias = solid_rule ? PENUMBRA_PROBE_STATIC_NORMAL_BIAS : PENUMBRA_PROBE_NORMAL_BIAS;
+    vec3 t = len > 0.0 ? f + nc * (bias / len) : f;  // towards the open side
     // The visible corners' weighted mean, without (seen) and with (front) the static surface's own solid.
     float seen_sum = 0.0, front_sum = 0.0;
     vec3 seen_mean = vec3(0.0), front_mean = vec3(0.0);

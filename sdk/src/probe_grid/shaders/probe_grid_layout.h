@@ -18,9 +18,10 @@ namespace penumbra::gpu {
 #define PENUMBRA_PROBE_TEXTURES 7
 // The grids blended per pixel at most (the highest priorities; more are logged and left out).
 #define PENUMBRA_PROBE_MAX_GRIDS 4
-// The leak guard's lookup constants (probe_grid.h kProbeNormalBias, kProbeReachSlack,
-// kProbePlaneSlack; checked at compile time in probe_grid_render.cpp).
+// The leak guard's lookup constants (probe_grid.h kProbeNormalBias, kProbeStaticNormalBias,
+// kProbeReachSlack, kProbePlaneSlack; checked at compile time in probe_grid_render.cpp).
 #define PENUMBRA_PROBE_NORMAL_BIAS 0.01
+#define PENUMBRA_PROBE_STATIC_NORMAL_BIAS 0.1
 #define PENUMBRA_PROBE_REACH_SLACK (1.0 / 255.0)
 #define PENUMBRA_PROBE_PLANE_SLACK 0.15
 
