@@ -26,8 +26,10 @@
 // receiver on the level's static geometry (ProbeReceiver::Static), the geometry the grid was baked
 // from, therefore also drops the corners that lie in the solid under it: those with out-of-domain
 // samples (validity < 1) more than kProbePlaneSlack cells behind its tangent plane
-// (probe_node_inside_surface). On the Cornell box's turned blocks that took the fronts from 1.50x
-// and 1.10x the reference to about 1.09x and 1.00x (penumbra bench image-accuracy). A moving
+// (probe_node_inside_surface), and its reach test looks from farther off the surface
+// (kProbeStaticNormalBias, probe_lookup_fraction). On the Cornell box's turned blocks the fronts
+// went from 1.50x and 1.10x the reference to 1.02x and 0.97x (penumbra bench image-accuracy, with
+// the medium preset's noise target). A moving
 // receiver (ProbeReceiver::Moving: a ProbeLit object, a point in free space) keeps the reach alone:
 // its tangent plane does not bound a solid, and the rule cost the probe-grid bench's free-space
 // receivers near the Cornell blocks a 1.5x larger leak. When the rule would leave no corner, the
