@@ -29,11 +29,10 @@
 // (probe_node_inside_surface), and its reach test looks from farther off the surface
 // (kProbeStaticNormalBias, probe_lookup_fraction). On the Cornell box's turned blocks the fronts
 // went from 1.50x and 1.10x the reference to 1.02x and 0.97x (penumbra bench image-accuracy, with
-// the medium preset's noise target). A moving
-// receiver (ProbeReceiver::Moving: a ProbeLit object, a point in free space) keeps the reach alone:
-// its tangent plane does not bound a solid, and the rule cost the probe-grid bench's free-space
-// receivers near the Cornell blocks a 1.5x larger leak. When the rule would leave no corner, the
-// reach's corners alone decide.
+// the medium preset's noise target). A moving receiver (ProbeReceiver::Moving: a ProbeLit object,
+// a point in free space) keeps the reach alone: its tangent plane does not bound a solid, and the
+// rule cost the probe-grid bench's free-space receivers near the Cornell blocks a 1.5x larger
+// leak. When the rule would leave no corner, the reach's corners alone decide.
 //
 // This header holds the authoring component (IrradianceProbeGrid), the receiver component
 // (ProbeLit), the baked data (ProbeGridData) and its PRBG chunk, the grid's geometry
