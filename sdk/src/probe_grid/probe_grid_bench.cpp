@@ -448,9 +448,10 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                                  std::to_string(samples), to_string(ProbeShOrder::L2), fmt(bake_s),
                                  std::to_string(data->node_count() * data->bytes_per_node()), fmt(e.rmse), fmt(e.mae),
                                  fmt(e.max), has_leak ? fmt(le.rmse) : "", fmt(ind.mean_stderr / receivers->mean)});
+          const double of_indirect = errors(*data, ind).rmse;
           line += std::string(" ") + name(mode) + " " + fmt(results[key][mode].rmse, 3) + " -> " + fmt(e.rmse, 3) +
-                  " (" + fmt(errors(*data, ind).rmse, 3) + " of the mean indirect E);";
-          if (mode == fitted_guard) fitted_guard_rmse = errors(*data, ind).rmse;
+                  " (" + fmt(of_indirect, 3) + " of the mean indirect E);";
+          if (mode == fitted_guard) fitted_guard_rmse = of_indirect;
         }
         report.notes.push_back(line);
         if (!face_line.empty()) report.notes.push_back(face_line);
@@ -460,7 +461,8 @@ Result<Report> run_probe_grid_bench(const Options& options) {
                                  "(the reference's own relative standard error " +
                                  fmt(ind.mean_stderr / std::max(ind.mean, 1e-30), 3) + "): none " +
                                  fmt(fitted_guard_rmse, 3) + " (" + fmt(indirect[fitted_guard].seconds) + " s)";
-        for (const float target : {0.02f, 0.01f}) {
+        for (const float target :
+             {IrradianceProbeGrid::preset(Preset::Medium).noise, IrradianceProbeGrid::preset(Preset::High).noise}) {
           double bake_s = 0.0;
           auto data = bake(sc.box, fitted_guard, samples, bake_s, LightingContent::Indirect, target);
           if (!data) return data.error();

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
+#include <tuple>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -244,10 +245,34 @@ TEST(ProbeLighting, ChunkRoundTripsAndOtherVersionsAreRefused) {
   auto sr = read_probe_grid_chunk(write_probe_grid_chunk(short_reach));
   ASSERT_FALSE(sr.ok());
   EXPECT_NE(sr.error().message.find("8 nodes"), std::string::npos) << sr.error().message;
-  // Chunks keyed by bake-time entity index (versions 1 to 3) and future versions are refused,
-  // naming both versions and asking for a re-bake.
+  // The noise target's record round-trips and is described; values no bake writes are refused.
+  ProbeGridData refined = small_data(LightingContent::Indirect);
+  refined.noise = 0.02f;
+  refined.refined_nodes = 3;
+  refined.ray_factor = 2.5f;
+  auto rb = read_probe_grid_chunk(write_probe_grid_chunk(refined));
+  ASSERT_TRUE(rb.ok()) << rb.error().message;
+  EXPECT_EQ(rb->noise, 0.02f);
+  EXPECT_EQ(rb->refined_nodes, 3u);
+  EXPECT_EQ(rb->ray_factor, 2.5f);
+  const std::vector<std::string> refined_info = describe_probe_grid_chunk(write_probe_grid_chunk(refined));
+  ASSERT_EQ(refined_info.size(), 3u);
+  EXPECT_EQ(refined_info[2], "noise target 2%: 3 nodes (37.5%) traced more rays, 2.50x the rays on average");
+  for (const auto& [noise, nodes, factor] : {std::tuple{std::nanf(""), 0u, 1.0f}, std::tuple{1.5f, 0u, 1.0f},
+                                             std::tuple{0.02f, 9u, 2.0f}, std::tuple{0.02f, 1u, 0.0f},
+                                             std::tuple{0.02f, 1u, 9.0f}}) {
+    ProbeGridData wrong = refined;
+    wrong.noise = noise;
+    wrong.refined_nodes = nodes;
+    wrong.ray_factor = factor;
+    auto w = read_probe_grid_chunk(write_probe_grid_chunk(wrong));
+    ASSERT_FALSE(w.ok()) << noise << " " << nodes << " " << factor;
+    EXPECT_NE(w.error().message.find("re-bake the probe grid"), std::string::npos) << w.error().message;
+  }
+  // Chunks keyed by bake-time entity index (versions 1 to 3), those without the noise target's
+  // record (4, 5) and future versions are refused, naming both versions and asking for a re-bake.
   const ProbeGridData d = small_data(LightingContent::Indirect);
-  for (std::uint32_t version : {4u, kProbeGridChunkVersion + 1}) {
+  for (std::uint32_t version : {4u, 5u, kProbeGridChunkVersion + 1}) {
     BakeChunk other = write_probe_grid_chunk(d);
     other.version = version;
     auto f = read_probe_grid_chunk(other);
