@@ -3,7 +3,9 @@
 #include "penumbra/indirect_transport/indirect_transport.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <numbers>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -46,6 +48,9 @@ std::uint32_t TransportData::leaf_count() const {
 std::uint64_t TransportData::bytes() const {
   std::uint64_t n = sizeof(*this) + global.bytes();
   for (const TransportPatch& p : patches) n += sizeof(p) + p.key.capacity() + p.coverage.capacity() * sizeof(float);
+  n += probes.open.capacity() + probes.reach.capacity() * sizeof(probes.reach[0]) +
+       probes.begin.capacity() * sizeof(std::uint32_t) +
+       probes.entries.capacity() * sizeof(ProbeTransfer);
   return n;
 }
 
@@ -54,37 +59,130 @@ float patch_plane_tolerance(const TransportPatch& p) {
   return 0.05f * std::sqrt(p.area()) + 1e-5f * std::max(o.x, std::max(o.y, o.z));
 }
 
-glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const glm::vec3> irradiance, glm::vec3 x,
-                                     glm::vec3 n) {
-  const TransportPatch* best = nullptr;
+int transport_patch_at(const TransportData& data, glm::vec3 x, glm::vec3 n) {
+  int best = -1;
   float best_d = 0.0f;
-  for (const TransportPatch& p : data.patches) {
+  for (std::size_t i = 0; i < data.patches.size(); ++i) {
+    const TransportPatch& p = data.patches[i];
     const glm::vec3 r = x - p.origin;
     const float d = std::abs(glm::dot(r, p.normal));
-    if (d > patch_plane_tolerance(p) || glm::dot(n, p.normal) < 0.5f || (best != nullptr && d >= best_d)) continue;
+    if (d > patch_plane_tolerance(p) || glm::dot(n, p.normal) < 0.5f || (best >= 0 && d >= best_d)) continue;
     const float s = glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u);
     const float t = glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v);
     const float m = kTransportMargin;
     if (!(s >= -m && s <= 1.0f + m && t >= -m && t <= 1.0f + m)) continue;
-    best = &p;
+    best = static_cast<int>(i);
     best_d = d;
     if (d <= kTransportPlaneSnap * patch_plane_tolerance(p)) break;  // on its plane: none is nearer
   }
-  if (best != nullptr) {
-    const TransportPatch& p = *best;
-    const glm::vec3 r = x - p.origin;
-    const float s = glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u);
-    const float t = glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v);
-    const float side = static_cast<float>(p.side());
-    const glm::vec2 f = glm::clamp(glm::vec2(s, t) * side - 0.5f, glm::vec2(0.0f), glm::vec2(side - 1.0f));
-    const glm::vec2 f0 = glm::floor(f), w = f - f0;
-    const auto s0 = static_cast<std::uint32_t>(f0.x), t0 = static_cast<std::uint32_t>(f0.y), last = p.side() - 1;
-    const std::uint32_t s1 = std::min(s0 + 1, last), t1 = std::min(t0 + 1, last), row = p.side();
-    const glm::vec3 a = irradiance[p.first + s0 + t0 * row], b = irradiance[p.first + s1 + t0 * row];
-    const glm::vec3 c = irradiance[p.first + s0 + t1 * row], d = irradiance[p.first + s1 + t1 * row];
-    return glm::mix(glm::mix(a, b, w.x), glm::mix(c, d, w.x), w.y);
+  return best;
+}
+
+namespace {
+
+// Bilinear interpolation of patch p's leaf texels at x (centres at (k + 0.5) / 2^level, clamped).
+glm::vec3 lightmap_at(const TransportPatch& p, std::span<const glm::vec3> irradiance, glm::vec3 x) {
+  const glm::vec3 r = x - p.origin;
+  const float s = glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u);
+  const float t = glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v);
+  const float side = static_cast<float>(p.side());
+  const glm::vec2 f = glm::clamp(glm::vec2(s, t) * side - 0.5f, glm::vec2(0.0f), glm::vec2(side - 1.0f));
+  const glm::vec2 f0 = glm::floor(f), w = f - f0;
+  const auto s0 = static_cast<std::uint32_t>(f0.x), t0 = static_cast<std::uint32_t>(f0.y), last = p.side() - 1;
+  const std::uint32_t s1 = std::min(s0 + 1, last), t1 = std::min(t0 + 1, last), row = p.side();
+  const glm::vec3 a = irradiance[p.first + s0 + t0 * row], b = irradiance[p.first + s1 + t0 * row];
+  const glm::vec3 c = irradiance[p.first + s0 + t1 * row], d = irradiance[p.first + s1 + t1 * row];
+  return glm::mix(glm::mix(a, b, w.x), glm::mix(c, d, w.x), w.y);
+}
+
+}  // namespace
+
+glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const glm::vec3> irradiance, glm::vec3 x,
+                                     glm::vec3 n) {
+  const int found = transport_patch_at(data, x, n);
+  return found >= 0 ? lightmap_at(data.patches[static_cast<std::size_t>(found)], irradiance, x) : glm::vec3(0.0f);
+}
+
+std::uint32_t TransportData::cell_count() const {
+  std::uint32_t n = 0;
+  for (const TransportPatch& p : patches) n += 1u << (2 * std::min(p.level, kBounceProbeCellLevel));
+  return n;
+}
+
+void probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
+                      std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes) {
+  // The cells' mean radiance: albedo / pi x the coverage-weighted mean irradiance of their leaves.
+  std::vector<glm::vec3> radiance;
+  radiance.reserve(data.cell_count());
+  for (const TransportPatch& p : data.patches) {
+    const std::uint32_t cell_level = std::min(p.level, kBounceProbeCellLevel), cells = 1u << cell_level;
+    const std::uint32_t shift = p.level - cell_level;
+    std::vector<glm::vec3> sum(std::size_t{cells} * cells, glm::vec3(0.0f));
+    std::vector<float> weight(sum.size(), 0.0f);
+    for (std::uint32_t j = 0; j < p.side(); ++j)
+      for (std::uint32_t i = 0; i < p.side(); ++i) {
+        const std::uint32_t leaf = i + j * p.side(), cell = (i >> shift) + (j >> shift) * cells;
+        sum[cell] += p.coverage[leaf] * (direct[p.first + leaf] + indirect[p.first + leaf]);
+        weight[cell] += p.coverage[leaf];
+      }
+    for (std::size_t c = 0; c < sum.size(); ++c)
+      radiance.push_back(weight[c] > 0.0f ? p.albedo / std::numbers::pi_v<float> * sum[c] / weight[c] : glm::vec3(0.0f));
+  }
+  // Each probe: sum over its entries of w_a L_cell.
+  const TransportProbes& probes = data.probes;
+  for (std::size_t node = 0; node < probes.nodes(); ++node) {
+    std::array<glm::vec3, 6> e{};
+    for (std::uint32_t k = probes.begin[node]; k < probes.begin[node + 1]; ++k) {
+      const ProbeTransfer& t = probes.entries[k];
+      for (int a = 0; a < 6; ++a) e[static_cast<std::size_t>(a)] += t.weight[static_cast<std::size_t>(a)] * radiance[t.cell];
+    }
+    std::copy(e.begin(), e.end(), cubes.begin() + static_cast<std::ptrdiff_t>(6 * node));
+  }
+}
+
+glm::vec3 sample_bounce_probes(const TransportProbes& probes, std::span<const glm::vec3> cubes, glm::vec3 x,
+                               glm::vec3 n) {
+  if (probes.nodes() == 0 || !(probes.spacing > 0.0f)) return glm::vec3(0.0f);
+  const glm::vec3 last = glm::vec3(probes.count) - 1.0f;
+  const glm::vec3 g = glm::clamp((x + kBounceProbeOffset * probes.spacing * n - probes.origin) / probes.spacing,
+                                 glm::vec3(0.0f), last);
+  if (!(g.x >= 0.0f && g.y >= 0.0f && g.z >= 0.0f)) return glm::vec3(0.0f);  // a non-finite point
+  const glm::uvec3 c0 = glm::min(glm::uvec3(g), glm::uvec3(last));
+  const glm::vec3 f = g - glm::vec3(c0);
+  const glm::vec3 sq = n * n;
+  const int side[3] = {n.x < 0.0f ? 1 : 0, n.y < 0.0f ? 1 : 0, n.z < 0.0f ? 1 : 0};
+  for (const bool guard : {true, false}) {
+    glm::vec3 sum(0.0f);
+    float total = 0.0f;
+    for (int corner = 0; corner < 8; ++corner) {
+      const glm::uvec3 o((corner & 1) != 0, (corner & 2) != 0, (corner & 4) != 0);
+      const glm::uvec3 c = glm::min(c0 + o, glm::uvec3(last));
+      const std::size_t node = c.x + probes.count.x * (c.y + std::size_t{probes.count.y} * c.z);
+      if (probes.open[node] == 0) continue;
+      const glm::vec3 w3 = glm::mix(1.0f - f, f, glm::vec3(o));
+      const float w = w3.x * w3.y * w3.z;
+      if (!(w > 0.0f)) continue;
+      if (guard) {
+        const glm::vec3 d = g - glm::vec3(c);  // from the node to the point, in spacings
+        bool reached = true;
+        for (int a = 0; a < 3; ++a)
+          reached = reached && std::abs(d[a]) <= probes.reach[node][static_cast<std::size_t>(2 * a + (d[a] < 0.0f ? 1 : 0))];
+        if (!reached) continue;
+      }
+      const glm::vec3* cube = cubes.data() + 6 * node;
+      sum += w * (sq.x * cube[side[0]] + sq.y * cube[2 + side[1]] + sq.z * cube[4 + side[2]]);
+      total += w;
+    }
+    if (total > 0.0f) return sum / total;
   }
   return glm::vec3(0.0f);
+}
+
+glm::vec3 sample_transport_irradiance(const TransportData& data, const IndirectLightmap& map, glm::vec3 x,
+                                      glm::vec3 n) {
+  const int found = transport_patch_at(data, x, n);
+  if (found >= 0) return lightmap_at(data.patches[static_cast<std::size_t>(found)], map.irradiance, x);
+  return sample_bounce_probes(data.probes, map.probes, x, n);
 }
 
 namespace {

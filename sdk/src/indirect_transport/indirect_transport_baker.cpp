@@ -16,6 +16,7 @@
 
 #include "penumbra/core/log.h"
 #include "penumbra/core/random.h"
+#include "penumbra/core/sampling.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/indirect_transport/indirect_transport_system.h"
 #include "penumbra/scene/components.h"
@@ -177,8 +178,8 @@ Result<std::vector<TransportPatch>> build_transport_patches(World& world, const 
           const glm::vec3 other = glm::cross(n, axis);
           glm::vec2 a_lo(std::numeric_limits<float>::max()), a_hi(-std::numeric_limits<float>::max());
           for (std::uint32_t tt : chart)
-            for (const glm::vec3& q : tris[tt].p) {
-              const glm::vec2 f(glm::dot(q - p0, axis), glm::dot(q - p0, other));
+            for (const glm::vec3& corner : tris[tt].p) {
+              const glm::vec2 f(glm::dot(corner - p0, axis), glm::dot(corner - p0, other));
               a_lo = glm::min(a_lo, f);
               a_hi = glm::max(a_hi, f);
             }
@@ -502,6 +503,93 @@ std::vector<TransportLink> refine_receiver(const RayScene& scene, const std::vec
     }
   }
   return links;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bounce probes.
+
+TransportProbes probe_grid(const std::vector<TransportPatch>& patches, float spacing) {
+  TransportProbes probes;
+  Aabb bounds;
+  for (const TransportPatch& p : patches)
+    for (const glm::vec3 c : {p.origin, p.origin + p.edge_u, p.origin + p.edge_v, p.origin + p.edge_u + p.edge_v})
+      bounds.extend(c);
+  if (bounds.empty()) return probes;
+  const glm::vec3 extent = bounds.extent();
+  float s = spacing > 0.0f ? spacing : kBounceProbeSpacingFraction * glm::length(extent);
+  if (!(s > 0.0f) || !std::isfinite(s) || !std::isfinite(glm::length(extent))) return probes;
+  // Nodes from half a spacing below the bounds to at least half a spacing above them.
+  const auto counts = [&](float step) { return glm::dvec3(glm::ceil(glm::dvec3(extent) / double(step))) + 2.0; };
+  while (counts(s).x * counts(s).y * counts(s).z > double(kMaxBounceProbes)) s *= 1.25f;
+  probes.spacing = s;
+  probes.count = glm::uvec3(counts(s));
+  probes.origin = bounds.min - 0.5f * s;
+  return probes;
+}
+
+ProbeSight trace_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
+                       const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of, glm::vec3 at,
+                       float spacing, std::uint32_t rays, std::uint64_t seed, std::uint64_t node) {
+  ProbeSight sight;
+  for (int a = 0; a < 6; ++a) {
+    glm::vec3 dir(0.0f);
+    dir[a / 2] = a % 2 == 0 ? 1.0f : -1.0f;
+    Hit hit;
+    sight.reach[static_cast<std::size_t>(a)] =
+        scene.intersect(Ray{at, 0.0f, dir, spacing}, hit) ? std::clamp(hit.t / spacing, 0.0f, 1.0f) : 1.0f;
+  }
+  std::map<std::uint32_t, std::array<float, 6>> seen;  // cell -> weights, in cell order
+  std::vector<std::uint32_t> first_cell(patches.size());
+  for (std::uint32_t i = 0, c = 0; i < patches.size(); ++i) {
+    first_cell[i] = c;
+    c += 1u << (2 * std::min(patches[i].level, kBounceProbeCellLevel));
+  }
+  const auto scramble = static_cast<std::uint32_t>(mix64(seed ^ mix64(node + 0x9e3779b97f4a7c15ull)));
+  const float solid_angle = 4.0f * kPi / static_cast<float>(rays);
+  std::uint32_t inside = 0;
+  for (std::uint32_t k = 0; k < rays; ++k) {
+    const glm::vec3 dir = uniform_sphere(sobol_2d(k, scramble));
+    Hit hit;
+    if (!scene.intersect(Ray{at, 0.0f, dir}, hit)) continue;  // the sky: no bounce light
+    if (hit.back_face) {
+      if (!hit.material.double_sided) ++inside;
+      continue;  // a patch sends light from its front only
+    }
+    const auto list = patches_of.find(hit.entity.index);
+    if (list == patches_of.end()) continue;  // an occluder that is not a receiver
+    const glm::vec3 x = at + hit.t * dir;
+    int best = -1;
+    float best_d = 0.0f;
+    for (const std::uint32_t i : list->second) {
+      const TransportPatch& p = patches[i];
+      const glm::vec3 r = x - p.origin;
+      const float d = std::abs(glm::dot(r, p.normal));
+      if (d > patch_plane_tolerance(p) || !(glm::dot(dir, p.normal) < 0.0f) || (best >= 0 && d >= best_d)) continue;
+      const float s = glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u);
+      const float t = glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v);
+      if (!(s >= 0.0f && s <= 1.0f && t >= 0.0f && t <= 1.0f)) continue;
+      best = static_cast<int>(i);
+      best_d = d;
+    }
+    if (best < 0) continue;  // triangles left out of the charts
+    const TransportPatch& p = patches[static_cast<std::size_t>(best)];
+    const glm::vec3 r = x - p.origin;
+    const std::uint32_t cells = 1u << std::min(p.level, kBounceProbeCellLevel);
+    const auto cell_of = [&](float f) {
+      return std::min(static_cast<std::uint32_t>(std::max(f, 0.0f) * static_cast<float>(cells)), cells - 1);
+    };
+    const std::uint32_t ci = cell_of(glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u));
+    const std::uint32_t cj = cell_of(glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v));
+    std::array<float, 6>& w = seen.try_emplace(first_cell[static_cast<std::size_t>(best)] + ci + cj * cells).first->second;
+    for (int a = 0; a < 3; ++a) {
+      w[static_cast<std::size_t>(2 * a)] += solid_angle * std::max(0.0f, dir[a]);
+      w[static_cast<std::size_t>(2 * a + 1)] += solid_angle * std::max(0.0f, -dir[a]);
+    }
+  }
+  sight.open = static_cast<float>(inside) <= kBounceProbeClosedFraction * static_cast<float>(rays);
+  if (sight.open)
+    for (const auto& [cell, w] : seen) sight.entries.push_back({cell, w});
+  return sight;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -837,20 +925,27 @@ struct Header {
   std::uint64_t seed, memory_limit;
 };
 
-std::vector<std::byte> write_header(const Header& h, const std::vector<TransportPatch>& patches) {
+// The header: the settings, then the patches and the probe grid (no entries: every probe open and
+// empty) as a chunk's payload, read back with the chunk's checks.
+std::vector<std::byte> write_header(const Header& h, const std::vector<TransportPatch>& patches,
+                                    const TransportProbes& grid) {
   TransportData data;
   data.patches = patches;
   data.global.size = data.leaf_count();
   data.global.begin.assign(std::size_t{data.global.size} + 1, 0);
+  data.probes = grid;
+  data.probes.rays = kBounceProbeRays;
+  data.probes.open.assign(grid.nodes(), 1);
+  data.probes.reach.assign(grid.nodes(), std::array<float, 6>{});
+  data.probes.begin.assign(grid.nodes() + 1, 0);
   ByteWriter w;
   w.write(h);
-  const BakeChunk geometry = write_transport_chunk("", data);  // the patches, with the chunk's checks on read
+  const BakeChunk geometry = write_transport_chunk("", data);
   w.write_vector(std::span<const std::byte>(geometry.payload));
   return w.take();
 }
 
-Result<std::pair<Header, std::vector<TransportPatch>>> read_header(std::span<const std::byte> bytes,
-                                                                   const std::string& context) {
+Result<std::pair<Header, TransportData>> read_header(std::span<const std::byte> bytes, const std::string& context) {
   ByteReader r(bytes, context);
   Header h;
   std::vector<std::byte> payload;
@@ -859,7 +954,18 @@ Result<std::pair<Header, std::vector<TransportPatch>>> read_header(std::span<con
   PENUMBRA_TRY(r.finish());
   auto geometry = read_transport_chunk(BakeChunk{kTransportChunkType, kTransportChunkVersion, "", payload});
   if (!geometry) return geometry.error();
-  return std::make_pair(h, std::move(geometry->data.patches));
+  return std::make_pair(h, std::move(geometry->data));
+}
+
+// Receiver entity index -> its patches (TransportPatch::key is the entity's key).
+std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> patches_by_entity(
+    World& world, const std::vector<TransportPatch>& patches) {
+  std::unordered_map<std::string, std::vector<std::uint32_t>> by_key;
+  for (std::uint32_t i = 0; i < patches.size(); ++i) by_key[patches[i].key].push_back(i);
+  std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> out;
+  for (Entity e : world.view<IndirectReceiver, Static, Mesh>().sorted_entities())
+    if (const auto it = by_key.find(entity_key(world, e)); it != by_key.end()) out[e.index] = it->second;
+  return out;
 }
 
 Entity transport_entity(World& world) {
@@ -891,12 +997,21 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
   const Header h{settings.refinement_threshold, settings.bounce_tolerance, settings.drop_threshold,
                  settings.finest_level, settings.max_bounces, in.settings.seed, in.settings.memory_limit_bytes};
   auto shared = std::make_shared<std::vector<TransportPatch>>(std::move(*patches));
-  work.groups.push_back(BakeGroup{std::move(*key), shared->size(), kPatchBlock, 1000.0, write_header(h, *shared)});
-  work.run = [&in, shared, h](std::size_t, std::uint64_t begin, std::uint64_t end,
-                              JobContext& jobs) -> Result<std::vector<std::byte>> {
-    const std::size_t count = static_cast<std::size_t>(end - begin);
+  auto grid = std::make_shared<const TransportProbes>(probe_grid(*shared, settings.probe_spacing));
+  auto patches_of = std::make_shared<const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>>(
+      patches_by_entity(in.world, *shared));
+  // Elements: the receiver patches (their links), then the bounce probes (what each saw).
+  work.groups.push_back(BakeGroup{std::move(*key), shared->size() + grid->nodes(), kPatchBlock, 1000.0,
+                                  write_header(h, *shared, *grid)});
+  work.run = [&in, shared, grid, patches_of, h](std::size_t, std::uint64_t begin, std::uint64_t end,
+                                                JobContext& jobs) -> Result<std::vector<std::byte>> {
+    const std::uint64_t patch_end = std::min<std::uint64_t>(end, shared->size());
+    const std::size_t count = begin < patch_end ? static_cast<std::size_t>(patch_end - begin) : 0;
+    const std::uint64_t probe_begin = std::max<std::uint64_t>(begin, shared->size());
+    const std::size_t probe_count = static_cast<std::size_t>(end - probe_begin);
     std::vector<std::vector<TransportLink>> links(count);
-    jobs.begin_stage("transport links", count);
+    std::vector<ProbeSight> sights(probe_count);
+    jobs.begin_stage("transport links and probes", count + probe_count);
     PENUMBRA_TRY(jobs.parallel_for(count, 1, [&](std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
         std::uint64_t rays = 0;
@@ -905,12 +1020,28 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
         jobs.advance(1);
       }
     }));
+    const glm::uvec3 n = grid->count;
+    PENUMBRA_TRY(jobs.parallel_for(probe_count, 4, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        const std::uint64_t node = probe_begin + i - shared->size();
+        const glm::vec3 ijk(float(node % n.x), float(node / n.x % n.y), float(node / n.x / n.y));
+        sights[i] = trace_probe(in.rays, *shared, *patches_of, grid->origin + grid->spacing * ijk, grid->spacing,
+                                kBounceProbeRays, h.seed, node);
+        jobs.advance(1);
+      }
+    }));
     std::uint64_t total = 0;
-    for (const auto& l : links) total += l.size();
-    PENUMBRA_TRY(in.budget.reserve("transport links", total * sizeof(TransportLink)));
+    for (const auto& l : links) total += l.size() * sizeof(TransportLink);
+    for (const ProbeSight& sight : sights) total += sight.entries.size() * sizeof(ProbeTransfer);
+    PENUMBRA_TRY(in.budget.reserve("transport links and probes", total));
     ByteWriter out;
     for (const auto& l : links) out.write_vector(l);
-    in.budget.release(total * sizeof(TransportLink));
+    for (const ProbeSight& sight : sights) {
+      out.write(static_cast<std::uint8_t>(sight.open ? 1 : 0));
+      out.write_vector(sight.entries);
+      out.write(sight.reach);
+    }
+    in.budget.release(total);
     return out.take();
   };
   return work;
@@ -922,7 +1053,9 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
     const std::string context = "indirect transport '" + g.group->name + "'";
     auto header = read_header(g.group->header, context + " header");
     if (!header) return header.error();
-    const auto& [h, patches] = *header;
+    const Header& h = header->first;
+    const std::vector<TransportPatch>& patches = header->second.patches;
+    TransportProbes probes = std::move(header->second.probes);
     std::vector<std::vector<TransportLink>> links(patches.size());
     ByteReader r(g.results, context + " results");
     std::uint64_t link_count = 0;
@@ -935,6 +1068,29 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
                                                          " is out of range; re-bake the part");
       link_count += links[p].size();
     }
+    const std::uint32_t cells = header->second.cell_count();
+    probes.entries.clear();
+    for (std::size_t node = 0; node < probes.nodes(); ++node) {
+      std::uint8_t open = 0;
+      std::vector<ProbeTransfer> entries;
+      PENUMBRA_TRY(r.read(open));
+      PENUMBRA_TRY(r.read_vector(entries));
+      for (const ProbeTransfer& t : entries)
+        if (open > 1 || t.cell >= cells || !std::all_of(t.weight.begin(), t.weight.end(), [](float w) {
+              return w >= 0.0f && w <= 4.0f * kPi;
+            }))
+          return make_error(ErrorCode::InvalidInput, context + " results: bounce probe " + std::to_string(node) +
+                                                         " is out of range; re-bake the part");
+      PENUMBRA_TRY(r.read(probes.reach[node]));
+      if (!std::all_of(probes.reach[node].begin(), probes.reach[node].end(),
+                       [](float f) { return f >= 0.0f && f <= 1.0f; }))
+        return make_error(ErrorCode::InvalidInput, context + " results: bounce probe " + std::to_string(node) +
+                                                       " has a reach outside [0, 1]; re-bake the part");
+      probes.open[node] = open;
+      probes.begin[node] = static_cast<std::uint32_t>(probes.entries.size());
+      probes.entries.insert(probes.entries.end(), entries.begin(), entries.end());
+    }
+    probes.begin[probes.nodes()] = static_cast<std::uint32_t>(probes.entries.size());
     PENUMBRA_TRY(r.finish());
     jobs.begin_stage("direct operator", 1);
     const SparseTransport direct = direct_operator(patches, links, jobs);
@@ -944,6 +1100,7 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
     TransportData data;
     data.patches = patches;
     data.global = std::move(series->global);
+    data.probes = std::move(probes);
     data.refinement_threshold = h.refinement_threshold;
     data.finest_level = h.finest_level;
     data.links = link_count;

@@ -1,5 +1,7 @@
 // The WRTO chunk of indirect transport (see indirect_transport.h).
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include "penumbra/indirect_transport/indirect_transport.h"
@@ -41,6 +43,15 @@ BakeChunk write_transport_chunk(const std::string& key, const TransportData& dat
   w.write_vector(data.global.begin);
   w.write_vector(data.global.row);
   w.write_vector(data.global.value);
+  const TransportProbes& probes = data.probes;
+  w.write(probes.origin);
+  w.write(probes.spacing);
+  w.write(probes.count);
+  w.write(probes.rays);
+  w.write_vector(probes.open);
+  w.write_vector(probes.reach);
+  w.write_vector(probes.begin);
+  w.write_vector(probes.entries);
   return BakeChunk{kTransportChunkType, kTransportChunkVersion, chunk_label("indirect-transport", key), w.take()};
 }
 
@@ -98,7 +109,40 @@ Result<TransportChunk> read_transport_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read_vector(g.begin, std::uint64_t{g.size} + 1));
   PENUMBRA_TRY(r.read_vector(g.row));
   PENUMBRA_TRY(r.read_vector(g.value, g.row.size()));
+  TransportProbes& probes = d.probes;
+  PENUMBRA_TRY(r.read(probes.origin));
+  PENUMBRA_TRY(r.read(probes.spacing));
+  PENUMBRA_TRY(r.read(probes.count));
+  PENUMBRA_TRY(r.read(probes.rays));
+  const std::uint64_t nodes = std::uint64_t{probes.count.x} * probes.count.y * probes.count.z;
+  if (nodes > kMaxBounceProbes) return bad(std::to_string(nodes) + " bounce probes is more than a bake makes");
+  if (!finite(probes.origin) || !std::isfinite(probes.spacing) || !(probes.spacing >= 0.0f) ||
+      (nodes > 0) != (probes.spacing > 0.0f))
+    return bad("bounce probes with a non-finite origin or a spacing that does not match their count");
+  PENUMBRA_TRY(r.read_vector(probes.open, nodes));
+  PENUMBRA_TRY(r.read_vector(probes.reach, nodes));
+  PENUMBRA_TRY(r.read_vector(probes.begin, nodes + 1));
+  PENUMBRA_TRY(r.read_vector(probes.entries));
   PENUMBRA_TRY(r.finish());
+  if (probes.open.size() != nodes || probes.reach.size() != nodes || probes.begin.size() != nodes + 1 ||
+      probes.begin.front() != 0 ||
+      probes.begin.back() != probes.entries.size())
+    return bad("bounce probes' lists do not match their count");
+  const std::uint32_t cells = d.cell_count();
+  for (std::size_t n = 0; n < nodes; ++n) {
+    const bool reach_ok = std::all_of(probes.reach[n].begin(), probes.reach[n].end(),
+                                      [](float f) { return f >= 0.0f && f <= 1.0f; });
+    if (probes.open[n] > 1 || !reach_ok || probes.begin[n] > probes.begin[n + 1])
+      return bad("bounce probe " + std::to_string(n) +
+                 " has a bad flag, a reach outside [0, 1] or entries that end before they begin");
+    for (std::uint32_t k = probes.begin[n]; k < probes.begin[n + 1]; ++k) {
+      const ProbeTransfer& t = probes.entries[k];
+      bool ok = t.cell < cells;
+      for (float w : t.weight) ok = ok && w >= 0.0f && w <= 4.0f * std::numbers::pi_v<float>;
+      if (!ok) return bad("bounce probe " + std::to_string(n) + " has an entry with a cell out of range or a weight "
+                          "outside [0, 4 pi]");
+    }
+  }
   if (g.begin.size() != std::size_t{g.size} + 1 || g.begin.front() != 0 || g.begin.back() != g.row.size() ||
       g.value.size() != g.row.size())
     return bad("operator columns do not match its entries");

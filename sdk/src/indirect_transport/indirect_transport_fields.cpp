@@ -39,6 +39,11 @@ constexpr FieldInfo kTransportFields[] = {
     member<&IndirectTransport::glossy>({.name = "glossy", .type = T::Bool, .min = 0, .max = 1,
                                         .help = "directional transport (not implemented: the bake refuses it)",
                                         .hashed = true}),
+    member<&IndirectTransport::probe_spacing>(
+        {.name = "probe_spacing", .type = T::Float, .min = 0, .max = 1e6, .unit = "m",
+         .help = "metres between the bounce probes that light moving objects; 0 follows the scene (4% of its "
+                 "diagonal)",
+         .hashed = true, .speed = 0.01f}),
 };
 
 const DynamicLight kLightDefaults{};

@@ -18,6 +18,7 @@
 // The shader's seam margin is the CPU lookup's.
 static_assert(float(PENUMBRA_TRANSPORT_MARGIN) == penumbra::kTransportMargin);
 static_assert(float(PENUMBRA_TRANSPORT_PLANE_SNAP) == penumbra::kTransportPlaneSnap);
+static_assert(float(PENUMBRA_TRANSPORT_PROBE_OFFSET) == penumbra::kBounceProbeOffset);
 
 namespace penumbra {
 namespace shaders {
@@ -29,8 +30,10 @@ using vk::vk_struct;
 namespace {
 
 constexpr ViewInfo kViews[] = {
-    {"lightmap", "the indirect transport's lightmap: bounce light of the moving lights in W/m^2, tone mapped"},
+    {"lightmap", "the indirect transport's bounce light of the moving lights in W/m^2 (the lightmap on its "
+                 "patches, the bounce probes elsewhere), tone mapped"},
     {"patches", "the indirect transport's patches, one colour each, over their leaf texels"},
+    {"probes", "the indirect transport's bounce probes: their irradiance at every surface, tone mapped"},
 };
 
 class IndirectTransportRenderFeature final : public RenderFeature {
@@ -47,6 +50,8 @@ class IndirectTransportRenderFeature final : public RenderFeature {
          nullptr},
         {PENUMBRA_TRANSPORT_BINDING_CELLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
          nullptr},
+        {PENUMBRA_TRANSPORT_BINDING_PROBES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
+         nullptr},
     };
     auto set = gpu.feature_set(bindings);
     if (!set) return set.error();
@@ -58,7 +63,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
     if (!view) return view.error();
     ambient_frag_ = *ambient;
     view_frag_ = *view;
-    PENUMBRA_TRY(resize(gpu, 0, 0, 0));
+    PENUMBRA_TRY(resize(gpu, 0, 0, 0, 0));
     return {};
   }
 
@@ -66,6 +71,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
     gpu.allocator().destroy(patches_);
     gpu.allocator().destroy(texels_);
     gpu.allocator().destroy(cells_);
+    gpu.allocator().destroy(probes_);
   }
 
   // The patches when the baked data changed; the texels of the lightmap that changed.
@@ -80,12 +86,13 @@ class IndirectTransportRenderFeature final : public RenderFeature {
       map = world.try_get<IndirectLightmap>(e);
       break;
     }
-    const bool usable = data && map != nullptr && map->irradiance.size() == data->leaf_count();
+    const bool usable = data && map != nullptr && map->irradiance.size() == data->leaf_count() &&
+                        map->probes.size() == 6 * data->probes.nodes();
     if (!usable) {
       if (data_) {
         gpu.wait_idle();
         data_.reset();
-        PENUMBRA_TRY(resize(gpu, 0, 0, 0));
+        PENUMBRA_TRY(resize(gpu, 0, 0, 0, 0));
       }
       return {};
     }
@@ -94,7 +101,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
       data_ = data;
       gpu::TransportGrid grid{};
       const std::vector<std::uint32_t> cells = lookup_grid(*data, grid);
-      PENUMBRA_TRY(resize(gpu, data->patches.size(), data->leaf_count(), cells.size()));
+      PENUMBRA_TRY(resize(gpu, data->patches.size(), data->leaf_count(), cells.size(), data->probes.nodes()));
       auto* out = static_cast<std::uint8_t*>(patches_.mapped);
       std::memcpy(out, &grid, sizeof grid);
       std::memcpy(cells_.mapped, cells.data(), cells.size() * sizeof(std::uint32_t));
@@ -108,6 +115,11 @@ class IndirectTransportRenderFeature final : public RenderFeature {
         std::memcpy(out + sizeof grid + i * sizeof g, &g, sizeof g);
       }
       shown_.assign(data->leaf_count(), glm::vec3(-1.0f));  // every texel differs from this
+      const TransportProbes& probes = data->probes;
+      gpu::TransportProbeGrid probe_grid{};
+      probe_grid.count = glm::uvec4(probes.count, probes.nodes() > 0 ? 1u : 0u);
+      probe_grid.origin = glm::vec4(probes.origin, probes.spacing);
+      std::memcpy(probes_.mapped, &probe_grid, sizeof probe_grid);
       updated_tick_ = 0;
     }
     if (map->updated_tick == updated_tick_) return {};
@@ -121,6 +133,15 @@ class IndirectTransportRenderFeature final : public RenderFeature {
       shown_[k] = e;
       texels[k] = glm::vec4(e, 0.0f);
       ++texels_uploaded_;
+    }
+    // The probes: six irradiances each, with the reach that way (-1 on a closed probe).
+    auto* cubes = reinterpret_cast<glm::vec4*>(static_cast<std::uint8_t*>(probes_.mapped) +
+                                               sizeof(gpu::TransportProbeGrid));
+    const TransportProbes& probes = data_->probes;
+    for (std::size_t k = 0; k < map->probes.size(); ++k) {
+      const glm::vec3 e = map->probes[k];
+      bound_ = std::max({bound_, e.x, e.y, e.z});
+      cubes[k] = glm::vec4(e, probes.open[k / 6] != 0 ? probes.reach[k / 6][k % 6] : -1.0f);
     }
     return {};
   }
@@ -194,26 +215,32 @@ class IndirectTransportRenderFeature final : public RenderFeature {
     return out;
   }
 
-  // Host-visible buffers for `patches` patches, `texels` texels and `cells` lookup words (at least
-  // one element each, so that the descriptors are valid without data; zeros: an empty grid),
-  // bound to the set.
-  Status resize(RenderContext& gpu, std::size_t patches, std::size_t texels, std::size_t cells) {
+  // Host-visible buffers for `patches` patches, `texels` texels, `cells` lookup words and `probes`
+  // bounce probes (at least one element each, so that the descriptors are valid without data;
+  // zeros: an empty grid), bound to the set.
+  Status resize(RenderContext& gpu, std::size_t patches, std::size_t texels, std::size_t cells, std::size_t probes) {
     const VkDeviceSize patch_bytes =
         sizeof(gpu::TransportGrid) + std::max<std::size_t>(patches, 1) * sizeof(gpu::TransportPatchGpu);
     const VkDeviceSize texel_bytes = std::max<std::size_t>(texels, 1) * sizeof(glm::vec4);
     const VkDeviceSize cell_bytes = std::max<std::size_t>(cells, 2) * sizeof(std::uint32_t);
+    const VkDeviceSize probe_bytes =
+        sizeof(gpu::TransportProbeGrid) + 6 * std::max<std::size_t>(probes, 1) * sizeof(glm::vec4);
     PENUMBRA_TRY(gpu.ensure_host_buffer(patches_, patch_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
     PENUMBRA_TRY(gpu.ensure_host_buffer(texels_, texel_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
     PENUMBRA_TRY(gpu.ensure_host_buffer(cells_, cell_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+    PENUMBRA_TRY(gpu.ensure_host_buffer(probes_, probe_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
     std::memset(patches_.mapped, 0, patch_bytes);
     std::memset(texels_.mapped, 0, texel_bytes);
     std::memset(cells_.mapped, 0, cell_bytes);
-    const VkDescriptorBufferInfo infos[3] = {
-        {patches_.buffer, 0, patch_bytes}, {texels_.buffer, 0, texel_bytes}, {cells_.buffer, 0, cell_bytes}};
-    const std::uint32_t bindings[3] = {PENUMBRA_TRANSPORT_BINDING_PATCHES, PENUMBRA_TRANSPORT_BINDING_TEXELS,
-                                       PENUMBRA_TRANSPORT_BINDING_CELLS};
-    VkWriteDescriptorSet writes[3];
-    for (int i = 0; i < 3; ++i) {
+    std::memset(probes_.mapped, 0, probe_bytes);
+    const VkDescriptorBufferInfo infos[4] = {{patches_.buffer, 0, patch_bytes},
+                                             {texels_.buffer, 0, texel_bytes},
+                                             {cells_.buffer, 0, cell_bytes},
+                                             {probes_.buffer, 0, probe_bytes}};
+    const std::uint32_t bindings[4] = {PENUMBRA_TRANSPORT_BINDING_PATCHES, PENUMBRA_TRANSPORT_BINDING_TEXELS,
+                                       PENUMBRA_TRANSPORT_BINDING_CELLS, PENUMBRA_TRANSPORT_BINDING_PROBES};
+    VkWriteDescriptorSet writes[4];
+    for (int i = 0; i < 4; ++i) {
       writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       writes[i].dstSet = set_;
       writes[i].dstBinding = bindings[i];
@@ -221,7 +248,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       writes[i].pBufferInfo = &infos[i];
     }
-    vkUpdateDescriptorSets(gpu.device(), 3, writes, 0, nullptr);
+    vkUpdateDescriptorSets(gpu.device(), 4, writes, 0, nullptr);
     bound_ = 0.0f;
     return {};
   }
@@ -251,7 +278,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkShaderModule ambient_frag_ = VK_NULL_HANDLE, view_frag_ = VK_NULL_HANDLE;
   std::map<std::tuple<bool, std::uint32_t, VkFormat>, VkPipeline> pipelines_;
-  vk::Buffer patches_, texels_, cells_;
+  vk::Buffer patches_, texels_, cells_, probes_;
   std::shared_ptr<const TransportData> data_;
   std::vector<glm::vec3> shown_;  // what texels_ holds
   std::uint64_t updated_tick_ = 0;

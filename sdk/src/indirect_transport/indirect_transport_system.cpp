@@ -306,6 +306,8 @@ Result<bool> update_indirect_transport(World& world) {
   map.irradiance.resize(data->leaf_count());
   direct_irradiance(*data, *lights, state.occluders.get(), map.direct, state.pool.get());
   map.kept_coefficients = apply_transport(*data, map.direct, map.irradiance, 1e-4f, state.pool.get()).kept;
+  map.probes.resize(6 * data->probes.nodes());
+  probe_irradiance(*data, map.direct, map.irradiance, map.probes);
   map.updated_tick = world.tick();
   return true;
 }
@@ -422,6 +424,13 @@ std::vector<std::string> describe_transport(const BakeChunk& chunk) {
                 static_cast<unsigned long long>(d.global.nonzeros()), double(d.global.bytes()) / 1e6, d.terms,
                 static_cast<double>(d.last_term_ratio),
                 d.converged ? "" : " (NOT converged: raise max_bounces or lower the albedo)");
+  out.emplace_back(line);
+  const TransportProbes& probes = d.probes;
+  const auto open = static_cast<std::size_t>(std::count(probes.open.begin(), probes.open.end(), std::uint8_t{1}));
+  std::snprintf(line, sizeof line,
+                "bounce probes (moving objects): %ux%ux%u every %.3g m, %zu open, %zu cells seen (%.3g MB), %u rays each",
+                probes.count.x, probes.count.y, probes.count.z, static_cast<double>(probes.spacing), open,
+                probes.entries.size(), double(probes.entries.size() * sizeof(ProbeTransfer)) / 1e6, probes.rays);
   out.emplace_back(line);
   return out;
 }

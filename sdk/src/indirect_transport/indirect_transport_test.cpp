@@ -217,6 +217,128 @@ TEST(IndirectTransportBake, ClosedBoxConvergesToTheGeometricSeries) {
   EXPECT_NEAR(mean, rho / (1.0f - rho), 0.05 * rho / (1.0f - rho));
 }
 
+// The six irradiances of bounce probe `node` when every covered leaf has direct E = 1 and no
+// indirect light (each patch then sends radiance albedo / pi).
+std::array<glm::vec3, 6> probe_cube_of_uniform(const TransportData& data, std::size_t node) {
+  std::vector<glm::vec3> direct(data.leaf_count(), glm::vec3(0.0f)), indirect(data.leaf_count(), glm::vec3(0.0f));
+  for (const TransportPatch& p : data.patches)
+    for (std::uint32_t k = 0; k < p.leaves(); ++k)
+      if (p.coverage[k] > 0.0f) direct[p.first + k] = glm::vec3(1.0f);
+  std::vector<glm::vec3> cubes(6 * data.probes.nodes());
+  probe_irradiance(data, direct, indirect, cubes);
+  std::array<glm::vec3, 6> out;
+  std::copy(cubes.begin() + std::ptrdiff_t(6 * node), cubes.begin() + std::ptrdiff_t(6 * node + 6), out.begin());
+  return out;
+}
+
+std::size_t probe_index(const TransportProbes& probes, glm::uvec3 c) {
+  return c.x + probes.count.x * (c.y + std::size_t{probes.count.y} * c.z);
+}
+
+// Inside a closed box whose walls all send radiance L, every direction sees L: a probe's
+// irradiance towards each axis is pi L = rho. Probes outside the box see the walls' backs
+// (single-sided) and are closed; lookups there take the open ones around.
+TEST(IndirectTransportProbes, InsideAClosedBoxEveryDirectionSeesPiL) {
+  World world;
+  register_lighting(world);
+  const float rho = 0.5f;
+  closed_box(world, glm::vec3(rho));
+  const Entity t = transport(world, 2, 0.05f);
+  world.patch<IndirectTransport>(t).probe_spacing = 0.25f;
+  auto data = baked(world);
+  ASSERT_TRUE(data);
+  const TransportProbes& probes = data->probes;
+  // Half a spacing beyond the unit cube on every side: nodes at -0.125, 0.125, ..., 1.125.
+  ASSERT_EQ(probes.count, glm::uvec3(6u));
+  EXPECT_FLOAT_EQ(probes.spacing, 0.25f);
+  EXPECT_NEAR(probes.origin.x, -0.125f, 1e-6f);
+  EXPECT_EQ(probes.rays, kBounceProbeRays);
+  for (std::uint32_t z = 0; z < 6; ++z)
+    for (std::uint32_t y = 0; y < 6; ++y)
+      for (std::uint32_t x = 0; x < 6; ++x) {
+        const int outside = (x == 0 || x == 5) + (y == 0 || y == 5) + (z == 0 || z == 5);
+        const std::size_t node = probe_index(probes, {x, y, z});
+        if (outside == 1) {
+          EXPECT_EQ(probes.open[node], 0) << x << " " << y << " " << z;  // facing a wall's back
+        }
+        if (outside > 0) continue;  // (an edge or corner probe sees less of the box)
+        ASSERT_EQ(probes.open[node], 1) << x << " " << y << " " << z;
+        const std::array<glm::vec3, 6> cube = probe_cube_of_uniform(*data, node);
+        for (const glm::vec3& e : cube) EXPECT_NEAR(e.y, rho, 0.02 * rho) << x << " " << y << " " << z;
+      }
+  // A point inside reads rho whatever its normal; a point beyond the wall, which no open probe
+  // reaches, falls back to the open probes around it.
+  std::vector<glm::vec3> direct(data->leaf_count(), glm::vec3(1.0f)), indirect(data->leaf_count(), glm::vec3(0.0f));
+  std::vector<glm::vec3> cubes(6 * probes.nodes());
+  probe_irradiance(*data, direct, indirect, cubes);
+  EXPECT_NEAR(sample_bounce_probes(probes, cubes, {0.5f, 0.5f, 0.5f}, {0, 0, 1}).y, rho, 0.02 * rho);
+  EXPECT_NEAR(sample_bounce_probes(probes, cubes, {0.3f, 0.2f, 0.7f}, glm::normalize(glm::vec3(1, -1, 1))).y, rho,
+              0.02 * rho);
+  EXPECT_NEAR(sample_bounce_probes(probes, cubes, {1.05f, 0.5f, 0.5f}, {0, 1, 0}).y, rho, 0.02 * rho);
+  EXPECT_EQ(sample_bounce_probes(probes, cubes, glm::vec3(std::nanf("")), {1, 0, 0}), glm::vec3(0.0f));
+}
+
+// A probe at height h over a lit square (albedo rho, E = 1: radiance rho / pi) sees it with the
+// closed-form form factor of a point facing a parallel rectangle (the four rectangles meeting
+// under the point, each by Howell's catalogue C-11): looking down, E = rho F; looking up, nothing.
+TEST(IndirectTransportProbes, AProbeOverALitSquareSeesItsClosedFormFactor) {
+  World world;
+  register_lighting(world);
+  const float rho = 0.5f;
+  quad(world, "floor", {0, 0, 0}, {0, 0, 2}, {2, 0, 2}, {2, 0, 0}, glm::vec3(rho));
+  const Entity t = transport(world, 2, 0.05f);
+  const float s = 0.6f;  // nodes at -0.3, 0.3, 0.9, ... along x and z; -0.3 and 0.3 along y
+  world.patch<IndirectTransport>(t).probe_spacing = s;
+  auto data = baked(world);
+  ASSERT_TRUE(data);
+  const TransportProbes& probes = data->probes;
+  ASSERT_EQ(probes.count, glm::uvec3(6u, 2u, 6u));
+  const std::size_t above = probe_index(probes, {2, 1, 2}), below = probe_index(probes, {2, 0, 2});
+  const double h = 0.3;  // the probe at (0.9, 0.3, 0.9)
+  const auto corner = [h](double w, double d) {
+    const double x = w / h, y = d / h, a = std::sqrt(1.0 + x * x), b = std::sqrt(1.0 + y * y);
+    return (x / a * std::atan(y / a) + y / b * std::atan(x / b)) / (2.0 * std::numbers::pi);
+  };
+  const double form_factor = corner(0.9, 0.9) + corner(1.1, 0.9) + corner(0.9, 1.1) + corner(1.1, 1.1);
+  EXPECT_EQ(probes.open[above], 1);
+  const std::array<glm::vec3, 6> cube = probe_cube_of_uniform(*data, above);
+  EXPECT_NEAR(cube[3].x, rho * form_factor, 0.02 * rho * form_factor);  // towards -y: the square
+  EXPECT_EQ(cube[2], glm::vec3(0.0f));                                    // towards +y: the sky
+  // Sideways the square fills part of each half space.
+  for (int a : {0, 1, 4, 5}) EXPECT_GT(cube[std::size_t(a)].x, 0.05f * cube[3].x);
+  // Under the single-sided square a probe sees its back: closed.
+  EXPECT_EQ(probes.open[below], 0);
+  // A face looking down at the probe's point, half a spacing below it, reads the probe.
+  std::vector<glm::vec3> direct(data->leaf_count(), glm::vec3(1.0f)), indirect(data->leaf_count(), glm::vec3(0.0f));
+  std::vector<glm::vec3> cubes(6 * probes.nodes());
+  probe_irradiance(*data, direct, indirect, cubes);
+  const glm::vec3 at = probes.origin + s * glm::vec3(2.0f, 1.0f, 2.0f) + glm::vec3(0.0f, kBounceProbeOffset * s, 0.0f);
+  EXPECT_NEAR(sample_bounce_probes(probes, cubes, at, {0, -1, 0}).x, cube[3].x, 1e-5f);
+  // The same square seen from both sides: the probe under it is open but sees nothing (a patch
+  // sends light from its front only), and the reach keeps it out of the lookups above the floor.
+  World two_sided;
+  register_lighting(two_sided);
+  const Entity square = quad(two_sided, "floor", {0, 0, 0}, {0, 0, 2}, {2, 0, 2}, {2, 0, 0}, glm::vec3(rho));
+  two_sided.patch<Material>(square).double_sided = true;
+  two_sided.patch<IndirectTransport>(transport(two_sided, 2, 0.05f)).probe_spacing = s;
+  auto both = baked(two_sided);
+  ASSERT_TRUE(both);
+  ASSERT_EQ(both->probes.count, probes.count);
+  EXPECT_EQ(both->probes.open[below], 1);
+  EXPECT_EQ(both->probes.begin[below + 1], both->probes.begin[below]);
+  EXPECT_NEAR(both->probes.reach[below][2], 0.5f, 1e-4f);  // the floor half a spacing above it
+  std::vector<glm::vec3> cubes2(6 * both->probes.nodes());
+  probe_irradiance(*both, direct, indirect, cubes2);
+  const glm::vec3 low = sample_bounce_probes(both->probes, cubes2, {1.0f, 0.02f, 1.0f}, {1, 0, 0});
+  const glm::vec3 high = sample_bounce_probes(both->probes, cubes2, {1.0f, 0.3f, 1.0f}, {1, 0, 0});
+  EXPECT_GT(low.x, 0.0f);
+  EXPECT_NEAR(low.x, high.x, 1e-6f);  // both read the probes above the floor only
+  // The grid never exceeds its node budget, whatever the spacing asked.
+  const TransportProbes fine = probe_grid(data->patches, 1e-6f);
+  EXPECT_LE(fine.nodes(), kMaxBounceProbes);
+  EXPECT_GT(fine.nodes(), kMaxBounceProbes / 4);
+}
+
 TEST(IndirectTransportBake, AlbedoNearOneStopsWithAReport) {
   World world;
   register_lighting(world);
@@ -257,6 +379,9 @@ TEST(IndirectTransportBake, IsBitIdenticalAtAnyThreadCountAndScaleFree) {
     auto b = read_transport_chunk(BakeChunk{kTransportChunkType, kTransportChunkVersion, "", scaled});
     ASSERT_TRUE(a.ok() && b.ok());
     EXPECT_EQ(b->data.leaf_count(), a->data.leaf_count()) << scale;
+    EXPECT_EQ(b->data.probes.count, a->data.probes.count) << scale;
+    const auto open = [](const TransportData& d) { return std::count(d.probes.open.begin(), d.probes.open.end(), 1); };
+    EXPECT_NEAR(double(open(b->data)), double(open(a->data)), 0.02 * double(open(a->data))) << scale;
     // Decisions at the threshold flip with rounding (a few percent of the links); the light they
     // carry does not change.
     EXPECT_NEAR(double(b->data.links), double(a->data.links), 0.06 * double(a->data.links)) << scale;
@@ -315,7 +440,7 @@ TEST(IndirectTransportChunk, RoundTripsAndRejectsDamage) {
   register_lighting(world);
   quad(world, "a", {0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, glm::vec3(0.5f));
   quad(world, "b", {0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}, glm::vec3(0.5f));
-  transport(world, 2, 0.05f);
+  world.patch<IndirectTransport>(transport(world, 2, 0.05f)).probe_spacing = 0.3f;  // 6^3 probes
   auto result = bake(world, 2);
   ASSERT_TRUE(result.ok()) << result.error().message;
   ASSERT_EQ(result->file.chunks.size(), 1u);
@@ -338,6 +463,24 @@ TEST(IndirectTransportChunk, RoundTripsAndRejectsDamage) {
   auto bad = read_transport_chunk(write_transport_chunk("x", d));
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message.find("re-bake"), std::string::npos);
+  // Bounce probes: a cell out of range, a weight beyond the sphere's 4 pi, NaN, a flag that is not
+  // 0 or 1, lists that do not match the count, a count beyond the budget.
+  ASSERT_GT(read->data.probes.entries.size(), 0u);
+  const auto rejected = [&](auto damage) {
+    TransportData p = read->data;
+    damage(p.probes);
+    auto r = read_transport_chunk(write_transport_chunk("x", p));
+    return !r.ok() && r.error().message.find("re-bake") != std::string::npos;
+  };
+  EXPECT_TRUE(rejected([&](TransportProbes& p) { p.entries[0].cell = read->data.cell_count(); }));
+  EXPECT_TRUE(rejected([](TransportProbes& p) { p.entries[0].weight[2] = 13.0f; }));
+  EXPECT_TRUE(rejected([](TransportProbes& p) { p.entries[0].weight[0] = std::nanf(""); }));
+  EXPECT_TRUE(rejected([](TransportProbes& p) { p.open[0] = 2; }));
+  EXPECT_TRUE(rejected([](TransportProbes& p) { p.reach[0][3] = 1.5f; }));
+  EXPECT_TRUE(rejected([](TransportProbes& p) { p.begin.back() += 1; }));
+  EXPECT_TRUE(rejected([](TransportProbes& p) { p.spacing = 0.0f; }));
+  EXPECT_TRUE(rejected([](TransportProbes& p) { p.count.x = kMaxBounceProbes; }));
+  EXPECT_FALSE(rejected([](TransportProbes&) {}));
 }
 
 TEST(IndirectTransportRuntime, LightTouchingAPatchCornerGivesTheSolidAngleLimit) {
@@ -407,6 +550,8 @@ TEST(IndirectTransportRuntime, UpdatesOnlyWhenALightMovesWithoutDriftOrGrowth) {
   auto first = update_indirect_transport(world);
   ASSERT_TRUE(first.ok() && *first);
   const std::vector<glm::vec3> start = world.get<IndirectLightmap>(owner).irradiance;
+  const std::vector<glm::vec3> start_probes = world.get<IndirectLightmap>(owner).probes;
+  ASSERT_EQ(start_probes.size(), 6 * world.get<IndirectTransport>(owner).data->probes.nodes());
   auto again = update_indirect_transport(world);
   ASSERT_TRUE(again.ok());
   EXPECT_FALSE(*again);  // nothing moved: nothing done
@@ -430,6 +575,19 @@ TEST(IndirectTransportRuntime, UpdatesOnlyWhenALightMovesWithoutDriftOrGrowth) {
   EXPECT_EQ(map.irradiance.size(), start.size());
   EXPECT_EQ(map.irradiance.capacity(), start.size());
   EXPECT_EQ(map.irradiance, start);  // no drift: the same light gives the same light
+  EXPECT_EQ(map.probes.capacity(), start_probes.size());
+  EXPECT_EQ(map.probes, start_probes);
+  // The probes follow the lantern: moved to another corridor, the bounce around it changes.
+  world.patch<Transform>(lantern).translation = home + glm::vec3(3.0f, 0.0f, 3.0f);
+  update_world_transforms(world);
+  ASSERT_TRUE(update_indirect_transport(world).ok());
+  double moved = 0.0, sum = 0.0;
+  for (std::size_t k = 0; k < start_probes.size(); ++k) {
+    moved += std::abs(world.get<IndirectLightmap>(owner).probes[k].y - start_probes[k].y);
+    sum += start_probes[k].y;
+  }
+  EXPECT_GT(sum, 0.0);
+  EXPECT_GT(moved, 0.2 * sum);
 }
 
 }  // namespace

@@ -796,7 +796,8 @@ TEST_F(RendererTest, OverlappingProbeGridsBlendAsOnTheCpu) {
 
 // The maze with a draft indirect transport (the only light is the moving lantern, so the probe
 // grid has nothing to bake): the bounce light follows the lantern. Goldens of the lit view at two
-// lantern positions, and the lightmap view against the CPU lookup at the pixels' points.
+// lantern positions; the lightmap view (the lightmap on the patches, the bounce probes elsewhere)
+// and the probes view against the CPU lookups at the pixels' points.
 TEST_F(RendererTest, IndirectTransportFollowsTheLanternAndMatchesTheCpu) {
   BakedScene s;
   register_scene_systems(s.world);
@@ -829,29 +830,35 @@ TEST_F(RendererTest, IndirectTransportFollowsTheLanternAndMatchesTheCpu) {
     expect_golden(*image, "maze_lit_" + std::to_string(lightmaps.size()));
     EXPECT_GT(renderer_->stats().counter("indirect-transport.patches"), 0u);
     lightmaps.push_back(linear_view(s.world, camera(s), kWidth, kHeight, "lightmap", 1));
-    // CPU/GPU: the lookup at the pixels' points and normals.
+    const std::vector<float> probes = linear_view(s.world, camera(s), kWidth, kHeight, "probes", 1);
+    // CPU/GPU: the lookups at the pixels' points and normals.
     const auto position = linear_view(s.world, camera(s), kWidth, kHeight, "position", 1);
     const auto normal = linear_view(s.world, camera(s), kWidth, kHeight, "normal", 1);
     const TransportData& data = *s.world.get<IndirectTransport>(owner).data;
     const IndirectLightmap& map = s.world.get<IndirectLightmap>(owner);
-    int checked = 0, close = 0;
+    int checked = 0, close = 0, probes_lit = 0, probes_close = 0;
+    const auto within = [](const std::vector<float>& gpu, std::size_t p, glm::vec3 cpu) {
+      const float scale = std::max({cpu.x, cpu.y, cpu.z, 1e-3f});
+      float worst = 0.0f;
+      for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(gpu[p + std::size_t(k)] - cpu[k]) / scale);
+      return worst <= 0.01f;
+    };
     for (std::uint32_t y = 2; y < kHeight; y += 4)
       for (std::uint32_t x = 3; x < kWidth; x += 4) {
         const std::size_t p = (std::size_t{y} * kWidth + x) * 4;
         const glm::vec3 n(normal[p], normal[p + 1], normal[p + 2]);
         if (glm::length(n) < 0.5f) continue;
-        const glm::vec3 cpu = sample_indirect_irradiance(data, map.irradiance,
-                                                         glm::vec3(position[p], position[p + 1], position[p + 2]),
-                                                         glm::normalize(n));
-        const std::vector<float>& gpu = lightmaps.back();
-        const float scale = std::max({cpu.x, cpu.y, cpu.z, 1e-3f});
-        float worst = 0.0f;
-        for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(gpu[p + std::size_t(k)] - cpu[k]) / scale);
+        const glm::vec3 at(position[p], position[p + 1], position[p + 2]);
         ++checked;
-        close += worst <= 0.01f;
+        close += within(lightmaps.back(), p, sample_transport_irradiance(data, map, at, glm::normalize(n)));
+        const glm::vec3 cpu_probes = sample_bounce_probes(data.probes, map.probes, at, glm::normalize(n));
+        probes_close += within(probes, p, cpu_probes);
+        probes_lit += cpu_probes.y > 1e-3f;
       }
     EXPECT_GE(checked, 500);
+    EXPECT_GE(probes_lit, checked / 2) << "pixels the bounce probes light";
     EXPECT_GE(close, checked * 99 / 100) << "pixels within 1% of the CPU lookup";
+    EXPECT_GE(probes_close, checked * 99 / 100) << "pixels of the probes view within 1% of the CPU lookup";
   }
   // The lantern moved from the first corridor to the far one: the bounce light moved with it.
   ASSERT_EQ(lightmaps[0].size(), lightmaps[1].size());

@@ -13,9 +13,13 @@
 // operator decomposition: applying one needs no push-pull). The baker builds T by hierarchical
 // refinement and G by a truncated Neumann series; each time a DynamicLight moves the system turns
 // its direct irradiance at the leaves into indirect irradiance with one sparse product
-// (indirect_transport_system.h). The renderer multiplies E_ind by albedo / pi.
+// (indirect_transport_system.h). The renderer multiplies E_ind by albedo / pi. What the patches do
+// not cover (moving objects, characters, static meshes without an IndirectReceiver) takes the same
+// bounce light from bounce probes: a grid of points that saw the patches during the bake
+// (TransportProbes).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -42,6 +46,9 @@ struct IndirectReceiver {
   float patch_size = 0.0f;
 };
 inline constexpr float kPatchSizeFraction = 0.12f;
+inline constexpr float kBounceProbeSpacingFraction = 0.04f;
+inline constexpr std::uint32_t kMaxBounceProbes = 1u << 16;
+inline constexpr std::uint32_t kBounceProbeRays = 256;  // rays per bounce probe
 
 // On one entity of the scene: the transport's settings and, once baked, its operator.
 struct IndirectTransport {
@@ -58,6 +65,9 @@ struct IndirectTransport {
   float drop_threshold = 1e-4f;
   // A directional (glossy) part per patch: not implemented; a bake with it on fails Unsupported.
   bool glossy = false;
+  // Metres between bounce probes (TransportProbes); 0: kBounceProbeSpacingFraction x the diagonal of the
+  // receivers' bounds (scale-free), raised where the grid would exceed kMaxBounceProbes.
+  float probe_spacing = 0.0f;
 
   std::shared_ptr<const TransportData> data;  // set by the baker or attach_bake(); null until baked
 
@@ -71,6 +81,8 @@ struct IndirectTransport {
 struct IndirectLightmap {
   std::vector<glm::vec3> irradiance;
   std::vector<glm::vec3> direct;  // the direct irradiance it came from (for tools and tests)
+  // Per bounce probe (TransportProbes), six irradiances (W/m^2), towards +x, -x, +y, -y, +z, -z.
+  std::vector<glm::vec3> probes;
   std::uint64_t updated_tick = 0;
   std::uint32_t kept_coefficients = 0;  // significant direct coefficients multiplied in the update
 };
@@ -111,10 +123,42 @@ struct SparseTransport {
   double frobenius() const;  // sqrt of the sum of squares over all channels
 };
 
+// Bounce probes: the patches' light at the nodes of a regular grid over the receivers' bounds, for
+// the surfaces the lightmap does not cover. A probe sees the patches' cells (per patch, the
+// quadtree nodes of level min(level, kBounceProbeCellLevel)) through the directions its bake rays found
+// them in; an entry's weight towards axis direction a (+x, -x, +y, -y, +z, -z) is
+// w_a = (4 pi / rays) x sum over the rays that hit the cell's front of max(0, dot(ray, a)), so the
+// probe's irradiance towards a is sum w_a L_cell, L_cell the cell's mean radiance (albedo / pi x
+// its direct plus indirect irradiance): exact up to the ray sampling. A probe whose rays meet the
+// inside of a closed solid (the back of a single-sided surface) on more than kBounceProbeClosedFraction
+// of them is closed: it holds no entries and lookups skip it. Each probe also keeps its reach
+// towards the six axis directions: the free fraction (0..1) of the step to its neighbour, up to
+// the first surface; a lookup skips a probe the point lies beyond a surface from (below a floor,
+// behind a wall), as the probe grid's leak guard does.
+struct ProbeTransfer {
+  std::uint32_t cell = 0;
+  std::array<float, 6> weight{};
+};
+inline constexpr std::uint32_t kBounceProbeCellLevel = 2;
+inline constexpr float kBounceProbeClosedFraction = 0.1f;
+struct TransportProbes {
+  glm::vec3 origin{0.0f};       // node (0, 0, 0); node (i, j, k) at origin + spacing (i, j, k)
+  float spacing = 0.0f;         // metres; 0 with no nodes: no probes
+  glm::uvec3 count{0u};         // nodes per axis
+  std::uint32_t rays = 0;       // rays each probe traced
+  std::vector<std::uint8_t> open;    // per node (x fastest, then y, then z): 1 open, 0 closed
+  std::vector<std::array<float, 6>> reach;  // per node, towards +x, -x, +y, -y, +z, -z
+  std::vector<std::uint32_t> begin;  // node n's entries: [begin[n], begin[n + 1]); nodes() + 1 values
+  std::vector<ProbeTransfer> entries;
+
+  std::size_t nodes() const { return std::size_t{count.x} * count.y * count.z; }
+};
+
 // The baked transport of a scene.
 struct TransportData {
   std::vector<TransportPatch> patches;
   SparseTransport global;  // G, in the patches' orthonormal Haar bases
+  TransportProbes probes;
   // What the bake did (reported by `penumbra info` and the bench).
   float refinement_threshold = 0.0f;
   std::uint32_t finest_level = 0;
@@ -125,6 +169,9 @@ struct TransportData {
   bool converged = false;
 
   std::uint32_t leaf_count() const;  // the scene's leaves = Haar coefficients
+  // The bounce probes' cells: patch after patch, 4^min(level, kBounceProbeCellLevel) each, in the
+  // quadtree's row order (cell (i, j) of a patch at i + j 2^min(level, kBounceProbeCellLevel)).
+  std::uint32_t cell_count() const;
   std::uint64_t bytes() const;
 };
 
@@ -164,6 +211,32 @@ TransportUpdate apply_transport(const TransportData& data, std::span<const glm::
 // (shaders/indirect_transport.glsl). Cost: O(patches).
 glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const glm::vec3> irradiance, glm::vec3 x,
                                      glm::vec3 n);
+// The index of the patch sample_indirect_irradiance reads at x, or -1 when none holds x.
+int transport_patch_at(const TransportData& data, glm::vec3 x, glm::vec3 n);
+// The bounce probes' irradiance: into `cubes` (six per probe, IndirectLightmap::probes) from the
+// leaves' direct and indirect irradiance (one value per leaf each). Closed probes get 0.
+// Preconditions: direct and indirect have data.leaf_count() entries, cubes 6 x probes.nodes().
+// Cost: O(leaves + probe entries).
+void probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
+                      std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes);
+
+// The bounce probes' irradiance at world point x with unit normal n: the point moved
+// kBounceProbeOffset x spacing along n, the trilinear weights of the eight nodes around it (the
+// grid's edge nodes beyond its bounds) over the open ones that reach it (its offset from the node
+// along each axis within the node's reach that way; when none does, over the open ones), each
+// node's six irradiances blended by the squares of n's components (an ambient cube: exact for
+// normals along the axes). 0 when no open node is around. The renderer's lookup is this one in GLSL (shaders/indirect_transport.glsl).
+// Precondition: cubes has 6 x probes.nodes() entries. Cost: O(1).
+glm::vec3 sample_bounce_probes(const TransportProbes& probes, std::span<const glm::vec3> cubes, glm::vec3 x,
+                               glm::vec3 n);
+inline constexpr float kBounceProbeOffset = 0.5f;
+
+// The transport's bounce light at x with unit normal n, as the renderer's ambient pass adds it:
+// the lightmap where a patch holds x (sample_indirect_irradiance), the bounce probes elsewhere
+// (sample_bounce_probes). Precondition: `map` was updated for `data`. Cost: O(patches).
+glm::vec3 sample_transport_irradiance(const TransportData& data, const IndirectLightmap& map, glm::vec3 x,
+                                      glm::vec3 n);
+
 // How far off a patch's plane a point may be and still be on it: 5% of the patch's size plus the
 // float error of its position (the renderer's points come from its depth buffer).
 float patch_plane_tolerance(const TransportPatch& patch);
@@ -171,7 +244,7 @@ inline constexpr float kTransportMargin = 0.01f;
 inline constexpr float kTransportPlaneSnap = 0.01f;
 
 inline constexpr std::uint32_t kTransportChunkType = fourcc("WRTO");
-inline constexpr std::uint32_t kTransportChunkVersion = 1;
+inline constexpr std::uint32_t kTransportChunkVersion = 2;
 
 // The "WRTO" chunk: one per bake (label "indirect-transport:<transport entity key>"). The reader
 // checks every size, index and value and names the chunk in its errors.

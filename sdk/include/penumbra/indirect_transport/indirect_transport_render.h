@@ -1,12 +1,14 @@
 // The indirect-transport render feature (render/feature.h): a source. The first baked
-// IndirectTransport's patches and its IndirectLightmap go to two storage buffers; a full-screen
-// pass adds the lightmap's indirect irradiance (sample_indirect_irradiance's lookup, in GLSL) to
-// the ambient image of the surfaces the patches cover, which therefore get the moving lights'
-// bounce light on top of the probe grid's fixed lights (the probe grid leaves DynamicLights out).
-// Each sync writes only the texels whose value changed since the last. Views: "lightmap" (E_ind in
-// W/m^2, exposed and tone mapped) and "patches" (each patch in its own colour over its texel grid:
-// the patch hierarchy's leaves). Counters: "indirect-transport.patches",
-// "indirect-transport.texels_uploaded" (by the last sync).
+// IndirectTransport's patches, its bounce probes and its IndirectLightmap go to storage buffers; a
+// full-screen pass adds the moving lights' bounce light to the ambient image, on top of the probe
+// grid's fixed lights (the probe grid leaves DynamicLights out): the lightmap's indirect irradiance
+// on the surfaces the patches cover (sample_indirect_irradiance's lookup, in GLSL), the bounce
+// probes' elsewhere (sample_bounce_probes': moving objects, characters, other static meshes). Each
+// sync writes only the texels whose value changed since the last, and the probes (six values each)
+// when the lightmap was updated. Views: "lightmap" (the bounce light as the pass adds it, in W/m^2,
+// exposed and tone mapped), "patches" (each patch in its own colour over its texel grid: the patch
+// hierarchy's leaves) and "probes" (the probes' irradiance on every surface). Counters:
+// "indirect-transport.patches", "indirect-transport.texels_uploaded" (by the last sync).
 #pragma once
 
 #include <memory>

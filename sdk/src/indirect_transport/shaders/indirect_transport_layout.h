@@ -13,6 +13,7 @@ namespace penumbra::gpu {
 #define PENUMBRA_TRANSPORT_BINDING_PATCHES 0  // buffer TransportPatches
 #define PENUMBRA_TRANSPORT_BINDING_TEXELS 1   // buffer TransportTexels
 #define PENUMBRA_TRANSPORT_BINDING_CELLS 2    // buffer TransportCells: the lookup grid
+#define PENUMBRA_TRANSPORT_BINDING_PROBES 3   // buffer TransportProbeBuffer: the bounce probes
 
 // How far outside its rectangle (in its parameters) a point may be and still be a patch's: the
 // seams between patches have no gap (sample_indirect_irradiance, kTransportMargin).
@@ -35,6 +36,18 @@ struct TransportGrid {
   uvec4 size;   // xyz cells per axis, w patches
   vec4 origin;  // xyz the grid's corner
   vec4 scale;   // xyz cells per metre
+};
+
+// How far along the normal a point's bounce-probe lookup moves, in probe spacings
+// (kBounceProbeOffset).
+#define PENUMBRA_TRANSPORT_PROBE_OFFSET 0.5
+
+// The bounce probes' grid (TransportProbes, indirect_transport.h), followed in its buffer by six
+// vec4 per probe, towards +x, -x, +y, -y, +z, -z: rgb its irradiance that way, w its reach that
+// way (-1 on a closed probe).
+struct TransportProbeGrid {
+  uvec4 count;  // xyz probes per axis (x fastest), w 1 when there are probes
+  vec4 origin;  // xyz probe (0, 0, 0), w the spacing in metres
 };
 
 #ifdef __cplusplus

@@ -1,8 +1,9 @@
 #version 450
 // The indirect transport's debug views, fragment stage, over the whole target from the pre-pass
-// depth and G-buffer: "lightmap", the indirect irradiance E_ind in W/m^2, exposed and tone mapped
-// (linear in a float target: what the CPU/GPU test reads), black off the receivers; "patches",
-// each patch in its own colour with its leaf texels' grid darkened, grey off the receivers.
+// depth and G-buffer: "lightmap", the bounce light in W/m^2 as the ambient pass adds it (the
+// lightmap on the patches, the bounce probes elsewhere), exposed and tone mapped (linear in a float
+// target: what the CPU/GPU test reads); "patches", each patch in its own colour with its leaf
+// texels' grid darkened, grey off the receivers; "probes", the bounce probes' irradiance everywhere.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "output.glsl"
@@ -11,7 +12,7 @@
 layout(set = 0, binding = PENUMBRA_BINDING_SCENE_DEPTH) uniform sampler2D scene_depth;
 layout(set = 0, binding = PENUMBRA_BINDING_GBUFFER) uniform sampler2D gbuffer;
 
-// 0: lightmap, 1: patches (the feature's views, in order).
+// 0: lightmap, 1: patches, 2: probes (the feature's views, in order).
 layout(constant_id = 0) const uint kView = 0u;
 
 layout(location = 0) out vec4 out_color;
@@ -25,8 +26,8 @@ void main() {
   }
   vec3 n = normalize(texelFetch(gbuffer, pixel, 0).xyz);
   vec3 x = world_at_pixel(pixel, depth);
-  if (kView == 0u) {
-    out_color = output_colour(transport_irradiance(x, n), true);
+  if (kView == 0u || kView == 2u) {
+    out_color = output_colour(kView == 0u ? transport_bounce(x, n) : transport_probe_irradiance(x, n), true);
     return;
   }
   int i = transport_patch(x, n);
