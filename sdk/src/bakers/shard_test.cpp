@@ -114,7 +114,7 @@ World point_grids() { return courtyard(ProbeSampling::Point); }
 
 TEST(ShardedBake, MergedPartsAreTheSingleMachineFileByteForByteForEveryBaker) {
   const Scratch dir;
-  for (const std::string baker : {"vertex-ao", "probe-grid", "ao-field", "pose-ao"})
+  for (const std::string baker : {"vertex-ao", "probe-grid", "ao-field", "pose-ao", "indirect-transport"})
     for (std::uint32_t shards : {1u, 2u, 4u, 7u}) {
       const Files f = bake_both(default_courtyard, {baker}, shards, dir);
       ASSERT_FALSE(f.single.empty()) << baker;

@@ -110,7 +110,7 @@ std::uint32_t TransportData::cell_count() const {
 }
 
 void probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
-                      std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes) {
+                      std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes, TaskScheduler* scheduler) {
   // The cells' mean radiance: albedo / pi x the coverage-weighted mean irradiance of their leaves.
   std::vector<glm::vec3> radiance;
   radiance.reserve(data.cell_count());
@@ -130,14 +130,18 @@ void probe_irradiance(const TransportData& data, std::span<const glm::vec3> dire
   }
   // Each probe: sum over its entries of w_a L_cell.
   const TransportProbes& probes = data.probes;
-  for (std::size_t node = 0; node < probes.nodes(); ++node) {
-    std::array<glm::vec3, 6> e{};
-    for (std::uint32_t k = probes.begin[node]; k < probes.begin[node + 1]; ++k) {
-      const ProbeTransfer& t = probes.entries[k];
-      for (int a = 0; a < 6; ++a) e[static_cast<std::size_t>(a)] += t.weight[static_cast<std::size_t>(a)] * radiance[t.cell];
+  JobContext jobs(scheduler);
+  (void)jobs.parallel_for(probes.nodes(), 64, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t node = begin; node < end; ++node) {
+      std::array<glm::vec3, 6> e{};
+      for (std::uint32_t k = probes.begin[node]; k < probes.begin[node + 1]; ++k) {
+        const ProbeTransfer& t = probes.entries[k];
+        const glm::vec3 l = radiance[t.cell];
+        for (std::size_t a = 0; a < 6; ++a) e[a] += t.weight[a] * l;
+      }
+      std::copy(e.begin(), e.end(), cubes.begin() + static_cast<std::ptrdiff_t>(6 * node));
     }
-    std::copy(e.begin(), e.end(), cubes.begin() + static_cast<std::ptrdiff_t>(6 * node));
-  }
+  });
 }
 
 glm::vec3 sample_bounce_probes(const TransportProbes& probes, std::span<const glm::vec3> cubes, glm::vec3 x,

@@ -1008,7 +1008,7 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
     const std::uint64_t patch_end = std::min<std::uint64_t>(end, shared->size());
     const std::size_t count = begin < patch_end ? static_cast<std::size_t>(patch_end - begin) : 0;
     const std::uint64_t probe_begin = std::max<std::uint64_t>(begin, shared->size());
-    const std::size_t probe_count = static_cast<std::size_t>(end - probe_begin);
+    const std::size_t probe_count = end > probe_begin ? static_cast<std::size_t>(end - probe_begin) : 0;
     std::vector<std::vector<TransportLink>> links(count);
     std::vector<ProbeSight> sights(probe_count);
     jobs.begin_stage("transport links and probes", count + probe_count);

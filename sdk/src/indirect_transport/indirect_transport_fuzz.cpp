@@ -1,6 +1,7 @@
 // Fuzz target "indirect-transport": any bytes as the payload of a WRTO chunk of the current
 // version, through read_transport_chunk and the module's describe, and, when it reads, one update
-// with the operator it holds; what reads writes and reads back (fuzz.h).
+// with the operator and the bounce probes it holds and a probe lookup; what reads writes and reads
+// back (fuzz.h).
 #include <vector>
 
 #include "fuzz/fuzz.h"
@@ -21,6 +22,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (read && read->data.leaf_count() <= (1u << 16)) {
     std::vector<glm::vec3> direct(read->data.leaf_count(), glm::vec3(1.0f)), indirect(read->data.leaf_count());
     apply_transport(read->data, direct, indirect);
+    const TransportProbes& probes = read->data.probes;
+    std::vector<glm::vec3> cubes(6 * probes.nodes());
+    probe_irradiance(read->data, direct, indirect, cubes);
+    (void)sample_bounce_probes(probes, cubes, probes.origin + 1.5f * probes.spacing, glm::vec3(0.0f, -1.0f, 0.0f));
   }
   return 0;
 }

@@ -307,7 +307,7 @@ Result<bool> update_indirect_transport(World& world) {
   direct_irradiance(*data, *lights, state.occluders.get(), map.direct, state.pool.get());
   map.kept_coefficients = apply_transport(*data, map.direct, map.irradiance, 1e-4f, state.pool.get()).kept;
   map.probes.resize(6 * data->probes.nodes());
-  probe_irradiance(*data, map.direct, map.irradiance, map.probes);
+  probe_irradiance(*data, map.direct, map.irradiance, map.probes, state.pool.get());
   map.updated_tick = world.tick();
   return true;
 }

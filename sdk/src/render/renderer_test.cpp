@@ -848,10 +848,10 @@ TEST_F(RendererTest, IndirectTransportFollowsTheLanternAndMatchesTheCpu) {
         const std::size_t p = (std::size_t{y} * kWidth + x) * 4;
         const glm::vec3 n(normal[p], normal[p + 1], normal[p + 2]);
         if (glm::length(n) < 0.5f) continue;
-        const glm::vec3 at(position[p], position[p + 1], position[p + 2]);
+        const glm::vec3 point(position[p], position[p + 1], position[p + 2]);
         ++checked;
-        close += within(lightmaps.back(), p, sample_transport_irradiance(data, map, at, glm::normalize(n)));
-        const glm::vec3 cpu_probes = sample_bounce_probes(data.probes, map.probes, at, glm::normalize(n));
+        close += within(lightmaps.back(), p, sample_transport_irradiance(data, map, point, glm::normalize(n)));
+        const glm::vec3 cpu_probes = sample_bounce_probes(data.probes, map.probes, point, glm::normalize(n));
         probes_close += within(probes, p, cpu_probes);
         probes_lit += cpu_probes.y > 1e-3f;
       }
