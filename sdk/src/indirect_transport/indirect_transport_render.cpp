@@ -33,7 +33,7 @@ constexpr ViewInfo kViews[] = {
     {"lightmap", "the indirect transport's bounce light of the moving lights in W/m^2 (the lightmap on its "
                  "patches, the bounce probes elsewhere), tone mapped"},
     {"patches", "the indirect transport's patches, one colour each, over their leaf texels"},
-    {"probes", "the indirect transport's bounce probes: their irradiance at every surface, tone mapped"},
+    {"bounce-probes", "the indirect transport's bounce probes: their irradiance at every surface, tone mapped"},
 };
 
 class IndirectTransportRenderFeature final : public RenderFeature {

@@ -216,7 +216,7 @@ TEST_F(RendererTest, ViewsAreTheRenderersThenEachFeatures) {
   std::vector<std::string> names;
   for (const ViewInfo& v : renderer_->views()) names.emplace_back(v.name);
   EXPECT_EQ(names, (std::vector<std::string>{"lit", "direct", "indirect", "ao", "albedo", "position", "normal",
-                                             "validity", "irradiance", "lightmap", "patches"}));
+                                             "validity", "irradiance", "lightmap", "patches", "bounce-probes"}));
   BakedScene& s = scene("cornell");
   RenderSettings settings;
   settings.view = "shiny";
@@ -830,7 +830,7 @@ TEST_F(RendererTest, IndirectTransportFollowsTheLanternAndMatchesTheCpu) {
     expect_golden(*image, "maze_lit_" + std::to_string(lightmaps.size()));
     EXPECT_GT(renderer_->stats().counter("indirect-transport.patches"), 0u);
     lightmaps.push_back(linear_view(s.world, camera(s), kWidth, kHeight, "lightmap", 1));
-    const std::vector<float> probes = linear_view(s.world, camera(s), kWidth, kHeight, "probes", 1);
+    const std::vector<float> probes = linear_view(s.world, camera(s), kWidth, kHeight, "bounce-probes", 1);
     // CPU/GPU: the lookups at the pixels' points and normals.
     const auto position = linear_view(s.world, camera(s), kWidth, kHeight, "position", 1);
     const auto normal = linear_view(s.world, camera(s), kWidth, kHeight, "normal", 1);

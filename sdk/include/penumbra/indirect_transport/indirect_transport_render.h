@@ -7,7 +7,7 @@
 // sync writes only the texels whose value changed since the last, and the probes (six values each)
 // when the lightmap was updated. Views: "lightmap" (the bounce light as the pass adds it, in W/m^2,
 // exposed and tone mapped), "patches" (each patch in its own colour over its texel grid: the patch
-// hierarchy's leaves) and "probes" (the probes' irradiance on every surface). Counters:
+// hierarchy's leaves) and "bounce-probes" (the probes' irradiance on every surface). Counters:
 // "indirect-transport.patches", "indirect-transport.texels_uploaded" (by the last sync).
 #pragma once
 

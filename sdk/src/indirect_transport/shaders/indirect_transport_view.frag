@@ -3,7 +3,8 @@
 // depth and G-buffer: "lightmap", the bounce light in W/m^2 as the ambient pass adds it (the
 // lightmap on the patches, the bounce probes elsewhere), exposed and tone mapped (linear in a float
 // target: what the CPU/GPU test reads); "patches", each patch in its own colour with its leaf
-// texels' grid darkened, grey off the receivers; "probes", the bounce probes' irradiance everywhere.
+// texels' grid darkened, grey off the receivers; "bounce-probes", the bounce probes' irradiance
+// everywhere.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "output.glsl"
