@@ -16,6 +16,7 @@
 #include <penumbra/bakers.h>
 #include <penumbra/ecs/transform.h>
 #include <penumbra/indirect_transport/indirect_transport.h>
+#include <penumbra/pose_ao/pose_ao_system.h>
 #include <penumbra/runtime.h>
 #include <penumbra/scene/builtin.h>
 #include <penumbra/scene/components.h>
@@ -52,21 +53,30 @@ class LanternMaze final : public sample::Game {
     for (const glm::vec4& key : patrol->clips->front().channels.front().values) route_.push_back({key.x, key.z});
     world_.remove<Animator>(lantern_);
 
-    const int count = options.characters > 0 ? options.characters : 1;
-    for (int i = 0; i < count; ++i) {
+    // The player, then the bake; the followers after it, sharing the player's pose-AO model (it is
+    // self-occlusion), as a game spawns copies of one character.
+    const auto add = [&](int i) -> Status {
       const glm::vec2 at = route_.front() + glm::vec2(0.0f, -0.6f * static_cast<float>(i));
       auto c = sample::add_character(world_, options.character, i == 0 ? "player" : "walker " + std::to_string(i),
                                      {at.x, 0.0f, at.y});
       if (!c) return c.error();
       c->speed = 2.0f;
       characters_.push_back(*c);
-    }
+      return {};
+    };
+    PENUMBRA_TRY(add(0));
     carry_lantern();
     world_.update(0.0);
     if (Status s = add_default_lighting(world_, options.preset, /*authored=*/false); !s) return s;
     auto baked = sample::bake_or_load(world_, options.preset, options.bake);
     if (!baked) return baked.error();
     std::printf("lantern_maze: %s\n", baked->c_str());
+    const int count = options.characters > 0 ? options.characters : 1;
+    for (int i = 1; i < count; ++i) PENUMBRA_TRY(add(i));
+    world_.update(0.0);
+    if (Status s = add_default_lighting(world_, options.preset, /*authored=*/false); !s) return s;
+    for (std::size_t i = 1; i < characters_.size(); ++i)
+      share_pose_ao(world_, characters_[0].root, world_, characters_[i].root);
     world_.view<IndirectTransport>().each([&](Entity e, IndirectTransport&) { transport_ = e; });
     if (!transport_ || !world_.get<IndirectTransport>(transport_).data)
       return make_error(ErrorCode::Internal, "the maze has no baked indirect transport");
@@ -127,17 +137,26 @@ class LanternMaze final : public sample::Game {
     return camera_.view(characters_[0].position + glm::vec3(0.0f, 1.2f, 0.0f), aspect, obstacles_);
   }
 
-  // What the tests check: where the player and the lantern are, and the direct and indirect
-  // irradiance at the watched wall point (the CPU evaluation of what the renderer shows).
+  // What the tests check: where the player and the lantern are, the direct and indirect
+  // irradiance at the watched wall point, and the bounce light on the last walker's chest (the
+  // mean over four horizontal normals, from the transport's bounce probes): the CPU evaluations of
+  // what the renderer shows.
   void report(std::FILE* out) override {
     const glm::vec3 lantern = world_.get<Transform>(lantern_).translation;
     const glm::vec3 direct = indirect_at(kWatchPoint, kWatchNormal, true);
     const glm::vec3 indirect = indirect_at(kWatchPoint, kWatchNormal, false);
+    glm::vec3 walker(0.0f);
+    const auto* transport = world_.try_get<IndirectTransport>(transport_);
+    const auto* map = world_.try_get<IndirectLightmap>(transport_);
+    if (transport && transport->data && map)
+      for (const glm::vec3 n : {glm::vec3(1, 0, 0), glm::vec3(-1, 0, 0), glm::vec3(0, 0, 1), glm::vec3(0, 0, -1)})
+        walker += 0.25f * sample_bounce_probes(transport->data->probes, map->probes,
+                                               characters_.back().position + glm::vec3(0.0f, 1.2f, 0.0f), n);
     std::fprintf(out, "player_x=%.4f player_z=%.4f lantern_x=%.4f lantern_z=%.4f lantern_distance=%.4f "
-                 "wall_direct=%.5f wall_indirect=%.5f",
+                 "wall_direct=%.5f wall_indirect=%.5f walker_bounce=%.5f",
                  characters_[0].position.x, characters_[0].position.z, lantern.x, lantern.z,
                  glm::length(lantern - kWatchPoint), (direct.r + direct.g + direct.b) / 3.0f,
-                 (indirect.r + indirect.g + indirect.b) / 3.0f);
+                 (indirect.r + indirect.g + indirect.b) / 3.0f, (walker.r + walker.g + walker.b) / 3.0f);
   }
 
  private:

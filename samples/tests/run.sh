@@ -8,7 +8,8 @@
 #                   where it ends rises from nothing to about what it was); the player's pose-AO changes as it walks; the probe grid
 #                   lights the player.
 #   lantern_maze    the lantern stays in the player's hand; the bounce light on the watched wall
-#                   rises at least tenfold from the start to where the lantern comes nearest.
+#                   rises at least tenfold from the start to where the lantern comes nearest; the
+#                   bounce probes light the last of three walkers on every frame.
 # The courtyard's player is ../shared/assets/CesiumMan.glb when present (else the built-in walker,
 # and the test says so). Bad input is checked too: a missing character file fails naming it.
 set -euo pipefail
@@ -53,7 +54,7 @@ check "$hi - $lo > 0.005" "the player's pose-AO changes with its pose"
 check "$(value $r 50 probe_irradiance) > 0" "the probe grid lights the player"
 
 # --- lantern_maze ---
-"$scratch/build/lantern_maze" --headless --validation --autoplay --frames 300 --width 320 --height 180 \
+"$scratch/build/lantern_maze" --headless --validation --autoplay --frames 300 --width 320 --height 180 --characters 3 \
   --screenshot "$scratch/maze.png" --report "$scratch/maze.txt" | grep -v "^  baking:"
 test -s "$scratch/maze.png" || fail "lantern_maze wrote no screenshot"
 r=$scratch/maze.txt
@@ -68,6 +69,9 @@ awk '{ split($2, px, "="); split($3, pz, "="); split($4, lx, "="); split($5, lz,
        if ((px[2] - lx[2])^2 + (pz[2] - lz[2])^2 > 0.36) { print "frame", NR - 1, "lantern off the hand"; exit 1 } }' $r \
   || fail "the lantern left the player's hand"
 echo "ok: the lantern stays within 0.6 m of the player"
+awk '{ split($9, b, "="); if (!(b[2] + 0 > 0)) { print "frame", NR - 1, "no bounce on the walker"; exit 1 } }' $r \
+  || fail "the bounce probes left the last walker unlit"
+echo "ok: the lantern's bounce light reaches the last walker on every frame"
 
 # --- the new user's path: a glTF character lit in the editor, saved, checked, baked, rendered, played ---
 # The editor gives a skinned mesh pose-AO when it opens the file (its settings are set here); the
