@@ -50,7 +50,7 @@ std::uint64_t TransportData::bytes() const {
   for (const TransportPatch& p : patches) n += sizeof(p) + p.key.capacity() + p.coverage.capacity() * sizeof(float);
   n += probes.open.capacity() + probes.reach.capacity() * sizeof(probes.reach[0]) +
        probes.begin.capacity() * sizeof(std::uint32_t) +
-       probes.entries.capacity() * sizeof(ProbeTransfer);
+       probes.entries.capacity() * sizeof(BounceProbeEntry);
   return n;
 }
 
@@ -109,7 +109,7 @@ std::uint32_t TransportData::cell_count() const {
   return n;
 }
 
-void probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
+void bounce_probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
                       std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes, TaskScheduler* scheduler) {
   // The cells' mean radiance: albedo / pi x the coverage-weighted mean irradiance of their leaves.
   std::vector<glm::vec3> radiance;
@@ -126,7 +126,8 @@ void probe_irradiance(const TransportData& data, std::span<const glm::vec3> dire
         weight[cell] += p.coverage[leaf];
       }
     for (std::size_t c = 0; c < sum.size(); ++c)
-      radiance.push_back(weight[c] > 0.0f ? p.albedo / std::numbers::pi_v<float> * sum[c] / weight[c] : glm::vec3(0.0f));
+      radiance.push_back(weight[c] > 0.0f ? p.albedo / std::numbers::pi_v<float> * sum[c] / weight[c]
+                                          : glm::vec3(0.0f));
   }
   // Each probe: sum over its entries of w_a L_cell.
   const TransportProbes& probes = data.probes;
@@ -135,7 +136,7 @@ void probe_irradiance(const TransportData& data, std::span<const glm::vec3> dire
     for (std::size_t node = begin; node < end; ++node) {
       std::array<glm::vec3, 6> e{};
       for (std::uint32_t k = probes.begin[node]; k < probes.begin[node + 1]; ++k) {
-        const ProbeTransfer& t = probes.entries[k];
+        const BounceProbeEntry& t = probes.entries[k];
         const glm::vec3 l = radiance[t.cell];
         for (std::size_t a = 0; a < 6; ++a) e[a] += t.weight[a] * l;
       }
@@ -169,8 +170,10 @@ glm::vec3 sample_bounce_probes(const TransportProbes& probes, std::span<const gl
       if (guard) {
         const glm::vec3 d = g - glm::vec3(c);  // from the node to the point, in spacings
         bool reached = true;
-        for (int a = 0; a < 3; ++a)
-          reached = reached && std::abs(d[a]) <= probes.reach[node][static_cast<std::size_t>(2 * a + (d[a] < 0.0f ? 1 : 0))];
+        for (int a = 0; a < 3; ++a) {
+          const auto way = static_cast<std::size_t>(2 * a + (d[a] < 0.0f ? 1 : 0));
+          reached = reached && std::abs(d[a]) <= probes.reach[node][way];
+        }
         if (!reached) continue;
       }
       const glm::vec3* cube = cubes.data() + 6 * node;

@@ -508,7 +508,7 @@ std::vector<TransportLink> refine_receiver(const RayScene& scene, const std::vec
 // ---------------------------------------------------------------------------------------------
 // Bounce probes.
 
-TransportProbes probe_grid(const std::vector<TransportPatch>& patches, float spacing) {
+TransportProbes bounce_probe_grid(const std::vector<TransportPatch>& patches, float spacing) {
   TransportProbes probes;
   Aabb bounds;
   for (const TransportPatch& p : patches)
@@ -527,10 +527,10 @@ TransportProbes probe_grid(const std::vector<TransportPatch>& patches, float spa
   return probes;
 }
 
-ProbeSight trace_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
+BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
                        const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of, glm::vec3 at,
                        float spacing, std::uint32_t rays, std::uint64_t seed, std::uint64_t node) {
-  ProbeSight sight;
+  BounceProbeSight sight;
   for (int a = 0; a < 6; ++a) {
     glm::vec3 dir(0.0f);
     dir[a / 2] = a % 2 == 0 ? 1.0f : -1.0f;
@@ -580,7 +580,8 @@ ProbeSight trace_probe(const RayScene& scene, const std::vector<TransportPatch>&
     };
     const std::uint32_t ci = cell_of(glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u));
     const std::uint32_t cj = cell_of(glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v));
-    std::array<float, 6>& w = seen.try_emplace(first_cell[static_cast<std::size_t>(best)] + ci + cj * cells).first->second;
+    const std::uint32_t cell = first_cell[static_cast<std::size_t>(best)] + ci + cj * cells;
+    std::array<float, 6>& w = seen.try_emplace(cell).first->second;
     for (int a = 0; a < 3; ++a) {
       w[static_cast<std::size_t>(2 * a)] += solid_angle * std::max(0.0f, dir[a]);
       w[static_cast<std::size_t>(2 * a + 1)] += solid_angle * std::max(0.0f, -dir[a]);
@@ -997,7 +998,7 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
   const Header h{settings.refinement_threshold, settings.bounce_tolerance, settings.drop_threshold,
                  settings.finest_level, settings.max_bounces, in.settings.seed, in.settings.memory_limit_bytes};
   auto shared = std::make_shared<std::vector<TransportPatch>>(std::move(*patches));
-  auto grid = std::make_shared<const TransportProbes>(probe_grid(*shared, settings.probe_spacing));
+  auto grid = std::make_shared<const TransportProbes>(bounce_probe_grid(*shared, settings.probe_spacing));
   auto patches_of = std::make_shared<const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>>(
       patches_by_entity(in.world, *shared));
   // Elements: the receiver patches (their links), then the bounce probes (what each saw).
@@ -1010,7 +1011,7 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
     const std::uint64_t probe_begin = std::max<std::uint64_t>(begin, shared->size());
     const std::size_t probe_count = end > probe_begin ? static_cast<std::size_t>(end - probe_begin) : 0;
     std::vector<std::vector<TransportLink>> links(count);
-    std::vector<ProbeSight> sights(probe_count);
+    std::vector<BounceProbeSight> sights(probe_count);
     jobs.begin_stage("transport links and probes", count + probe_count);
     PENUMBRA_TRY(jobs.parallel_for(count, 1, [&](std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
@@ -1025,18 +1026,18 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
       for (std::size_t i = b; i < e; ++i) {
         const std::uint64_t node = probe_begin + i - shared->size();
         const glm::vec3 ijk(float(node % n.x), float(node / n.x % n.y), float(node / n.x / n.y));
-        sights[i] = trace_probe(in.rays, *shared, *patches_of, grid->origin + grid->spacing * ijk, grid->spacing,
+        sights[i] = trace_bounce_probe(in.rays, *shared, *patches_of, grid->origin + grid->spacing * ijk, grid->spacing,
                                 kBounceProbeRays, h.seed, node);
         jobs.advance(1);
       }
     }));
     std::uint64_t total = 0;
     for (const auto& l : links) total += l.size() * sizeof(TransportLink);
-    for (const ProbeSight& sight : sights) total += sight.entries.size() * sizeof(ProbeTransfer);
+    for (const BounceProbeSight& sight : sights) total += sight.entries.size() * sizeof(BounceProbeEntry);
     PENUMBRA_TRY(in.budget.reserve("transport links and probes", total));
     ByteWriter out;
     for (const auto& l : links) out.write_vector(l);
-    for (const ProbeSight& sight : sights) {
+    for (const BounceProbeSight& sight : sights) {
       out.write(static_cast<std::uint8_t>(sight.open ? 1 : 0));
       out.write_vector(sight.entries);
       out.write(sight.reach);
@@ -1072,10 +1073,10 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
     probes.entries.clear();
     for (std::size_t node = 0; node < probes.nodes(); ++node) {
       std::uint8_t open = 0;
-      std::vector<ProbeTransfer> entries;
+      std::vector<BounceProbeEntry> entries;
       PENUMBRA_TRY(r.read(open));
       PENUMBRA_TRY(r.read_vector(entries));
-      for (const ProbeTransfer& t : entries)
+      for (const BounceProbeEntry& t : entries)
         if (open > 1 || t.cell >= cells || !std::all_of(t.weight.begin(), t.weight.end(), [](float w) {
               return w >= 0.0f && w <= 4.0f * kPi;
             }))

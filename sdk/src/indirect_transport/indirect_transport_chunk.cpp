@@ -136,7 +136,7 @@ Result<TransportChunk> read_transport_chunk(const BakeChunk& chunk) {
       return bad("bounce probe " + std::to_string(n) +
                  " has a bad flag, a reach outside [0, 1] or entries that end before they begin");
     for (std::uint32_t k = probes.begin[n]; k < probes.begin[n + 1]; ++k) {
-      const ProbeTransfer& t = probes.entries[k];
+      const BounceProbeEntry& t = probes.entries[k];
       bool ok = t.cell < cells;
       for (float w : t.weight) ok = ok && w >= 0.0f && w <= 4.0f * std::numbers::pi_v<float>;
       if (!ok) return bad("bounce probe " + std::to_string(n) + " has an entry with a cell out of range or a weight "

@@ -24,7 +24,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     apply_transport(read->data, direct, indirect);
     const TransportProbes& probes = read->data.probes;
     std::vector<glm::vec3> cubes(6 * probes.nodes());
-    probe_irradiance(read->data, direct, indirect, cubes);
+    bounce_probe_irradiance(read->data, direct, indirect, cubes);
     (void)sample_bounce_probes(probes, cubes, probes.origin + 1.5f * probes.spacing, glm::vec3(0.0f, -1.0f, 0.0f));
   }
   return 0;

@@ -307,7 +307,7 @@ Result<bool> update_indirect_transport(World& world) {
   direct_irradiance(*data, *lights, state.occluders.get(), map.direct, state.pool.get());
   map.kept_coefficients = apply_transport(*data, map.direct, map.irradiance, 1e-4f, state.pool.get()).kept;
   map.probes.resize(6 * data->probes.nodes());
-  probe_irradiance(*data, map.direct, map.irradiance, map.probes, state.pool.get());
+  bounce_probe_irradiance(*data, map.direct, map.irradiance, map.probes, state.pool.get());
   map.updated_tick = world.tick();
   return true;
 }
@@ -430,7 +430,7 @@ std::vector<std::string> describe_transport(const BakeChunk& chunk) {
   std::snprintf(line, sizeof line,
                 "bounce probes (moving objects): %ux%ux%u every %.3g m, %zu open, %zu cells seen (%.3g MB), %u rays each",
                 probes.count.x, probes.count.y, probes.count.z, static_cast<double>(probes.spacing), open,
-                probes.entries.size(), double(probes.entries.size() * sizeof(ProbeTransfer)) / 1e6, probes.rays);
+                probes.entries.size(), double(probes.entries.size() * sizeof(BounceProbeEntry)) / 1e6, probes.rays);
   out.emplace_back(line);
   return out;
 }

@@ -225,7 +225,7 @@ std::array<glm::vec3, 6> probe_cube_of_uniform(const TransportData& data, std::s
     for (std::uint32_t k = 0; k < p.leaves(); ++k)
       if (p.coverage[k] > 0.0f) direct[p.first + k] = glm::vec3(1.0f);
   std::vector<glm::vec3> cubes(6 * data.probes.nodes());
-  probe_irradiance(data, direct, indirect, cubes);
+  bounce_probe_irradiance(data, direct, indirect, cubes);
   std::array<glm::vec3, 6> out;
   std::copy(cubes.begin() + std::ptrdiff_t(6 * node), cubes.begin() + std::ptrdiff_t(6 * node + 6), out.begin());
   return out;
@@ -270,7 +270,7 @@ TEST(IndirectTransportProbes, InsideAClosedBoxEveryDirectionSeesPiL) {
   // reaches, falls back to the open probes around it.
   std::vector<glm::vec3> direct(data->leaf_count(), glm::vec3(1.0f)), indirect(data->leaf_count(), glm::vec3(0.0f));
   std::vector<glm::vec3> cubes(6 * probes.nodes());
-  probe_irradiance(*data, direct, indirect, cubes);
+  bounce_probe_irradiance(*data, direct, indirect, cubes);
   EXPECT_NEAR(sample_bounce_probes(probes, cubes, {0.5f, 0.5f, 0.5f}, {0, 0, 1}).y, rho, 0.02 * rho);
   EXPECT_NEAR(sample_bounce_probes(probes, cubes, {0.3f, 0.2f, 0.7f}, glm::normalize(glm::vec3(1, -1, 1))).y, rho,
               0.02 * rho);
@@ -311,7 +311,7 @@ TEST(IndirectTransportProbes, AProbeOverALitSquareSeesItsClosedFormFactor) {
   // A face looking down at the probe's point, half a spacing below it, reads the probe.
   std::vector<glm::vec3> direct(data->leaf_count(), glm::vec3(1.0f)), indirect(data->leaf_count(), glm::vec3(0.0f));
   std::vector<glm::vec3> cubes(6 * probes.nodes());
-  probe_irradiance(*data, direct, indirect, cubes);
+  bounce_probe_irradiance(*data, direct, indirect, cubes);
   const glm::vec3 at = probes.origin + s * glm::vec3(2.0f, 1.0f, 2.0f) + glm::vec3(0.0f, kBounceProbeOffset * s, 0.0f);
   EXPECT_NEAR(sample_bounce_probes(probes, cubes, at, {0, -1, 0}).x, cube[3].x, 1e-5f);
   // The same square seen from both sides: the probe under it is open but sees nothing (a patch
@@ -328,13 +328,13 @@ TEST(IndirectTransportProbes, AProbeOverALitSquareSeesItsClosedFormFactor) {
   EXPECT_EQ(both->probes.begin[below + 1], both->probes.begin[below]);
   EXPECT_NEAR(both->probes.reach[below][2], 0.5f, 1e-4f);  // the floor half a spacing above it
   std::vector<glm::vec3> cubes2(6 * both->probes.nodes());
-  probe_irradiance(*both, direct, indirect, cubes2);
+  bounce_probe_irradiance(*both, direct, indirect, cubes2);
   const glm::vec3 low = sample_bounce_probes(both->probes, cubes2, {1.0f, 0.02f, 1.0f}, {1, 0, 0});
   const glm::vec3 high = sample_bounce_probes(both->probes, cubes2, {1.0f, 0.3f, 1.0f}, {1, 0, 0});
   EXPECT_GT(low.x, 0.0f);
   EXPECT_NEAR(low.x, high.x, 1e-6f);  // both read the probes above the floor only
   // The grid never exceeds its node budget, whatever the spacing asked.
-  const TransportProbes fine = probe_grid(data->patches, 1e-6f);
+  const TransportProbes fine = bounce_probe_grid(data->patches, 1e-6f);
   EXPECT_LE(fine.nodes(), kMaxBounceProbes);
   EXPECT_GT(fine.nodes(), kMaxBounceProbes / 4);
 }

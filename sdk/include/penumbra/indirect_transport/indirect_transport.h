@@ -65,8 +65,8 @@ struct IndirectTransport {
   float drop_threshold = 1e-4f;
   // A directional (glossy) part per patch: not implemented; a bake with it on fails Unsupported.
   bool glossy = false;
-  // Metres between bounce probes (TransportProbes); 0: kBounceProbeSpacingFraction x the diagonal of the
-  // receivers' bounds (scale-free), raised where the grid would exceed kMaxBounceProbes.
+  // Metres between bounce probes (TransportProbes); 0: kBounceProbeSpacingFraction x the diagonal
+  // of the receivers' bounds (scale-free), raised where the grid would exceed kMaxBounceProbes.
   float probe_spacing = 0.0f;
 
   std::shared_ptr<const TransportData> data;  // set by the baker or attach_bake(); null until baked
@@ -125,17 +125,17 @@ struct SparseTransport {
 
 // Bounce probes: the patches' light at the nodes of a regular grid over the receivers' bounds, for
 // the surfaces the lightmap does not cover. A probe sees the patches' cells (per patch, the
-// quadtree nodes of level min(level, kBounceProbeCellLevel)) through the directions its bake rays found
-// them in; an entry's weight towards axis direction a (+x, -x, +y, -y, +z, -z) is
+// quadtree nodes of level min(level, kBounceProbeCellLevel)) through the directions its bake rays
+// found them in; an entry's weight towards axis direction a (+x, -x, +y, -y, +z, -z) is
 // w_a = (4 pi / rays) x sum over the rays that hit the cell's front of max(0, dot(ray, a)), so the
 // probe's irradiance towards a is sum w_a L_cell, L_cell the cell's mean radiance (albedo / pi x
 // its direct plus indirect irradiance): exact up to the ray sampling. A probe whose rays meet the
-// inside of a closed solid (the back of a single-sided surface) on more than kBounceProbeClosedFraction
-// of them is closed: it holds no entries and lookups skip it. Each probe also keeps its reach
-// towards the six axis directions: the free fraction (0..1) of the step to its neighbour, up to
-// the first surface; a lookup skips a probe the point lies beyond a surface from (below a floor,
-// behind a wall), as the probe grid's leak guard does.
-struct ProbeTransfer {
+// inside of a closed solid (the back of a single-sided surface) on more than
+// kBounceProbeClosedFraction of them is closed: it holds no entries and lookups skip it. Each probe
+// also keeps its reach towards the six axis directions: the free fraction (0..1) of the step to its
+// neighbour, up to the first surface; a lookup skips a probe the point lies beyond a surface from
+// (below a floor, behind a wall), as the probe grid's leak guard does.
+struct BounceProbeEntry {
   std::uint32_t cell = 0;
   std::array<float, 6> weight{};
 };
@@ -149,7 +149,7 @@ struct TransportProbes {
   std::vector<std::uint8_t> open;    // per node (x fastest, then y, then z): 1 open, 0 closed
   std::vector<std::array<float, 6>> reach;  // per node, towards +x, -x, +y, -y, +z, -z
   std::vector<std::uint32_t> begin;  // node n's entries: [begin[n], begin[n + 1]); nodes() + 1 values
-  std::vector<ProbeTransfer> entries;
+  std::vector<BounceProbeEntry> entries;
 
   std::size_t nodes() const { return std::size_t{count.x} * count.y * count.z; }
 };
@@ -218,7 +218,7 @@ int transport_patch_at(const TransportData& data, glm::vec3 x, glm::vec3 n);
 // Preconditions: direct and indirect have data.leaf_count() entries, cubes 6 x probes.nodes().
 // Probes run on `scheduler` when given (null: the calling thread), with the same bits at any
 // thread count. Cost: O(leaves + probe entries); the maze's default bake, 0.18 M entries.
-void probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
+void bounce_probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
                       std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes,
                       TaskScheduler* scheduler = nullptr);
 
@@ -227,7 +227,8 @@ void probe_irradiance(const TransportData& data, std::span<const glm::vec3> dire
 // grid's edge nodes beyond its bounds) over the open ones that reach it (its offset from the node
 // along each axis within the node's reach that way; when none does, over the open ones), each
 // node's six irradiances blended by the squares of n's components (an ambient cube: exact for
-// normals along the axes). 0 when no open node is around. The renderer's lookup is this one in GLSL (shaders/indirect_transport.glsl).
+// normals along the axes). 0 when no open node is around. The renderer's lookup is this one in
+// GLSL (shaders/indirect_transport.glsl).
 // Precondition: cubes has 6 x probes.nodes() entries. Cost: O(1).
 glm::vec3 sample_bounce_probes(const TransportProbes& probes, std::span<const glm::vec3> cubes, glm::vec3 x,
                                glm::vec3 n);

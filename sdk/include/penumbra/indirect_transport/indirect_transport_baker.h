@@ -15,9 +15,10 @@
 // (by area; the other at the finest level) is split into its four children. An accepted link
 // keeps the mean: the transfer from the sender node's mean irradiance to the receiver node's.
 //
-// Bounce probes: a grid over the receivers' bounds; each node traces kBounceProbeRays rays and keeps, per
-// patch cell it saw, the solid-angle weights that turn the cells' radiance into its irradiance
-// towards the six axis directions (TransportProbes). Nodes are baked as elements after the patches.
+// Bounce probes: a grid over the receivers' bounds; each node traces kBounceProbeRays rays and
+// keeps, per patch cell it saw, the solid-angle weights that turn the cells' radiance into its
+// irradiance towards the six axis directions (TransportProbes). Nodes are baked as elements after
+// the patches.
 //
 // Standard decomposition: each link (receiver node r, sender node s) is the rank-one operator
 // F rho_s 1_r 1_s^T / n_s on leaf values, projected onto the receivers' and senders' orthonormal
@@ -89,10 +90,10 @@ Result<NeumannResult> neumann_series(const SparseTransport& direct, float tolera
                                      float drop_threshold, std::uint64_t memory_limit, JobContext& jobs);
 
 // The bounce probes' grid (TransportProbes without entries) over the patches' bounds, with half a
-// spacing to spare on every side: spacing `spacing` metres (0: kBounceProbeSpacingFraction x the bounds'
-// diagonal), raised by steps of 1.25x until the grid has at most kMaxBounceProbes nodes. No patches
-// or no finite size: an empty grid. O(patches).
-TransportProbes probe_grid(const std::vector<TransportPatch>& patches, float spacing);
+// spacing to spare on every side: spacing `spacing` metres (0: kBounceProbeSpacingFraction x the
+// bounds' diagonal), raised by steps of 1.25x until the grid has at most kMaxBounceProbes nodes. No
+// patches or no finite size: an empty grid. O(patches).
+TransportProbes bounce_probe_grid(const std::vector<TransportPatch>& patches, float spacing);
 
 // What one bounce probe saw: `rays` directions (scrambled Sobol points on the sphere, from `seed`
 // and the node's index) traced from `at` through `scene`; each hit on the front of a patch (found
@@ -100,12 +101,12 @@ TransportProbes probe_grid(const std::vector<TransportPatch>& patches, float spa
 // cell's weights (TransportProbes), hits on the back of single-sided surfaces count as inside a
 // solid. Entries in cell order. Its reach: one ray along each axis direction, up to `spacing`.
 // Thread-safe, deterministic.
-struct ProbeSight {
+struct BounceProbeSight {
   bool open = true;
   std::array<float, 6> reach{};
-  std::vector<ProbeTransfer> entries;
+  std::vector<BounceProbeEntry> entries;
 };
-ProbeSight trace_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
+BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
                        const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of, glm::vec3 at,
                        float spacing, std::uint32_t rays, std::uint64_t seed, std::uint64_t node);
 
