@@ -528,8 +528,9 @@ TransportProbes bounce_probe_grid(const std::vector<TransportPatch>& patches, fl
 }
 
 BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
-                       const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of, glm::vec3 at,
-                       float spacing, std::uint32_t rays, std::uint64_t seed, std::uint64_t node) {
+                                    const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of,
+                                    glm::vec3 at, float spacing, std::uint32_t rays, std::uint64_t seed,
+                                    std::uint64_t node) {
   BounceProbeSight sight;
   for (int a = 0; a < 6; ++a) {
     glm::vec3 dir(0.0f);
@@ -1026,8 +1027,8 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
       for (std::size_t i = b; i < e; ++i) {
         const std::uint64_t node = probe_begin + i - shared->size();
         const glm::vec3 ijk(float(node % n.x), float(node / n.x % n.y), float(node / n.x / n.y));
-        sights[i] = trace_bounce_probe(in.rays, *shared, *patches_of, grid->origin + grid->spacing * ijk, grid->spacing,
-                                kBounceProbeRays, h.seed, node);
+        sights[i] = trace_bounce_probe(in.rays, *shared, *patches_of, grid->origin + grid->spacing * ijk,
+                                       grid->spacing, kBounceProbeRays, h.seed, node);
         jobs.advance(1);
       }
     }));
@@ -1076,17 +1077,15 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
       std::vector<BounceProbeEntry> entries;
       PENUMBRA_TRY(r.read(open));
       PENUMBRA_TRY(r.read_vector(entries));
-      for (const BounceProbeEntry& t : entries)
-        if (open > 1 || t.cell >= cells || !std::all_of(t.weight.begin(), t.weight.end(), [](float w) {
-              return w >= 0.0f && w <= 4.0f * kPi;
-            }))
-          return make_error(ErrorCode::InvalidInput, context + " results: bounce probe " + std::to_string(node) +
-                                                         " is out of range; re-bake the part");
       PENUMBRA_TRY(r.read(probes.reach[node]));
-      if (!std::all_of(probes.reach[node].begin(), probes.reach[node].end(),
-                       [](float f) { return f >= 0.0f && f <= 1.0f; }))
+      bool ok = open <= 1;
+      for (const BounceProbeEntry& t : entries)
+        ok = ok && t.cell < cells &&
+             std::all_of(t.weight.begin(), t.weight.end(), [](float w) { return w >= 0.0f && w <= 4.0f * kPi; });
+      for (const float f : probes.reach[node]) ok = ok && f >= 0.0f && f <= 1.0f;
+      if (!ok)
         return make_error(ErrorCode::InvalidInput, context + " results: bounce probe " + std::to_string(node) +
-                                                       " has a reach outside [0, 1]; re-bake the part");
+                                                       " has a value out of range; re-bake the part");
       probes.open[node] = open;
       probes.begin[node] = static_cast<std::uint32_t>(probes.entries.size());
       probes.entries.insert(probes.entries.end(), entries.begin(), entries.end());

@@ -107,8 +107,9 @@ struct BounceProbeSight {
   std::vector<BounceProbeEntry> entries;
 };
 BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
-                       const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of, glm::vec3 at,
-                       float spacing, std::uint32_t rays, std::uint64_t seed, std::uint64_t node);
+                                    const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of,
+                                    glm::vec3 at, float spacing, std::uint32_t rays, std::uint64_t seed,
+                                    std::uint64_t node);
 
 // Adds the "indirect-transport" baker to world.resource<BakerRegistry>() (penumbra/bake/baker.h).
 void register_indirect_transport_baker(World& world);
