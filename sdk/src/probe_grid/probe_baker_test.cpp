@@ -405,13 +405,14 @@ TEST(ProbeBaker, ANoiseTargetTracesMoreRaysWhereTheNodesAreNoisy) {
   EXPECT_EQ(met->coefficients, plain_data.coefficients);
 }
 
-// The leak into the Cornell box's short block: its front, in the block's own shadow, came out 1.5x
-// the reference. The scene's default grid (medium cells, fitted, leak guard) at 8 x 16 rays per
-// node and no noise target, against the path-traced indirect irradiance at 20 points of the front:
-// a moving receiver's lookup (the reach alone, which blends in the nodes inside the turned block)
-// still shows the leak, 1.50x; a static receiver's does not, up to this small bake's own noise
-// (1.07x here, 1.16x at 32 samples; the medium preset's noise target takes the front to 1.02x in
-// penumbra bench image-accuracy, a bake too slow for a unit test).
+// The Cornell box's short block: its front looks out of the box's open side, and both blocks are
+// turned about the vertical, so nodes inside the block stay open to the leak guard's axis-aligned
+// reach. The default grid baked at 8 samples a node and no noise target, against the path-traced
+// indirect irradiance at 20 points of the front (16384 paths each; the mean's relative standard
+// error 0.54 %): a moving receiver's lookup (the reach alone, which blends in the nodes inside the
+// turned block) still shows the leak, 1.44x; a static receiver's does not, 1.029x. (The medium
+// preset's bake, 20 s here, gives about 1.05x at these points and 1.022x over the face's pixels in
+// penumbra bench image-accuracy: the grid's own error, not the leak.)
 TEST(ProbeBaker, TheShortBlocksFrontTakesNoLightFromInsideTheBlock) {
   World w;
   auto scene = builtin_ray_scene(w, "cornell");
@@ -428,24 +429,29 @@ TEST(ProbeBaker, TheShortBlocksFrontTakesNoLightFromInsideTheBlock) {
   const glm::vec3 n = glm::normalize(glm::vec3(0.049f, 0.0f, -0.160f));
   IrradianceSettings reference;
   reference.reference = true;
-  reference.samples = 256;
+  reference.samples = 16384;
   reference.content = LightingContent::Indirect;
   const auto lights = gather_lights(w);
-  double ref = 0.0, fixed = 0.0, moving = 0.0;
+  double ref = 0.0, ref_var = 0.0, fixed = 0.0, moving = 0.0;
+  const auto mean = [](glm::vec3 e) { return (double(e.x) + e.y + e.z) / 3.0; };
   for (int i = 0; i < 5; ++i)
     for (int j = 0; j < 4; ++j) {
       const float u = 0.1f + 0.8f * float(i) / 4.0f, v = 0.1f + 0.8f * float(j) / 3.0f;
       const glm::vec3 x = glm::mix(a, b, u) + glm::vec3(0.0f, 0.165f * v, 0.0f) + 1e-4f * n;
       Rng rng = Rng::stream(5, std::uint64_t(i * 4 + j));
-      const auto mean = [](glm::vec3 e) { return (double(e.x) + e.y + e.z) / 3.0; };
-      ref += mean(irradiance(*scene, lights, x, n, reference, rng).value);
+      const Estimate e = irradiance(*scene, lights, x, n, reference, rng);
+      ref += mean(e.value);
+      ref_var += mean(e.std_error) * mean(e.std_error);
       fixed += mean(evaluate(*data, x, n, ProbeReceiver::Static));
       moving += mean(evaluate(*data, x, n, ProbeReceiver::Moving));
     }
+  const double ref_stderr = std::sqrt(ref_var) / ref;
   RecordProperty("static_ratio", std::to_string(fixed / ref));
   RecordProperty("moving_ratio", std::to_string(moving / ref));
-  EXPECT_NEAR(fixed / ref, 1.0, 0.1) << "moving " << moving / ref;
-  EXPECT_GT(moving / ref, 1.4) << "the test no longer sees the leak it guards against";
+  RecordProperty("reference_relative_stderr", std::to_string(ref_stderr));
+  ASSERT_LT(ref_stderr, 0.01) << "the reference is too noisy to judge 5 %";
+  EXPECT_NEAR(fixed / ref, 1.0, 0.05) << "moving " << moving / ref;
+  EXPECT_GT(moving / ref, 1.3) << "the test no longer sees the leak it guards against";
 }
 
 // --- Geometry swallowing the grid ----------------------------------------------------------------
