@@ -14,9 +14,14 @@
 // then the same Neumann series): the approach the paper improves on. precompute_s: wall time of
 // the bake; bytes: the global operator; peak_bytes: the largest operator held during the bake.
 // update_ms: direct light at the texels plus the sparse product after a light move (median).
+// Method `bounce probes` (the probes' spacing in the threshold column, metres): the probes' light
+// at free points of the maze, where moving objects stand (1.0-1.8 m high, no surface within
+// 0.3 m along the axes), with each of the six axis normals, against irradiance() there (content
+// Indirect, reference mode); bytes are the probes', update_ms their share of the update.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -137,6 +142,75 @@ Error error_against(World& world, Entity lantern, const std::vector<glm::vec3>& 
 }
 
 double net(const Error& e) { return std::sqrt(std::max(0.0, e.rel_rmse * e.rel_rmse - e.ref_stderr * e.ref_stderr)); }
+
+// Free points of the maze (see the header), from a fixed seed, within the patches' bounds.
+std::vector<glm::vec3> free_points(const RayScene& rays, const TransportData& data, std::size_t count) {
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const TransportPatch& p : data.patches)
+    for (const glm::vec3 c : {p.origin, p.origin + p.edge_u + p.edge_v}) {
+      lo = glm::min(lo, c);
+      hi = glm::max(hi, c);
+    }
+  std::vector<glm::vec3> out;
+  Rng rng = Rng::stream(23, count);
+  for (std::size_t tries = 0; out.size() < count && tries < 100 * count; ++tries) {
+    const glm::vec3 x(glm::mix(lo.x, hi.x, rng.next_float()), 1.0f + 0.8f * rng.next_float(),
+                      glm::mix(lo.z, hi.z, rng.next_float()));
+    bool clear = true;
+    for (int a = 0; a < 6 && clear; ++a) {
+      glm::vec3 d(0.0f);
+      d[a / 2] = a % 2 == 0 ? 1.0f : -1.0f;
+      clear = !rays.occluded(Ray{x, 0.0f, d, 0.3f});
+    }
+    if (clear) out.push_back(x);
+  }
+  return out;
+}
+
+// The probes' error at `points` x six normals x the light positions, against irradiance() there.
+Result<Error> probe_error(World& world, Entity lantern, const std::vector<glm::vec3>& positions,
+                          const TransportData& data, const std::vector<glm::vec3>& points, std::uint32_t samples,
+                          JobContext& jobs) {
+  double diff = 0.0, norm = 0.0, var = 0.0;
+  std::vector<glm::vec3> direct(data.leaf_count()), indirect(data.leaf_count()), cubes(6 * data.probes.nodes());
+  const TransportOccluders occluders = TransportOccluders::build(world);
+  for (const glm::vec3& position : positions) {
+    world.patch<Transform>(lantern).translation = position;
+    update_world_transforms(world);
+    auto lights = dynamic_lights(world);
+    if (!lights) return lights.error();
+    direct_irradiance(data, *lights, &occluders, direct);
+    apply_transport(data, direct, indirect);
+    bounce_probe_irradiance(data, direct, indirect, cubes);
+    auto rays = RayScene::build(world, RaySceneOptions{.include_dynamic = false});  // what the probes model
+    if (!rays) return rays.error();
+    const std::vector<WorldLight> world_lights = gather_lights(world);
+    IrradianceSettings s;
+    s.samples = samples;
+    s.content = LightingContent::Indirect;
+    s.reference = true;
+    std::vector<Estimate> ref(6 * points.size());
+    PENUMBRA_TRY(jobs.parallel_for(ref.size(), 6, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t k = begin; k < end; ++k) {
+        glm::vec3 n(0.0f);
+        n[int(k % 6) / 2] = k % 2 == 0 ? 1.0f : -1.0f;
+        Rng rng = Rng::stream(29, k);
+        ref[k] = irradiance(*rays, world_lights, points[k / 6], n, s, rng);
+      }
+    }));
+    for (std::size_t k = 0; k < ref.size(); ++k) {
+      glm::vec3 n(0.0f);
+      n[int(k % 6) / 2] = k % 2 == 0 ? 1.0f : -1.0f;
+      const glm::dvec3 r(ref[k].value), se(ref[k].std_error);
+      const glm::dvec3 d = glm::dvec3(sample_bounce_probes(data.probes, cubes, points[k / 6], n)) - r;
+      diff += glm::dot(d, d);
+      norm += glm::dot(r, r);
+      var += glm::dot(se, se);
+    }
+  }
+  if (!(norm > 0.0)) return make_error(ErrorCode::Internal, "indirect-transport bench: no bounce light at the free points");
+  return Error{std::sqrt(diff / norm), std::sqrt(var / norm)};
+}
 
 // Median milliseconds of one update after a move, the lantern stepping along between positions:
 // the whole update, and its three parts (direct light at the texels; analysis, product, synthesis;
@@ -296,6 +370,50 @@ Result<Report> run(const Options& options) {
                            fmt(default_split.direct, 3) + " ms, transport " + fmt(default_split.transport, 3) +
                            " ms, bounce probes " + fmt(default_split.probes, 3) +
                            " ms; goal <= 5 ms on 2 cores: " + (default_update <= 5.0 ? "PASS" : "FAIL") + ")");
+  }
+  // The bounce probes' spacing: the default and, in the full run, twice and half of it, on the
+  // medium operator (quick: draft).
+  {
+    IndirectTransport& t = world.patch<IndirectTransport>(owner);
+    const IndirectTransport preset = IndirectTransport::preset(options.quick ? Preset::Draft : Preset::Medium);
+    t.finest_level = preset.finest_level;
+    t.refinement_threshold = preset.refinement_threshold;
+    t.bounce_tolerance = preset.bounce_tolerance;
+    auto rays = RayScene::build(world, RaySceneOptions{.include_dynamic = false});
+    if (!rays) return rays.error();
+    std::vector<std::string> warnings;
+    auto patches = build_transport_patches(world, t, warnings);
+    if (!patches) return patches.error();
+    const float default_spacing = bounce_probe_grid(*patches, 0.0f).spacing;
+    std::vector<glm::vec3> points;
+    const std::vector<float> factors = options.quick ? std::vector<float>{1.0f} : std::vector<float>{2.0f, 1.0f, 0.5f};
+    for (const float factor : factors) {
+      IndirectTransport& settings_now = world.patch<IndirectTransport>(owner);
+      settings_now.probe_spacing = factor == 1.0f ? 0.0f : factor * default_spacing;
+      settings_now.data.reset();
+      BakeSettings settings;
+      settings.seed = 3;
+      const auto start = Clock::now();
+      auto baked = bake_world(world, {"indirect-transport"}, settings, jobs);
+      const double seconds = seconds_since(start);
+      if (!baked) return baked.error();
+      const std::shared_ptr<const TransportData> data = world.get<IndirectTransport>(owner).data;
+      const float spacing = data->probes.spacing;
+      if (points.empty()) points = free_points(*rays, *data, options.quick ? 40 : 200);
+      auto e = probe_error(world, *lantern, positions, *data, points, ref_samples, jobs);
+      if (!e) return e.error();
+      const UpdateTimes times = update_ms(world, *lantern, positions, *data);
+      const double bytes = double(data->probes.entries.size() * sizeof(BounceProbeEntry) +
+                                  data->probes.nodes() * (1 + sizeof(data->probes.reach[0])));
+      report.rows.push_back({"maze", "bounce probes", fmt(spacing), std::to_string(data->finest_level), "", "", "",
+                             std::to_string(data->probes.entries.size()), fmt(seconds), fmt(bytes), fmt(bytes),
+                             fmt(times.probes), fmt(e->rel_rmse), fmt(e->ref_stderr), fmt(net(*e)), "bounce probes"});
+      if (factor == 1.0f)
+        report.notes.push_back("bounce probes at the default spacing (" + fmt(spacing, 3) + " m): net relative RMSE " +
+                               fmt(net(*e), 3) + " at " + std::to_string(points.size()) +
+                               " free points x 6 normals against the path tracer (" + std::to_string(ref_samples) +
+                               " paths each, the reference's relative error " + fmt(e->ref_stderr, 3) + ")");
+    }
   }
   report.notes.push_back("glossy transport: not implemented (the baker refuses glossy = true); no glossy figures");
   report.plot = {"Indirect transport on the maze: error against operator size", "global operator bytes",
