@@ -48,10 +48,7 @@ std::uint32_t TransportData::leaf_count() const {
 std::uint64_t TransportData::bytes() const {
   std::uint64_t n = sizeof(*this) + global.bytes();
   for (const TransportPatch& p : patches) n += sizeof(p) + p.key.capacity() + p.coverage.capacity() * sizeof(float);
-  n += probes.open.capacity() + probes.reach.capacity() * sizeof(probes.reach[0]) +
-       probes.begin.capacity() * sizeof(std::uint32_t) +
-       probes.entries.capacity() * sizeof(BounceProbeEntry);
-  return n;
+  return n + probes.bytes();
 }
 
 float patch_plane_tolerance(const TransportPatch& p) {
@@ -103,29 +100,51 @@ glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const 
   return found >= 0 ? lightmap_at(data.patches[static_cast<std::size_t>(found)], irradiance, x) : glm::vec3(0.0f);
 }
 
-std::uint32_t TransportData::cell_count() const {
-  std::uint32_t n = 0;
-  for (const TransportPatch& p : patches) n += 1u << (2 * std::min(p.level, kBounceProbeCellLevel));
-  return n;
+std::uint64_t TransportProbes::bytes() const {
+  return open.capacity() + reach.capacity() * sizeof(reach[0]) + begin.capacity() * sizeof(std::uint32_t) +
+         entries.capacity() * sizeof(BounceProbeEntry);
 }
 
+bool bounce_probe_in_range(std::uint8_t open, const std::array<float, 6>& reach,
+                           std::span<const BounceProbeEntry> entries, std::uint32_t cells) {
+  bool ok = open <= 1;
+  for (const float f : reach) ok = ok && f >= 0.0f && f <= 1.0f;
+  for (const BounceProbeEntry& e : entries) {
+    ok = ok && e.cell < cells;
+    for (const float w : e.weight) ok = ok && w >= 0.0f && w <= 4.0f * std::numbers::pi_v<float>;
+  }
+  return ok;
+}
+
+std::vector<std::uint32_t> bounce_probe_cell_offsets(std::span<const TransportPatch> patches) {
+  std::vector<std::uint32_t> first(patches.size() + 1, 0u);
+  for (std::size_t i = 0; i < patches.size(); ++i)
+    first[i + 1] = first[i] + (1u << (2 * std::min(patches[i].level, kBounceProbeCellLevel)));
+  return first;
+}
+
+std::uint32_t TransportData::cell_count() const { return bounce_probe_cell_offsets(patches).back(); }
+
 void bounce_probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
-                      std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes, TaskScheduler* scheduler) {
-  // The cells' mean radiance: albedo / pi x the coverage-weighted mean irradiance of their leaves.
+                             std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes,
+                             TaskScheduler* scheduler) {
+  // The cells' mean radiance, in bounce_probe_cell_offsets' order: albedo / pi x the
+  // coverage-weighted mean irradiance of their leaves.
+  constexpr std::size_t kMaxCells = std::size_t{1} << (2 * kBounceProbeCellLevel);
   std::vector<glm::vec3> radiance;
   radiance.reserve(data.cell_count());
   for (const TransportPatch& p : data.patches) {
     const std::uint32_t cell_level = std::min(p.level, kBounceProbeCellLevel), cells = 1u << cell_level;
     const std::uint32_t shift = p.level - cell_level;
-    std::vector<glm::vec3> sum(std::size_t{cells} * cells, glm::vec3(0.0f));
-    std::vector<float> weight(sum.size(), 0.0f);
+    std::array<glm::vec3, kMaxCells> sum{};
+    std::array<float, kMaxCells> weight{};
     for (std::uint32_t j = 0; j < p.side(); ++j)
       for (std::uint32_t i = 0; i < p.side(); ++i) {
         const std::uint32_t leaf = i + j * p.side(), cell = (i >> shift) + (j >> shift) * cells;
         sum[cell] += p.coverage[leaf] * (direct[p.first + leaf] + indirect[p.first + leaf]);
         weight[cell] += p.coverage[leaf];
       }
-    for (std::size_t c = 0; c < sum.size(); ++c)
+    for (std::size_t c = 0; c < std::size_t{cells} * cells; ++c)
       radiance.push_back(weight[c] > 0.0f ? p.albedo / std::numbers::pi_v<float> * sum[c] / weight[c]
                                           : glm::vec3(0.0f));
   }

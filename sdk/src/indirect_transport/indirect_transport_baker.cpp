@@ -527,10 +527,19 @@ TransportProbes bounce_probe_grid(const std::vector<TransportPatch>& patches, fl
   return probes;
 }
 
-BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
-                                    const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of,
-                                    glm::vec3 at, float spacing, std::uint32_t rays, std::uint64_t seed,
-                                    std::uint64_t node) {
+BounceProbeTargets bounce_probe_targets(World& world, std::span<const TransportPatch> patches) {
+  BounceProbeTargets targets;
+  targets.patches = patches;
+  std::unordered_map<std::string, std::vector<std::uint32_t>> by_key;
+  for (std::uint32_t i = 0; i < patches.size(); ++i) by_key[patches[i].key].push_back(i);
+  for (Entity e : world.view<IndirectReceiver, Static, Mesh>().sorted_entities())
+    if (const auto it = by_key.find(entity_key(world, e)); it != by_key.end()) targets.patches_of[e.index] = it->second;
+  targets.first_cell = bounce_probe_cell_offsets(patches);
+  return targets;
+}
+
+BounceProbeSight trace_bounce_probe(const RayScene& scene, const BounceProbeTargets& targets, glm::vec3 at,
+                                    float spacing, std::uint32_t rays, std::uint64_t seed, std::uint64_t node) {
   BounceProbeSight sight;
   for (int a = 0; a < 6; ++a) {
     glm::vec3 dir(0.0f);
@@ -540,11 +549,6 @@ BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<Tra
         scene.intersect(Ray{at, 0.0f, dir, spacing}, hit) ? std::clamp(hit.t / spacing, 0.0f, 1.0f) : 1.0f;
   }
   std::map<std::uint32_t, std::array<float, 6>> seen;  // cell -> weights, in cell order
-  std::vector<std::uint32_t> first_cell(patches.size());
-  for (std::uint32_t i = 0, c = 0; i < patches.size(); ++i) {
-    first_cell[i] = c;
-    c += 1u << (2 * std::min(patches[i].level, kBounceProbeCellLevel));
-  }
   const auto scramble = static_cast<std::uint32_t>(mix64(seed ^ mix64(node + 0x9e3779b97f4a7c15ull)));
   const float solid_angle = 4.0f * kPi / static_cast<float>(rays);
   std::uint32_t inside = 0;
@@ -556,13 +560,13 @@ BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<Tra
       if (!hit.material.double_sided) ++inside;
       continue;  // a patch sends light from its front only
     }
-    const auto list = patches_of.find(hit.entity.index);
-    if (list == patches_of.end()) continue;  // an occluder that is not a receiver
+    const auto list = targets.patches_of.find(hit.entity.index);
+    if (list == targets.patches_of.end()) continue;  // an occluder that is not a receiver
     const glm::vec3 x = at + hit.t * dir;
     int best = -1;
     float best_d = 0.0f;
     for (const std::uint32_t i : list->second) {
-      const TransportPatch& p = patches[i];
+      const TransportPatch& p = targets.patches[i];
       const glm::vec3 r = x - p.origin;
       const float d = std::abs(glm::dot(r, p.normal));
       if (d > patch_plane_tolerance(p) || !(glm::dot(dir, p.normal) < 0.0f) || (best >= 0 && d >= best_d)) continue;
@@ -573,7 +577,7 @@ BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<Tra
       best_d = d;
     }
     if (best < 0) continue;  // triangles left out of the charts
-    const TransportPatch& p = patches[static_cast<std::size_t>(best)];
+    const TransportPatch& p = targets.patches[static_cast<std::size_t>(best)];
     const glm::vec3 r = x - p.origin;
     const std::uint32_t cells = 1u << std::min(p.level, kBounceProbeCellLevel);
     const auto cell_of = [&](float f) {
@@ -581,7 +585,7 @@ BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<Tra
     };
     const std::uint32_t ci = cell_of(glm::dot(r, p.edge_u) / glm::dot(p.edge_u, p.edge_u));
     const std::uint32_t cj = cell_of(glm::dot(r, p.edge_v) / glm::dot(p.edge_v, p.edge_v));
-    const std::uint32_t cell = first_cell[static_cast<std::size_t>(best)] + ci + cj * cells;
+    const std::uint32_t cell = targets.first_cell[static_cast<std::size_t>(best)] + ci + cj * cells;
     std::array<float, 6>& w = seen.try_emplace(cell).first->second;
     for (int a = 0; a < 3; ++a) {
       w[static_cast<std::size_t>(2 * a)] += solid_angle * std::max(0.0f, dir[a]);
@@ -959,17 +963,6 @@ Result<std::pair<Header, TransportData>> read_header(std::span<const std::byte> 
   return std::make_pair(h, std::move(geometry->data));
 }
 
-// Receiver entity index -> its patches (TransportPatch::key is the entity's key).
-std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> patches_by_entity(
-    World& world, const std::vector<TransportPatch>& patches) {
-  std::unordered_map<std::string, std::vector<std::uint32_t>> by_key;
-  for (std::uint32_t i = 0; i < patches.size(); ++i) by_key[patches[i].key].push_back(i);
-  std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> out;
-  for (Entity e : world.view<IndirectReceiver, Static, Mesh>().sorted_entities())
-    if (const auto it = by_key.find(entity_key(world, e)); it != by_key.end()) out[e.index] = it->second;
-  return out;
-}
-
 Entity transport_entity(World& world) {
   const std::vector<Entity> all = world.view<IndirectTransport>().sorted_entities();
   return all.empty() ? Entity::null() : all.front();
@@ -1000,13 +993,12 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
                  settings.finest_level, settings.max_bounces, in.settings.seed, in.settings.memory_limit_bytes};
   auto shared = std::make_shared<std::vector<TransportPatch>>(std::move(*patches));
   auto grid = std::make_shared<const TransportProbes>(bounce_probe_grid(*shared, settings.probe_spacing));
-  auto patches_of = std::make_shared<const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>>(
-      patches_by_entity(in.world, *shared));
+  auto targets = std::make_shared<const BounceProbeTargets>(bounce_probe_targets(in.world, *shared));
   // Elements: the receiver patches (their links), then the bounce probes (what each saw).
   work.groups.push_back(BakeGroup{std::move(*key), shared->size() + grid->nodes(), kPatchBlock, 1000.0,
                                   write_header(h, *shared, *grid)});
-  work.run = [&in, shared, grid, patches_of, h](std::size_t, std::uint64_t begin, std::uint64_t end,
-                                                JobContext& jobs) -> Result<std::vector<std::byte>> {
+  work.run = [&in, shared, grid, targets, h](std::size_t, std::uint64_t begin, std::uint64_t end,
+                                             JobContext& jobs) -> Result<std::vector<std::byte>> {
     const std::uint64_t patch_end = std::min<std::uint64_t>(end, shared->size());
     const std::size_t count = begin < patch_end ? static_cast<std::size_t>(patch_end - begin) : 0;
     const std::uint64_t probe_begin = std::max<std::uint64_t>(begin, shared->size());
@@ -1027,8 +1019,8 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
       for (std::size_t i = b; i < e; ++i) {
         const std::uint64_t node = probe_begin + i - shared->size();
         const glm::vec3 ijk(float(node % n.x), float(node / n.x % n.y), float(node / n.x / n.y));
-        sights[i] = trace_bounce_probe(in.rays, *shared, *patches_of, grid->origin + grid->spacing * ijk,
-                                       grid->spacing, kBounceProbeRays, h.seed, node);
+        sights[i] = trace_bounce_probe(in.rays, *targets, grid->origin + grid->spacing * ijk, grid->spacing,
+                                       kBounceProbeRays, h.seed, node);
         jobs.advance(1);
       }
     }));
@@ -1078,12 +1070,7 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
       PENUMBRA_TRY(r.read(open));
       PENUMBRA_TRY(r.read_vector(entries));
       PENUMBRA_TRY(r.read(probes.reach[node]));
-      bool ok = open <= 1;
-      for (const BounceProbeEntry& t : entries)
-        ok = ok && t.cell < cells &&
-             std::all_of(t.weight.begin(), t.weight.end(), [](float w) { return w >= 0.0f && w <= 4.0f * kPi; });
-      for (const float f : probes.reach[node]) ok = ok && f >= 0.0f && f <= 1.0f;
-      if (!ok)
+      if (!bounce_probe_in_range(open, probes.reach[node], entries, cells))
         return make_error(ErrorCode::InvalidInput, context + " results: bounce probe " + std::to_string(node) +
                                                        " has a value out of range; re-bake the part");
       probes.open[node] = open;

@@ -403,8 +403,7 @@ Result<Report> run(const Options& options) {
       auto e = probe_error(world, *lantern, positions, *data, points, ref_samples, jobs);
       if (!e) return e.error();
       const UpdateTimes times = update_ms(world, *lantern, positions, *data);
-      const double bytes = double(data->probes.entries.size() * sizeof(BounceProbeEntry) +
-                                  data->probes.nodes() * (1 + sizeof(data->probes.reach[0])));
+      const double bytes = double(data->probes.bytes());
       report.rows.push_back({"maze", "bounce probes", fmt(spacing), std::to_string(data->finest_level), "", "", "",
                              std::to_string(data->probes.entries.size()), fmt(seconds), fmt(bytes), fmt(bytes),
                              fmt(times.probes), fmt(e->rel_rmse), fmt(e->ref_stderr), fmt(net(*e)), "bounce probes"});

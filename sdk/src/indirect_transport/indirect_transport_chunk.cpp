@@ -1,7 +1,6 @@
 // The WRTO chunk of indirect transport (see indirect_transport.h).
-#include <algorithm>
 #include <cmath>
-#include <numbers>
+#include <span>
 #include <string>
 
 #include "penumbra/indirect_transport/indirect_transport.h"
@@ -128,20 +127,18 @@ Result<TransportChunk> read_transport_chunk(const BakeChunk& chunk) {
       probes.begin.front() != 0 ||
       probes.begin.back() != probes.entries.size())
     return bad("bounce probes' lists do not match their count");
+  // Every probe's entries lie within the list before any is read (begin never decreases).
+  for (std::size_t n = 0; n < nodes; ++n)
+    if (probes.begin[n] > probes.begin[n + 1])
+      return bad("bounce probe " + std::to_string(n) + "'s entries end before they begin");
   const std::uint32_t cells = d.cell_count();
   for (std::size_t n = 0; n < nodes; ++n) {
-    const bool reach_ok = std::all_of(probes.reach[n].begin(), probes.reach[n].end(),
-                                      [](float f) { return f >= 0.0f && f <= 1.0f; });
-    if (probes.open[n] > 1 || !reach_ok || probes.begin[n] > probes.begin[n + 1])
+    const std::span<const BounceProbeEntry> entries(probes.entries.data() + probes.begin[n],
+                                                    probes.begin[n + 1] - probes.begin[n]);
+    if (!bounce_probe_in_range(probes.open[n], probes.reach[n], entries, cells))
       return bad("bounce probe " + std::to_string(n) +
-                 " has a bad flag, a reach outside [0, 1] or entries that end before they begin");
-    for (std::uint32_t k = probes.begin[n]; k < probes.begin[n + 1]; ++k) {
-      const BounceProbeEntry& t = probes.entries[k];
-      bool ok = t.cell < cells;
-      for (float w : t.weight) ok = ok && w >= 0.0f && w <= 4.0f * std::numbers::pi_v<float>;
-      if (!ok) return bad("bounce probe " + std::to_string(n) + " has an entry with a cell out of range or a weight "
-                          "outside [0, 4 pi]");
-    }
+                 " has a flag other than 0 or 1, a reach outside [0, 1], a cell out of range or a weight outside "
+                 "[0, 4 pi]");
   }
   if (g.begin.size() != std::size_t{g.size} + 1 || g.begin.front() != 0 || g.begin.back() != g.row.size() ||
       g.value.size() != g.row.size())

@@ -428,9 +428,10 @@ std::vector<std::string> describe_transport(const BakeChunk& chunk) {
   const TransportProbes& probes = d.probes;
   const auto open = static_cast<std::size_t>(std::count(probes.open.begin(), probes.open.end(), std::uint8_t{1}));
   std::snprintf(line, sizeof line,
-                "bounce probes (moving objects): %ux%ux%u every %.3g m, %zu open, %zu cells seen (%.3g MB), %u rays each",
+                "bounce probes (moving objects): %ux%ux%u every %.3g m, %zu open, %zu cells seen, %.3g MB, %u rays "
+                "each",
                 probes.count.x, probes.count.y, probes.count.z, static_cast<double>(probes.spacing), open,
-                probes.entries.size(), double(probes.entries.size() * sizeof(BounceProbeEntry)) / 1e6, probes.rays);
+                probes.entries.size(), double(probes.bytes()) / 1e6, probes.rays);
   out.emplace_back(line);
   return out;
 }

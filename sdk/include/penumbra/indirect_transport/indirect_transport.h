@@ -152,7 +152,14 @@ struct TransportProbes {
   std::vector<BounceProbeEntry> entries;
 
   std::size_t nodes() const { return std::size_t{count.x} * count.y * count.z; }
+  std::uint64_t bytes() const;  // the per-probe lists
 };
+
+// Whether one probe's record holds only what a bake writes: a flag of 0 or 1, reaches in [0, 1],
+// entries with a cell below `cells` and weights in [0, 4 pi]. The chunk reader and the baker's
+// merge of parts check every probe with it. O(entries).
+bool bounce_probe_in_range(std::uint8_t open, const std::array<float, 6>& reach,
+                           std::span<const BounceProbeEntry> entries, std::uint32_t cells);
 
 // The baked transport of a scene.
 struct TransportData {
@@ -169,9 +176,7 @@ struct TransportData {
   bool converged = false;
 
   std::uint32_t leaf_count() const;  // the scene's leaves = Haar coefficients
-  // The bounce probes' cells: patch after patch, 4^min(level, kBounceProbeCellLevel) each, in the
-  // quadtree's row order (cell (i, j) of a patch at i + j 2^min(level, kBounceProbeCellLevel)).
-  std::uint32_t cell_count() const;
+  std::uint32_t cell_count() const;  // the bounce probes' cells (bounce_probe_cell_offsets)
   std::uint64_t bytes() const;
 };
 
@@ -211,6 +216,10 @@ TransportUpdate apply_transport(const TransportData& data, std::span<const glm::
 // (shaders/indirect_transport.glsl). Cost: O(patches).
 glm::vec3 sample_indirect_irradiance(const TransportData& data, std::span<const glm::vec3> irradiance, glm::vec3 x,
                                      glm::vec3 n);
+// The bounce probes' cells are numbered patch after patch, 4^min(level, kBounceProbeCellLevel)
+// each, in the quadtree's row order (cell (i, j) of a patch at i + j 2^min(level,
+// kBounceProbeCellLevel)): each patch's first cell, then the total. O(patches).
+std::vector<std::uint32_t> bounce_probe_cell_offsets(std::span<const TransportPatch> patches);
 // The index of the patch sample_indirect_irradiance reads at x, or -1 when none holds x.
 int transport_patch_at(const TransportData& data, glm::vec3 x, glm::vec3 n);
 // The bounce probes' irradiance: into `cubes` (six per probe, IndirectLightmap::probes) from the
@@ -219,8 +228,8 @@ int transport_patch_at(const TransportData& data, glm::vec3 x, glm::vec3 n);
 // Probes run on `scheduler` when given (null: the calling thread), with the same bits at any
 // thread count. Cost: O(leaves + probe entries); the maze's default bake, 0.18 M entries.
 void bounce_probe_irradiance(const TransportData& data, std::span<const glm::vec3> direct,
-                      std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes,
-                      TaskScheduler* scheduler = nullptr);
+                             std::span<const glm::vec3> indirect, std::span<glm::vec3> cubes,
+                             TaskScheduler* scheduler = nullptr);
 
 // The bounce probes' irradiance at world point x with unit normal n: the point moved
 // kBounceProbeOffset x spacing along n, the trilinear weights of the eight nodes around it (the

@@ -28,6 +28,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -95,21 +96,28 @@ Result<NeumannResult> neumann_series(const SparseTransport& direct, float tolera
 // patches or no finite size: an empty grid. O(patches).
 TransportProbes bounce_probe_grid(const std::vector<TransportPatch>& patches, float spacing);
 
+// What the bounce probes' rays look for: the patches, each receiver's patches by its entity index
+// (TransportPatch::key is the entity's key) and each patch's first cell
+// (bounce_probe_cell_offsets). Views `patches`, which must outlive it. O(entities + patches).
+struct BounceProbeTargets {
+  std::span<const TransportPatch> patches;
+  std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> patches_of;
+  std::vector<std::uint32_t> first_cell;
+};
+BounceProbeTargets bounce_probe_targets(World& world, std::span<const TransportPatch> patches);
+
 // What one bounce probe saw: `rays` directions (scrambled Sobol points on the sphere, from `seed`
 // and the node's index) traced from `at` through `scene`; each hit on the front of a patch (found
-// among the patches of the hit entity, `patches_of` its index -> its patches) adds to that patch
-// cell's weights (TransportProbes), hits on the back of single-sided surfaces count as inside a
-// solid. Entries in cell order. Its reach: one ray along each axis direction, up to `spacing`.
-// Thread-safe, deterministic.
+// among the hit entity's patches) adds to that patch cell's weights (TransportProbes), hits on the
+// back of single-sided surfaces count as inside a solid. Entries in cell order. Its reach: one ray
+// along each axis direction, up to `spacing`. Thread-safe, deterministic.
 struct BounceProbeSight {
   bool open = true;
   std::array<float, 6> reach{};
   std::vector<BounceProbeEntry> entries;
 };
-BounceProbeSight trace_bounce_probe(const RayScene& scene, const std::vector<TransportPatch>& patches,
-                                    const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& patches_of,
-                                    glm::vec3 at, float spacing, std::uint32_t rays, std::uint64_t seed,
-                                    std::uint64_t node);
+BounceProbeSight trace_bounce_probe(const RayScene& scene, const BounceProbeTargets& targets, glm::vec3 at,
+                                    float spacing, std::uint32_t rays, std::uint64_t seed, std::uint64_t node);
 
 // Adds the "indirect-transport" baker to world.resource<BakerRegistry>() (penumbra/bake/baker.h).
 void register_indirect_transport_baker(World& world);
