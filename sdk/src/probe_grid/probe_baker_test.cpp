@@ -409,10 +409,10 @@ TEST(ProbeBaker, ANoiseTargetTracesMoreRaysWhereTheNodesAreNoisy) {
 // turned about the vertical, so nodes inside the block stay open to the leak guard's axis-aligned
 // reach. The default grid baked at 8 samples a node and no noise target, against the path-traced
 // indirect irradiance at 20 points of the front (16384 paths each; the mean's relative standard
-// error 0.54 %): a moving receiver's lookup (the reach alone, which blends in the nodes inside the
-// turned block) still shows the leak, 1.44x; a static receiver's does not, 1.029x. (The medium
-// preset's bake, 20 s here, gives about 1.05x at these points and 1.022x over the face's pixels in
-// penumbra bench image-accuracy: the grid's own error, not the leak.)
+// error 0.54 %): a moving receiver's lookup (the reach, which blends in the nodes inside the turned
+// block whose tents lie mostly outside it) still shows the leak, 1.17x; a static receiver's does
+// not, 1.032x. (The medium preset's bake, 20 s here, gives about 1.05x at these points and 1.053x
+// over the face's pixels in penumbra bench image-accuracy: the grid's own error, not the leak.)
 TEST(ProbeBaker, TheShortBlocksFrontTakesNoLightFromInsideTheBlock) {
   World w;
   auto scene = builtin_ray_scene(w, "cornell");
@@ -451,7 +451,7 @@ TEST(ProbeBaker, TheShortBlocksFrontTakesNoLightFromInsideTheBlock) {
   RecordProperty("reference_relative_stderr", std::to_string(ref_stderr));
   ASSERT_LT(ref_stderr, 0.01) << "the reference is too noisy to judge 5 %";
   EXPECT_NEAR(fixed / ref, 1.0, 0.05) << "moving " << moving / ref;
-  EXPECT_GT(moving / ref, 1.3) << "the test no longer sees the leak it guards against";
+  EXPECT_GT(moving / ref, 1.1) << "the test no longer sees the leak it guards against";
 }
 
 // --- Geometry swallowing the grid ----------------------------------------------------------------

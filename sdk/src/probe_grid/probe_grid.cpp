@@ -202,7 +202,8 @@ glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm:
   const bool solid_rule = surface && receiver == ProbeReceiver::Static;
   const float bias = solid_rule ? kProbeStaticNormalBias : kProbeNormalBias;
   const glm::vec3 test = surface ? f + normal_cells * (bias / len) : f;
-  // The visible corners' weighted mean, without (seen) and with (front) the static surface's own solid.
+  // The visible corners' weighted mean: by the reach alone (seen), and without the nodes inside
+  // solids and, on static geometry, in the surface's own solid (front).
   float seen_sum = 0.0f, front_sum = 0.0f;
   glm::vec3 seen_mean(0.0f), front_mean(0.0f);
   for (std::uint32_t corner = 0; corner < 8; ++corner) {
@@ -213,6 +214,7 @@ glm::vec3 probe_lookup_fraction(const ProbeGridData& data, glm::uvec3 base, glm:
     seen_sum += w;
     seen_mean += w * glm::vec3(o);
     const float validity = node < data.validity.size() ? data.validity[node] : 0.0f;  // as the GPU texels
+    if (validity < kProbeSolidValidity) continue;
     if (solid_rule && probe_node_inside_surface(validity, glm::dot(normal_cells, glm::vec3(o) - f) / len)) continue;
     front_sum += w;
     front_mean += w * glm::vec3(o);

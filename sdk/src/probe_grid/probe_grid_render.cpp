@@ -25,6 +25,7 @@ static_assert(float(PENUMBRA_PROBE_NORMAL_BIAS) == penumbra::kProbeNormalBias);
 static_assert(float(PENUMBRA_PROBE_STATIC_NORMAL_BIAS) == penumbra::kProbeStaticNormalBias);
 static_assert(float(PENUMBRA_PROBE_REACH_SLACK) == penumbra::kProbeReachSlack);
 static_assert(float(PENUMBRA_PROBE_PLANE_SLACK) == penumbra::kProbePlaneSlack);
+static_assert(float(PENUMBRA_PROBE_SOLID_VALIDITY) == penumbra::kProbeSolidValidity);
 
 namespace penumbra {
 namespace shaders {

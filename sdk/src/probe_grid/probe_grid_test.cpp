@@ -281,7 +281,7 @@ TEST(ProbeGridLeakGuard, CornersBehindAWallAreSkipped) {
 TEST(ProbeGridLeakGuard, NodesInsideTheSolidUnderAStaticReceiverAreSkipped) {
   ProbeGridData d = walled_cell();
   d.reach.assign(8 * 6, 255);
-  for (std::uint32_t n = 0; n < 4; ++n) d.validity[n] = 0.4f;  // the z = 0 layer
+  for (std::uint32_t n = 0; n < 4; ++n) d.validity[n] = 0.7f;  // the z = 0 layer: against a solid, mostly out
   const glm::vec3 up(0, 0, 1);
   const float blend = 1.0f + 9.0f * 0.3f;
   for (float x : {0.1f, 0.5f, 0.9f})
@@ -305,6 +305,26 @@ TEST(ProbeGridLeakGuard, NodesInsideTheSolidUnderAStaticReceiverAreSkipped) {
   for (std::uint32_t n = 0; n < 4; ++n) d.validity[n] = 1.0f;
   EXPECT_NEAR(interpolate(d, {0.5f, 0.5f, 0.3f}, up, ProbeReceiver::Static)[0].x, blend, 1e-5f)
       << "nodes in free space behind a receiver still count";
+}
+
+TEST(ProbeGridLeakGuard, NodesInsideASolidAreSkippedForEveryReceiver) {
+  ProbeGridData d = walled_cell();
+  d.reach.assign(8 * 6, 255);
+  // The z = 0 layer's tents lie mostly in a solid (validity under kProbeSolidValidity): their
+  // values are extrapolations, and no receiver reads them while a node outside remains.
+  for (std::uint32_t n = 0; n < 4; ++n) d.validity[n] = 0.3f;
+  const glm::vec3 up(0, 0, 1);
+  for (float x : {0.1f, 0.5f, 0.9f})
+    for (float z : {0.1f, 0.3f, 0.8f}) {
+      EXPECT_FLOAT_EQ(interpolate(d, {x, 0.6f, z}, up, ProbeReceiver::Static)[0].x, 10.0f) << x << " " << z;
+      EXPECT_FLOAT_EQ(interpolate(d, {x, 0.6f, z}, up, ProbeReceiver::Moving)[0].x, 10.0f) << "a moving receiver";
+      EXPECT_FLOAT_EQ(interpolate(d, {x, 0.6f, z})[0].x, 10.0f) << "a point in free space";
+    }
+  // A node just at the threshold counts; a cell with every node inside interpolates them all.
+  for (std::uint32_t n = 0; n < 4; ++n) d.validity[n] = kProbeSolidValidity;
+  EXPECT_NEAR(interpolate(d, {0.5f, 0.5f, 0.3f})[0].x, 1.0f + 9.0f * 0.3f, 1e-5f);
+  d.validity.assign(8, 0.2f);
+  EXPECT_NEAR(interpolate(d, {0.5f, 0.5f, 0.3f})[0].x, 1.0f + 9.0f * 0.3f, 1e-5f);
 }
 
 TEST(ProbeGridLeakGuard, OpenCellsAndFullyHiddenCellsInterpolateAsPlainTrilinear) {

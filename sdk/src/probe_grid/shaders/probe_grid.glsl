@@ -13,9 +13,9 @@ layout(constant_id = 0) const uint kGrids = 1u;
 
 // Grid g's atlas texture coordinate at p on a surface with normal n (probe_grid.h: node centres
 // at texel centres), on the level's static geometry when on_static. With the leak guard's reach,
-// the trilinear lookup moves to the weighted mean of the cell corners that no surface hides from p
-// and, on static geometry, that are not in the solid under p's surface (probe_lookup_fraction in
-// probe_grid.cpp).
+// the trilinear lookup moves to the weighted mean of the cell corners that no surface hides from p,
+// that are not inside a solid and, on static geometry, that are not in the solid under p's surface
+// (probe_lookup_fraction in probe_grid.cpp).
 vec3 probe_uvw(uint g, vec3 p, vec3 n, bool on_static) {
   ProbeGridGpu grid = probe.grids[g];
   vec3 res = grid.resolution.xyz;
@@ -29,7 +29,8 @@ vec3 probe_uvw(uint g, vec3 p, vec3 n, bool on_static) {
     bool solid_rule = on_static && len > 0.0;
     float bias = solid_rule ? PENUMBRA_PROBE_STATIC_NORMAL_BIAS : PENUMBRA_PROBE_NORMAL_BIAS;
     vec3 t = len > 0.0 ? f + nc * (bias / len) : f;  // towards the open side
-    // The visible corners' weighted mean, without (seen) and with (front) the static surface's own solid.
+    // The visible corners' weighted mean: by the reach alone (seen), and without the nodes inside
+    // solids and, on static geometry, in the surface's own solid (front).
     float seen_sum = 0.0, front_sum = 0.0;
     vec3 seen_mean = vec3(0.0), front_mean = vec3(0.0);
     for (int c = 0; c < 8; ++c) {
@@ -46,6 +47,7 @@ vec3 probe_uvw(uint g, vec3 p, vec3 n, bool on_static) {
       float w = w3.x * w3.y * w3.z;
       seen_sum += w;
       seen_mean += w * o;
+      if (node.r < PENUMBRA_PROBE_SOLID_VALIDITY) continue;
       // probe_node_inside_surface: a node in or against a solid, behind the receiver's tangent plane.
       if (solid_rule && node.r < 1.0 && dot(nc, o - f) / len < -PENUMBRA_PROBE_PLANE_SLACK) continue;
       front_sum += w;

@@ -19,11 +19,13 @@ namespace penumbra::gpu {
 // The grids blended per pixel at most (the highest priorities; more are logged and left out).
 #define PENUMBRA_PROBE_MAX_GRIDS 4
 // The leak guard's lookup constants (probe_grid.h kProbeNormalBias, kProbeStaticNormalBias,
-// kProbeReachSlack, kProbePlaneSlack; checked at compile time in probe_grid_render.cpp).
+// kProbeReachSlack, kProbePlaneSlack, kProbeSolidValidity; checked at compile time in
+// probe_grid_render.cpp).
 #define PENUMBRA_PROBE_NORMAL_BIAS 0.01
 #define PENUMBRA_PROBE_STATIC_NORMAL_BIAS 0.1
 #define PENUMBRA_PROBE_REACH_SLACK (1.0 / 255.0)
 #define PENUMBRA_PROBE_PLANE_SLACK 0.15
+#define PENUMBRA_PROBE_SOLID_VALIDITY 0.4
 
 // One grid in the atlas: its nodes are texels [0, resolution) + (0, 0, atlas_z) of every atlas
 // texture (grids stacked along z; the lookup never filters across a grid's last texel centre).
