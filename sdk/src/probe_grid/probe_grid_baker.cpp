@@ -691,6 +691,9 @@ Result<std::vector<BakeChunk>> finish_probes(std::span<const BakedGroup> groups,
 
 void hash_probe_inputs(World& world, const BakeSettings&, Hasher& h) {
   h.add(kProbeGridChunkVersion);
+  // The fit fits the leak guard's lookup (step 3 of finish_probe_grid): its rules are inputs.
+  for (const float c : {kProbeReachSlack, kProbeNormalBias, kProbeStaticNormalBias, kProbePlaneSlack, kProbeSolidValidity})
+    h.add(c);
   for (Entity e : grid_entities(world)) {
     const IrradianceProbeGrid& g = world.get<IrradianceProbeGrid>(e);
     h.add(std::string_view(entity_key(world, e)));

@@ -1004,10 +1004,11 @@ TEST_F(RendererTest, AmbientPassesMatchThePerPixelTerms) {
       }
     }
     ASSERT_GE(lit, std::size_t{kW} * kH / 2);
-    EXPECT_GE(sampled_ok, 0.999 * sampled) << "step " << step << ": " << sampled_ok << " of " << sampled;
-    EXPECT_GE(lit_ok, (step == 1 ? 0.999 : 0.98) * lit) << "step " << step << ": " << lit_ok << " of " << lit;
+    const double lit_fraction = double(lit_ok) / double(lit), sampled_fraction = double(sampled_ok) / double(sampled);
+    EXPECT_GE(sampled_fraction, 0.999) << "step " << step << ": " << sampled_ok << " of " << sampled;
+    EXPECT_GE(lit_fraction, step == 1 ? 0.999 : 0.98) << "step " << step << ": " << lit_ok << " of " << lit;
     std::printf("ambient step %u: %.3f %% of %zu lit pixels and %.3f %% of the %zu sampled ones within 1 %%\n", step,
-                100.0 * lit_ok / lit, lit, 100.0 * sampled_ok / sampled, sampled);
+                100.0 * lit_fraction, lit, 100.0 * sampled_fraction, sampled);
   }
 }
 

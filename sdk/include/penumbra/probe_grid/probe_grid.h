@@ -259,13 +259,14 @@ enum class ProbeReceiver : std::uint8_t {
 // across the Cornell blocks' fronts). The price: a static receiver facing another surface closer
 // than that sees the nodes beyond it. For every receiver, a corner whose tent lies mostly out of
 // the domain (validity below kProbeSolidValidity: it sits inside a solid, its value the fit's
-// extrapolation) is hidden too while another corner stays in view: the fit (probe_fit.h) uses the
-// lookup of a point in free space, so without this rule the nodes in front of a solid are fitted
-// to make up for the ones inside it, which a static receiver then drops (the Cornell tall block's
-// front read 0.956x the reference with 7.1 % median per-pixel error, 0.998x and 4.7 % with it:
-// penumbra bench image-accuracy). Returns f itself without reach data or when every corner is
-// hidden. Cost: 8 x 6 compares. Thread-safe. The shader (probe_grid.glsl) does the same
-// arithmetic.
+// extrapolation) is hidden too while another corner stays in view. The fit (probe_fit.h) uses the
+// lookup of a point in free space; were the nodes inside a solid in its basis, the nodes in front
+// of the solid would be fitted to make up for them, and a static receiver, which drops them, would
+// read those values (on the Cornell tall block's front: 0.956x the reference and 7.1 % median
+// per-pixel error, against 0.998x and 4.7 % with the rule; penumbra bench image-accuracy). Returns
+// f itself without reach data or when every corner is hidden. Cost: 8 x 6 compares. Thread-safe.
+// The shader (probe_grid.glsl) does the same arithmetic; the bake's input hash holds these
+// constants, since the fit depends on them.
 inline constexpr float kProbeReachSlack = 1.0f / 255.0f;
 inline constexpr float kProbeNormalBias = 0.01f;
 inline constexpr float kProbeStaticNormalBias = 0.1f;  // cells
