@@ -147,7 +147,7 @@ double net(const Error& e) { return std::sqrt(std::max(0.0, e.rel_rmse * e.rel_r
 std::vector<glm::vec3> free_points(const RayScene& rays, const TransportData& data, std::size_t count) {
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
   for (const TransportPatch& p : data.patches)
-    for (const glm::vec3 c : {p.origin, p.origin + p.edge_u + p.edge_v}) {
+    for (const glm::vec3 c : {p.origin, p.origin + p.edge_u, p.origin + p.edge_v, p.origin + p.edge_u + p.edge_v}) {
       lo = glm::min(lo, c);
       hi = glm::max(hi, c);
     }
@@ -167,10 +167,11 @@ std::vector<glm::vec3> free_points(const RayScene& rays, const TransportData& da
   return out;
 }
 
-// The probes' error at `points` x six normals x the light positions, against irradiance() there.
+// The probes' error at `points` x six normals x the light positions, against irradiance() there
+// through `rays`, the static geometry the probes model.
 Result<Error> probe_error(World& world, Entity lantern, const std::vector<glm::vec3>& positions,
-                          const TransportData& data, const std::vector<glm::vec3>& points, std::uint32_t samples,
-                          JobContext& jobs) {
+                          const TransportData& data, const RayScene& rays, const std::vector<glm::vec3>& points,
+                          std::uint32_t samples, JobContext& jobs) {
   double diff = 0.0, norm = 0.0, var = 0.0;
   std::vector<glm::vec3> direct(data.leaf_count()), indirect(data.leaf_count()), cubes(6 * data.probes.nodes());
   const TransportOccluders occluders = TransportOccluders::build(world);
@@ -182,8 +183,6 @@ Result<Error> probe_error(World& world, Entity lantern, const std::vector<glm::v
     direct_irradiance(data, *lights, &occluders, direct);
     apply_transport(data, direct, indirect);
     bounce_probe_irradiance(data, direct, indirect, cubes);
-    auto rays = RayScene::build(world, RaySceneOptions{.include_dynamic = false});  // what the probes model
-    if (!rays) return rays.error();
     const std::vector<WorldLight> world_lights = gather_lights(world);
     IrradianceSettings s;
     s.samples = samples;
@@ -195,7 +194,7 @@ Result<Error> probe_error(World& world, Entity lantern, const std::vector<glm::v
         glm::vec3 n(0.0f);
         n[int(k % 6) / 2] = k % 2 == 0 ? 1.0f : -1.0f;
         Rng rng = Rng::stream(29, k);
-        ref[k] = irradiance(*rays, world_lights, points[k / 6], n, s, rng);
+        ref[k] = irradiance(rays, world_lights, points[k / 6], n, s, rng);
       }
     }));
     for (std::size_t k = 0; k < ref.size(); ++k) {
@@ -400,7 +399,7 @@ Result<Report> run(const Options& options) {
       const std::shared_ptr<const TransportData> data = world.get<IndirectTransport>(owner).data;
       const float spacing = data->probes.spacing;
       if (points.empty()) points = free_points(*rays, *data, options.quick ? 40 : 200);
-      auto e = probe_error(world, *lantern, positions, *data, points, ref_samples, jobs);
+      auto e = probe_error(world, *lantern, positions, *data, *rays, points, ref_samples, jobs);
       if (!e) return e.error();
       const UpdateTimes times = update_ms(world, *lantern, positions, *data);
       const double bytes = double(data->probes.bytes());

@@ -479,7 +479,7 @@ TEST(IndirectTransportChunk, RoundTripsAndRejectsDamage) {
   EXPECT_TRUE(rejected([](TransportProbes& p) { p.reach[0][3] = 1.5f; }));
   EXPECT_TRUE(rejected([](TransportProbes& p) { p.begin.back() += 1; }));
   // A first probe whose entries run past the list's end, with the list's own end still right: the
-  // reader must refuse it before it reads that probe's entries (it read past them once).
+  // reader must refuse it before it reads that probe's entries (reading them would overrun).
   EXPECT_TRUE(rejected([](TransportProbes& p) { p.begin[1] = p.begin.back() + 1000; }));
   EXPECT_TRUE(rejected([](TransportProbes& p) { p.spacing = 0.0f; }));
   EXPECT_TRUE(rejected([](TransportProbes& p) { p.count.x = kMaxBounceProbes; }));
