@@ -15,6 +15,9 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "penumbra/core/jobs.h"
 
@@ -39,11 +42,18 @@ Status check(std::size_t pixels, std::size_t out, std::uint32_t width, std::uint
   return {};
 }
 
+// Every step of the gather is written as a function forced inline, so that the workers at the end
+// compile it for the baseline of the target (4-lane SSE on x86-64) and, on x86-64, for AVX2 (8
+// lanes; the row's weights in intrinsics), chosen at run time. Each lane does the same IEEE
+// operations in the same order and nothing contracts a multiply and an add (no FMA), so both give
+// the same bits.
+#define PENUMBRA_FILTER_INLINE [[gnu::always_inline]] inline
+
 // exp(-u) for u in [0, 4] (the kernel's support, t <= 2), within 1e-6 relative: 2^y with
 // y = -u log2(e) split into an integer part (the exponent bits) and a fraction (a degree-7
 // polynomial of 2^f on [0, 1), Taylor coefficients of e^(f ln 2)). Written without branches or
 // calls so that the row loop vectorises.
-inline float kernel_exp(float u) {
+PENUMBRA_FILTER_INLINE float kernel_exp(float u) {
   const float y = -1.44269504f * u;          // in [-5.78, 0]
   const float yi = float(int(y));            // truncation: ceil for y <= 0
   const float n = yi > y ? yi - 1.0f : yi;   // floor
@@ -109,48 +119,112 @@ struct Columns {
   }
 };
 
-// Calls row(q0, w, n) for each row of p's window, in order, until it returns false: w[k] = K(ε_pq / a) for the pixel
-// q = q0 + k (0 where q has no samples or lies beyond the kernel's support t = 2, and for the taps
-// past the row's end that round n up to a multiple of kLanes).
-template <class Row>
-void gather(const Columns& c, std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
-            const IrradianceFilterSettings& s, std::size_t p, float* w, Row&& row) {
-  const FilterPixel& centre = pixels[p];
-  // The window covering the world-space radius 2 a m_p (the kernel is zero beyond t = 2).
+// Pixel p's gather: its window (the screen rectangle covering the world-space radius 2 a m_p, the
+// kernel being zero beyond t = 2) and what each tap's weight needs of p.
+struct Window {
+  std::size_t x0 = 0, y0 = 0, y1 = 0;  // columns [x0, x0 + count), rows [y0, y1]
+  std::size_t count = 0, blocks = 0;   // taps per row, and that rounded up to a multiple of kLanes
+  float cx = 0, cy = 0, cz = 0, cnx = 0, cny = 0, cnz = 0, inv_m = 0, inv_a2 = 0;
+};
+
+PENUMBRA_FILTER_INLINE Window window_of(const Columns& c, std::span<const FilterPixel> pixels, std::uint32_t width,
+                                        std::uint32_t height, const IrradianceFilterSettings& s, std::size_t p) {
   std::uint32_t radius = s.max_radius;
   if (c.inv_m[p] > 0.0f) {
-    const float r = std::ceil(2.0f * s.a / (c.inv_m[p] * centre.footprint));
+    const float r = std::ceil(2.0f * s.a / (c.inv_m[p] * pixels[p].footprint));
     radius = r < float(s.max_radius) ? static_cast<std::uint32_t>(std::max(r, 0.0f)) : s.max_radius;
   }
-  const auto px = static_cast<std::int64_t>(p % width), py = static_cast<std::int64_t>(p / width);
-  const std::int64_t r = radius;
-  const std::int64_t x0 = std::max<std::int64_t>(0, px - r), x1 = std::min<std::int64_t>(width - 1, px + r);
-  const std::int64_t y0 = std::max<std::int64_t>(0, py - r), y1 = std::min<std::int64_t>(height - 1, py + r);
-  const std::size_t count = std::size_t(x1 - x0 + 1), blocks = (count + kLanes - 1) / kLanes * kLanes;
-  const float cx = c.x[p], cy = c.y[p], cz = c.z[p], cnx = c.nx[p], cny = c.ny[p], cnz = c.nz[p];
-  const float inv_m = c.inv_m[p], inv_a = 1.0f / s.a;
-  for (std::int64_t yy = y0; yy <= y1; ++yy) {
-    const std::size_t q0 = std::size_t(yy) * width + std::size_t(x0);
-    const float *__restrict qx = &c.x[q0], *__restrict qy = &c.y[q0], *__restrict qz = &c.z[q0],
-                           *__restrict qnx = &c.nx[q0], *__restrict qny = &c.ny[q0], *__restrict qnz = &c.nz[q0],
-                           *__restrict qm = &c.inv_m[q0], *__restrict qv = &c.valid[q0];
-    float* __restrict out = w;
-    for (std::size_t k = 0; k < blocks; ++k) {
-      // Ward's distance: the change predicted by moving along the surface and by turning, the
-      // surface term by the nearer geometry of the two pixels (a corner's pixel does not blur
-      // into an open neighbour's kernel, nor the open one into the corner's).
-      const float dx = qx[k] - cx, dy = qy[k] - cy, dz = qz[k] - cz;
-      const float turn = std::max(0.0f, 1.0f - (cnx * qnx[k] + cny * qny[k] + cnz * qnz[k]));
-      const float eps = std::sqrt(dx * dx + dy * dy + dz * dz) * std::max(inv_m, qm[k]) + std::sqrt(turn);
-      const float t = eps * inv_a;
-      const float u = t * t < 4.0f ? t * t : 4.0f;  // also maps a NaN (a degenerate pixel) into range
-      const float k_u = kernel_exp(u) * qv[k];
-      out[k] = t <= 2.0f ? k_u : 0.0f;
-    }
-    for (std::size_t k = count; k < blocks; ++k) out[k] = 0.0f;  // taps of the next row, or padding
-    if (!row(q0, w, blocks)) return;
-  }
+  const std::size_t px = p % width, py = p / width;
+  Window w;
+  w.x0 = px > radius ? px - radius : 0;
+  w.y0 = py > radius ? py - radius : 0;
+  w.y1 = std::min<std::size_t>(height - 1, py + radius);
+  w.count = std::min<std::size_t>(width - 1, px + radius) - w.x0 + 1;
+  w.blocks = (w.count + kLanes - 1) / kLanes * kLanes;
+  w.cx = c.x[p], w.cy = c.y[p], w.cz = c.z[p], w.cnx = c.nx[p], w.cny = c.ny[p], w.cnz = c.nz[p];
+  w.inv_m = c.inv_m[p];
+  w.inv_a2 = 1.0f / (s.a * s.a);
+  return w;
 }
+
+// w[k] = K(ε_pq / a) for the `blocks` taps q = q0 + k of one row of p's window (0 where q has no
+// samples or lies beyond the kernel's support, and for the taps past the row's end, which the
+// caller zeroes). Ward's distance, ε = d M + sqrt(τ) with d = |x_p - x_q|, M = max(1 / m_p, 1 / m_q)
+// (the surface term by the nearer geometry of the two pixels: a corner's pixel does not blur into
+// an open neighbour's kernel, nor the open one into the corner's) and τ = 1 - n_p . n_q (the
+// turn), is squared as d^2 M^2 + 2 M sqrt(d^2 τ) + τ: one square root per tap.
+PENUMBRA_FILTER_INLINE void row_weights(const Columns& c, const Window& win, std::size_t q0, float* __restrict w) {
+  const float *__restrict qx = &c.x[q0], *__restrict qy = &c.y[q0], *__restrict qz = &c.z[q0],
+                         *__restrict qnx = &c.nx[q0], *__restrict qny = &c.ny[q0], *__restrict qnz = &c.nz[q0],
+                         *__restrict qm = &c.inv_m[q0], *__restrict qv = &c.valid[q0];
+  const float cx = win.cx, cy = win.cy, cz = win.cz, cnx = win.cnx, cny = win.cny, cnz = win.cnz;
+  const float inv_m = win.inv_m, inv_a2 = win.inv_a2;
+  const std::size_t blocks = win.blocks;
+  for (std::size_t k = 0; k < blocks; ++k) {
+    const float dx = qx[k] - cx, dy = qy[k] - cy, dz = qz[k] - cz;
+    const float d2 = dx * dx + dy * dy + dz * dz;
+    // Ternaries, not std::max: a call that is not inlined into the AVX2 worker stops vectorising.
+    const float cos_turn = 1.0f - (cnx * qnx[k] + cny * qny[k] + cnz * qnz[k]);
+    const float turn = 0.0f < cos_turn ? cos_turn : 0.0f;
+    const float m = inv_m < qm[k] ? qm[k] : inv_m;
+    const float t2 = (d2 * (m * m) + 2.0f * m * std::sqrt(d2 * turn) + turn) * inv_a2;
+    const float u = t2 < 4.0f ? t2 : 4.0f;  // also maps a NaN (a degenerate pixel) into range
+    const float k_u = kernel_exp(u) * qv[k];
+    w[k] = t2 <= 4.0f ? k_u : 0.0f;
+  }
+  for (std::size_t k = win.count; k < blocks; ++k) w[k] = 0.0f;  // taps of the next row, or padding
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define PENUMBRA_FILTER_AVX2 1
+#define PENUMBRA_FILTER_AVX2_INLINE [[gnu::target("avx2"), gnu::always_inline]] inline
+PENUMBRA_FILTER_AVX2_INLINE __m256 mul(__m256 a, __m256 b) { return _mm256_mul_ps(a, b); }
+PENUMBRA_FILTER_AVX2_INLINE __m256 add(__m256 a, __m256 b) { return _mm256_add_ps(a, b); }
+PENUMBRA_FILTER_AVX2_INLINE __m256 sub(__m256 a, __m256 b) { return _mm256_sub_ps(a, b); }
+// a < b ? x : y (y where either is NaN), as the portable loop's ternaries.
+PENUMBRA_FILTER_AVX2_INLINE __m256 select_lt(__m256 a, __m256 b, __m256 x, __m256 y) {
+  return _mm256_blendv_ps(y, x, _mm256_cmp_ps(a, b, _CMP_LT_OQ));
+}
+
+// row_weights eight taps at a time, operation for operation. Not inline: GCC inlines an AVX2
+// function only into another, and the bodies below are not one until their worker inlines them.
+[[gnu::target("avx2")]] void row_weights_avx2(const Columns& c, const Window& win, std::size_t q0,
+                                              float* __restrict w) {
+  const __m256 cx = _mm256_set1_ps(win.cx), cy = _mm256_set1_ps(win.cy), cz = _mm256_set1_ps(win.cz);
+  const __m256 cnx = _mm256_set1_ps(win.cnx), cny = _mm256_set1_ps(win.cny), cnz = _mm256_set1_ps(win.cnz);
+  const __m256 inv_m = _mm256_set1_ps(win.inv_m), inv_a2 = _mm256_set1_ps(win.inv_a2);
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f),
+               four = _mm256_set1_ps(4.0f);
+  for (std::size_t k = 0; k < win.blocks; k += 8) {
+    const std::size_t q = q0 + k;
+    const __m256 dx = sub(_mm256_loadu_ps(&c.x[q]), cx), dy = sub(_mm256_loadu_ps(&c.y[q]), cy),
+                 dz = sub(_mm256_loadu_ps(&c.z[q]), cz);
+    const __m256 d2 = add(add(mul(dx, dx), mul(dy, dy)), mul(dz, dz));
+    const __m256 dot = add(add(mul(cnx, _mm256_loadu_ps(&c.nx[q])), mul(cny, _mm256_loadu_ps(&c.ny[q]))),
+                           mul(cnz, _mm256_loadu_ps(&c.nz[q])));
+    const __m256 cos_turn = sub(one, dot);
+    const __m256 turn = select_lt(zero, cos_turn, cos_turn, zero);
+    const __m256 qm = _mm256_loadu_ps(&c.inv_m[q]);
+    const __m256 m = select_lt(inv_m, qm, qm, inv_m);
+    const __m256 t2 = mul(add(add(mul(d2, mul(m, m)), mul(mul(two, m), _mm256_sqrt_ps(mul(d2, turn)))), turn), inv_a2);
+    const __m256 u = select_lt(t2, four, t2, four);
+    // kernel_exp(u)
+    const __m256 y = mul(_mm256_set1_ps(-1.44269504f), u);
+    const __m256 yi = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(y));
+    const __m256 n = select_lt(y, yi, sub(yi, one), yi);
+    const __m256 g = mul(sub(y, n), _mm256_set1_ps(0.69314718f));
+    __m256 p = _mm256_set1_ps(1.9841270e-4f);
+    for (const float coefficient : {1.3888889e-3f, 8.3333338e-3f, 4.1666668e-2f, 1.6666667e-1f, 0.5f, 1.0f, 1.0f})
+      p = add(_mm256_set1_ps(coefficient), mul(g, p));
+    const __m256 scale =
+        _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(_mm256_cvttps_epi32(n), _mm256_set1_epi32(127)), 23));
+    const __m256 k_u = mul(mul(p, scale), _mm256_loadu_ps(&c.valid[q]));
+    // t2 <= 4 ? k_u : 0 (0 for NaN)
+    _mm256_storeu_ps(w + k, _mm256_blendv_ps(zero, k_u, _mm256_cmp_ps(t2, four, _CMP_LE_OQ)));
+  }
+  for (std::size_t k = win.count; k < win.blocks; ++k) w[k] = 0.0f;  // taps of the next row, or padding
+}
+#endif
 
 // Sums of w[k] v_j[k] over a row, kept in kLanes interleaved partial sums per quantity j (lane
 // k % kLanes) so that the loop vectorises; total() adds the partial sums in a fixed order.
@@ -158,7 +232,7 @@ template <std::size_t J>
 struct LaneSums {
   float lane[J][kLanes] = {};
   // Adds w[k] * v[j][q0 + k] for k < n to quantity j. Precondition: n is a multiple of kLanes.
-  void add(const float* w, std::size_t n, const std::array<const float*, J>& v, std::size_t q0) {
+  PENUMBRA_FILTER_INLINE void add(const float* w, std::size_t n, const std::array<const float*, J>& v, std::size_t q0) {
     for (std::size_t k = 0; k < n; k += kLanes)
       for (std::size_t j = 0; j < J; ++j)
         for (std::size_t l = 0; l < kLanes; ++l) lane[j][l] += w[k + l] * v[j][q0 + k + l];
@@ -169,34 +243,108 @@ struct LaneSums {
   }
 };
 
+// What a worker reads: the image, its columns and the settings.
+struct Gather {
+  std::span<const FilterPixel> pixels;
+  std::uint32_t width = 0, height = 0;
+  const IrradianceFilterSettings* settings = nullptr;
+  const Columns* columns = nullptr;
+};
+
+// The support of pixels [begin, end): sum_q K over the window's rows until it reaches `limit`.
+// Weights: row_weights or row_weights_avx2.
+template <auto Weights>
+PENUMBRA_FILTER_INLINE void support_body(const Gather& g, float limit, std::size_t begin, std::size_t end,
+                                         float* out) {
+  float w[(2 * kMaxFilterRadius + kLanes) / kLanes * kLanes];
+  const std::array<const float*, 1> ones{g.columns->valid.data()};  // the weights are already 0 off the surface
+  for (std::size_t p = begin; p < end; ++p) {
+    LaneSums<1> sum;
+    if (g.pixels[p].samples != 0) {
+      const Window win = window_of(*g.columns, g.pixels, g.width, g.height, *g.settings, p);
+      for (std::size_t yy = win.y0; yy <= win.y1 && sum.total(0) < limit; ++yy) {
+        const std::size_t q0 = yy * g.width + win.x0;
+        Weights(*g.columns, win, q0, w);
+        sum.add(w, win.blocks, ones, q0);
+      }
+    }
+    out[p] = sum.total(0);
+  }
+}
+
+// Ē of pixels [begin, end) from `values` = {N E_r, N E_g, N E_b, N} per pixel.
+template <auto Weights>
+PENUMBRA_FILTER_INLINE void filter_body(const Gather& g, const std::array<const float*, 4>& values, std::size_t begin,
+                                        std::size_t end, glm::vec3* out) {
+  float w[(2 * kMaxFilterRadius + kLanes) / kLanes * kLanes];
+  for (std::size_t p = begin; p < end; ++p) {
+    LaneSums<4> sum;
+    if (g.pixels[p].samples != 0) {
+      const Window win = window_of(*g.columns, g.pixels, g.width, g.height, *g.settings, p);
+      for (std::size_t yy = win.y0; yy <= win.y1; ++yy) {
+        const std::size_t q0 = yy * g.width + win.x0;
+        Weights(*g.columns, win, q0, w);
+        sum.add(w, win.blocks, values, q0);
+      }
+    }
+    // The pixel itself always has weight K(0) N_p > 0, so the weight is 0 only without a surface.
+    const float weight = sum.total(3);
+    out[p] = weight > 0.0f ? glm::vec3(sum.total(0), sum.total(1), sum.total(2)) / weight : glm::vec3(0.0f);
+  }
+}
+
+void support_portable(const Gather& g, float limit, std::size_t begin, std::size_t end, float* out) {
+  support_body<row_weights>(g, limit, begin, end, out);
+}
+void filter_portable(const Gather& g, const std::array<const float*, 4>& values, std::size_t begin, std::size_t end,
+                     glm::vec3* out) {
+  filter_body<row_weights>(g, values, begin, end, out);
+}
+#if PENUMBRA_FILTER_AVX2
+[[gnu::target("avx2")]] void support_avx2(const Gather& g, float limit, std::size_t begin, std::size_t end,
+                                          float* out) {
+  support_body<row_weights_avx2>(g, limit, begin, end, out);
+}
+[[gnu::target("avx2")]] void filter_avx2(const Gather& g, const std::array<const float*, 4>& values,
+                                         std::size_t begin, std::size_t end, glm::vec3* out) {
+  filter_body<row_weights_avx2>(g, values, begin, end, out);
+}
+#endif
+
+bool use_avx2(FilterIsa isa) {
+#if PENUMBRA_FILTER_AVX2
+  static const bool has = __builtin_cpu_supports("avx2");
+  return isa != FilterIsa::Portable && has;
+#else
+  (void)isa;
+  return false;
+#endif
+}
+
 }  // namespace
 
 Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
                                  const IrradianceFilterSettings& settings, float limit, std::span<float> out,
-                                 JobContext& jobs) {
+                                 JobContext& jobs, FilterIsa isa) {
   PENUMBRA_TRY(check(pixels.size(), out.size(), width, height, settings, "irradiance_filter_support"));
   const Columns columns(pixels, width, height, settings.predictor_radius);
+  const Gather g{pixels, width, height, &settings, &columns};
+  const bool avx2 = use_avx2(isa);
   jobs.begin_stage("filter support", pixels.size());
-  const std::array<const float*, 1> ones{columns.valid.data()};  // the weights are already 0 off the surface
   return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
-    float w[(2 * kMaxFilterRadius + kLanes) / kLanes * kLanes];
-    for (std::size_t p = begin; p < end; ++p) {
-      LaneSums<1> sum;
-      if (pixels[p].samples != 0)
-        gather(columns, pixels, width, height, settings, p, w,
-               [&](std::size_t q0, const float* row, std::size_t n) {
-                 sum.add(row, n, ones, q0);
-                 return sum.total(0) < limit;
-               });
-      out[p] = sum.total(0);
-    }
+#if PENUMBRA_FILTER_AVX2
+    if (avx2) return support_avx2(g, limit, begin, end, out.data());
+#endif
+    support_portable(g, limit, begin, end, out.data());
   });
 }
 
 Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
-                         const IrradianceFilterSettings& settings, std::span<glm::vec3> out, JobContext& jobs) {
+                         const IrradianceFilterSettings& settings, std::span<glm::vec3> out, JobContext& jobs,
+                         FilterIsa isa) {
   PENUMBRA_TRY(check(pixels.size(), out.size(), width, height, settings, "filter_irradiance"));
   const Columns columns(pixels, width, height, settings.predictor_radius);
+  const Gather g{pixels, width, height, &settings, &columns};
   // Each pixel's rays N_q and their sum N_q Ê_q, so the kernel's weight K N_q averages every ray once.
   std::vector<float> rays(padded(pixels)), red(padded(pixels)), green(padded(pixels)), blue(padded(pixels));
   for (std::size_t i = 0; i < pixels.size(); ++i) {
@@ -207,21 +355,13 @@ Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t widt
     blue[i] = n * pixels[i].irradiance.z;
   }
   const std::array<const float*, 4> values{red.data(), green.data(), blue.data(), rays.data()};
+  const bool avx2 = use_avx2(isa);
   jobs.begin_stage("irradiance filter", pixels.size());
   return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
-    float w[(2 * kMaxFilterRadius + kLanes) / kLanes * kLanes];
-    for (std::size_t p = begin; p < end; ++p) {
-      LaneSums<4> sum;
-      if (pixels[p].samples != 0)
-        gather(columns, pixels, width, height, settings, p, w,
-               [&](std::size_t q0, const float* row, std::size_t n) {
-                 sum.add(row, n, values, q0);
-                 return true;
-               });
-      // The pixel itself always has weight K(0) N_p > 0, so the weight is 0 only without a surface.
-      const float weight = sum.total(3);
-      out[p] = weight > 0.0f ? glm::vec3(sum.total(0), sum.total(1), sum.total(2)) / weight : glm::vec3(0.0f);
-    }
+#if PENUMBRA_FILTER_AVX2
+    if (avx2) return filter_avx2(g, values, begin, end, out.data());
+#endif
+    filter_portable(g, values, begin, end, out.data());
   });
 }
 
