@@ -51,16 +51,20 @@ Status check(std::size_t pixels, std::size_t out, std::uint32_t width, std::uint
 
 // exp(-u) for u in [0, 4] (the kernel's support, t <= 2), within 1e-6 relative: 2^y with
 // y = -u log2(e) split into an integer part (the exponent bits) and a fraction (a degree-7
-// polynomial of 2^f on [0, 1), Taylor coefficients of e^(f ln 2)). Written without branches or
-// calls so that the row loop vectorises.
+// polynomial of 2^f on [0, 1), Taylor coefficients of e^(f ln 2), in Estrin's scheme: pairs of
+// terms, then g^2 and g^4, so that the steps do not wait on one another). Written without branches
+// or calls so that the row loop vectorises.
+constexpr float kExpTaylor[8] = {1.0f,          1.0f,          0.5f,          1.6666667e-1f,
+                                 4.1666668e-2f, 8.3333338e-3f, 1.3888889e-3f, 1.9841270e-4f};
 PENUMBRA_FILTER_INLINE float kernel_exp(float u) {
   const float y = -1.44269504f * u;          // in [-5.78, 0]
   const float yi = float(int(y));            // truncation: ceil for y <= 0
   const float n = yi > y ? yi - 1.0f : yi;   // floor
   const float f = y - n;                     // [0, 1)
   const float g = f * 0.69314718f;
-  const float p =
-      1.0f + g * (1.0f + g * (0.5f + g * (1.6666667e-1f + g * (4.1666668e-2f + g * (8.3333338e-3f + g * (1.3888889e-3f + g * 1.9841270e-4f))))));
+  const float g2 = g * g, g4 = g2 * g2;
+  const float* c = kExpTaylor;
+  const float p = ((c[0] + c[1] * g) + g2 * (c[2] + c[3] * g)) + g4 * ((c[4] + c[5] * g) + g2 * (c[6] + c[7] * g));
   const float scale = std::bit_cast<float>((int(n) + 127) << 23);  // 2^n, n in [-6, 0]
   return p * scale;
 }
@@ -77,7 +81,7 @@ struct Columns {
   std::vector<float> valid;   // 1 where samples > 0, else 0 (such a pixel gets weight 0)
   // Each array holds kLanes zeros past the last pixel, so a row's loop may run to a multiple of
   // kLanes.
-  Columns(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height, std::uint32_t pool)
+  explicit Columns(std::span<const FilterPixel> pixels)
       : x(padded(pixels)), y(padded(pixels)), z(padded(pixels)), nx(padded(pixels)), ny(padded(pixels)),
         nz(padded(pixels)), inv_m(padded(pixels)), valid(padded(pixels)) {
     for (std::size_t i = 0; i < pixels.size(); ++i) {
@@ -91,26 +95,34 @@ struct Columns {
       nz[i] = ok ? p.normal.z : 0.0f;
       valid[i] = ok ? 1.0f : 0.0f;
     }
-    // The predictor: the harmonic mean distance of every ray of p's neighbourhood on p's surface,
-    // N / sum(1 / d), with sum(1 / d) = N_q / m_q per pixel.
-    for (std::size_t i = 0; i < pixels.size(); ++i) {
-      const FilterPixel& p = pixels[i];
-      if (p.samples == 0) continue;
-      const auto px = static_cast<std::int64_t>(i % width), py = static_cast<std::int64_t>(i / width);
-      const std::int64_t r = pool;
-      double inverse = 0.0, rays = 0.0;
-      for (std::int64_t yy = std::max<std::int64_t>(0, py - r); yy <= std::min<std::int64_t>(height - 1, py + r); ++yy) {
-        for (std::int64_t xx = std::max<std::int64_t>(0, px - r); xx <= std::min<std::int64_t>(width - 1, px + r); ++xx) {
-          const FilterPixel& q = pixels[std::size_t(yy) * width + std::size_t(xx)];
-          if (q.samples == 0 || !on_surface_of(p, q)) continue;
-          if (std::isfinite(q.harmonic_distance)) inverse += double(q.samples) / double(q.harmonic_distance);
-          rays += double(q.samples);
+  }
+  // The predictor, inv_m: the harmonic mean distance of every ray of p's (2 pool + 1)^2
+  // neighbourhood on p's surface, N / sum(1 / d), with sum(1 / d) = N_q / m_q per pixel. In
+  // parallel on `jobs` (each pixel's sum in a fixed order).
+  Status predict(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height, std::uint32_t pool,
+                 JobContext& jobs) {
+    return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        const FilterPixel& p = pixels[i];
+        if (p.samples == 0) continue;
+        const auto px = static_cast<std::int64_t>(i % width), py = static_cast<std::int64_t>(i / width);
+        const std::int64_t r = pool;
+        double inverse = 0.0, rays = 0.0;
+        for (std::int64_t yy = std::max<std::int64_t>(0, py - r); yy <= std::min<std::int64_t>(height - 1, py + r);
+             ++yy) {
+          for (std::int64_t xx = std::max<std::int64_t>(0, px - r); xx <= std::min<std::int64_t>(width - 1, px + r);
+               ++xx) {
+            const FilterPixel& q = pixels[std::size_t(yy) * width + std::size_t(xx)];
+            if (q.samples == 0 || !on_surface_of(p, q)) continue;
+            if (std::isfinite(q.harmonic_distance)) inverse += double(q.samples) / double(q.harmonic_distance);
+            rays += double(q.samples);
+          }
         }
+        // p counts itself unless its normal is degenerate; then its own rays decide.
+        inv_m[i] = rays > 0.0 ? float(inverse / rays)
+                              : (std::isfinite(p.harmonic_distance) ? 1.0f / p.harmonic_distance : 0.0f);
       }
-      // p counts itself unless its normal is degenerate; then its own rays decide.
-      inv_m[i] = rays > 0.0 ? float(inverse / rays)
-                            : (std::isfinite(p.harmonic_distance) ? 1.0f / p.harmonic_distance : 0.0f);
-    }
+    });
   }
   // Whether q lies on p's surface: normals within about 25 degrees and q within one pixel
   // footprint of p's tangent plane (a silhouette's background is not).
@@ -186,43 +198,70 @@ PENUMBRA_FILTER_AVX2_INLINE __m256 select_lt(__m256 a, __m256 b, __m256 x, __m25
   return _mm256_blendv_ps(y, x, _mm256_cmp_ps(a, b, _CMP_LT_OQ));
 }
 
-// row_weights eight taps at a time, operation for operation. Not inline: GCC inlines an AVX2
-// function only into another, and the bodies below are not one until their worker inlines them.
-[[gnu::target("avx2")]] void row_weights_avx2(const Columns& c, const Window& win, std::size_t q0,
-                                              float* __restrict w) {
-  const __m256 cx = _mm256_set1_ps(win.cx), cy = _mm256_set1_ps(win.cy), cz = _mm256_set1_ps(win.cz);
-  const __m256 cnx = _mm256_set1_ps(win.cnx), cny = _mm256_set1_ps(win.cny), cnz = _mm256_set1_ps(win.cnz);
-  const __m256 inv_m = _mm256_set1_ps(win.inv_m), inv_a2 = _mm256_set1_ps(win.inv_a2);
-  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f),
-               four = _mm256_set1_ps(4.0f);
-  for (std::size_t k = 0; k < win.blocks; k += 8) {
-    const std::size_t q = q0 + k;
-    const __m256 dx = sub(_mm256_loadu_ps(&c.x[q]), cx), dy = sub(_mm256_loadu_ps(&c.y[q]), cy),
-                 dz = sub(_mm256_loadu_ps(&c.z[q]), cz);
-    const __m256 d2 = add(add(mul(dx, dx), mul(dy, dy)), mul(dz, dz));
-    const __m256 dot = add(add(mul(cnx, _mm256_loadu_ps(&c.nx[q])), mul(cny, _mm256_loadu_ps(&c.ny[q]))),
-                           mul(cnz, _mm256_loadu_ps(&c.nz[q])));
-    const __m256 cos_turn = sub(one, dot);
-    const __m256 turn = select_lt(zero, cos_turn, cos_turn, zero);
-    const __m256 qm = _mm256_loadu_ps(&c.inv_m[q]);
-    const __m256 m = select_lt(inv_m, qm, qm, inv_m);
-    const __m256 t2 = mul(add(add(mul(d2, mul(m, m)), mul(mul(two, m), _mm256_sqrt_ps(mul(d2, turn)))), turn), inv_a2);
-    const __m256 u = select_lt(t2, four, t2, four);
-    // kernel_exp(u)
-    const __m256 y = mul(_mm256_set1_ps(-1.44269504f), u);
-    const __m256 yi = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(y));
-    const __m256 n = select_lt(y, yi, sub(yi, one), yi);
-    const __m256 g = mul(sub(y, n), _mm256_set1_ps(0.69314718f));
-    __m256 p = _mm256_set1_ps(1.9841270e-4f);
-    for (const float coefficient : {1.3888889e-3f, 8.3333338e-3f, 4.1666668e-2f, 1.6666667e-1f, 0.5f, 1.0f, 1.0f})
-      p = add(_mm256_set1_ps(coefficient), mul(g, p));
-    const __m256 scale =
-        _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(_mm256_cvttps_epi32(n), _mm256_set1_epi32(127)), 23));
-    const __m256 k_u = mul(mul(p, scale), _mm256_loadu_ps(&c.valid[q]));
-    // t2 <= 4 ? k_u : 0 (0 for NaN)
-    _mm256_storeu_ps(w + k, _mm256_blendv_ps(zero, k_u, _mm256_cmp_ps(t2, four, _CMP_LE_OQ)));
+// kernel_exp's c[i] + c[i + 1] g.
+PENUMBRA_FILTER_AVX2_INLINE __m256 taylor_pair(int i, __m256 g) {
+  return add(_mm256_set1_ps(kExpTaylor[i]), mul(_mm256_set1_ps(kExpTaylor[i + 1]), g));
+}
+
+// What weights8 needs of p, broadcast to the eight lanes.
+struct Centre8 {
+  __m256 cx, cy, cz, cnx, cny, cnz, inv_m, inv_a2;
+};
+PENUMBRA_FILTER_AVX2_INLINE Centre8 centre8(const Window& win) {
+  return {_mm256_set1_ps(win.cx),  _mm256_set1_ps(win.cy),  _mm256_set1_ps(win.cz),    _mm256_set1_ps(win.cnx),
+          _mm256_set1_ps(win.cny), _mm256_set1_ps(win.cnz), _mm256_set1_ps(win.inv_m), _mm256_set1_ps(win.inv_a2)};
+}
+
+// row_weights for the eight taps q.. q + 7, operation for operation.
+PENUMBRA_FILTER_AVX2_INLINE __m256 weights8(const Columns& c, const Centre8& p, std::size_t q) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), four = _mm256_set1_ps(4.0f);
+  const __m256 dx = sub(_mm256_loadu_ps(&c.x[q]), p.cx), dy = sub(_mm256_loadu_ps(&c.y[q]), p.cy),
+               dz = sub(_mm256_loadu_ps(&c.z[q]), p.cz);
+  const __m256 d2 = add(add(mul(dx, dx), mul(dy, dy)), mul(dz, dz));
+  const __m256 dot = add(add(mul(p.cnx, _mm256_loadu_ps(&c.nx[q])), mul(p.cny, _mm256_loadu_ps(&c.ny[q]))),
+                         mul(p.cnz, _mm256_loadu_ps(&c.nz[q])));
+  const __m256 cos_turn = sub(one, dot);
+  const __m256 turn = select_lt(zero, cos_turn, cos_turn, zero);
+  const __m256 qm = _mm256_loadu_ps(&c.inv_m[q]);
+  const __m256 m = select_lt(p.inv_m, qm, qm, p.inv_m);
+  const __m256 t2 = mul(add(add(mul(d2, mul(m, m)), mul(mul(_mm256_set1_ps(2.0f), m), _mm256_sqrt_ps(mul(d2, turn)))),
+                            turn),
+                        p.inv_a2);
+  const __m256 u = select_lt(t2, four, t2, four);
+  // kernel_exp(u)
+  const __m256 y = mul(_mm256_set1_ps(-1.44269504f), u);
+  const __m256 n = _mm256_round_ps(y, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);  // the same floor, in one step
+  const __m256 g = mul(sub(y, n), _mm256_set1_ps(0.69314718f));
+  const __m256 g2 = mul(g, g), g4 = mul(g2, g2);
+  const __m256 poly =
+      add(add(taylor_pair(0, g), mul(g2, taylor_pair(2, g))), mul(g4, add(taylor_pair(4, g), mul(g2, taylor_pair(6, g)))));
+  const __m256 scale =
+      _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(_mm256_cvttps_epi32(n), _mm256_set1_epi32(127)), 23));
+  const __m256 k_u = mul(mul(poly, scale), _mm256_loadu_ps(&c.valid[q]));
+  return _mm256_blendv_ps(zero, k_u, _mm256_cmp_ps(t2, four, _CMP_LE_OQ));  // t2 <= 4 ? k_u : 0 (0 for NaN)
+}
+
+// LaneSums::total of eight lanes.
+PENUMBRA_FILTER_AVX2_INLINE float total8(__m256 lanes) {
+  alignas(32) float a[8];
+  _mm256_store_ps(a, lanes);
+  return ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]));
+}
+
+// Adds row yy of p's window to the eight-lane sums of `values` (J of them), as gather_row does:
+// the taps past the row's end (the last block's lanes from `count` on) weigh 0.
+template <std::size_t J>
+PENUMBRA_FILTER_AVX2_INLINE void row8(const Columns& c, const Window& win, const Centre8& p, std::size_t q0,
+                                      const std::array<const float*, J>& values, __m256 (&sums)[J]) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  for (std::size_t k = 0; k < win.blocks; k += kLanes) {
+    __m256 w = weights8(c, p, q0 + k);
+    if (k + kLanes > win.count) {
+      const __m256i inside = _mm256_cmpgt_epi32(_mm256_set1_epi32(int(win.count - k)), lane);
+      w = _mm256_and_ps(w, _mm256_castsi256_ps(inside));
+    }
+    for (std::size_t j = 0; j < J; ++j) sums[j] = add(sums[j], mul(w, _mm256_loadu_ps(values[j] + q0 + k)));
   }
-  for (std::size_t k = win.count; k < win.blocks; ++k) w[k] = 0.0f;  // taps of the next row, or padding
 }
 #endif
 
@@ -251,8 +290,18 @@ struct Gather {
   const Columns* columns = nullptr;
 };
 
-// The support of pixels [begin, end): sum_q K over the window's rows until it reaches `limit`.
-// Weights: row_weights or row_weights_avx2.
+// Adds row yy of p's window to `sum`: the row's weights into w, then w x values.
+template <auto Weights, std::size_t J>
+PENUMBRA_FILTER_INLINE void gather_row(const Gather& g, const Window& win, std::size_t yy, float* w, LaneSums<J>& sum,
+                                       const std::array<const float*, J>& values) {
+  const std::size_t q0 = yy * g.width + win.x0;
+  Weights(*g.columns, win, q0, w);
+  sum.add(w, win.blocks, values, q0);
+}
+
+// The support of pixels [begin, end): sum_q K over the window's rows, p's own row first and then
+// outwards (p - 1, p + 1, p - 2, ...: the rows of the largest weights first), until it reaches
+// `limit`. Weights: row_weights or row_weights_avx2.
 template <auto Weights>
 PENUMBRA_FILTER_INLINE void support_body(const Gather& g, float limit, std::size_t begin, std::size_t end,
                                          float* out) {
@@ -262,10 +311,11 @@ PENUMBRA_FILTER_INLINE void support_body(const Gather& g, float limit, std::size
     LaneSums<1> sum;
     if (g.pixels[p].samples != 0) {
       const Window win = window_of(*g.columns, g.pixels, g.width, g.height, *g.settings, p);
-      for (std::size_t yy = win.y0; yy <= win.y1 && sum.total(0) < limit; ++yy) {
-        const std::size_t q0 = yy * g.width + win.x0;
-        Weights(*g.columns, win, q0, w);
-        sum.add(w, win.blocks, ones, q0);
+      const std::size_t py = p / g.width;
+      gather_row<Weights>(g, win, py, w, sum, ones);
+      for (std::size_t k = 1; sum.total(0) < limit && (py >= win.y0 + k || py + k <= win.y1); ++k) {
+        if (py >= win.y0 + k) gather_row<Weights>(g, win, py - k, w, sum, ones);
+        if (py + k <= win.y1 && sum.total(0) < limit) gather_row<Weights>(g, win, py + k, w, sum, ones);
       }
     }
     out[p] = sum.total(0);
@@ -281,11 +331,7 @@ PENUMBRA_FILTER_INLINE void filter_body(const Gather& g, const std::array<const 
     LaneSums<4> sum;
     if (g.pixels[p].samples != 0) {
       const Window win = window_of(*g.columns, g.pixels, g.width, g.height, *g.settings, p);
-      for (std::size_t yy = win.y0; yy <= win.y1; ++yy) {
-        const std::size_t q0 = yy * g.width + win.x0;
-        Weights(*g.columns, win, q0, w);
-        sum.add(w, win.blocks, values, q0);
-      }
+      for (std::size_t yy = win.y0; yy <= win.y1; ++yy) gather_row<Weights>(g, win, yy, w, sum, values);
     }
     // The pixel itself always has weight K(0) N_p > 0, so the weight is 0 only without a surface.
     const float weight = sum.total(3);
@@ -301,13 +347,39 @@ void filter_portable(const Gather& g, const std::array<const float*, 4>& values,
   filter_body<row_weights>(g, values, begin, end, out);
 }
 #if PENUMBRA_FILTER_AVX2
+// support_body and filter_body eight lanes wide, the sums in registers.
 [[gnu::target("avx2")]] void support_avx2(const Gather& g, float limit, std::size_t begin, std::size_t end,
                                           float* out) {
-  support_body<row_weights_avx2>(g, limit, begin, end, out);
+  const Columns& c = *g.columns;
+  const std::array<const float*, 1> ones{c.valid.data()};
+  for (std::size_t p = begin; p < end; ++p) {
+    __m256 sum[1] = {_mm256_setzero_ps()};
+    if (g.pixels[p].samples != 0) {
+      const Window win = window_of(c, g.pixels, g.width, g.height, *g.settings, p);
+      const Centre8 centre = centre8(win);
+      const std::size_t py = p / g.width;
+      row8(c, win, centre, py * g.width + win.x0, ones, sum);
+      for (std::size_t k = 1; total8(sum[0]) < limit && (py >= win.y0 + k || py + k <= win.y1); ++k) {
+        if (py >= win.y0 + k) row8(c, win, centre, (py - k) * g.width + win.x0, ones, sum);
+        if (py + k <= win.y1 && total8(sum[0]) < limit) row8(c, win, centre, (py + k) * g.width + win.x0, ones, sum);
+      }
+    }
+    out[p] = total8(sum[0]);
+  }
 }
 [[gnu::target("avx2")]] void filter_avx2(const Gather& g, const std::array<const float*, 4>& values,
                                          std::size_t begin, std::size_t end, glm::vec3* out) {
-  filter_body<row_weights_avx2>(g, values, begin, end, out);
+  const Columns& c = *g.columns;
+  for (std::size_t p = begin; p < end; ++p) {
+    __m256 sum[4] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
+    if (g.pixels[p].samples != 0) {
+      const Window win = window_of(c, g.pixels, g.width, g.height, *g.settings, p);
+      const Centre8 centre = centre8(win);
+      for (std::size_t yy = win.y0; yy <= win.y1; ++yy) row8(c, win, centre, yy * g.width + win.x0, values, sum);
+    }
+    const float weight = total8(sum[3]);
+    out[p] = weight > 0.0f ? glm::vec3(total8(sum[0]), total8(sum[1]), total8(sum[2])) / weight : glm::vec3(0.0f);
+  }
 }
 #endif
 
@@ -327,10 +399,11 @@ Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint3
                                  const IrradianceFilterSettings& settings, float limit, std::span<float> out,
                                  JobContext& jobs, FilterIsa isa) {
   PENUMBRA_TRY(check(pixels.size(), out.size(), width, height, settings, "irradiance_filter_support"));
-  const Columns columns(pixels, width, height, settings.predictor_radius);
+  Columns columns(pixels);
+  jobs.begin_stage("filter support", 2 * pixels.size());
+  PENUMBRA_TRY(columns.predict(pixels, width, height, settings.predictor_radius, jobs));
   const Gather g{pixels, width, height, &settings, &columns};
   const bool avx2 = use_avx2(isa);
-  jobs.begin_stage("filter support", pixels.size());
   return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
 #if PENUMBRA_FILTER_AVX2
     if (avx2) return support_avx2(g, limit, begin, end, out.data());
@@ -343,7 +416,9 @@ Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t widt
                          const IrradianceFilterSettings& settings, std::span<glm::vec3> out, JobContext& jobs,
                          FilterIsa isa) {
   PENUMBRA_TRY(check(pixels.size(), out.size(), width, height, settings, "filter_irradiance"));
-  const Columns columns(pixels, width, height, settings.predictor_radius);
+  Columns columns(pixels);
+  jobs.begin_stage("irradiance filter", 2 * pixels.size());
+  PENUMBRA_TRY(columns.predict(pixels, width, height, settings.predictor_radius, jobs));
   const Gather g{pixels, width, height, &settings, &columns};
   // Each pixel's rays N_q and their sum N_q Ê_q, so the kernel's weight K N_q averages every ray once.
   std::vector<float> rays(padded(pixels)), red(padded(pixels)), green(padded(pixels)), blue(padded(pixels));
@@ -356,7 +431,6 @@ Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t widt
   }
   const std::array<const float*, 4> values{red.data(), green.data(), blue.data(), rays.data()};
   const bool avx2 = use_avx2(isa);
-  jobs.begin_stage("irradiance filter", pixels.size());
   return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
 #if PENUMBRA_FILTER_AVX2
     if (avx2) return filter_avx2(g, values, begin, end, out.data());
