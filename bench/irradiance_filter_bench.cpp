@@ -10,7 +10,10 @@
 // against the reference; ref_stderr is the reference's own relative standard error (the part of
 // every error figure its noise explains); rel_rmse_net = sqrt(max(0, rel_rmse^2 - ref_stderr^2)),
 // the error against the converged image (the reference's noise is independent of the image's);
-// net_vs_mc_equal_time: a run's net error over Monte Carlo's at the same time.
+// net_vs_mc_equal_time: a run's net error over Monte Carlo's at the same time. seconds: a run under
+// a quarter of a second is rendered three times and timed by the fastest (the images are identical;
+// the machine is shared, and a render that another process preempts only reads slower), the
+// same for every mode.
 // Goals (the paper's claims): at equal time, irradiance filtering has at most half the net error
 // of plain Monte Carlo (MC's error at the filter's time interpolated in log-log between its two
 // nearest runs); and it reaches the net error of each irradiance-caching run (Ward 1988 with
@@ -190,6 +193,11 @@ Result<Report> run(const Options& options) {
         if (!image) return image.error();
         Run r;
         r.seconds = image->seconds;
+        for (int repeat = 1; repeat < 3 && image->seconds < 0.25; ++repeat) {
+          auto again = render_offline(*rays, lights, camera, s, jobs);
+          if (!again) return again.error();
+          r.seconds = std::min(r.seconds, again->seconds);
+        }
         r.rays_per_pixel = double(image->indirect_samples) / double(std::max<std::uint64_t>(image->covered_pixels, 1));
         const double gross = relative_rmse(*image, *ref);
         r.rel_rmse = std::sqrt(std::max(gross * gross - ref_stderr * ref_stderr, 0.0));
