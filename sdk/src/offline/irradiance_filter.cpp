@@ -1,10 +1,13 @@
 // Irradiance filtering (Kontkanen, Räsänen & Keller 2004): the gather over each pixel's window.
 //
-// The window is gathered a row at a time: the kernel weights of a row's taps are computed into a
-// small buffer by a loop without branches over structure-of-arrays copies of the pixels (the
-// compiler turns it into SIMD code), then added into eight interleaved partial sums. Every sum is
-// taken in an order fixed by the image and the window alone, so the output does not depend on how
-// the work is split.
+// The window is gathered a row at a time over structure-of-arrays copies of the pixels, in blocks
+// of eight taps whose weights are added into eight interleaved partial sums. Two paths, chosen at
+// run time: the portable one computes a row's weights into a small buffer by a loop without
+// branches (the compiler turns it into 4-lane SSE code on x86-64); the AVX2 one (x86-64 CPUs that
+// have it) computes eight taps at a time in intrinsics and keeps the sums in registers. Each lane
+// of both does the same IEEE operations in the same order and nothing contracts a multiply and an
+// add (no FMA), so they give the same bits. Every sum is taken in an order fixed by the image and
+// the window alone, so the output does not depend on how the work is split either.
 #include "penumbra/offline/irradiance_filter.h"
 
 #include <algorithm>
@@ -42,13 +45,6 @@ Status check(std::size_t pixels, std::size_t out, std::uint32_t width, std::uint
   return {};
 }
 
-// Every step of the gather is written as a function forced inline, so that the workers at the end
-// compile it for the baseline of the target (4-lane SSE on x86-64) and, on x86-64, for AVX2 (8
-// lanes; the row's weights in intrinsics), chosen at run time. Each lane does the same IEEE
-// operations in the same order and nothing contracts a multiply and an add (no FMA), so both give
-// the same bits.
-#define PENUMBRA_FILTER_INLINE [[gnu::always_inline]] inline
-
 // exp(-u) for u in [0, 4] (the kernel's support, t <= 2), within 1e-6 relative: 2^y with
 // y = -u log2(e) split into an integer part (the exponent bits) and a fraction (a degree-7
 // polynomial of 2^f on [0, 1), Taylor coefficients of e^(f ln 2), in Estrin's scheme: pairs of
@@ -56,7 +52,7 @@ Status check(std::size_t pixels, std::size_t out, std::uint32_t width, std::uint
 // or calls so that the row loop vectorises.
 constexpr float kExpTaylor[8] = {1.0f,          1.0f,          0.5f,          1.6666667e-1f,
                                  4.1666668e-2f, 8.3333338e-3f, 1.3888889e-3f, 1.9841270e-4f};
-PENUMBRA_FILTER_INLINE float kernel_exp(float u) {
+inline float kernel_exp(float u) {
   const float y = -1.44269504f * u;          // in [-5.78, 0]
   const float yi = float(int(y));            // truncation: ceil for y <= 0
   const float n = yi > y ? yi - 1.0f : yi;   // floor
@@ -139,8 +135,8 @@ struct Window {
   float cx = 0, cy = 0, cz = 0, cnx = 0, cny = 0, cnz = 0, inv_m = 0, inv_a2 = 0;
 };
 
-PENUMBRA_FILTER_INLINE Window window_of(const Columns& c, std::span<const FilterPixel> pixels, std::uint32_t width,
-                                        std::uint32_t height, const IrradianceFilterSettings& s, std::size_t p) {
+Window window_of(const Columns& c, std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
+                 const IrradianceFilterSettings& s, std::size_t p) {
   std::uint32_t radius = s.max_radius;
   if (c.inv_m[p] > 0.0f) {
     const float r = std::ceil(2.0f * s.a / (c.inv_m[p] * pixels[p].footprint));
@@ -165,7 +161,7 @@ PENUMBRA_FILTER_INLINE Window window_of(const Columns& c, std::span<const Filter
 // (the surface term by the nearer geometry of the two pixels: a corner's pixel does not blur into
 // an open neighbour's kernel, nor the open one into the corner's) and τ = 1 - n_p . n_q (the
 // turn), is squared as d^2 M^2 + 2 M sqrt(d^2 τ) + τ: one square root per tap.
-PENUMBRA_FILTER_INLINE void row_weights(const Columns& c, const Window& win, std::size_t q0, float* __restrict w) {
+void row_weights(const Columns& c, const Window& win, std::size_t q0, float* __restrict w) {
   const float *__restrict qx = &c.x[q0], *__restrict qy = &c.y[q0], *__restrict qz = &c.z[q0],
                          *__restrict qnx = &c.nx[q0], *__restrict qny = &c.ny[q0], *__restrict qnz = &c.nz[q0],
                          *__restrict qm = &c.inv_m[q0], *__restrict qv = &c.valid[q0];
@@ -175,7 +171,6 @@ PENUMBRA_FILTER_INLINE void row_weights(const Columns& c, const Window& win, std
   for (std::size_t k = 0; k < blocks; ++k) {
     const float dx = qx[k] - cx, dy = qy[k] - cy, dz = qz[k] - cz;
     const float d2 = dx * dx + dy * dy + dz * dz;
-    // Ternaries, not std::max: a call that is not inlined into the AVX2 worker stops vectorising.
     const float cos_turn = 1.0f - (cnx * qnx[k] + cny * qny[k] + cnz * qnz[k]);
     const float turn = 0.0f < cos_turn ? cos_turn : 0.0f;
     const float m = inv_m < qm[k] ? qm[k] : inv_m;
@@ -271,7 +266,7 @@ template <std::size_t J>
 struct LaneSums {
   float lane[J][kLanes] = {};
   // Adds w[k] * v[j][q0 + k] for k < n to quantity j. Precondition: n is a multiple of kLanes.
-  PENUMBRA_FILTER_INLINE void add(const float* w, std::size_t n, const std::array<const float*, J>& v, std::size_t q0) {
+  void add(const float* w, std::size_t n, const std::array<const float*, J>& v, std::size_t q0) {
     for (std::size_t k = 0; k < n; k += kLanes)
       for (std::size_t j = 0; j < J; ++j)
         for (std::size_t l = 0; l < kLanes; ++l) lane[j][l] += w[k + l] * v[j][q0 + k + l];
@@ -291,20 +286,18 @@ struct Gather {
 };
 
 // Adds row yy of p's window to `sum`: the row's weights into w, then w x values.
-template <auto Weights, std::size_t J>
-PENUMBRA_FILTER_INLINE void gather_row(const Gather& g, const Window& win, std::size_t yy, float* w, LaneSums<J>& sum,
-                                       const std::array<const float*, J>& values) {
+template <std::size_t J>
+void gather_row(const Gather& g, const Window& win, std::size_t yy, float* w, LaneSums<J>& sum,
+                const std::array<const float*, J>& values) {
   const std::size_t q0 = yy * g.width + win.x0;
-  Weights(*g.columns, win, q0, w);
+  row_weights(*g.columns, win, q0, w);
   sum.add(w, win.blocks, values, q0);
 }
 
 // The support of pixels [begin, end): sum_q K over the window's rows, p's own row first and then
 // outwards (p - 1, p + 1, p - 2, ...: the rows of the largest weights first), until it reaches
-// `limit`. Weights: row_weights or row_weights_avx2.
-template <auto Weights>
-PENUMBRA_FILTER_INLINE void support_body(const Gather& g, float limit, std::size_t begin, std::size_t end,
-                                         float* out) {
+// `limit`.
+void support_portable(const Gather& g, float limit, std::size_t begin, std::size_t end, float* out) {
   float w[(2 * kMaxFilterRadius + kLanes) / kLanes * kLanes];
   const std::array<const float*, 1> ones{g.columns->valid.data()};  // the weights are already 0 off the surface
   for (std::size_t p = begin; p < end; ++p) {
@@ -312,10 +305,10 @@ PENUMBRA_FILTER_INLINE void support_body(const Gather& g, float limit, std::size
     if (g.pixels[p].samples != 0) {
       const Window win = window_of(*g.columns, g.pixels, g.width, g.height, *g.settings, p);
       const std::size_t py = p / g.width;
-      gather_row<Weights>(g, win, py, w, sum, ones);
+      gather_row(g, win, py, w, sum, ones);
       for (std::size_t k = 1; sum.total(0) < limit && (py >= win.y0 + k || py + k <= win.y1); ++k) {
-        if (py >= win.y0 + k) gather_row<Weights>(g, win, py - k, w, sum, ones);
-        if (py + k <= win.y1 && sum.total(0) < limit) gather_row<Weights>(g, win, py + k, w, sum, ones);
+        if (py >= win.y0 + k) gather_row(g, win, py - k, w, sum, ones);
+        if (py + k <= win.y1 && sum.total(0) < limit) gather_row(g, win, py + k, w, sum, ones);
       }
     }
     out[p] = sum.total(0);
@@ -323,15 +316,14 @@ PENUMBRA_FILTER_INLINE void support_body(const Gather& g, float limit, std::size
 }
 
 // Ē of pixels [begin, end) from `values` = {N E_r, N E_g, N E_b, N} per pixel.
-template <auto Weights>
-PENUMBRA_FILTER_INLINE void filter_body(const Gather& g, const std::array<const float*, 4>& values, std::size_t begin,
-                                        std::size_t end, glm::vec3* out) {
+void filter_portable(const Gather& g, const std::array<const float*, 4>& values, std::size_t begin, std::size_t end,
+                     glm::vec3* out) {
   float w[(2 * kMaxFilterRadius + kLanes) / kLanes * kLanes];
   for (std::size_t p = begin; p < end; ++p) {
     LaneSums<4> sum;
     if (g.pixels[p].samples != 0) {
       const Window win = window_of(*g.columns, g.pixels, g.width, g.height, *g.settings, p);
-      for (std::size_t yy = win.y0; yy <= win.y1; ++yy) gather_row<Weights>(g, win, yy, w, sum, values);
+      for (std::size_t yy = win.y0; yy <= win.y1; ++yy) gather_row(g, win, yy, w, sum, values);
     }
     // The pixel itself always has weight K(0) N_p > 0, so the weight is 0 only without a surface.
     const float weight = sum.total(3);
@@ -339,15 +331,8 @@ PENUMBRA_FILTER_INLINE void filter_body(const Gather& g, const std::array<const 
   }
 }
 
-void support_portable(const Gather& g, float limit, std::size_t begin, std::size_t end, float* out) {
-  support_body<row_weights>(g, limit, begin, end, out);
-}
-void filter_portable(const Gather& g, const std::array<const float*, 4>& values, std::size_t begin, std::size_t end,
-                     glm::vec3* out) {
-  filter_body<row_weights>(g, values, begin, end, out);
-}
 #if PENUMBRA_FILTER_AVX2
-// support_body and filter_body eight lanes wide, the sums in registers.
+// support_portable and filter_portable eight lanes wide, the sums in registers.
 [[gnu::target("avx2")]] void support_avx2(const Gather& g, float limit, std::size_t begin, std::size_t end,
                                           float* out) {
   const Columns& c = *g.columns;
