@@ -6,9 +6,11 @@
 #include "penumbra/pose_ao/joint_roles.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 
+#include <glm/gtc/packing.hpp>
 #include <glm/mat3x3.hpp>
 
 #if defined(__x86_64__)
@@ -57,9 +59,16 @@ std::uint64_t PoseAOData::bytes() const {
          bytes_of(centers) + bytes_of(bind_ao) + bytes_of(mean_ao);
 }
 
+float PoseAOData::coefficient(const PoseAOGroup& g, std::uint32_t m, std::uint32_t c, std::uint32_t i) const {
+  return glm::unpackHalf1x16(coefficients[g.coefficient_index(m, c, i)]);
+}
+
 double PoseAOData::bytes_per_vertex() const {
   if (vertex_count == 0) return 0.0;
-  const double stored = 2.0 * static_cast<double>(coefficients.size()) + 4.0 * static_cast<double>(vertex_order.size()) +
+  // What the chunk stores: the coefficients without the blocks' padding.
+  std::uint64_t halves = 0;
+  for (const PoseAOGroup& g : groups) halves += std::uint64_t{g.cluster_count} * g.coefficient_count() * g.count;
+  const double stored = 2.0 * static_cast<double>(halves) + 4.0 * static_cast<double>(vertex_order.size()) +
                         4.0 * static_cast<double>(centers.size()) +
                         static_cast<double>(groups.size() * (kPoseAOMaxLocality * 2 + 4 * 5 + 8 * 2));
   return stored / vertex_count;
@@ -129,112 +138,91 @@ void pose_features(std::span<const std::int32_t> parents, std::span<const glm::m
 
 namespace {
 
-// Four float lanes (the GCC/Clang vector extension: one SSE register on x86-64, NEON on ARM).
-typedef float Lanes __attribute__((vector_size(16)));
-constexpr std::size_t kLanes = 4;
-inline Lanes load(const float* p) {
-  Lanes v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-inline Lanes clamp01(Lanes x) {
-  const Lanes zero{}, one = zero + 1.0f;
-  x = x < zero ? zero : x;
-  return x > one ? one : x;
+// One blended cluster of a group: its run of coefficients (PoseAOGroup) and the weight of each
+// coefficient row, the cluster's weight times theta_local's entry.
+struct Term {
+  const std::uint16_t* cluster = nullptr;
+  float weight[pose_ao_coefficients(kPoseAOMaxLocality)] = {};
+};
+
+// An IEEE half as a float, exactly, for finite halves (the bake and the chunk reader hold no
+// others): normals by moving the exponent and mantissa bits, subnormals as m 2^-24. Written
+// without branches so that the block loop below vectorises.
+inline float half_to_float(std::uint16_t h) {
+  const std::uint32_t magnitude = h & 0x7fffu, sign = std::uint32_t{h & 0x8000u} << 16;
+  const float normal = std::bit_cast<float>((magnitude << 13) + 0x38000000u);  // exponent rebased 15 -> 127
+  const float subnormal = static_cast<float>(magnitude) * 0x1p-24f;
+  return std::bit_cast<float>(std::bit_cast<std::uint32_t>(magnitude < 0x400u ? subnormal : normal) | sign);
 }
 
-// One group: ao[order[i]] = clamp(sum_t weight[t] row[t][i], 0, 1) over `terms` coefficient rows
-// (the active clusters' coefficients, each weighted by its cluster weight times its theta entry).
-// A block of 16 vertices keeps its sums in four registers while the rows stream past (four 4-lane
-// multiply-adds per row); then blocks of 4, then at most 3 scalar.
-void evaluate_group(const float* const* row, const float* weight, std::uint32_t terms, std::size_t n,
+// One group: ao[order[i]] = clamp(sum over the terms and c of weight[c] coefficient(m, c, i), 0,
+// 1), a block of kPoseAOBlock vertices at a time (its sums in 32 floats while each term's rows
+// stream past), then written to mesh vertex order.
+void evaluate_group(const Term* terms, std::uint32_t term_count, std::uint32_t C, std::uint32_t count,
                     const std::uint32_t* order, float* ao) {
-  constexpr std::size_t kBlock = 4 * kLanes;
-  std::size_t i = 0;
-  for (; i + kBlock <= n; i += kBlock) {
-    Lanes a0{}, a1{}, a2{}, a3{};
-    for (std::uint32_t t = 0; t < terms; ++t) {
-      const Lanes w = Lanes{} + weight[t];
-      const float* r = row[t] + i;
-      a0 += w * load(r);
-      a1 += w * load(r + kLanes);
-      a2 += w * load(r + 2 * kLanes);
-      a3 += w * load(r + 3 * kLanes);
+  const std::uint32_t blocks = (count + kPoseAOBlock - 1) / kPoseAOBlock;
+  const std::size_t block_halves = std::size_t{C} * kPoseAOBlock;
+  for (std::uint32_t b = 0; b < blocks; ++b) {
+    float sum[kPoseAOBlock] = {};
+    for (std::uint32_t t = 0; t < term_count; ++t) {
+      const std::uint16_t* row = terms[t].cluster + b * block_halves;
+      for (std::uint32_t c = 0; c < C; ++c, row += kPoseAOBlock) {
+        const float w = terms[t].weight[c];
+        for (std::uint32_t l = 0; l < kPoseAOBlock; ++l) sum[l] += w * half_to_float(row[l]);
+      }
     }
-    // Clamp in the lanes, then scatter to mesh vertex order.
-    float out[kBlock];
-    const Lanes sums[4] = {clamp01(a0), clamp01(a1), clamp01(a2), clamp01(a3)};
-    std::memcpy(out, sums, sizeof out);
-    for (std::size_t b = 0; b < kBlock; ++b) ao[order[i + b]] = out[b];
-  }
-  for (; i + kLanes <= n; i += kLanes) {  // the rest of the group, 4 at a time
-    Lanes a{};
-    for (std::uint32_t t = 0; t < terms; ++t) a += (Lanes{} + weight[t]) * load(row[t] + i);
-    float out[kLanes];
-    a = clamp01(a);
-    std::memcpy(out, &a, sizeof out);
-    for (std::size_t b = 0; b < kLanes; ++b) ao[order[i + b]] = out[b];
-  }
-  for (; i < n; ++i) {
-    float acc = 0.0f;
-    for (std::uint32_t t = 0; t < terms; ++t) acc += weight[t] * row[t][i];
-    ao[order[i]] = std::clamp(acc, 0.0f, 1.0f);
+    const std::uint32_t first = b * kPoseAOBlock, n = std::min(kPoseAOBlock, count - first);
+    for (std::uint32_t l = 0; l < n; ++l) ao[order[first + l]] = std::clamp(sum[l], 0.0f, 1.0f);
   }
 }
 
 #if defined(__x86_64__)
-// The same loop eight lanes wide with fused multiply-adds, for CPUs with AVX2 and FMA (chosen once
-// at runtime): blocks of 32 vertices in four registers, then 8, then the 4-lane and scalar tails.
-// Rounds once per multiply-add instead of twice, so it may differ from the loop above in the last
-// bit.
-__attribute__((target("avx2,fma"))) void evaluate_group_avx2(const float* const* row, const float* weight,
-                                                             std::uint32_t terms, std::size_t n,
-                                                             const std::uint32_t* order, float* ao) {
-  constexpr std::size_t kWide = 8, kBlock = 4 * kWide;
+// Eight halves at p as floats.
+__attribute__((target("avx2,fma,f16c"), always_inline)) inline __m256 load_halves(const std::uint16_t* p) {
+  return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+}
+
+// The same loop eight lanes wide, for CPUs with AVX2, FMA and F16C (chosen once at runtime): a
+// block's sums in four registers, each row's 32 halves converted by F16C. Rounds once per
+// multiply-add instead of twice, so it may differ from the loop above in the last bit.
+__attribute__((target("avx2,fma,f16c"))) void evaluate_group_avx2(const Term* terms, std::uint32_t term_count,
+                                                                  std::uint32_t C, std::uint32_t count,
+                                                                  const std::uint32_t* order, float* ao) {
+  const std::uint32_t blocks = (count + kPoseAOBlock - 1) / kPoseAOBlock;
+  const std::size_t block_halves = std::size_t{C} * kPoseAOBlock;
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
-#define PENUMBRA_CLAMP01(x) _mm256_min_ps(_mm256_max_ps((x), zero), one)
-  std::size_t i = 0;
-  for (; i + kBlock <= n; i += kBlock) {
+  for (std::uint32_t b = 0; b < blocks; ++b) {
     __m256 a0 = zero, a1 = zero, a2 = zero, a3 = zero;
-    for (std::uint32_t t = 0; t < terms; ++t) {
-      const __m256 w = _mm256_set1_ps(weight[t]);
-      const float* r = row[t] + i;
-      a0 = _mm256_fmadd_ps(w, _mm256_loadu_ps(r), a0);
-      a1 = _mm256_fmadd_ps(w, _mm256_loadu_ps(r + kWide), a1);
-      a2 = _mm256_fmadd_ps(w, _mm256_loadu_ps(r + 2 * kWide), a2);
-      a3 = _mm256_fmadd_ps(w, _mm256_loadu_ps(r + 3 * kWide), a3);
+    for (std::uint32_t t = 0; t < term_count; ++t) {
+      const std::uint16_t* row = terms[t].cluster + b * block_halves;
+      for (std::uint32_t c = 0; c < C; ++c, row += kPoseAOBlock) {
+        const __m256 w = _mm256_set1_ps(terms[t].weight[c]);
+        a0 = _mm256_fmadd_ps(w, load_halves(row), a0);
+        a1 = _mm256_fmadd_ps(w, load_halves(row + 8), a1);
+        a2 = _mm256_fmadd_ps(w, load_halves(row + 16), a2);
+        a3 = _mm256_fmadd_ps(w, load_halves(row + 24), a3);
+      }
     }
-    alignas(32) float out[kBlock];
-    _mm256_store_ps(out, PENUMBRA_CLAMP01(a0));
-    _mm256_store_ps(out + kWide, PENUMBRA_CLAMP01(a1));
-    _mm256_store_ps(out + 2 * kWide, PENUMBRA_CLAMP01(a2));
-    _mm256_store_ps(out + 3 * kWide, PENUMBRA_CLAMP01(a3));
-    for (std::size_t b = 0; b < kBlock; ++b) ao[order[i + b]] = out[b];
-  }
-  for (; i + kWide <= n; i += kWide) {
-    __m256 a = zero;
-    for (std::uint32_t t = 0; t < terms; ++t) a = _mm256_fmadd_ps(_mm256_set1_ps(weight[t]), _mm256_loadu_ps(row[t] + i), a);
-    alignas(32) float out[kWide];
-    _mm256_store_ps(out, PENUMBRA_CLAMP01(a));
-    for (std::size_t b = 0; b < kWide; ++b) ao[order[i + b]] = out[b];
-  }
-#undef PENUMBRA_CLAMP01
-  if (i < n) {
-    const float* rest[kPoseAOMaxClusters * pose_ao_coefficients(kPoseAOMaxLocality)];
-    for (std::uint32_t t = 0; t < terms; ++t) rest[t] = row[t] + i;
-    evaluate_group(rest, weight, terms, n - i, order + i, ao);
+    alignas(32) float out[kPoseAOBlock];
+    _mm256_store_ps(out, _mm256_min_ps(_mm256_max_ps(a0, zero), one));
+    _mm256_store_ps(out + 8, _mm256_min_ps(_mm256_max_ps(a1, zero), one));
+    _mm256_store_ps(out + 16, _mm256_min_ps(_mm256_max_ps(a2, zero), one));
+    _mm256_store_ps(out + 24, _mm256_min_ps(_mm256_max_ps(a3, zero), one));
+    const std::uint32_t first = b * kPoseAOBlock, n = std::min(kPoseAOBlock, count - first);
+    for (std::uint32_t l = 0; l < n; ++l) ao[order[first + l]] = out[l];
   }
 }
 #endif
 
 // The widest loop this CPU runs.
-void evaluate_group_fastest(const float* const* row, const float* weight, std::uint32_t terms, std::size_t n,
+void evaluate_group_fastest(const Term* terms, std::uint32_t term_count, std::uint32_t C, std::uint32_t count,
                             const std::uint32_t* order, float* ao) {
 #if defined(__x86_64__)
-  static const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  if (avx2) return evaluate_group_avx2(row, weight, terms, n, order, ao);
+  static const bool avx2 =
+      __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("f16c");
+  if (avx2) return evaluate_group_avx2(terms, term_count, C, count, order, ao);
 #endif
-  evaluate_group(row, weight, terms, n, order, ao);
+  evaluate_group(terms, term_count, C, count, order, ao);
 }
 
 }  // namespace
@@ -249,24 +237,21 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
     for (std::uint32_t k = 0; k < g.joint_count; ++k)
       for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e)
         theta[1 + kPoseFeaturesPerJoint * k + e] = features[std::size_t{g.joints[k]} * kPoseFeaturesPerJoint + e];
-    // The clusters' weights, then one term per coefficient of each blended cluster.
+    // The clusters' weights, then one term per blended cluster.
     float cluster_weight[kPoseAOMaxClusters] = {1.0f};
     if (g.cluster_count > 1)
       pose_ao_cluster_weights(data.centers.data() + g.center_offset, g.cluster_count, C - 1, theta + 1, g.cluster_band,
                               cluster_weight);
-    const float* row[kPoseAOMaxClusters * kMaxCoefficients];
-    float weight[kPoseAOMaxClusters * kMaxCoefficients];
-    std::uint32_t terms = 0;
+    Term terms[kPoseAOMaxClusters];
+    std::uint32_t term_count = 0;
     for (std::uint32_t m = 0; m < g.cluster_count; ++m) {
       if (cluster_weight[m] == 0.0f) continue;
-      const float* block = data.coefficients.data() + g.coefficient_offset + std::size_t{m} * C * g.count;
-      for (std::uint32_t c = 0; c < C; ++c) {
-        row[terms] = block + std::size_t{c} * g.count;
-        weight[terms++] = cluster_weight[m] * theta[c];
-      }
+      Term& t = terms[term_count++];
+      t.cluster = data.coefficients.data() + g.coefficient_index(m, 0, 0);
+      for (std::uint32_t c = 0; c < C; ++c) t.weight[c] = cluster_weight[m] * theta[c];
     }
     const std::uint32_t* order = data.vertex_order.data() + g.first;
-    evaluate_group_fastest(row, weight, terms, g.count, order, ao.data());
+    evaluate_group_fastest(terms, term_count, C, g.count, order, ao.data());
     // Within bind_blend of the bind pose: towards the bind-pose AO (PoseAOGroup).
     if (g.bind_blend > 0.0f) {
       float d2 = 0.0f;

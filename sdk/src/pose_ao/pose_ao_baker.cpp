@@ -918,7 +918,8 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
   // Per joint set: the cluster count by validation, then the final fit of every vertex. Results
   // per set, assembled in set order below.
   struct GroupResult {
-    std::vector<float> centers, coefficients;  // coefficients: U x count, as stored
+    std::vector<float> centers;
+    std::vector<std::uint16_t> coefficients;  // the group's halves, laid out as PoseAOGroup says
   };
   std::vector<GroupResult> results(data.groups.size());
   std::vector<double> group_error(data.groups.size(), 0.0);
@@ -1059,7 +1060,7 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
       const std::size_t U = std::size_t{clusters} * C;
       GroupResult& result = results[gi];
       result.centers = std::move(model.centers);
-      result.coefficients.resize(U * g.count);
+      result.coefficients.assign(g.coefficient_span(), 0);
       // Bind blend candidates (PoseAOGroup): none, then fractions of the median distance of the
       // poses from the bind pose; each pose's weight per candidate.
       std::vector<double> d2(P, 0.0);
@@ -1079,7 +1080,11 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
       for (std::uint32_t i = 0; i < g.count; ++i) {
         const std::uint32_t v = vertices[i];
         fit_vertex(model, all, v, t);
-        for (std::size_t u = 0; u < U; ++u) result.coefficients[u * g.count + i] = static_cast<float>(t[u]);
+        // As halves (the ridge keeps them far inside the half range; saturated in case it does not).
+        for (std::size_t u = 0; u < U; ++u)
+          result.coefficients[g.coefficient_index(static_cast<std::uint32_t>(u / C), static_cast<std::uint32_t>(u % C), i) -
+                              g.coefficient_offset] =
+              glm::packHalf1x16(static_cast<float>(std::clamp(t[u], -65504.0, 65504.0)));
         const double bind = static_cast<double>(training.bind_ao[v]);
         for (std::size_t p = 0; p < P; ++p) {
           const double a = std::clamp(model.solver->predict(p, t), 0.0, 1.0);

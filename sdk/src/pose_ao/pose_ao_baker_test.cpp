@@ -3,6 +3,8 @@
 // never moves, fewer poses than coefficients, far poses, weightless vertices, scale 1e-3 and 1e4),
 // the model against its baselines, bake_world + attach + the system over the walk cycle.
 #include <gtest/gtest.h>
+
+#include <glm/gtc/packing.hpp>
 #include <glm/gtc/quaternion.hpp>
 
 #include <cmath>
@@ -187,7 +189,10 @@ TEST(PoseAOExtremes, AJointThatNeverMovesDoesNotBlowUp) {
   ASSERT_TRUE(data) << data.error().message;
   for (const PoseAOGroup& g : data->groups)
     for (std::uint32_t k = 0; k < g.joint_count; ++k) EXPECT_NE(g.joints[k], 6u);
-  for (float c : data->coefficients) EXPECT_TRUE(std::isfinite(c) && std::abs(c) < 100.0f) << c;
+  for (std::uint16_t h : data->coefficients) {
+    const float c = glm::unpackHalf1x16(h);
+    EXPECT_TRUE(std::isfinite(c) && std::abs(c) < 100.0f) << c;
+  }
   EXPECT_LT(data->training_rmse, 0.1f);
   // Far outside the training range (every joint turned by 2.5 rad): AO stays in [0, 1].
   auto rig = make_pose_rig(*w.world, w.mesh, "walker").value();
@@ -212,7 +217,7 @@ TEST(PoseAOExtremes, FewerPosesThanCoefficientsWarnsAndStillFits) {
   EXPECT_EQ(data->locality, 1u);  // 1 + 9 x 1 <= 12 poses
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_NE(warnings[0].find("locality reduced"), std::string::npos);
-  for (float c : data->coefficients) EXPECT_TRUE(std::isfinite(c));
+  for (std::uint16_t h : data->coefficients) EXPECT_TRUE(std::isfinite(glm::unpackHalf1x16(h)));
   const auto lines = describe_pose_ao_chunk(write_pose_ao_chunk(*data));
   EXPECT_NE(lines.back().find("warning"), std::string::npos);
 }

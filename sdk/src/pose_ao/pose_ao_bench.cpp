@@ -13,10 +13,10 @@
 // random poses of another seed and clip frames between the training frames, traced with more
 // rays (their binomial standard error per vertex, averaged, is ref_stderr). Baselines from the
 // same bake: bind-pose AO and the AO averaged over the reference poses. Models are evaluated as
-// stored (16-bit coefficients, after a chunk round trip); a note gives what the halves cost
-// against floats. ns_per_vertex: pose parameters + evaluate_pose_ao per frame on one thread, over
-// the vertices (the best of many blocks of 10 frames, each frame another random pose, so that the
-// blends near cluster boundaries are paid as often as poses fall there). clusters: the most any
+// stored (16-bit coefficients, after a chunk round trip). ns_per_vertex: pose parameters +
+// evaluate_pose_ao per frame on one thread, over the vertices (the best of many blocks of 10
+// frames, each frame another random pose, so that the blends near cluster boundaries are paid as
+// often as poses fall there). clusters: the most any
 // joint set of the model uses (the fit chooses per set, up to the count asked for).
 // Goals (issue 19): the default model's RMSE <= 0.5x the better baseline on random and on clip
 // poses alike, on CesiumMan and the humanoid, never worse than bind-pose AO; <= 5 ns per vertex.
@@ -322,21 +322,6 @@ Result<Report> run(const Options& options) {
           goals.push_back(name + " random " + fmt(random_ratio, 3) + ", clip " + fmt(clip_ratio, 3) +
                           (no_worse ? "" : ", worse than bind-pose AO"));
         }
-        // What the 16-bit coefficients cost: the float fit against the stored one.
-        SkinnedPoseAO s = defaults;
-        s.rays_per_vertex = rays;
-        auto exact = fit_pose_ao(subset(n), *rig, *mesh, s, 0, jobs, nullptr, name);
-        if (!exact) return exact.error();
-        double worst = 0.0;
-        std::vector<float> a(V), b(V);
-        for (const auto& features : held.features) {
-          evaluate_pose_ao(*exact, features, a);
-          evaluate_pose_ao(d, features, b);
-          for (std::size_t v = 0; v < V; ++v) worst = std::max(worst, double(std::abs(a[v] - b[v])));
-        }
-        report.notes.push_back(name + ": 16-bit coefficients change the AO by at most " + fmt(worst, 2) +
-                               " against float ones on the held-out poses (" + fmt(d.bytes_per_vertex(), 3) +
-                               " B per vertex stored)");
         // Motion along the clips at 60 frames per second: each vertex's AO change from one frame to
         // the next, by the models and by tracing (ref_rays / 2 rays, the scramble fixed per vertex
         // so noise barely moves between frames): the largest and the 99.9th percentile change, and

@@ -3,7 +3,6 @@
 #include <cstdio>
 #include <string>
 
-#include <glm/gtc/packing.hpp>
 
 #include "penumbra/core/memory.h"
 #include "penumbra/lighting/module.h"
@@ -41,12 +40,18 @@ BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
   w.write(d.clusters);
   w.write_vector(d.joint_parents);
   w.write(static_cast<std::uint64_t>(d.groups.size()));
+  // The chunk holds each group's halves without the blocks' padding, cluster by cluster and
+  // coefficient by coefficient over the group's vertices; its offsets count those.
+  std::vector<std::uint16_t> halves;
   for (const PoseAOGroup& g : d.groups) {
     w.write(g.joints);
     w.write(g.joint_count);
     w.write(g.first);
     w.write(g.count);
-    w.write(g.coefficient_offset);
+    w.write(static_cast<std::uint64_t>(halves.size()));
+    for (std::uint32_t m = 0; m < g.cluster_count; ++m)
+      for (std::uint32_t c = 0; c < g.coefficient_count(); ++c)
+        for (std::uint32_t i = 0; i < g.count; ++i) halves.push_back(d.coefficients[g.coefficient_index(m, c, i)]);
     w.write(g.bind_blend);
     w.write(g.cluster_count);
     w.write(g.center_offset);
@@ -54,8 +59,6 @@ BakeChunk write_pose_ao_chunk(const PoseAOData& d) {
   }
   w.write_vector(d.vertex_order);
   w.write_vector(d.centers);
-  std::vector<std::uint16_t> halves(d.coefficients.size());
-  for (std::size_t i = 0; i < halves.size(); ++i) halves[i] = glm::packHalf1x16(d.coefficients[i]);
   w.write_vector(halves);
   w.write_vector(d.bind_ao);
   w.write_vector(d.mean_ao);
@@ -162,11 +165,20 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
   std::vector<std::uint16_t> halves;
   PENUMBRA_TRY(r.read_vector(halves, coefficients));
   if (halves.size() != coefficients) return bad("the coefficient count does not match the joint sets");
-  d.coefficients.resize(halves.size());
-  for (std::size_t i = 0; i < halves.size(); ++i) {
-    d.coefficients[i] = glm::unpackHalf1x16(halves[i]);
-    if (!std::isfinite(d.coefficients[i])) return bad("coefficient " + std::to_string(i) + " is not finite");
+  for (std::size_t i = 0; i < halves.size(); ++i)
+    if ((halves[i] & 0x7c00u) == 0x7c00u) return bad("coefficient " + std::to_string(i) + " is not finite");
+  // Into blocks of kPoseAOBlock vertices (PoseAOGroup), the padding lanes zero.
+  std::uint64_t padded = 0;
+  for (PoseAOGroup& g : d.groups) {
+    g.coefficient_offset = padded;
+    padded += g.coefficient_span();
   }
+  d.coefficients.assign(padded, 0);
+  std::size_t next = 0;
+  for (const PoseAOGroup& g : d.groups)
+    for (std::uint32_t m = 0; m < g.cluster_count; ++m)
+      for (std::uint32_t c = 0; c < g.coefficient_count(); ++c)
+        for (std::uint32_t i = 0; i < g.count; ++i) d.coefficients[g.coefficient_index(m, c, i)] = halves[next++];
   PENUMBRA_TRY(r.read_vector(d.bind_ao, V));
   PENUMBRA_TRY(r.read_vector(d.mean_ao, V));
   PENUMBRA_TRY(r.finish());

@@ -150,9 +150,11 @@ TEST(PoseAOFit, RecoversAnExactlyLinearAO) {
   const PoseAOGroup& g = data->groups[0];
   for (std::uint32_t i = 0; i < g.count; ++i) {
     const std::uint32_t v = data->vertex_order[g.first + i];
-    EXPECT_NEAR(data->coefficients[g.coefficient_offset + i], 0.5f, 1e-4f);
-    for (std::size_t e = 0; e < 9; ++e)
-      EXPECT_NEAR(data->coefficients[g.coefficient_offset + (1 + e) * g.count + i], w[v * 9 + e], 1e-4f) << v << " " << e;
+    // The coefficients are halves: 11 significant bits.
+    EXPECT_NEAR(data->coefficient(g, 0, 0, i), 0.5f, 1e-4f);
+    for (std::uint32_t e = 0; e < 9; ++e)
+      EXPECT_NEAR(data->coefficient(g, 0, 1 + e, i), w[v * 9 + e], std::abs(w[v * 9 + e]) * 0x1p-11f + 1e-4f)
+          << v << " " << e;
   }
   // Held-out poses: the evaluation reproduces the linear AO.
   std::vector<float> w2;
@@ -189,7 +191,11 @@ TEST(PoseAOFit, FewerPosesThanCoefficientsReducesLocalityWithAWarning) {
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_NE(warnings[0].find("locality reduced from 4 to 0"), std::string::npos) << warnings[0];
   // Bias only: the pose average.
-  for (std::uint32_t i = 0; i < kVertices; ++i) EXPECT_NEAR(data->coefficients[i], data->mean_ao[data->vertex_order[i]], 1e-6f);
+  for (const PoseAOGroup& g : data->groups)
+    for (std::uint32_t i = 0; i < g.count; ++i) {
+      const float mean = data->mean_ao[data->vertex_order[g.first + i]];
+      EXPECT_NEAR(data->coefficient(g, 0, 0, i), mean, mean * 0x1p-11f + 1e-6f);
+    }
   EXPECT_FALSE(fit_pose_ao(PoseAOTraining{}, c.rig, c.mesh, s, 0, jobs));
 }
 
@@ -203,7 +209,7 @@ PoseAOData tiny_data() {
   return d;
 }
 
-TEST(PoseAOChunk, RoundTripKeepsHalfPrecision) {
+TEST(PoseAOChunk, RoundTripKeepsEveryBit) {
   PoseAOData d = tiny_data();
   d.groups.front().bind_blend = 0.125f;
   d.pose_space = PoseSpaceSource::DegenerateClips;
@@ -218,9 +224,8 @@ TEST(PoseAOChunk, RoundTripKeepsHalfPrecision) {
   EXPECT_EQ(r->bind_ao, d.bind_ao);
   EXPECT_EQ(r->mean_ao, d.mean_ao);
   EXPECT_EQ(r->joint_parents, d.joint_parents);
-  ASSERT_EQ(r->coefficients.size(), d.coefficients.size());
-  for (std::size_t i = 0; i < d.coefficients.size(); ++i)
-    EXPECT_NEAR(r->coefficients[i], d.coefficients[i], std::abs(d.coefficients[i]) * 0x1p-11f + 1e-7f);
+  EXPECT_EQ(r->coefficients, d.coefficients);  // halves in blocks, the padding zero both ways
+  for (std::size_t k = 0; k < d.groups.size(); ++k) EXPECT_EQ(r->groups[k].coefficient_offset, d.groups[k].coefficient_offset);
   EXPECT_EQ(r->pose_space, PoseSpaceSource::DegenerateClips);
   EXPECT_EQ(r->moving_joints, 1u);
   EXPECT_EQ(r->widest_range, 1.0f);
@@ -443,7 +448,7 @@ TEST(PoseAOChunk, CorruptionIsReportedNeverMisread) {
     auto r = read_pose_ao_chunk(c);
     if (!r) continue;
     EXPECT_EQ(r->vertex_order.size(), r->vertex_count);
-    for (float x : r->coefficients) EXPECT_TRUE(std::isfinite(x));
+    for (std::uint16_t x : r->coefficients) EXPECT_NE(x & 0x7c00u, 0x7c00u);  // no infinite or NaN half
     for (const PoseAOGroup& g : r->groups) EXPECT_TRUE(std::isfinite(g.bind_blend) && g.bind_blend >= 0.0f);
   }
 }
