@@ -368,10 +368,10 @@ void filter_portable(const Gather& g, const std::array<const float*, 4>& values,
 }
 #endif
 
-bool use_avx2(FilterIsa isa) {
+bool use_avx2(Isa isa) {
 #if PENUMBRA_FILTER_AVX2
   static const bool has = __builtin_cpu_supports("avx2");
-  return isa != FilterIsa::Portable && has;
+  return isa != Isa::Portable && has;
 #else
   (void)isa;
   return false;
@@ -382,7 +382,7 @@ bool use_avx2(FilterIsa isa) {
 
 Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
                                  const IrradianceFilterSettings& settings, float limit, std::span<float> out,
-                                 JobContext& jobs, FilterIsa isa) {
+                                 JobContext& jobs, Isa isa) {
   PENUMBRA_TRY(check(pixels.size(), out.size(), width, height, settings, "irradiance_filter_support"));
   Columns columns(pixels);
   jobs.begin_stage("filter support", 2 * pixels.size());
@@ -399,7 +399,7 @@ Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint3
 
 Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
                          const IrradianceFilterSettings& settings, std::span<glm::vec3> out, JobContext& jobs,
-                         FilterIsa isa) {
+                         Isa isa) {
   PENUMBRA_TRY(check(pixels.size(), out.size(), width, height, settings, "filter_irradiance"));
   Columns columns(pixels);
   jobs.begin_stage("irradiance filter", 2 * pixels.size());

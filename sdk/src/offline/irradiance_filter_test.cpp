@@ -86,8 +86,8 @@ TEST(IrradianceFilter, EveryPixelIsThePapersWeightedMean) {
   const std::vector<FilterPixel> pixels = synthetic_frame(7);
   ThreadPool pool(2);
   JobContext jobs(&pool);
-  for (const FilterIsa isa : {FilterIsa::Best, FilterIsa::Portable}) {
-    const char* path = isa == FilterIsa::Best ? "best" : "portable";
+  for (const Isa isa : {Isa::Best, Isa::Portable}) {
+    const char* path = isa == Isa::Best ? "best" : "portable";
     for (float a : {0.1f, 0.2f, 0.4f}) {
       IrradianceFilterSettings s;
       s.a = a;
@@ -165,13 +165,13 @@ TEST(IrradianceFilter, TheWideAndThePortableGatherGiveTheSameBits) {
       s.predictor_radius = predictor;
       s.max_radius = 9 + seed;  // windows whose rows are not a multiple of the lanes
       std::vector<glm::vec3> best(pixels.size()), portable(pixels.size());
-      ASSERT_TRUE(filter_irradiance(pixels, kWidth, kHeight, s, best, jobs, FilterIsa::Best).ok());
-      ASSERT_TRUE(filter_irradiance(pixels, kWidth, kHeight, s, portable, jobs, FilterIsa::Portable).ok());
+      ASSERT_TRUE(filter_irradiance(pixels, kWidth, kHeight, s, best, jobs, Isa::Best).ok());
+      ASSERT_TRUE(filter_irradiance(pixels, kWidth, kHeight, s, portable, jobs, Isa::Portable).ok());
       EXPECT_EQ(std::memcmp(best.data(), portable.data(), best.size() * sizeof(glm::vec3)), 0) << seed;
       std::vector<float> support_best(pixels.size()), support_portable(pixels.size());
-      ASSERT_TRUE(irradiance_filter_support(pixels, kWidth, kHeight, s, 30.0f, support_best, jobs, FilterIsa::Best).ok());
+      ASSERT_TRUE(irradiance_filter_support(pixels, kWidth, kHeight, s, 30.0f, support_best, jobs, Isa::Best).ok());
       ASSERT_TRUE(
-          irradiance_filter_support(pixels, kWidth, kHeight, s, 30.0f, support_portable, jobs, FilterIsa::Portable).ok());
+          irradiance_filter_support(pixels, kWidth, kHeight, s, 30.0f, support_portable, jobs, Isa::Portable).ok());
       EXPECT_EQ(std::memcmp(support_best.data(), support_portable.data(), support_best.size() * sizeof(float)), 0)
           << seed;
     }

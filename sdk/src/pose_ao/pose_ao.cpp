@@ -1,5 +1,5 @@
-// Skinned pose-AO (Kontkanen & Aila 2006): settings, pose parameters, the per-frame evaluation and
-// the GPU layout (see pose_ao.h).
+// Skinned pose-AO (Kontkanen & Aila 2006): settings, pose parameters and the per-frame evaluation
+// (see pose_ao.h).
 #include "penumbra/pose_ao/pose_ao.h"
 
 #include "penumbra/core/memory.h"
@@ -214,20 +214,20 @@ __attribute__((target("avx2,fma,f16c"))) void evaluate_group_avx2(const Term* te
 }
 #endif
 
-// The widest loop this CPU runs.
-void evaluate_group_fastest(const Term* terms, std::uint32_t term_count, std::uint32_t C, std::uint32_t count,
-                            const std::uint32_t* order, float* ao) {
+// The widest loop this CPU runs, or the portable one.
+void evaluate_group_on(Isa isa, const Term* terms, std::uint32_t term_count, std::uint32_t C, std::uint32_t count,
+                       const std::uint32_t* order, float* ao) {
 #if defined(__x86_64__)
   static const bool avx2 =
       __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("f16c");
-  if (avx2) return evaluate_group_avx2(terms, term_count, C, count, order, ao);
+  if (avx2 && isa == Isa::Best) return evaluate_group_avx2(terms, term_count, C, count, order, ao);
 #endif
   evaluate_group(terms, term_count, C, count, order, ao);
 }
 
 }  // namespace
 
-void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao) {
+void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao, Isa isa) {
   constexpr std::uint32_t kMaxCoefficients = pose_ao_coefficients(kPoseAOMaxLocality);
   for (const PoseAOGroup& g : data.groups) {
     // Gather theta_local once per group: [1, f_j1 .. f_jk].
@@ -251,7 +251,7 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
       for (std::uint32_t c = 0; c < C; ++c) t.weight[c] = cluster_weight[m] * theta[c];
     }
     const std::uint32_t* order = data.vertex_order.data() + g.first;
-    evaluate_group_fastest(terms, term_count, C, g.count, order, ao.data());
+    evaluate_group_on(isa, terms, term_count, C, g.count, order, ao.data());
     // Within bind_blend of the bind pose: towards the bind-pose AO (PoseAOGroup).
     if (g.bind_blend > 0.0f) {
       float d2 = 0.0f;

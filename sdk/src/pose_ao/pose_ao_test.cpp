@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 
+#include <glm/gtc/packing.hpp>
 #include <glm/gtc/quaternion.hpp>
 
 #include "penumbra/core/jobs.h"
@@ -234,6 +235,53 @@ TEST(PoseAOChunk, RoundTripKeepsEveryBit) {
   ASSERT_GE(lines.size(), 4u);
   EXPECT_NE(lines[2].find("pose space from +-default_range (the clips barely move): 1 of"), std::string::npos) << lines[2];
   EXPECT_NE(lines[3].find("warning"), std::string::npos) << lines[3];
+}
+
+// One group of bias-only vertices (no joint) whose coefficients are every half from 0 to 1, then
+// -1 and 2: each vertex's AO is its half exactly (clamped for the last two), on both paths.
+TEST(PoseAOEvaluate, EveryHalfInTheUnitIntervalReadsBackExactlyOnBothPaths) {
+  std::vector<std::uint16_t> halves;
+  for (std::uint16_t h = 0; h <= 0x3c00; ++h) halves.push_back(h);  // +0, subnormals, normals up to 1
+  halves.push_back(0xbc00);  // -1
+  halves.push_back(0x4000);  // 2
+  const auto V = static_cast<std::uint32_t>(halves.size());
+  PoseAOData d;
+  d.vertex_count = V;
+  PoseAOGroup g;
+  g.count = V;
+  d.groups = {g};
+  d.coefficients.assign(g.coefficient_span(), 0xffff);  // NaN in the padding lanes: never read into the AO
+  for (std::uint32_t i = 0; i < V; ++i) d.coefficients[g.coefficient_index(0, 0, i)] = halves[i];
+  for (std::uint32_t i = 0; i < V; ++i) d.vertex_order.push_back(V - 1 - i);  // written through the order
+  d.bind_ao.assign(V, 0.0f);
+  d.mean_ao.assign(V, 0.0f);
+  for (const Isa isa : {Isa::Best, Isa::Portable}) {
+    std::vector<float> ao(V, -1.0f);
+    evaluate_pose_ao(d, {}, ao, isa);
+    for (std::uint32_t i = 0; i < V; ++i) {
+      const float expected = std::clamp(glm::unpackHalf1x16(halves[i]), 0.0f, 1.0f);
+      ASSERT_EQ(ao[V - 1 - i], expected) << "half 0x" << std::hex << halves[i] << (isa == Isa::Best ? " best" : " portable");
+    }
+  }
+}
+
+TEST(PoseAOEvaluate, TheWideAndThePortablePathsAgree) {
+  TinyCharacter c;
+  std::vector<float> w;
+  const PoseAOTraining tr = linear_training(c, 200, 5, w);
+  SkinnedPoseAO s;
+  s.clusters = 4;
+  JobContext jobs;
+  const PoseAOData d = fit_pose_ao(tr, c.rig, c.mesh, s, 0, jobs).value();
+  Rng rng = Rng::stream(3, 0);
+  std::vector<float> best(d.vertex_count), portable(d.vertex_count);
+  for (int pose = 0; pose < 20; ++pose) {
+    std::vector<float> f(d.feature_count());
+    for (float& x : f) x = 0.6f * (rng.next_float() - 0.5f);
+    evaluate_pose_ao(d, f, best, Isa::Best);
+    evaluate_pose_ao(d, f, portable, Isa::Portable);
+    for (std::uint32_t v = 0; v < d.vertex_count; ++v) ASSERT_NEAR(best[v], portable[v], 2e-6f) << pose << " " << v;
+  }
 }
 
 TEST(PoseAOFit, TheBindBlendIsExactAtTheBindPoseAndAbsentFarFromIt) {

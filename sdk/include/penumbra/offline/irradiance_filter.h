@@ -30,6 +30,7 @@
 
 #include <glm/vec3.hpp>
 
+#include "penumbra/core/isa.h"
 #include "penumbra/core/result.h"
 
 namespace penumbra {
@@ -63,11 +64,6 @@ struct IrradianceFilterSettings {
   std::uint32_t predictor_radius = 1;
 };
 
-// The gather's instruction set: Best takes AVX2 (8 lanes) where the CPU has it, Portable the
-// baseline of the target (4 lanes on x86-64). Both give the same bits (no fused multiply-adds, the
-// same partial sums); Portable is there to show that.
-enum class FilterIsa { Best, Portable };
-
 // The filter's support at each pixel: sum_q K(ε_pq / a) over its window (1 for a kernel that
 // holds only the pixel itself; 0 where samples == 0), or a value of at least `limit` where the
 // rows gathered so far reach it (the gather stops there: open surfaces cost a few rows). What
@@ -75,15 +71,16 @@ enum class FilterIsa { Best, Portable };
 // of its own. Preconditions (else an InvalidArgument error): pixels.size() == out.size() ==
 // width * height, a > 0 and the radii within their limits. Cost: O(pixels x (window taps +
 // predictor taps)), the window's in parallel on `jobs` (stage "filter support"). Cancelled when
-// the host cancels.
+// the host cancels. `isa`: the gather's AVX2 and portable paths give the same bits (no fused
+// multiply-adds, the same partial sums).
 Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
                                  const IrradianceFilterSettings& settings, float limit, std::span<float> out,
-                                 JobContext& jobs, FilterIsa isa = FilterIsa::Best);
+                                 JobContext& jobs, Isa isa = Isa::Best);
 
 // Ē at every pixel (0 where samples == 0). Same preconditions and cost (stage "irradiance filter").
 // Deterministic: each output is a fixed-order sum over its window.
 Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t width, std::uint32_t height,
                          const IrradianceFilterSettings& settings, std::span<glm::vec3> out, JobContext& jobs,
-                         FilterIsa isa = FilterIsa::Best);
+                         Isa isa = Isa::Best);
 
 }  // namespace penumbra

@@ -38,6 +38,7 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
+#include "penumbra/core/isa.h"
 #include "penumbra/core/pbake.h"
 #include "penumbra/core/result.h"
 #include "penumbra/lighting/fields.h"
@@ -236,11 +237,13 @@ void pose_features(std::span<const std::int32_t> parents, std::span<const glm::m
 // AO of every vertex for pose features `features` (from pose_features): ao[v] = clamp(sum_m w_m
 // t_v,m . theta_local(v), 0, 1) over its group's clusters (one term without clusters), blended
 // towards bind_ao near the bind pose (PoseAOGroup), group by group, a block of vertices at a time
-// (eight lanes with AVX2, FMA and F16C where the CPU has them, else four). Preconditions:
-// features.size() == data.feature_count(), ao.size() == data.vertex_count. Cost: about (1 + 9 k)
-// multiply-adds per vertex and blended cluster, reading 2 (1 + 9 k) bytes of coefficients (the
-// pose-ao bench measures the ns per vertex). Thread-safe (writes only `ao`).
-void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao);
+// (eight lanes with AVX2, FMA and F16C where the CPU has them and `isa` is Best, else the portable
+// loop; the fused multiply-adds may move the last bit). Preconditions: features.size() ==
+// data.feature_count(), ao.size() == data.vertex_count. Cost: about (1 + 9 k) multiply-adds per
+// vertex and blended cluster, reading 2 (1 + 9 k) bytes of coefficients (the pose-ao bench
+// measures the ns per vertex). Thread-safe (writes only `ao`).
+void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao,
+                      Isa isa = Isa::Best);
 
 // The "PSAO" chunk of one mesh (label "pose-ao:<key>"): coefficients as IEEE 16-bit halves
 // (relative error <= 2^-11 per coefficient; the pose-ao bench prints what it costs in AO), the
