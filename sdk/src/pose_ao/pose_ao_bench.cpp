@@ -16,10 +16,11 @@
 // stored (16-bit coefficients, after a chunk round trip). ns_per_vertex: pose parameters +
 // evaluate_pose_ao per frame on one thread, over the vertices (the best of many blocks of 10
 // frames, each frame another random pose, so that the blends near cluster boundaries are paid as
-// often as poses fall there). clusters: the most any
-// joint set of the model uses (the fit chooses per set, up to the count asked for).
+// often as poses fall there). clusters: the most any joint set of the model uses (the fit chooses
+// per set, up to the count asked for).
 // Goals (issue 19): the default model's RMSE <= 0.5x the better baseline on random and on clip
-// poses alike, on CesiumMan and the humanoid, never worse than bind-pose AO; <= 5 ns per vertex.
+// poses alike, on CesiumMan and the humanoid, never worse than bind-pose AO; <= 5 ns per vertex on
+// both (the walker's cost is printed beside it).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -133,7 +134,8 @@ Result<Report> run(const Options& options) {
   const auto verdict = [](bool pass) { return std::string(pass ? "PASS" : "FAIL"); };
   std::vector<std::string> goals;  // per character of the goal (CesiumMan, the humanoid)
   bool goals_pass = true;
-  double worst_ns = 0.0;
+  double worst_ns = 0.0;   // over the goal's characters (CesiumMan, the humanoid)
+  std::string other_ns;    // the others' (the walker)
 
   for (const auto& entry : specs) {
     const auto& name = entry.first;  // not a structured binding: the lambdas below capture it
@@ -283,7 +285,12 @@ Result<Report> run(const Options& options) {
       const PoseAOData& dl = linear->data;
       const Errors clustered_err = errors(held, predict(d), 0);
       const double default_ns = measure_ns(d);
-      if (i + 1 == pose_counts.size()) worst_ns = std::max(worst_ns, default_ns);
+      if (i + 1 == pose_counts.size()) {
+        if (name == "CesiumMan" || name == "humanoid")
+          worst_ns = std::max(worst_ns, default_ns);
+        else
+          other_ns += (other_ns.empty() ? "" : ", ") + name + " " + fmt(default_ns, 3);
+      }
       const Errors mean = errors(held, [&](const std::vector<float>&, std::vector<float>& out) { out = d.mean_ao; }, 0);
       row("clustered", total, std::to_string(d.locality), std::to_string(d.clusters), fmt(defaults.lambda),
           bake_base + main->fit_s, d.bytes_per_vertex(), default_ns, clustered_err,
@@ -399,9 +406,9 @@ Result<Report> run(const Options& options) {
     report.notes.push_back("goal: held-out RMSE, clustered (locality 4, up to 8 clusters, lambda 1e-3) / the better "
                            "baseline of each set: " +
                            ratios + " (<= 0.5 and never worse than bind-pose AO: " + verdict(goals_pass) + ")");
-  report.notes.push_back("goal: per-frame CPU cost " + fmt(worst_ns, 3) +
-                         " ns per vertex on one thread, locality 4, up to 8 clusters (<= 5: " +
-                         verdict(worst_ns <= 5.0) + ")");
+  report.notes.push_back("goal: per-frame CPU cost on CesiumMan and the humanoid " + fmt(worst_ns, 3) +
+                         " ns per vertex at worst, on one thread, locality 4, up to 8 clusters (<= 5: " +
+                         verdict(worst_ns <= 5.0) + ")" + (other_ns.empty() ? "" : "; not judged: " + other_ns));
   return report;
 }
 
