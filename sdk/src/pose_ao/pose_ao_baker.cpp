@@ -1081,10 +1081,11 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
         const std::uint32_t v = vertices[i];
         fit_vertex(model, all, v, t);
         // As halves (the ridge keeps them far inside the half range; saturated in case it does not).
-        for (std::size_t u = 0; u < U; ++u)
-          result.coefficients[g.coefficient_index(static_cast<std::uint32_t>(u / C), static_cast<std::uint32_t>(u % C), i) -
-                              g.coefficient_offset] =
+        for (std::size_t u = 0; u < U; ++u) {
+          const auto m = static_cast<std::uint32_t>(u / C), c = static_cast<std::uint32_t>(u % C);
+          result.coefficients[g.coefficient_index(m, c, i) - g.coefficient_offset] =
               glm::packHalf1x16(static_cast<float>(std::clamp(t[u], -65504.0, 65504.0)));
+        }
         const double bind = static_cast<double>(training.bind_ao[v]);
         for (std::size_t p = 0; p < P; ++p) {
           const double a = std::clamp(model.solver->predict(p, t), 0.0, 1.0);

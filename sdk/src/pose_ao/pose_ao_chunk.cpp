@@ -3,7 +3,6 @@
 #include <cstdio>
 #include <string>
 
-
 #include "penumbra/core/memory.h"
 #include "penumbra/lighting/module.h"
 #include "penumbra/pose_ao/pose_ao.h"

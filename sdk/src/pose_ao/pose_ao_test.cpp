@@ -371,7 +371,7 @@ TEST(PoseAOFit, ClustersFollowAHingeThatOneLinearMapCannot) {
   const double e_linear = held_out_rmse(linear, test), e_clustered = held_out_rmse(clustered, test);
   EXPECT_LT(e_clustered, 0.65 * e_linear) << e_clustered << " vs " << e_linear;
   EXPECT_LT(clustered.training_rmse, linear.training_rmse);
-  // Bit-identical at one and two threads, and through the chunk up to half precision.
+  // Bit-identical at one and two threads, and through the chunk.
   ThreadPool pool(2);
   JobContext two(&pool);
   const PoseAOData again = fit_pose_ao(tr, c.rig, c.mesh, s, 0, two).value();

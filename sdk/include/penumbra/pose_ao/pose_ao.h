@@ -245,9 +245,10 @@ void pose_features(std::span<const std::int32_t> parents, std::span<const glm::m
 void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao,
                       Isa isa = Isa::Best);
 
-// The "PSAO" chunk of one mesh (label "pose-ao:<key>"): coefficients as IEEE 16-bit halves
-// (relative error <= 2^-11 per coefficient; the pose-ao bench prints what it costs in AO), the
-// rest as written. The reader checks the version, every size and index, that the groups
+// The "PSAO" chunk of one mesh (label "pose-ao:<key>"): the coefficients' halves without the
+// blocks' padding, cluster by cluster and coefficient by coefficient over each group's vertices
+// (the groups' offsets count those; the reader lays them out in blocks again), the rest as
+// written. The reader checks the version, every size and index, that the groups
 // partition the vertices, finiteness and [0, 1] baselines, naming the chunk in its errors.
 inline constexpr std::uint32_t kPoseAOChunkType = fourcc("PSAO");
 inline constexpr std::uint32_t kPoseAOChunkVersion = 5;  // 5: the groups' clusters

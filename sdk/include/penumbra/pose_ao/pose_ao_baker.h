@@ -183,9 +183,10 @@ struct PoseAOTraining {
 // the poses (seeded per joint set), the clusters' maps fitted jointly with their blend weights;
 // 1, 2, 4, .. up to the count asked for (at most one per 3 x coefficients poses, a note in
 // `warnings` when that caps it) are fitted to four fifths of the poses and the count whose error
-// on the fifth left out is least (by 1 % at least over fewer) is refitted to all. Deterministic
-// (fixed summation order and seeds, any thread count). Errors: InvalidArgument when training has
-// no pose. Cost: per joint set and cluster count K tried, about P C^2 (a pose's row holds one or
+// on the fifth left out is least (by 1 % at least over fewer) is refitted to all. The coefficients
+// are rounded to IEEE halves (PoseAOGroup), what the chunk stores and the runtime reads.
+// Deterministic (fixed summation order and seeds, any thread count). Errors: InvalidArgument when
+// training has no pose. Cost: per joint set and cluster count K tried, about P C^2 (a pose's row holds one or
 // two clusters' entries) + (K C)^3 / 6; per vertex about P C per count tried; plus P x 10 per
 // candidate joint (the scores).
 Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
