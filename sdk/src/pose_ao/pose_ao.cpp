@@ -147,13 +147,12 @@ struct Term {
 };
 
 // An IEEE half as a float, exactly, for finite halves (the bake and the chunk reader hold no
-// others): normals by moving the exponent and mantissa bits, subnormals as m 2^-24. Written
-// without branches so that the block loop below vectorises.
+// others): the half's sign, exponent and mantissa moved into a float's places make a float 2^-112
+// times the half's value (a subnormal half becomes a subnormal float), and the multiply by 2^112
+// is exact. Under a denormals-are-zero mode a subnormal half (below 6.1e-5) reads as 0.
 inline float half_to_float(std::uint16_t h) {
-  const std::uint32_t magnitude = h & 0x7fffu, sign = std::uint32_t{h & 0x8000u} << 16;
-  const float normal = std::bit_cast<float>((magnitude << 13) + 0x38000000u);  // exponent rebased 15 -> 127
-  const float subnormal = static_cast<float>(magnitude) * 0x1p-24f;
-  return std::bit_cast<float>(std::bit_cast<std::uint32_t>(magnitude < 0x400u ? subnormal : normal) | sign);
+  const std::uint32_t bits = (std::uint32_t{h & 0x8000u} << 16) | (std::uint32_t{h & 0x7fffu} << 13);
+  return std::bit_cast<float>(bits) * 0x1p112f;
 }
 
 // One group: ao[order[i]] = clamp(sum over the terms and c of weight[c] coefficient(m, c, i), 0,
