@@ -2,6 +2,8 @@
 // CPU evaluation of Kontkanen & Laine 2005, section 3 (the runtime of the thesis, section 4.1).
 #include "penumbra/ao_field/ao_field.h"
 
+#include "penumbra/core/isa.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -429,11 +431,6 @@ PENUMBRA_AVX2 __m256 bilinear(const float* texels, int k, __m256i i00, __m256i i
   store_open(pr, l, cap8(pr.table, omega, cos_beta8(l, dx, dy, dz)), open);
 }
 
-bool has_avx2() {
-  static const bool yes = __builtin_cpu_supports("avx2");
-  return yes;
-}
-
 #undef PENUMBRA_AVX2
 #endif
 
@@ -543,7 +540,7 @@ void accumulate_open(const AOFieldData& field, const glm::mat4& world_to_local, 
   const Prepared pr(field);
   std::size_t i = 0;
 #ifdef PENUMBRA_AO_FIELD_AVX2
-  if (has_avx2() && (pr.grid || field.inside_exponent == 2.0f)) {
+  if (cpu_has_avx2() && (pr.grid || field.inside_exponent == 2.0f)) {
     const auto batch = pr.grid ? grid_batch8 : radial_batch8;
     for (; i + 8 <= count; i += 8) batch(pr, linear, offset, &x[i], &n[i], &open[i]);
   }

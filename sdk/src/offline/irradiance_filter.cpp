@@ -22,6 +22,7 @@
 #include <immintrin.h>
 #endif
 
+#include "penumbra/core/isa.h"
 #include "penumbra/core/jobs.h"
 
 namespace penumbra {
@@ -368,15 +369,6 @@ void filter_portable(const Gather& g, const std::array<const float*, 4>& values,
 }
 #endif
 
-bool use_avx2(Isa isa) {
-#if PENUMBRA_FILTER_AVX2
-  static const bool has = __builtin_cpu_supports("avx2");
-  return isa != Isa::Portable && has;
-#else
-  (void)isa;
-  return false;
-#endif
-}
 
 }  // namespace
 
@@ -388,7 +380,7 @@ Status irradiance_filter_support(std::span<const FilterPixel> pixels, std::uint3
   jobs.begin_stage("filter support", 2 * pixels.size());
   PENUMBRA_TRY(columns.predict(pixels, width, height, settings.predictor_radius, jobs));
   const Gather g{pixels, width, height, &settings, &columns};
-  const bool avx2 = use_avx2(isa);
+  const bool avx2 = isa == Isa::Best && cpu_has_avx2();
   return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
 #if PENUMBRA_FILTER_AVX2
     if (avx2) return support_avx2(g, limit, begin, end, out.data());
@@ -415,7 +407,7 @@ Status filter_irradiance(std::span<const FilterPixel> pixels, std::uint32_t widt
     blue[i] = n * pixels[i].irradiance.z;
   }
   const std::array<const float*, 4> values{red.data(), green.data(), blue.data(), rays.data()};
-  const bool avx2 = use_avx2(isa);
+  const bool avx2 = isa == Isa::Best && cpu_has_avx2();
   return jobs.parallel_for(pixels.size(), 256, [&](std::size_t begin, std::size_t end) {
 #if PENUMBRA_FILTER_AVX2
     if (avx2) return filter_avx2(g, values, begin, end, out.data());

@@ -14,7 +14,6 @@
 #include <glm/mat3x3.hpp>
 
 #if defined(__x86_64__)
-#include <cpuid.h>
 #include <immintrin.h>
 #endif
 
@@ -142,8 +141,8 @@ namespace {
 // One blended cluster of a group: its run of coefficients (PoseAOGroup) and the weight of each
 // coefficient row, the cluster's weight times theta_local's entry.
 struct Term {
-  const std::uint16_t* cluster = nullptr;
-  float weight[pose_ao_coefficients(kPoseAOMaxLocality)] = {};
+  const std::uint16_t* cluster;
+  float weight[pose_ao_coefficients(kPoseAOMaxLocality)];  // the first coefficient_count() set
 };
 
 // An IEEE half as a float, exactly, for finite halves (the bake and the chunk reader hold no
@@ -218,12 +217,7 @@ __attribute__((target("avx2,fma,f16c"))) void evaluate_group_avx2(const Term* te
 void evaluate_group_on(Isa isa, const Term* terms, std::uint32_t term_count, std::uint32_t C, std::uint32_t count,
                        const std::uint32_t* order, float* ao) {
 #if defined(__x86_64__)
-  static const bool avx2 = [] {
-    unsigned a = 0, b = 0, c = 0, d = 0;  // F16C from CPUID leaf 1 (not every compiler's builtin names it)
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __get_cpuid(1, &a, &b, &c, &d) &&
-           (c & bit_F16C) != 0;
-  }();
-  if (avx2 && isa == Isa::Best) return evaluate_group_avx2(terms, term_count, C, count, order, ao);
+  if (isa == Isa::Best && cpu_has_avx2_fma_f16c()) return evaluate_group_avx2(terms, term_count, C, count, order, ao);
 #endif
   evaluate_group(terms, term_count, C, count, order, ao);
 }

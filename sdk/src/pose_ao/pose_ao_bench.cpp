@@ -254,7 +254,7 @@ Result<Report> run(const Options& options) {
     };
     std::vector<std::vector<glm::mat4>> frames;  // ten random poses, one per frame of a block
     for (std::uint64_t i = 0; i < 10; ++i) frames.push_back(skinning_matrices(*rig, random_pose(*rig, ranges, 5, i)));
-    const auto measure_ns = [&](const PoseAOData& d) {
+    const auto measure_ns = [&](const PoseAOData& d, Isa isa = Isa::Best) {
       std::vector<float> out(V), features = held.features.front();
       // The best of many short timed blocks (10 frames each, ~0.1 ms): the machine is shared, and
       // a block that another process preempts only reads slower, so the minimum is the cost of a
@@ -264,7 +264,7 @@ Result<Report> run(const Options& options) {
         const auto start = std::chrono::steady_clock::now();
         for (const auto& m : frames) {
           pose_features(d.joint_parents, m, features);
-          evaluate_pose_ao(d, features, out);
+          evaluate_pose_ao(d, features, out, isa);
           benchmark::DoNotOptimize(out.data());
         }
         best = std::min(best, seconds_since(start) * 1e9 / 10.0);
@@ -290,6 +290,9 @@ Result<Report> run(const Options& options) {
           worst_ns = std::max(worst_ns, default_ns);
         else
           other_ns += (other_ns.empty() ? "" : ", ") + name + " " + fmt(default_ns, 3);
+        report.notes.push_back(name + ": the default model's portable loop (CPUs without AVX2, FMA and F16C) " +
+                               fmt(measure_ns(d, Isa::Portable), 3) + " ns per vertex against " +
+                               fmt(default_ns, 3) + " for the wide one");
       }
       const Errors mean = errors(held, [&](const std::vector<float>&, std::vector<float>& out) { out = d.mean_ao; }, 0);
       row("clustered", total, std::to_string(d.locality), std::to_string(d.clusters), fmt(defaults.lambda),

@@ -241,8 +241,8 @@ void pose_features(std::span<const std::int32_t> parents, std::span<const glm::m
 // loop; the fused multiply-adds may move the last bit). Preconditions: features.size() ==
 // data.feature_count(), ao.size() == data.vertex_count. Cost: about (1 + 9 k) multiply-adds per
 // vertex and blended cluster, reading 2 (1 + 9 k) bytes of coefficients (the pose-ao bench
-// measures the ns per vertex: 3-4 on CesiumMan with AVX2; the portable loop, which converts the
-// halves in software, took 4-5x that on the same machine). Thread-safe (writes only `ao`).
+// measures the ns per vertex of both loops: the portable one, which converts the halves in
+// software, took 4-6x the wide one's time). Thread-safe (writes only `ao`).
 void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, std::span<float> ao,
                       Isa isa = Isa::Best);
 
