@@ -6,7 +6,6 @@
 // T_whole / (T_largest shard + T_merge), and whether the merged file is the whole bake's bytes.
 // One thread everywhere (unless --threads), so that times measure work rather than the pool.
 #include <algorithm>
-#include <chrono>
 #include <map>
 
 #include "bench.h"
@@ -26,10 +25,6 @@ Result<World> courtyard(Preset preset) {
   world.update(0.0);
   PENUMBRA_TRY(add_default_lighting(world, preset, false));
   return world;
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
 Result<Report> shards_bench(const Options& options) {

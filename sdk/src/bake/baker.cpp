@@ -241,29 +241,29 @@ Result<BakeResult> bake_world(World& world, const std::vector<std::string>& name
   result.file.input_hash = bake_input_hash(world, names, settings);
   result.file.sdk_version = std::string(sdk_version());
   const EntityKeys keys = EntityKeys::build(world);
-  PENUMBRA_TRY(drive_bake(world, *bakers, settings, jobs, result.report,
-                          [&](const Baker& b, BakeWork& work, BakeReport::Item& item) -> Status {
-                            // Every group whole, then the global steps: what `penumbra merge` does
-                            // with the parts of a sharded bake.
-                            std::vector<std::vector<std::byte>> results(work.groups.size());
-                            for (std::size_t g = 0; g < work.groups.size(); ++g) {
-                              if (work.groups[g].elements == 0) continue;
-                              auto r = work.run(g, 0, work.groups[g].elements, jobs);
-                              if (!r) return r.error();
-                              results[g] = std::move(*r);
-                            }
-                            auto chunks = finish_groups(b, work.groups, results, jobs);
-                            if (!chunks) return chunks.error();
-                            for (BakeChunk& chunk : *chunks) {
-                              item.bytes += chunk.payload.size();
-                              if (b.describe)
-                                for (auto& line : b.describe(chunk)) item.lines.push_back(std::move(line));
-                              // What the file holds is what the World shows.
-                              if (b.attach) PENUMBRA_TRY(b.attach(world, chunk, keys));
-                              result.file.chunks.push_back(std::move(chunk));
-                            }
-                            return {};
-                          }));
+  // Every group whole, then the global steps: what `penumbra merge` does with the parts of a
+  // sharded bake.
+  const auto bake_whole = [&](const Baker& b, BakeWork& work, BakeReport::Item& item) -> Status {
+    std::vector<std::vector<std::byte>> results(work.groups.size());
+    for (std::size_t g = 0; g < work.groups.size(); ++g) {
+      if (work.groups[g].elements == 0) continue;
+      auto r = work.run(g, 0, work.groups[g].elements, jobs);
+      if (!r) return r.error();
+      results[g] = std::move(*r);
+    }
+    auto chunks = finish_groups(b, work.groups, results, jobs);
+    if (!chunks) return chunks.error();
+    for (BakeChunk& chunk : *chunks) {
+      item.bytes += chunk.payload.size();
+      if (b.describe)
+        for (auto& line : b.describe(chunk)) item.lines.push_back(std::move(line));
+      // What the file holds is what the World shows.
+      if (b.attach) PENUMBRA_TRY(b.attach(world, chunk, keys));
+      result.file.chunks.push_back(std::move(chunk));
+    }
+    return {};
+  };
+  PENUMBRA_TRY(drive_bake(world, *bakers, settings, jobs, result.report, bake_whole));
   return result;
 }
 

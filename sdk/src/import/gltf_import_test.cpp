@@ -416,9 +416,9 @@ TEST(GltfImport, LightingExtensionIsKeptPerNodeAndItsShapeChecked) {
     auto r = import_gltf(w, path);
     ASSERT_TRUE(r.ok()) << r.error().message;
     EXPECT_EQ(world_environment(w).radiance, glm::vec3(0.2f, 0.25f, 0.35f));
-    std::size_t declared = 0;
-    w.each<AuthoredLighting>([&](Entity, AuthoredLighting&) { ++declared; });
-    EXPECT_EQ(declared, 1u);  // the crate's; the sky's node declares no components
+    std::size_t declaring = 0;
+    w.each<AuthoredLighting>([&](Entity, AuthoredLighting&) { ++declaring; });
+    EXPECT_EQ(declaring, 1u);  // the crate's; the sky's node declares no components
   }
   // A sky map: "map" names an OpenEXR file relative to the glTF, "map_scale" multiplies it; a map
   // and a radiance together, or a map with a bad texel, are refused naming the element.

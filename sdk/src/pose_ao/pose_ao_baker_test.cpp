@@ -409,10 +409,10 @@ TEST(PoseAOProductionRig, TheCharactersMeshesAreTracedTogether) {
 
   // Another level of detail of the body, or another entity of the body's mesh, on the same
   // skeleton lies on its surface: left out (while a mesh of its own LOD level would be traced).
-  const auto add_body_like = [&](std::string name, std::shared_ptr<const MeshData> data) {
+  const auto add_body_like = [&](std::string name, std::shared_ptr<const MeshData> mesh) {
     const Entity e = h.world->create();
     h.world->add<Name>(e, Name{std::move(name)});
-    h.world->add<Mesh>(e, Mesh{std::move(data)});
+    h.world->add<Mesh>(e, Mesh{std::move(mesh)});
     h.world->add<Skin>(e, h.world->get<Skin>(h.body));
     h.world->add<WorldTransform>(e, h.world->get<WorldTransform>(h.body));
     return e;

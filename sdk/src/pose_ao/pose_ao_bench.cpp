@@ -342,42 +342,42 @@ Result<Report> run(const Options& options) {
             std::vector<float> previous, current;
             std::vector<double> changes;
           };
-          Motion traced, clustered, linear;
+          Motion traced_ao, clustered_ao, linear_ao;
           double follow_clustered = 0.0, follow_linear = 0.0;
-          std::vector<float> f;
+          std::vector<float> features;
           for (std::size_t ci = 0; ci < rig->clips.size(); ++ci) {
-            const int frames = std::max(2, static_cast<int>(rig->clips[ci]->duration * 60.0f));
-            for (int k = 0; k < frames; ++k) {
+            const int clip_frames = std::max(2, static_cast<int>(rig->clips[ci]->duration * 60.0f));
+            for (int k = 0; k < clip_frames; ++k) {
               const std::vector<glm::mat4> m = skinning_matrices(*rig, clip_pose(*rig, ci, float(k) / 60.0f));
-              for (Motion* motion : {&traced, &clustered, &linear}) motion->current.resize(V);
-              PENUMBRA_TRY(tracer->trace(m, ref_rays / 2, 7, jobs, traced.current));
-              pose_features(rig->parents, m, f);
-              evaluate_pose_ao(d, f, clustered.current);
-              evaluate_pose_ao(dl, f, linear.current);
+              for (Motion* motion : {&traced_ao, &clustered_ao, &linear_ao}) motion->current.resize(V);
+              PENUMBRA_TRY(tracer->trace(m, ref_rays / 2, 7, jobs, traced_ao.current));
+              pose_features(rig->parents, m, features);
+              evaluate_pose_ao(d, features, clustered_ao.current);
+              evaluate_pose_ao(dl, features, linear_ao.current);
               if (k > 0)
                 for (std::size_t v = 0; v < V; ++v) {
-                  const double t = double(traced.current[v]) - traced.previous[v];
-                  const double c = double(clustered.current[v]) - clustered.previous[v];
-                  const double l = double(linear.current[v]) - linear.previous[v];
-                  traced.changes.push_back(std::abs(t));
-                  clustered.changes.push_back(std::abs(c));
-                  linear.changes.push_back(std::abs(l));
-                  follow_clustered += (c - t) * (c - t);
-                  follow_linear += (l - t) * (l - t);
+                  const double t = double(traced_ao.current[v]) - traced_ao.previous[v];
+                  const double cl = double(clustered_ao.current[v]) - clustered_ao.previous[v];
+                  const double li = double(linear_ao.current[v]) - linear_ao.previous[v];
+                  traced_ao.changes.push_back(std::abs(t));
+                  clustered_ao.changes.push_back(std::abs(cl));
+                  linear_ao.changes.push_back(std::abs(li));
+                  follow_clustered += (cl - t) * (cl - t);
+                  follow_linear += (li - t) * (li - t);
                 }
-              for (Motion* motion : {&traced, &clustered, &linear}) std::swap(motion->previous, motion->current);
+              for (Motion* motion : {&traced_ao, &clustered_ao, &linear_ao}) std::swap(motion->previous, motion->current);
             }
           }
           const auto stats = [](std::vector<double>& changes) {
             std::sort(changes.begin(), changes.end());
             return fmt(changes.back(), 3) + " (99.9 %: " + fmt(changes[changes.size() * 999 / 1000], 3) + ")";
           };
-          const double n = static_cast<double>(traced.changes.size());
+          const double changes = static_cast<double>(traced_ao.changes.size());
           report.notes.push_back(name + ": AO change of a vertex between frames 1/60 s apart along the clips, the largest: "
-                                        "traced " + stats(traced.changes) + ", clustered " + stats(clustered.changes) +
-                                 ", linear " + stats(linear.changes) + "; RMS of the model's change minus the traced: "
-                                 "clustered " + fmt(std::sqrt(follow_clustered / n), 3) + ", linear " +
-                                 fmt(std::sqrt(follow_linear / n), 3));
+                                        "traced " + stats(traced_ao.changes) + ", clustered " + stats(clustered_ao.changes) +
+                                 ", linear " + stats(linear_ao.changes) + "; RMS of the model's change minus the traced: "
+                                 "clustered " + fmt(std::sqrt(follow_clustered / changes), 3) + ", linear " +
+                                 fmt(std::sqrt(follow_linear / changes), 3));
         }
         // Sweeps at this pose count: the cluster count (locality 4), then locality and lambda of the
         // linear model.

@@ -196,16 +196,16 @@ void register_vertex_ao_baker(World& world) {
   Baker b = baker_for(vertex_ao_module());
   b.reads_lights = false;
   b.stages = 1;
-  b.hash_inputs = [](World& world, const BakeSettings& s, Hasher& h) {
+  b.hash_inputs = [](World& w, const BakeSettings& s, Hasher& h) {
     const VertexAoSettings v = VertexAoSettings::preset(s.preset);
     h.add(v.max_distance);
     h.add(v.rays);
     h.add(kVertexAoChunkVersion);
     // A skinned mesh's bind scene: its character's meshes and how they are bound.
-    for (Entity e : skinned_meshes(world))
-      for (Entity other : character_meshes(world, e)) {
-        h.add(std::string_view(entity_key(world, other)));
-        h.add(world.get<Skin>(other).inverse_bind);
+    for (Entity e : skinned_meshes(w))
+      for (Entity other : character_meshes(w, e)) {
+        h.add(std::string_view(entity_key(w, other)));
+        h.add(w.get<Skin>(other).inverse_bind);
       }
   };
   b.plan = plan_vertex_ao;
