@@ -151,8 +151,9 @@ constexpr std::uint32_t kChunkTypes[] = {kAOFieldChunkType};
 std::string explain_empty(World& world) {
   return "ao-field bakes entities with an AOFieldCaster and this scene has " +
          std::to_string(world.view<const AOFieldCaster>().count()) +
-         " (the built-in scenes give one to each movable mesh; a glTF scene gets them only from a host that adds "
-         "the component)";
+         " (the built-in scenes give one to each movable mesh; in a glTF file, declare one on a movable mesh's "
+         "node: \"extensions\": {\"PENUMBRA_lighting\": {\"version\": 1, \"components\": {\"AOFieldCaster\": "
+         "{\"preset\": \"medium\"}}}}, or add it in the editor or from code)";
 }
 
 }  // namespace

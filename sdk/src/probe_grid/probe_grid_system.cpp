@@ -215,7 +215,9 @@ std::string explain_empty(World& world) {
   const std::size_t grids = world.view<const IrradianceProbeGrid>().count();
   if (grids == 0)
     return "probe-grid bakes entities with an IrradianceProbeGrid and this scene has none (the built-in scenes "
-           "get one; a glTF scene gets one only from a host that adds the component)";
+           "get one; in a glTF file, declare one on a node whose scale spans the grid's box: \"extensions\": "
+           "{\"PENUMBRA_lighting\": {\"version\": 1, \"components\": {\"IrradianceProbeGrid\": {\"preset\": "
+           "\"medium\"}}}}, or add it in the editor or from code)";
   return "probe-grid found " + std::to_string(grids) + " IrradianceProbeGrid entities but no Static geometry "
          "to bake them against";
 }
