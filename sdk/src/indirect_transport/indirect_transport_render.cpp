@@ -4,8 +4,6 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
-#include <map>
-#include <tuple>
 #include <vector>
 
 #include <glm/common.hpp>
@@ -53,16 +51,8 @@ class IndirectTransportRenderFeature final : public RenderFeature {
         {PENUMBRA_TRANSPORT_BINDING_PROBES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
          nullptr},
     };
-    auto set = gpu.feature_set(bindings);
-    if (!set) return set.error();
-    set_ = set->set;
-    layout_ = set->layout;
-    auto ambient = gpu.shader(shaders::indirect_transport("indirect_transport_ambient.frag"));
-    auto view = gpu.shader(shaders::indirect_transport("indirect_transport_view.frag"));
-    if (!ambient) return ambient.error();
-    if (!view) return view.error();
-    ambient_frag_ = *ambient;
-    view_frag_ = *view;
+    PENUMBRA_TRY(passes_.init(gpu, bindings, shaders::indirect_transport("indirect_transport_ambient.frag"),
+                              shaders::indirect_transport("indirect_transport_view.frag")));
     PENUMBRA_TRY(resize(gpu, 0, 0, 0, 0));
     return {};
   }
@@ -150,21 +140,10 @@ class IndirectTransportRenderFeature final : public RenderFeature {
   float irradiance_bound() const override { return bound_; }
 
   Status record_ambient(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame) override {
-    auto p = pipeline(gpu, true, frame.first_source ? 0 : 1, VK_FORMAT_UNDEFINED);
-    if (!p) return p.error();
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 2, 1, &set_, 0, nullptr);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *p);
-    vkCmdDraw(cmd, 3, 1, 0, 0);
-    return {};
+    return passes_.record_ambient(cmd, gpu, frame);
   }
-
   Status record_view(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame, std::size_t view) override {
-    auto p = pipeline(gpu, false, static_cast<std::uint32_t>(view), frame.target_format);
-    if (!p) return p.error();
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 2, 1, &set_, 0, nullptr);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *p);
-    vkCmdDraw(cmd, 3, 1, 0, 0);
-    return {};
+    return passes_.record_view(cmd, gpu, frame, view);
   }
 
   void add_counters(FrameStats& stats) const override {
@@ -242,7 +221,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
     VkWriteDescriptorSet writes[4];
     for (int i = 0; i < 4; ++i) {
       writes[i] = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-      writes[i].dstSet = set_;
+      writes[i].dstSet = passes_.set();
       writes[i].dstBinding = bindings[i];
       writes[i].descriptorCount = 1;
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -253,31 +232,7 @@ class IndirectTransportRenderFeature final : public RenderFeature {
     return {};
   }
 
-  // The ambient pass's pipeline (`view` 0: the first source, 1: after others) or view `view`'s for
-  // `format`, made on first use.
-  Result<VkPipeline> pipeline(RenderContext& gpu, bool ambient, std::uint32_t view, VkFormat format) {
-    const auto key = std::tuple{ambient, view, format};
-    if (auto it = pipelines_.find(key); it != pipelines_.end()) return it->second;
-    const VkSpecializationMapEntry entry{0, 0, 4};
-    const VkSpecializationInfo specialization{1, &entry, 4, &view};
-    FeaturePipeline p;
-    p.layout = layout_;
-    p.vertex = gpu.screen_vertex();
-    p.fragment = ambient ? ambient_frag_ : view_frag_;
-    p.specialization = ambient ? nullptr : &specialization;
-    p.ambient = ambient;
-    p.target_format = format;
-    p.role = AmbientRole::Source;
-    p.accumulate = ambient && view == 1;
-    auto made = gpu.pipeline(p);
-    if (made) pipelines_[key] = *made;
-    return made;
-  }
-
-  VkDescriptorSet set_ = VK_NULL_HANDLE;
-  VkPipelineLayout layout_ = VK_NULL_HANDLE;
-  VkShaderModule ambient_frag_ = VK_NULL_HANDLE, view_frag_ = VK_NULL_HANDLE;
-  std::map<std::tuple<bool, std::uint32_t, VkFormat>, VkPipeline> pipelines_;
+  ScreenPasses passes_;  // the ambient pass and the views
   vk::Buffer patches_, texels_, cells_, probes_;
   std::shared_ptr<const TransportData> data_;
   std::vector<glm::vec3> shown_;  // what texels_ holds

@@ -5,12 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <map>
 #include <set>
 #include <span>
 #include <string>
 #include <string_view>
-#include <tuple>
 #include <vector>
 
 #include "penumbra/core/log.h"
@@ -68,16 +66,8 @@ class ProbeGridRenderFeature final : public RenderFeature {
         {PENUMBRA_PROBE_BINDING_NODES, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
          nullptr},
     };
-    auto set = gpu.feature_set(bindings);
-    if (!set) return set.error();
-    set_ = set->set;
-    layout_ = set->layout;
-    auto ambient = gpu.shader(shaders::probe_grid("probe_grid_ambient.frag"));
-    auto view = gpu.shader(shaders::probe_grid("probe_grid_view.frag"));
-    if (!ambient) return ambient.error();
-    if (!view) return view.error();
-    ambient_frag_ = *ambient;
-    view_frag_ = *view;
+    PENUMBRA_TRY(passes_.init(gpu, bindings, shaders::probe_grid("probe_grid_ambient.frag"),
+                              shaders::probe_grid("probe_grid_view.frag")));
     // The placeholder texture bound where a slot has no grid data, and the uniform buffer.
     const float zero[4] = {0.0f, 0.0f, 0.0f, 0.0f};
     PENUMBRA_TRY(gpu.upload_image(placeholder_, texture_info(glm::uvec3(1)), VK_IMAGE_VIEW_TYPE_3D, zero, sizeof zero));
@@ -125,21 +115,10 @@ class ProbeGridRenderFeature final : public RenderFeature {
   float irradiance_bound() const override { return bound_; }
 
   Status record_ambient(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame) override {
-    auto p = pipeline(gpu, true, frame.first_source ? 0 : 1, VK_FORMAT_UNDEFINED);
-    if (!p) return p.error();
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 2, 1, &set_, 0, nullptr);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *p);
-    vkCmdDraw(cmd, 3, 1, 0, 0);
-    return {};
+    return passes_.record_ambient(cmd, gpu, frame, static_cast<std::uint32_t>(grids_.size()));
   }
-
   Status record_view(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame, std::size_t view) override {
-    auto p = pipeline(gpu, false, static_cast<std::uint32_t>(view), frame.target_format);
-    if (!p) return p.error();
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 2, 1, &set_, 0, nullptr);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, *p);
-    vkCmdDraw(cmd, 3, 1, 0, 0);
-    return {};
+    return passes_.record_view(cmd, gpu, frame, view, static_cast<std::uint32_t>(grids_.size()));
   }
 
   void add_counters(FrameStats& stats) const override {
@@ -230,7 +209,7 @@ class ProbeGridRenderFeature final : public RenderFeature {
     VkWriteDescriptorSet writes[3];
     for (auto& w : writes) {
       w = vk_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-      w.dstSet = set_;
+      w.dstSet = passes_.set();
       w.descriptorCount = 1;
       w.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     }
@@ -245,34 +224,7 @@ class ProbeGridRenderFeature final : public RenderFeature {
     vkUpdateDescriptorSets(gpu.device(), 3, writes, 0, nullptr);
   }
 
-  // The ambient pass's pipeline (a source; `view` 0: the first source, 1: one after others) or
-  // view `view`'s for `format`, specialised on the number of grids (the shaders' kGrids; 0 in the
-  // views without a grid), made on first use.
-  Result<VkPipeline> pipeline(RenderContext& gpu, bool ambient, std::uint32_t view, VkFormat format) {
-    const auto grids = static_cast<std::uint32_t>(grids_.size());
-    const auto key = std::tuple{ambient, view, format, grids};
-    if (auto it = pipelines_.find(key); it != pipelines_.end()) return it->second;
-    const std::uint32_t constants[2] = {grids, view};
-    const VkSpecializationMapEntry entries[2] = {{0, 0, 4}, {1, 4, 4}};
-    const VkSpecializationInfo specialization{ambient ? 1u : 2u, entries, ambient ? 4u : 8u, constants};
-    FeaturePipeline p;
-    p.layout = layout_;
-    p.vertex = gpu.screen_vertex();
-    p.fragment = ambient ? ambient_frag_ : view_frag_;
-    p.specialization = &specialization;
-    p.ambient = ambient;
-    p.target_format = format;
-    p.role = AmbientRole::Source;
-    p.accumulate = ambient && view == 1;
-    auto made = gpu.pipeline(p);
-    if (made) pipelines_[key] = *made;
-    return made;
-  }
-
-  VkDescriptorSet set_ = VK_NULL_HANDLE;
-  VkPipelineLayout layout_ = VK_NULL_HANDLE;
-  VkShaderModule ambient_frag_ = VK_NULL_HANDLE, view_frag_ = VK_NULL_HANDLE;
-  std::map<std::tuple<bool, std::uint32_t, VkFormat, std::uint32_t>, VkPipeline> pipelines_;
+  ScreenPasses passes_;  // the ambient pass and the views
   vk::ImageResource sh_[PENUMBRA_PROBE_TEXTURES], nodes_, placeholder_;
   vk::Buffer uniforms_;
   std::vector<BlendedProbeGrid> grids_;  // in the atlas, in blend order

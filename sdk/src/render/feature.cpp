@@ -1,4 +1,5 @@
-// The fixed-function state of a render feature's pass (RenderContext::pipeline).
+// The fixed-function state of a render feature's pass (RenderContext::pipeline), and the
+// screen-wide passes of a source feature (ScreenPasses, feature.h).
 #include "feature_pipeline.h"
 
 #include <iterator>
@@ -106,6 +107,59 @@ Result<VkPipeline> make_feature_pipeline(VkDevice device, const FeaturePipeline&
                       std::string("render feature: cannot create a pipeline (") + vk_result_name(r) + ")");
   }
   return made;
+}
+
+Status ScreenPasses::init(RenderContext& gpu, std::span<const VkDescriptorSetLayoutBinding> bindings,
+                          std::span<const std::uint32_t> ambient_shader, std::span<const std::uint32_t> view_shader) {
+  auto set = gpu.feature_set(bindings);
+  if (!set) return set.error();
+  set_ = set->set;
+  layout_ = set->layout;
+  auto ambient = gpu.shader(ambient_shader);
+  if (!ambient) return ambient.error();
+  auto view = gpu.shader(view_shader);
+  if (!view) return view.error();
+  ambient_ = *ambient;
+  view_ = *view;
+  return {};
+}
+
+Status ScreenPasses::record_ambient(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame,
+                                   std::uint32_t variant) {
+  // "view" 0: the first source, which writes; 1: a later one, which adds.
+  return draw(cmd, gpu, true, frame.first_source ? 0u : 1u, VK_FORMAT_UNDEFINED, variant);
+}
+
+Status ScreenPasses::record_view(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame, std::size_t view,
+                                 std::uint32_t variant) {
+  return draw(cmd, gpu, false, static_cast<std::uint32_t>(view), frame.target_format, variant);
+}
+
+Status ScreenPasses::draw(VkCommandBuffer cmd, RenderContext& gpu, bool ambient, std::uint32_t view, VkFormat format,
+                          std::uint32_t variant) {
+  const auto key = std::tuple{ambient, view, format, variant};
+  auto it = pipelines_.find(key);
+  if (it == pipelines_.end()) {
+    const std::uint32_t constants[2] = {variant, view};
+    const VkSpecializationMapEntry entries[2] = {{0, 0, 4}, {1, 4, 4}};
+    const VkSpecializationInfo specialization{2, entries, sizeof constants, constants};
+    FeaturePipeline p;
+    p.layout = layout_;
+    p.vertex = gpu.screen_vertex();
+    p.fragment = ambient ? ambient_ : view_;
+    p.specialization = &specialization;
+    p.ambient = ambient;
+    p.target_format = format;
+    p.role = AmbientRole::Source;
+    p.accumulate = ambient && view == 1;
+    auto made = gpu.pipeline(p);
+    if (!made) return made.error();
+    it = pipelines_.emplace(key, *made).first;
+  }
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 2, 1, &set_, 0, nullptr);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, it->second);
+  vkCmdDraw(cmd, 3, 1, 0, 0);
+  return {};
 }
 
 }  // namespace penumbra

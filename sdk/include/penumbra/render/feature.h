@@ -27,10 +27,12 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <span>
 #include <string>
 #include <string_view>
+#include <tuple>
 #include <vector>
 
 #include <vulkan/vulkan.h>
@@ -136,6 +138,35 @@ struct FeaturePipeline {
   bool depth_clamp = false;
   VkPipelineDepthStencilStateCreateInfo depth_stencil{};  // occluders; zero: no tests
 };
+// The passes of a Source feature drawn over the whole screen (the screen triangle): its ambient
+// pass and its debug views, one fragment shader each, with the feature's descriptor set as set 2.
+// Specialisation constants of both shaders: constant_id 0 the feature's `variant` (e.g. the probe
+// grid's grid count), constant_id 1 the view (FeaturePipeline; a shader may leave either out).
+// Pipelines are made on first use, one per (pass, view or first-source flag, format, variant).
+class ScreenPasses {
+ public:
+  // The descriptor set with `bindings` (RenderContext::feature_set) and the two shaders (SPIR-V).
+  // Errors as RenderContext's.
+  Status init(RenderContext& gpu, std::span<const VkDescriptorSetLayoutBinding> bindings,
+              std::span<const std::uint32_t> ambient_shader, std::span<const std::uint32_t> view_shader);
+  // The feature's set, for its descriptor writes. Valid after init().
+  VkDescriptorSet set() const { return set_; }
+  // Record the ambient pass (RenderFeature::record_ambient) / view `view` over the target
+  // (RenderFeature::record_view). Cost: one draw of three vertices.
+  Status record_ambient(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame, std::uint32_t variant = 0);
+  Status record_view(VkCommandBuffer cmd, RenderContext& gpu, const FeatureFrame& frame, std::size_t view,
+                     std::uint32_t variant = 0);
+
+ private:
+  Status draw(VkCommandBuffer cmd, RenderContext& gpu, bool ambient, std::uint32_t view, VkFormat format,
+              std::uint32_t variant);
+
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+  VkPipelineLayout layout_ = VK_NULL_HANDLE;
+  VkShaderModule ambient_ = VK_NULL_HANDLE, view_ = VK_NULL_HANDLE;
+  std::map<std::tuple<bool, std::uint32_t, VkFormat, std::uint32_t>, VkPipeline> pipelines_;
+};
+
 class RenderFeature {
  public:
   virtual ~RenderFeature() = default;

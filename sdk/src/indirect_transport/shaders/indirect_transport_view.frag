@@ -14,7 +14,7 @@ layout(set = 0, binding = PENUMBRA_BINDING_SCENE_DEPTH) uniform sampler2D scene_
 layout(set = 0, binding = PENUMBRA_BINDING_GBUFFER) uniform sampler2D gbuffer;
 
 // 0: lightmap, 1: patches, 2: probes (the feature's views, in order).
-layout(constant_id = 0) const uint kView = 0u;
+layout(constant_id = 1) const uint kView = 0u;  // ScreenPasses (render/feature.h)
 
 layout(location = 0) out vec4 out_color;
 
