@@ -41,6 +41,9 @@ fi
 expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/scaled_armature.gltf" -o "$scratch/none.pbake" \
   --only probe-grid,ao-field
 expect_output "probe-grid bakes entities with an IrradianceProbeGrid"; expect_output "ao-field bakes"
+# ... and how a glTF declares the component.
+expect_output '"components": {"IrradianceProbeGrid": {"preset": "medium"}}'
+expect_output '"components": {"AOFieldCaster": {"preset": "medium"}}'
 expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/lighting_extension.gltf" -o "$scratch/none.pbake" \
   --only pose-ao
 expect_output "pose-ao bakes skinned meshes"
