@@ -224,7 +224,7 @@ class ProbeGridRenderFeature final : public RenderFeature {
     vkUpdateDescriptorSets(gpu.device(), 3, writes, 0, nullptr);
   }
 
-  ScreenPasses passes_;  // the ambient pass and the views
+  ScreenPasses passes_;  // the ambient pass and the views, their variant the grid count (kGrids)
   vk::ImageResource sh_[PENUMBRA_PROBE_TEXTURES], nodes_, placeholder_;
   vk::Buffer uniforms_;
   std::vector<BlendedProbeGrid> grids_;  // in the atlas, in blend order

@@ -138,11 +138,13 @@ struct FeaturePipeline {
   bool depth_clamp = false;
   VkPipelineDepthStencilStateCreateInfo depth_stencil{};  // occluders; zero: no tests
 };
+
 // The passes of a Source feature drawn over the whole screen (the screen triangle): its ambient
 // pass and its debug views, one fragment shader each, with the feature's descriptor set as set 2.
 // Specialisation constants of both shaders: constant_id 0 the feature's `variant` (e.g. the probe
-// grid's grid count), constant_id 1 the view (FeaturePipeline; a shader may leave either out).
-// Pipelines are made on first use, one per (pass, view or first-source flag, format, variant).
+// grid's grid count), constant_id 1 the view in the view shader (in the ambient pass: 0 for the
+// frame's first source, 1 after others); a shader may leave either out. Pipelines are made on
+// first use, one per (pass, view or first-source flag, target format, variant).
 class ScreenPasses {
  public:
   // The descriptor set with `bindings` (RenderContext::feature_set) and the two shaders (SPIR-V).
