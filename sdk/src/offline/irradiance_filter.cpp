@@ -158,10 +158,11 @@ Window window_of(const Columns& c, std::span<const FilterPixel> pixels, std::uin
 
 // w[k] = K(ε_pq / a) for the `blocks` taps q = q0 + k of one row of p's window (0 where q has no
 // samples or lies beyond the kernel's support, and for the taps past the row's end that round the
-// row up to a multiple of kLanes). Ward's distance, ε = d M + sqrt(τ) with d = |x_p - x_q|, M = max(1 / m_p, 1 / m_q)
-// (the surface term by the nearer geometry of the two pixels: a corner's pixel does not blur into
-// an open neighbour's kernel, nor the open one into the corner's) and τ = 1 - n_p . n_q (the
-// turn), is squared as d^2 M^2 + 2 M sqrt(d^2 τ) + τ: one square root per tap.
+// row up to a multiple of kLanes). Ward's distance, ε = d M + sqrt(τ) with d = |x_p - x_q|,
+// M = max(1 / m_p, 1 / m_q) (the surface term by the nearer geometry of the two pixels: a corner's
+// pixel does not blur into an open neighbour's kernel, nor the open one into the corner's) and
+// τ = 1 - n_p . n_q (the turn), is squared as d^2 M^2 + 2 M sqrt(d^2 τ) + τ: one square root per
+// tap.
 void row_weights(const Columns& c, const Window& win, std::size_t q0, float* __restrict w) {
   const float *__restrict qx = &c.x[q0], *__restrict qy = &c.y[q0], *__restrict qz = &c.z[q0],
                          *__restrict qnx = &c.nx[q0], *__restrict qny = &c.ny[q0], *__restrict qnz = &c.nz[q0],
@@ -368,7 +369,6 @@ void filter_portable(const Gather& g, const std::array<const float*, 4>& values,
   }
 }
 #endif
-
 
 }  // namespace
 

@@ -365,7 +365,8 @@ Result<Report> run(const Options& options) {
                   follow_clustered += (cl - t) * (cl - t);
                   follow_linear += (li - t) * (li - t);
                 }
-              for (Motion* motion : {&traced_ao, &clustered_ao, &linear_ao}) std::swap(motion->previous, motion->current);
+              for (Motion* motion : {&traced_ao, &clustered_ao, &linear_ao})
+                std::swap(motion->previous, motion->current);
             }
           }
           const auto stats = [](std::vector<double>& changes) {
@@ -374,8 +375,9 @@ Result<Report> run(const Options& options) {
           };
           const double changes = static_cast<double>(traced_ao.changes.size());
           report.notes.push_back(name + ": AO change of a vertex between frames 1/60 s apart along the clips, the largest: "
-                                        "traced " + stats(traced_ao.changes) + ", clustered " + stats(clustered_ao.changes) +
-                                 ", linear " + stats(linear_ao.changes) + "; RMS of the model's change minus the traced: "
+                                        "traced " + stats(traced_ao.changes) + ", clustered " +
+                                 stats(clustered_ao.changes) + ", linear " + stats(linear_ao.changes) +
+                                 "; RMS of the model's change minus the traced: "
                                  "clustered " + fmt(std::sqrt(follow_clustered / changes), 3) + ", linear " +
                                  fmt(std::sqrt(follow_linear / changes), 3));
         }

@@ -226,7 +226,8 @@ TEST(PoseAOChunk, RoundTripKeepsEveryBit) {
   EXPECT_EQ(r->mean_ao, d.mean_ao);
   EXPECT_EQ(r->joint_parents, d.joint_parents);
   EXPECT_EQ(r->coefficients, d.coefficients);  // halves in blocks, the padding zero both ways
-  for (std::size_t k = 0; k < d.groups.size(); ++k) EXPECT_EQ(r->groups[k].coefficient_offset, d.groups[k].coefficient_offset);
+  for (std::size_t k = 0; k < d.groups.size(); ++k)
+    EXPECT_EQ(r->groups[k].coefficient_offset, d.groups[k].coefficient_offset);
   EXPECT_EQ(r->pose_space, PoseSpaceSource::DegenerateClips);
   EXPECT_EQ(r->moving_joints, 1u);
   EXPECT_EQ(r->widest_range, 1.0f);
@@ -260,7 +261,8 @@ TEST(PoseAOEvaluate, EveryHalfInTheUnitIntervalReadsBackExactlyOnBothPaths) {
     evaluate_pose_ao(d, {}, ao, isa);
     for (std::uint32_t i = 0; i < V; ++i) {
       const float expected = std::clamp(glm::unpackHalf1x16(halves[i]), 0.0f, 1.0f);
-      ASSERT_EQ(ao[V - 1 - i], expected) << "half 0x" << std::hex << halves[i] << (isa == Isa::Best ? " best" : " portable");
+      ASSERT_EQ(ao[V - 1 - i], expected)
+          << "half 0x" << std::hex << halves[i] << (isa == Isa::Best ? " best" : " portable");
     }
   }
 }

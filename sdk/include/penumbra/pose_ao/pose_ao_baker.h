@@ -186,9 +186,9 @@ struct PoseAOTraining {
 // on the fifth left out is least (by 1 % at least over fewer) is refitted to all. The coefficients
 // are rounded to IEEE halves (PoseAOGroup), what the chunk stores and the runtime reads.
 // Deterministic (fixed summation order and seeds, any thread count). Errors: InvalidArgument when
-// training has no pose. Cost: per joint set and cluster count K tried, about P C^2 (a pose's row holds one or
-// two clusters' entries) + (K C)^3 / 6; per vertex about P C per count tried; plus P x 10 per
-// candidate joint (the scores).
+// training has no pose. Cost: per joint set and cluster count K tried, about P C^2 (a pose's row
+// holds one or two clusters' entries) + (K C)^3 / 6; per vertex about P C per count tried; plus
+// P x 10 per candidate joint (the scores).
 Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
                                const SkinnedPoseAO& settings, std::size_t poses, JobContext& jobs,
                                std::vector<std::string>* warnings = nullptr, std::string_view context = "pose-AO");
