@@ -132,8 +132,8 @@ TEST(IndirectTransportHaar, RoundTripsAndPreservesTheIntegralOfTheSquare) {
 }
 
 // Two patches side by side; one link between a level-1 node of the receiver and a level-2 node of
-// the sender must transfer exactly F rho x (the sender node's mean) onto every receiver leaf below
-// its node, and nothing elsewhere.
+// the sender must transfer exactly F_c rho x (the sender node's mean) onto every receiver leaf of
+// its quadrant c, and nothing elsewhere.
 TEST(IndirectTransportOperator, OneLinkInTheHaarBasesIsTheBoxToBoxTransfer) {
   std::vector<TransportPatch> patches(2);
   for (int k = 0; k < 2; ++k) {
@@ -150,7 +150,9 @@ TEST(IndirectTransportOperator, OneLinkInTheHaarBasesIsTheBoxToBoxTransfer) {
   // one leaf; and a second link from the sender's root.
   const std::uint32_t r_node = 1 + 1, s_leaf = 5 + 3 + 2 * 4, s_root = 0;
   std::vector<std::vector<TransportLink>> links(2);
-  links[0] = {{r_node, 1, s_leaf, 0.3f}, {0, 1, s_root, 0.1f}};
+  // The first link's quadrants differ (receiver leaves (2 + c % 2, c / 2)); the root's do not.
+  const std::array<float, 4> quadrant = {0.3f, 0.2f, 0.4f, 0.15f};
+  links[0] = {{r_node, 1, s_leaf, quadrant}, {0, 1, s_root, {0.1f, 0.1f, 0.1f, 0.1f}}};
   TransportData data;
   data.patches = patches;
   JobContext jobs;
@@ -168,7 +170,7 @@ TEST(IndirectTransportOperator, OneLinkInTheHaarBasesIsTheBoxToBoxTransfer) {
   for (std::uint32_t j = 0; j < 4; ++j)
     for (std::uint32_t i = 0; i < 4; ++i) {
       glm::vec3 expect = 0.1f * mean * patches[1].albedo;
-      if (i >= 2 && j < 2) expect += 0.3f * leaf * patches[1].albedo;
+      if (i >= 2 && j < 2) expect += quadrant[(i - 2) + 2 * j] * leaf * patches[1].albedo;
       EXPECT_NEAR(glm::length(indirect[i + 4 * j] - expect), 0.0f, 1e-5f) << i << "," << j;
     }
   for (std::uint32_t k = 16; k < 32; ++k) EXPECT_NEAR(glm::length(indirect[k]), 0.0f, 1e-6f);
