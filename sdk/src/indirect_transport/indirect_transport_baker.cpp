@@ -372,8 +372,10 @@ float point_to_polygon(glm::vec3 x, glm::vec3 n, const std::array<glm::vec3, 4>&
   return std::min(1.0f, std::abs(sum) / (2.0f * kPi));
 }
 
-// 2 x 2 jittered points per side: each receiver point's exact form factor to the sender node,
-// times the fraction of its shadow rays to the sender points that arrive (16 rays, one packet).
+// 2 x 2 points per side, one per quadrant: each receiver quadrant's exact form factor to the
+// sender node at the quadrant's centre (the midpoint rule: a random point's would add the kernel's
+// change over the quadrant as noise), times the fraction of the shadow rays from a jittered point
+// of the quadrant to jittered points of the sender's quadrants that arrive (16 rays, one packet).
 Evaluation evaluate_link(const RayScene& scene, const TransportPatch& rp, Node r, const TransportPatch& sp, Node s,
                          std::uint64_t seed, std::uint64_t& rays) {
   Rng rng = Rng::stream(seed, mix64((std::uint64_t{node_id(r)} << 32) ^ node_id(s)) ^ mix64(rp.first) ^
@@ -403,8 +405,10 @@ Evaluation evaluate_link(const RayScene& scene, const TransportPatch& rp, Node r
     if (!xok[static_cast<std::size_t>(a)]) continue;
     ++receivers;
     const glm::vec3 x = xs[static_cast<std::size_t>(a)];
-    if (!(glm::dot(sp.normal, x - sp.origin) > 0.0f)) continue;  // behind the sender: it sees its back
-    point_ff[static_cast<std::size_t>(a)] = point_to_polygon(x, rp.normal, polygon);
+    const glm::vec3 centre = node_point(rp, r, 0.25f + 0.5f * float(a % 2), 0.25f + 0.5f * float(a / 2));
+    // Behind the sender: it sees the sender's back.
+    if (!(glm::dot(sp.normal, x - sp.origin) > 0.0f) || !(glm::dot(sp.normal, centre - sp.origin) > 0.0f)) continue;
+    point_ff[static_cast<std::size_t>(a)] = point_to_polygon(centre, rp.normal, polygon);
     if (!(point_ff[static_cast<std::size_t>(a)] > 0.0f)) continue;
     for (int b = 0; b < 4; ++b) {
       const glm::vec3 y = ys[static_cast<std::size_t>(b)];

@@ -3,20 +3,19 @@
 // series, one WRTO chunk.
 //
 // Refinement (per receiver patch, so a shard bakes some receivers): every pair of patches that face
-// each other starts as one link between their roots. A link is evaluated at 2 x 2 jittered points
-// on each side, one per quadrant: each receiver point's exact form factor to the sender node
-// (Lambert's point-to-polygon formula, the node clipped to the point's half space: exact as the
-// distance goes to zero at shared edges) times the fraction of its 4 shadow rays to the sender
-// points that arrive (16 rays). The oracle's error is the sender's largest albedo x the larger of
-// 2 x the spread (max - min) of point form factor x pair visibility over the pairs (variation over
-// the receiver and partial visibility) and the spread of the point-to-point kernel x the sender's
-// area over the sender seen from one receiver point. A link where one node's plane cuts the other
-// is always refined (its points may all fall on one side). While it exceeds the refinement
-// threshold the larger of the two nodes (by area; the other at the finest level) is split into its
-// four children. An accepted link keeps, per quadrant of the receiver node, its point's value: the
-// transfer from the sender node's mean irradiance to each quadrant's, so the kernel's change
-// across the receiver node costs no further link (on the maze, about 40 % less error against the
-// path tracer than one mean per link, for the same links).
+// each other starts as one link between their roots. A link is evaluated at 2 x 2 points on each
+// side, one per quadrant: the exact form factor from each receiver quadrant's centre to the sender
+// node (Lambert's point-to-polygon formula, the node clipped to the point's half space: exact as
+// the distance goes to zero at shared edges) times the fraction of 4 shadow rays from a jittered
+// point of the quadrant to jittered sender points that arrive (16 rays). The oracle's error is the
+// sender's largest albedo x the larger of 2 x the spread (max - min) of point form factor x pair
+// visibility over the pairs (variation over the receiver and partial visibility) and the spread
+// of the point-to-point kernel x the sender's area over the sender seen from one receiver point.
+// A link where one node's plane cuts the other is always refined (its points may all fall on one
+// side). While it exceeds the refinement threshold the larger of the two nodes (by area; the other
+// at the finest level) is split into its four children. An accepted link keeps, per quadrant of
+// the receiver node, that quadrant's value: the transfer from the sender node's mean irradiance to
+// each quadrant's, so the kernel's change across the receiver node costs no further link.
 //
 // Bounce probes: a grid over the receivers' bounds; each node traces kBounceProbeRays rays and
 // keeps, per patch cell it saw, the solid-angle weights that turn the cells' radiance into its
