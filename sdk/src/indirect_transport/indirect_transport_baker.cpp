@@ -336,8 +336,8 @@ constexpr float kReceiverWeight = 2.0f;
 
 struct Evaluation {
   float form_factor = 0.0f;  // mean over the receiver points of their visible form factor
-  // Per quadrant c of the receiver node (child (2i + c % 2, 2j + c / 2)): its point's visible form
-  // factor, or the mean where the quadrant's point is off the mesh.
+  // Per quadrant c of the receiver node (child (2i + c % 2, 2j + c / 2)): the visible form factor
+  // at its centre, or the mean where the quadrant's jittered point is off the mesh.
   std::array<float, 4> quadrant{};
   // max - min over the pairs of (point form factor x pair visibility), or the spread of the
   // point-to-point kernel over the sender seen from one receiver point, whichever is larger.
