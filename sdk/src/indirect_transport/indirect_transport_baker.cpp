@@ -949,11 +949,14 @@ constexpr std::uint64_t kPatchBlock = 4;  // receiver patches per work item
 // another layout is never merged.
 constexpr std::uint32_t kLinkLayout = 2;
 
+// Written as its bytes into the plan, which every shard must reproduce: no padding (`unused` fills
+// what would be padding, always 0).
 struct Header {
   float refinement_threshold, bounce_tolerance, drop_threshold;
-  std::uint32_t finest_level, max_bounces;
+  std::uint32_t finest_level, max_bounces, unused;
   std::uint64_t seed, memory_limit;
 };
+static_assert(sizeof(Header) == 3 * sizeof(float) + 3 * sizeof(std::uint32_t) + 2 * sizeof(std::uint64_t));
 
 // The header: the settings, then the patches and the probe grid (no entries: every probe open and
 // empty) as a chunk's payload, read back with the chunk's checks.
@@ -1014,7 +1017,7 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
                                std::to_string(kShown) + ")");
   if (patches->empty()) return work;
   const Header h{settings.refinement_threshold, settings.bounce_tolerance, settings.drop_threshold,
-                 settings.finest_level, settings.max_bounces, in.settings.seed, in.settings.memory_limit_bytes};
+                 settings.finest_level, settings.max_bounces, 0, in.settings.seed, in.settings.memory_limit_bytes};
   auto shared = std::make_shared<std::vector<TransportPatch>>(std::move(*patches));
   auto grid = std::make_shared<const TransportProbes>(bounce_probe_grid(*shared, settings.probe_spacing));
   auto targets = std::make_shared<const BounceProbeTargets>(bounce_probe_targets(in.world, *shared));
