@@ -948,6 +948,9 @@ constexpr std::uint64_t kPatchBlock = 4;  // receiver patches per work item
 // The layout of the links a part carries (TransportLink): in the inputs' hash, so that a part of
 // another layout is never merged.
 constexpr std::uint32_t kLinkLayout = 2;
+// Parts carry links and probe entries as their bytes: no padding.
+static_assert(sizeof(TransportLink) == 3 * sizeof(std::uint32_t) + 4 * sizeof(float));
+static_assert(sizeof(BounceProbeEntry) == sizeof(std::uint32_t) + 6 * sizeof(float));
 
 // Written as its bytes into the plan, which every shard must reproduce: no padding (`unused` fills
 // what would be padding, always 0).

@@ -1266,6 +1266,7 @@ struct PoseHeaderScalars {
   float widest_range = 0.0f;
   std::uint32_t clusters = 1;
 };
+static_assert(sizeof(PoseHeaderScalars) == 10 * 4, "written as its bytes: no padding");
 
 std::vector<std::byte> PoseBake::header() const {
   ByteWriter w;

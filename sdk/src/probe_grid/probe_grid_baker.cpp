@@ -267,6 +267,7 @@ struct ProbeFinishSettings {
   std::uint32_t bounces = 0;  // as baked (probe_bounces): kept in the chunk for its report
   float noise = 0.0f;         // the noise target, kept in the chunk for its report
 };
+static_assert(sizeof(ProbeFinishSettings) == 4 + 4 * 4, "written as its bytes: no padding");
 
 // A grid as a group of nodes, node n drawing from Rng::stream(seed, n): prepare(), run() over
 // node ranges (steps 0 and 1, which need only the node itself), finish_probe_grid() (steps 2-4,

@@ -93,6 +93,7 @@ struct VertexAoHeader {
   float max_distance = 0.0f;
   std::uint32_t rays = 0;
 };
+static_assert(sizeof(VertexAoHeader) == 8, "written as its bytes: no padding");
 
 // A group per static mesh, its vertices the elements (one float of AO each). Vertex v of the
 // scene's concatenated vertices (meshes in entity order) draws from Rng::stream(seed, v).
