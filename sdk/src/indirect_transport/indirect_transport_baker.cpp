@@ -329,9 +329,9 @@ Side side_of(const TransportPatch& plane, const std::array<glm::vec3, 4>& corner
 // The receiver's variation counts 2x the sender's: its four points (one per quadrant) see about half
 // its range over the node, and what a link leaves out, the change within each quadrant, adds up
 // coherently over a receiver's many links (the sender's partly cancels against the variation of
-// its light). Measured on the maze with quadrant links: 2x at threshold t and 4x at 2t give the
-// same error for the same links, time and bytes: the weight only sets what a threshold means, and
-// the presets' thresholds are chosen for 2x.
+// its light). Measured on the maze (quadrant links, form factors at jittered points): 2x at
+// threshold t and 4x at 2t give the same error for the same links, time and bytes: the weight only
+// sets what a threshold means, and the presets' thresholds are chosen for 2x.
 constexpr float kReceiverWeight = 2.0f;
 
 struct Evaluation {
