@@ -49,6 +49,11 @@ expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/lighting_extension.g
 expect_output "pose-ao bakes skinned meshes"
 expect_exit 1 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/valid.gltf" -o "$scratch/none.pbake" --only pose-ao
 expect_output "0 skinned meshes"
+# A whole bake writes what it can and says, under each module that found nothing, why.
+expect_exit 0 "$PENUMBRA" bake "$SOURCE_DIR/tests/data/gltf/valid.gltf" -o "$scratch/some.pbake" --preset draft
+expect_output "nothing to bake: probe-grid bakes entities with an IrradianceProbeGrid"
+expect_output "nothing to bake: indirect-transport bakes a scene with an IndirectTransport"
+grep -q "nothing to bake: vertex-ao" <<<"$out" && fail "vertex-ao baked the mesh but was reported empty"
 # A glTF level declares its lighting components (PENUMBRA_lighting): the bake bakes them; a
 # mistake in a declaration names the file, the node, the component and the field.
 level="$SOURCE_DIR/tests/data/gltf/lighting_extension.gltf"

@@ -60,16 +60,16 @@ int estimate(const std::string& scene, const std::vector<std::string>& names, co
   const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("estimate of baking %s (preset %s, %u threads), from samples of the bake itself:\n", scene.c_str(),
               to_string(settings.preset), pool.concurrency());
-  std::printf("  ray scene     %8.3f s\n", e->ray_scene_seconds);
+  std::printf("  %-18s  %8.3f s\n", "ray scene", e->ray_scene_seconds);
   for (const BakeEstimate::Item& item : e->items) {
     std::uint64_t elements = 0, sampled = 0;
     for (const BakeEstimate::Group& g : e->groups)
       if (g.baker == item.baker) elements += g.elements, sampled += g.sampled;
-    std::printf("  %-12s  %8.3f s  %10s  (%llu of %llu elements run)\n", item.baker.c_str(), item.seconds,
+    std::printf("  %-18s  %8.3f s  %10s  (%llu of %llu elements run)\n", item.baker.c_str(), item.seconds,
                 item.bytes ? format_bytes(*item.bytes).c_str() : "after bake", static_cast<unsigned long long>(sampled),
                 static_cast<unsigned long long>(elements));
   }
-  std::printf("  total         %8.3f s  (the estimate took %.3f s)\n", e->seconds(), spent);
+  std::printf("  %-18s  %8.3f s  (the estimate took %.3f s)\n", "total", e->seconds(), spent);
   return kSuccess;
 }
 
@@ -201,13 +201,17 @@ int cmd_bake(Args args) {
   std::printf("baked %s%s -> %s (preset %s, seed %llu, %u threads)\n",
               shard ? ("shard " + *shard_arg + " of ").c_str() : "", scene.c_str(), out->c_str(),
               to_string(settings.preset), static_cast<unsigned long long>(settings.seed), pool.concurrency());
-  std::printf("  ray scene     %8.3f s  %10s  %zu triangles\n", r.ray_scene_seconds,
+  std::printf("  %-18s  %8.3f s  %10s  %zu triangles\n", "ray scene", r.ray_scene_seconds,
               format_bytes(r.ray_scene_bytes).c_str(), r.triangles);
   for (const auto& item : r.items) {
-    std::printf("  %-12s  %8.3f s  %10s\n", item.baker.c_str(), item.seconds, format_bytes(item.bytes).c_str());
+    std::printf("  %-18s  %8.3f s  %10s\n", item.baker.c_str(), item.seconds, format_bytes(item.bytes).c_str());
     for (const auto& line : item.lines) std::printf("      %s\n", line.c_str());
+    // A whole bake's module that wrote nothing says why (a shard may simply hold none of its items).
+    if (!shard && item.bytes == 0)
+      for (const LightingModule* m : lighting_modules())
+        if (m->name == item.baker && m->explain_empty) std::printf("      nothing to bake: %s\n", m->explain_empty(world).c_str());
   }
-  std::printf("  total         %8.3f s  %10s on disk, input hash %s\n", total,
+  std::printf("  %-18s  %8.3f s  %10s on disk, input hash %s\n", "total", total,
               format_bytes(std::filesystem::file_size(out_path)).c_str(), hex64(input_hash).c_str());
   return kSuccess;
 }
@@ -259,9 +263,9 @@ int cmd_merge(Args args) {
               parts.front().part.shard.count, parts.front().part.scene.c_str(), out->c_str(),
               to_string(parts.front().part.preset), static_cast<unsigned long long>(parts.front().part.seed));
   for (const MergeReport::Item& item : report.items)
-    std::printf("  %-12s  %8.3f s  %10s  from %zu work items (the global steps)\n", item.baker.c_str(), item.seconds,
+    std::printf("  %-18s  %8.3f s  %10s  from %zu work items (the global steps)\n", item.baker.c_str(), item.seconds,
                 format_bytes(item.bytes).c_str(), item.items);
-  std::printf("  total         %8.3f s  %10s on disk, input hash %s\n", total,
+  std::printf("  %-18s  %8.3f s  %10s on disk, input hash %s\n", "total", total,
               format_bytes(std::filesystem::file_size(out_path)).c_str(), hex64(merged->input_hash).c_str());
   return kSuccess;
 }
