@@ -6,7 +6,7 @@ expect_exit 0 "$PENUMBRA" render builtin:cornell --bake "$scratch/c.pbake" -o "$
 # PNG header: width and height are the big-endian words at bytes 16..23.
 size=$(od -An -tu1 -j16 -N8 "$scratch/c.png" | tr -s ' ')
 [ "$size" = " 0 0 0 96 0 0 0 64" ] || fail "PNG size is '$size', expected 96x64"
-expect_exit 0 "$PENUMBRA" render builtin:cornell --bake "$scratch/c.pbake" -o "$scratch/c.exr" --width 32 --height 24 --view irradiance --frames 3
+expect_exit 0 "$PENUMBRA" render builtin:cornell --bake "$scratch/c.pbake" -o "$scratch/c.exr" --width 32 --height 24 --view indirect --frames 3
 expect_output "median"; expect_output "p95"
 expect_exit 0 "$PENUMBRA" render builtin:courtyard -o "$scratch/a.png" --width 32 --height 24 --frames 2 --animate \
   --shadow-taps 1 --ambient-step 1

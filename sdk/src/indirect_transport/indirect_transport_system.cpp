@@ -355,11 +355,21 @@ bool planar_faced(const MeshData& mesh) {
 }  // namespace
 
 std::size_t add_default_indirect_transport(World& world, Preset preset) {
-  // The lights a game moves: point and spot lights (lanterns, torches), and any light an Animator
-  // carries.
-  std::vector<Entity> moving;
+  // The receivers: static meshes the planar charts parameterise.
+  std::vector<Entity> receivers;
+  for (Entity e : world.view<Static, Mesh>().sorted_entities()) {
+    const Mesh& mesh = world.get<Mesh>(e);
+    if (mesh.data && planar_faced(*mesh.data)) receivers.push_back(e);
+  }
+  if (receivers.empty()) return 0;
+  // The lights whose bounce the lightmap carries: every local light (point, spot, rect), moving
+  // or not, since a texel holds light at the surface's own resolution, which the probe grid's
+  // cells cannot (on the Cornell box the grid left the short block's front, which faces the
+  // open side, 1.05x bright with a 17 % median error; the lightmap 0.98x and 4 %: penumbra bench
+  // image-accuracy); and any light an Animator carries.
+  std::vector<Entity> lights;
   world.view<Light>().each([&](Entity e, Light& light) {
-    if (light.type == Light::Type::Point || light.type == Light::Type::Spot) moving.push_back(e);
+    if (light.type != Light::Type::Directional) lights.push_back(e);
   });
   world.view<Animator>().each([&](Entity, Animator& animator) {
     if (!animator.clips) return;
@@ -368,29 +378,21 @@ std::size_t add_default_indirect_transport(World& world, Preset preset) {
         if (ch.target < clip.targets.size()) {
           const Entity t = clip.targets[ch.target];
           if (world.alive(t) && world.has<Light>(t) && world.get<Light>(t).type != Light::Type::Directional)
-            moving.push_back(t);
+            lights.push_back(t);
         }
   });
-  if (moving.empty()) return 0;
-  for (Entity e : moving)
+  if (lights.empty()) return 0;
+  for (Entity e : lights)
     if (!world.has<DynamicLight>(e)) world.add<DynamicLight>(e);
-  Entity root = Entity::null();
-  std::size_t receivers = 0;
-  for (Entity e : world.view<Static, Mesh>().sorted_entities()) {
-    const Mesh& mesh = world.get<Mesh>(e);
-    if (!mesh.data || !planar_faced(*mesh.data)) continue;
+  for (Entity e : receivers)
     if (!world.has<IndirectReceiver>(e)) world.add<IndirectReceiver>(e);
-    ++receivers;
-    if (!root) {
-      root = e;
-      while (const Parent* p = world.try_get<Parent>(root)) {
-        if (!world.alive(p->entity)) break;
-        root = p->entity;
-      }
-    }
+  Entity root = receivers.front();
+  while (const Parent* p = world.try_get<Parent>(root)) {
+    if (!world.alive(p->entity)) break;
+    root = p->entity;
   }
-  if (root && !world.has<IndirectTransport>(root)) world.add<IndirectTransport>(root, IndirectTransport::preset(preset));
-  return receivers;
+  if (!world.has<IndirectTransport>(root)) world.add<IndirectTransport>(root, IndirectTransport::preset(preset));
+  return receivers.size();
 }
 
 // ---------------------------------------------------------------------------------------------

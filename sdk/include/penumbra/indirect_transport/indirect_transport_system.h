@@ -76,11 +76,13 @@ Result<bool> update_indirect_transport(World& world);
 // logging a rejected light once per change.
 void register_indirect_transport_system(World& world);
 
-// Gives a built-in scene its transport: its point and spot lights (the lights a game moves:
-// lanterns, torches) and any light an Animator's clip targets become DynamicLights and, when there
-// is one, every Static mesh made of at most six face directions (floors, walls, boxes; curved
-// meshes are left out) an IndirectReceiver, and the scene's root (the first receiver's topmost
-// ancestor) IndirectTransport::preset(preset). Returns the number of receivers. O(triangles).
+// Gives a built-in scene its transport when it has a receiver and a local light: every Static
+// mesh made of at most six face directions (floors, walls, boxes; curved meshes are left out)
+// becomes an IndirectReceiver, every point, spot and rect light (moving or fixed: the lightmap
+// holds their bounce per texel, where the probe grid's cells are too coarse) and any light an
+// Animator's clip targets a DynamicLight, and the scene's root (the first receiver's topmost
+// ancestor) gets IndirectTransport::preset(preset). Returns the number of receivers (0: nothing
+// added). O(triangles).
 std::size_t add_default_indirect_transport(World& world, Preset preset);
 
 const LightingModule& indirect_transport_module();

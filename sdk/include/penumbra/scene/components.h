@@ -232,9 +232,10 @@ struct Animator {
   bool playing = true;
 };
 
-// On a Light: it moves at runtime (a lantern, a torch, headlights). Bakes of fixed lighting (the
-// probe grid) leave it out; the indirect transport (indirect_transport/) carries its bounce light
-// onto the static surfaces. Directional lights are not local lights: the transport ignores them.
+// On a Light: its bounce light comes from the indirect transport (indirect_transport/), whose
+// lightmap follows it when it moves at runtime (a lantern, a torch, headlights) and holds it per
+// texel on the static surfaces when it does not. Bakes of fixed lighting (the probe grid) leave it
+// out. Directional lights are not local lights: the transport ignores them.
 struct DynamicLight {
   bool enabled = true;
 };
