@@ -12,7 +12,6 @@
 #include <glm/geometric.hpp>
 
 #include "penumbra/bake/baker.h"
-#include "penumbra/bake/integrators.h"
 #include "penumbra/bakers.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/core/jobs.h"
@@ -25,6 +24,7 @@
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/components.h"
 #include "penumbra/scene/mesh.h"
+#include "test_cornell_front.h"
 
 namespace penumbra {
 namespace {
@@ -51,6 +51,21 @@ Entity quad(World& world, const std::string& name, glm::vec3 p0, glm::vec3 p1, g
   world.add<Static>(e);
   world.add<IndirectReceiver>(e);
   return e;
+}
+
+// A built-in scene with the modules' runtimes registered and its default lighting components at
+// `preset`, the roots' scale multiplied by `scale`, transforms up to date.
+World builtin_with_defaults(const std::string& scene, Preset preset, float scale = 1.0f) {
+  World world;
+  register_lighting(world);
+  EXPECT_TRUE(load_builtin(world, scene).ok());
+  world.view<Transform>().each([&](Entity e, Transform& tr) {
+    if (!world.has<Parent>(e)) tr.scale *= scale;
+  });
+  world.update(0.0);
+  const Status defaults = add_default_lighting(world, preset, false);
+  EXPECT_TRUE(defaults.ok()) << (defaults.ok() ? "" : defaults.error().message);
+  return world;
 }
 
 Entity transport(World& world, std::uint32_t level, float threshold) {
@@ -410,16 +425,7 @@ TEST(IndirectTransportBake, AlbedoNearOneStopsWithAReport) {
 
 TEST(IndirectTransportBake, IsBitIdenticalAtAnyThreadCountAndScaleFree) {
   const auto bytes = [](float scale, unsigned threads) {
-    World world;
-    register_lighting(world);
-    EXPECT_TRUE(load_builtin(world, "maze").ok());
-    world.view<Transform>().each([&](Entity e, Transform& tr) {
-      if (!world.has<Parent>(e)) tr.scale = glm::vec3(scale);
-    });
-    world.update(0.0);
-    world.update(0.0);
-  const Status defaults = add_default_lighting(world, Preset::Draft, false);
-    EXPECT_TRUE(defaults.ok()) << defaults.error().message;
+    World world = builtin_with_defaults("maze", Preset::Draft, scale);
     auto result = bake(world, threads);
     EXPECT_TRUE(result.ok()) << (result.ok() ? "" : result.error().message);
     return result.ok() && !result->file.chunks.empty() ? result->file.chunks[0].payload : std::vector<std::byte>{};
@@ -594,12 +600,7 @@ TEST(IndirectTransportRuntime, RejectsANonFiniteLightByName) {
 }
 
 TEST(IndirectTransportRuntime, UpdatesOnlyWhenALightMovesWithoutDriftOrGrowth) {
-  World world;
-  register_lighting(world);
-  ASSERT_TRUE(load_builtin(world, "maze").ok());
-  world.update(0.0);
-  const Status defaults = add_default_lighting(world, Preset::Draft, false);
-  ASSERT_TRUE(defaults.ok()) << defaults.error().message;
+  World world = builtin_with_defaults("maze", Preset::Draft);
   ASSERT_TRUE(bake(world, 2).ok());
   Entity owner, lantern;
   for (Entity e : world.view<IndirectTransport>().sorted_entities()) owner = e;
@@ -657,12 +658,7 @@ TEST(IndirectTransportRuntime, UpdatesOnlyWhenALightMovesWithoutDriftOrGrowth) {
 // the front (16384 paths each; the mean's relative standard error 0.54 %): 0.958x, asserted within
 // 5 %.
 TEST(IndirectTransportRuntime, TheCornellShortBlocksFrontHoldsThePathTracedBounce) {
-  World world;
-  register_lighting(world);
-  ASSERT_TRUE(load_builtin(world, "cornell").ok());
-  world.update(0.0);
-  const Status defaults = add_default_lighting(world, Preset::Medium, false);
-  ASSERT_TRUE(defaults.ok()) << defaults.error().message;
+  World world = builtin_with_defaults("cornell", Preset::Medium);
   ASSERT_EQ(world.view<DynamicLight>().count(), 1u) << "the rect light's bounce is the lightmap's";
   ASSERT_TRUE(bake(world, 2).ok());
   Entity owner;
@@ -676,26 +672,20 @@ TEST(IndirectTransportRuntime, TheCornellShortBlocksFrontHoldsThePathTracedBounc
   auto rays = RayScene::build(world);
   ASSERT_TRUE(rays.ok()) << rays.error().message;
   const std::vector<WorldLight> lights = gather_lights(world);
-  // The front quad (builtin_scenes.cpp, mm): x 130 -> 290, z 65 -> 114, y 0 -> 165; inset 10 %.
-  const glm::vec3 a(0.130f, 0.0f, 0.065f), b(0.290f, 0.0f, 0.114f);
-  const glm::vec3 n = glm::normalize(glm::vec3(0.049f, 0.0f, -0.160f));
-  IrradianceSettings reference;
-  reference.reference = true;
-  reference.samples = 16384;
-  reference.content = LightingContent::Indirect;
+  const test_scenes::CornellFront front = test_scenes::cornell_short_block_front();
+  const glm::vec3 n = front.normal;
+  const IrradianceSettings reference = test_scenes::cornell_front_reference();
   const auto mean = [](glm::vec3 e) { return (double(e.x) + e.y + e.z) / 3.0; };
   double ref = 0.0, ref_var = 0.0, lightmap = 0.0;
-  for (int i = 0; i < 5; ++i)
-    for (int j = 0; j < 4; ++j) {
-      const float u = 0.1f + 0.8f * float(i) / 4.0f, v = 0.1f + 0.8f * float(j) / 3.0f;
-      const glm::vec3 x = glm::mix(a, b, u) + glm::vec3(0.0f, 0.165f * v, 0.0f) + 1e-4f * n;
-      ASSERT_GE(transport_patch_at(data, x, n), 0) << "no patch holds the front at " << i << ", " << j;
-      Rng rng = Rng::stream(5, std::uint64_t(i * 4 + j));
-      const Estimate e = irradiance(*rays, lights, x, n, reference, rng);
-      ref += mean(e.value);
-      ref_var += mean(e.std_error) * mean(e.std_error);
-      lightmap += mean(sample_transport_irradiance(data, map, x, n));
-    }
+  for (std::size_t k = 0; k < front.points.size(); ++k) {
+    const glm::vec3 x = front.points[k];
+    ASSERT_GE(transport_patch_at(data, x, n), 0) << "no patch holds the front at point " << k;
+    Rng rng = Rng::stream(5, k);
+    const Estimate e = irradiance(*rays, lights, x, n, reference, rng);
+    ref += mean(e.value);
+    ref_var += mean(e.std_error) * mean(e.std_error);
+    lightmap += mean(sample_transport_irradiance(data, map, x, n));
+  }
   const double ref_stderr = std::sqrt(ref_var) / ref;
   RecordProperty("lightmap_ratio", std::to_string(lightmap / ref));
   RecordProperty("reference_relative_stderr", std::to_string(ref_stderr));

@@ -21,6 +21,7 @@
 #include "penumbra/runtime.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/mesh.h"
+#include "test_cornell_front.h"
 
 namespace penumbra {
 namespace {
@@ -424,27 +425,21 @@ TEST(ProbeBaker, TheShortBlocksFrontTakesNoLightFromInsideTheBlock) {
   g.noise = 0.0f;
   auto data = bake(g, w, *scene, 2);
   ASSERT_TRUE(data.ok()) << data.error().message;
-  // The front quad (builtin_scenes.cpp, mm): x 130 -> 290, z 65 -> 114, y 0 -> 165; inset 10 %.
-  const glm::vec3 a(0.130f, 0.0f, 0.065f), b(0.290f, 0.0f, 0.114f);
-  const glm::vec3 n = glm::normalize(glm::vec3(0.049f, 0.0f, -0.160f));
-  IrradianceSettings reference;
-  reference.reference = true;
-  reference.samples = 16384;
-  reference.content = LightingContent::Indirect;
+  const test_scenes::CornellFront front = test_scenes::cornell_short_block_front();
+  const glm::vec3 n = front.normal;
+  const IrradianceSettings reference = test_scenes::cornell_front_reference();
   const auto lights = gather_lights(w);
   double ref = 0.0, ref_var = 0.0, fixed = 0.0, moving = 0.0;
   const auto mean = [](glm::vec3 e) { return (double(e.x) + e.y + e.z) / 3.0; };
-  for (int i = 0; i < 5; ++i)
-    for (int j = 0; j < 4; ++j) {
-      const float u = 0.1f + 0.8f * float(i) / 4.0f, v = 0.1f + 0.8f * float(j) / 3.0f;
-      const glm::vec3 x = glm::mix(a, b, u) + glm::vec3(0.0f, 0.165f * v, 0.0f) + 1e-4f * n;
-      Rng rng = Rng::stream(5, std::uint64_t(i * 4 + j));
-      const Estimate e = irradiance(*scene, lights, x, n, reference, rng);
-      ref += mean(e.value);
-      ref_var += mean(e.std_error) * mean(e.std_error);
-      fixed += mean(evaluate(*data, x, n, ProbeReceiver::Static));
-      moving += mean(evaluate(*data, x, n, ProbeReceiver::Moving));
-    }
+  for (std::size_t k = 0; k < front.points.size(); ++k) {
+    const glm::vec3 x = front.points[k];
+    Rng rng = Rng::stream(5, k);
+    const Estimate e = irradiance(*scene, lights, x, n, reference, rng);
+    ref += mean(e.value);
+    ref_var += mean(e.std_error) * mean(e.std_error);
+    fixed += mean(evaluate(*data, x, n, ProbeReceiver::Static));
+    moving += mean(evaluate(*data, x, n, ProbeReceiver::Moving));
+  }
   const double ref_stderr = std::sqrt(ref_var) / ref;
   RecordProperty("static_ratio", std::to_string(fixed / ref));
   RecordProperty("moving_ratio", std::to_string(moving / ref));
