@@ -92,7 +92,8 @@ struct RegionSums {
 // The reference must be able to tell a 5 % median error: in every large region of every judged
 // view its median pixel's relative standard error at most half that (the median |error| of a
 // perfect image against a reference with per-pixel noise s is about 0.67 s). A reference over it
-// is rendered again with the paths that take it under, at most kMaxSampleFactor x `samples`.
+// is rendered again with the paths that would take it under, at most kMaxSampleFactor x `samples`
+// (not in a quick run); the report gives the noisiest region's figure it ends with.
 constexpr double kJudgedPixelStderr = 0.025;
 constexpr std::uint32_t kMaxSampleFactor = 8;
 
@@ -111,6 +112,7 @@ double noisiest_region(const OfflineImage& reference, const std::vector<std::siz
     double mean = 0.0;
     for (const std::size_t i : counted) mean += luminance((*view)[i]);
     mean /= double(counted.size());
+    if (!(mean > 0.0)) continue;  // a view without light has nothing to judge
     std::vector<std::vector<double>> stderrs(regions);
     for (const std::size_t i : counted)
       stderrs[std::size_t(region_of[i])].push_back(luminance(error[i]) / error_floor(luminance((*view)[i]), mean));
@@ -121,10 +123,10 @@ double noisiest_region(const OfflineImage& reference, const std::vector<std::siz
 }
 
 // One scene's rows: the frame rendered, the reference computed, the regions compared; the
-// reference's paths per pixel in `reference_spp`.
+// reference's paths per pixel in `reference_spp`, its noisiest_region() in `noisiest`.
 Status measure(const Options& options, const std::string& scene, std::uint32_t width, std::uint32_t height,
                std::uint32_t samples, Device& device, Report& report, std::vector<std::string>& failures,
-               std::uint32_t& reference_spp) {
+               std::uint32_t& reference_spp, double& noisiest) {
   World world;
   register_lighting(world);
   register_bakers(world);
@@ -202,12 +204,13 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
   const std::vector<WorldLight> lights = gather_lights(world);
   auto offline = render_offline(*rays, lights, camera, reference, jobs, &textures);
   if (!offline) return offline.error();
-  const double noisiest = noisiest_region(*offline, counted, region_of, region_names.size());
-  if (noisiest > kJudgedPixelStderr) {
-    const double needed = std::ceil((noisiest / kJudgedPixelStderr) * (noisiest / kJudgedPixelStderr));
-    reference.spp = samples * std::min<std::uint32_t>(std::bit_ceil(static_cast<std::uint32_t>(needed)), kMaxSampleFactor);
+  noisiest = noisiest_region(*offline, counted, region_of, region_names.size());
+  if (noisiest > kJudgedPixelStderr && !options.quick) {
+    const double needed = (noisiest / kJudgedPixelStderr) * (noisiest / kJudgedPixelStderr);
+    reference.spp = samples * std::bit_ceil(static_cast<std::uint32_t>(std::ceil(std::min(needed, double(kMaxSampleFactor)))));
     offline = render_offline(*rays, lights, camera, reference, jobs, &textures);
     if (!offline) return offline.error();
+    noisiest = noisiest_region(*offline, counted, region_of, region_names.size());
   }
   reference_spp = reference.spp;
 
@@ -281,24 +284,25 @@ Result<Report> run(const Options& options) {
   report.columns = {"scene", "view", "region", "pixels", "large", "realtime", "reference", "ratio", "rel_err",
                     "ref_stderr", "pixel_ref_stderr"};
   std::vector<std::string> failures;
-  std::string reference_paths;  // "scene N" per scene
-  for (const char* scene : {"cornell", "courtyard"}) {
-    std::uint32_t spp = 0;
-    PENUMBRA_TRY(measure(options, scene, width, height, samples, **device, report, failures, spp));
-    reference_paths += std::string(reference_paths.empty() ? "" : ", ") + scene + " " + std::to_string(spp);
-  }
+  std::string reference_paths;  // "scene N (noisiest region's median pixel stderr)" per scene
   std::vector<std::string> maze;  // the indirect transport's scene: listed beside the goal's
-  std::uint32_t maze_spp = 0;
-  PENUMBRA_TRY(measure(options, "maze", width, height, samples, **device, report, maze, maze_spp));
-  reference_paths += ", maze " + std::to_string(maze_spp);
+  for (const char* scene : {"cornell", "courtyard", "maze"}) {
+    std::uint32_t spp = 0;
+    double noisiest = 0.0;
+    PENUMBRA_TRY(measure(options, scene, width, height, samples, **device, report,
+                         std::string(scene) == "maze" ? maze : failures, spp, noisiest));
+    reference_paths += std::string(reference_paths.empty() ? "" : ", ") + scene + " " + std::to_string(spp) + " (" +
+                       fmt(noisiest, 3) + ")";
+  }
   for (std::size_t i = 0; i < report.rows.size(); ++i) report.rows[i].push_back(std::to_string(i));
   report.columns.push_back("row");
   report.plot = {"real-time / reference mean luminance per region", "row (scene, view, region: see the CSV)",
                  "ratio", 11, 7, 1, false, false, true};
   report.notes.push_back(std::to_string(width) + "x" + std::to_string(height) + ", preset medium, seed 1; reference: " +
-                         reference_paths + " paths per pixel for direct and for indirect light (" +
-                         std::to_string(samples) + ", or up to " + std::to_string(kMaxSampleFactor) +
-                         "x that where a large region's median pixel_ref_stderr exceeded " + fmt(kJudgedPixelStderr, 3) +
+                         reference_paths + " paths per pixel for direct and for indirect light (in brackets the "
+                         "largest median pixel_ref_stderr of a large region; " +
+                         std::to_string(samples) + " paths, or up to " + std::to_string(kMaxSampleFactor) +
+                         "x that where it exceeded " + fmt(kJudgedPixelStderr, 3) + (options.quick ? ", not in a quick run" : "") +
                          "; ref_stderr: relative standard error of the region's reference mean; pixel_ref_stderr: the "
                          "median pixel's, which bounds how small rel_err can be)");
   report.notes.push_back(failures.empty()

@@ -325,7 +325,8 @@ int cmd_render(Args args) {
   if (share == 0.0)
     return fail(kFailure, *out + ": the image is black (" + settings.view +
                               " view): nothing in view gives it light; check the camera (--camera, or none to frame "
-                              "the scene), the scene's lights, and for the views of baked lighting the --bake file");
+                              "the scene), the scene's lights, and for the views of baked lighting the --bake file (the probe "
+                              "grid's views leave out DynamicLights, whose bounce is in the lightmap view)");
   std::printf("rendered %s (%s view) -> %s (%ux%u, %.1f%% of the pixels not black)\n", scene.c_str(),
               settings.view.c_str(), out->c_str(), width, height, 100.0 * share);
   return kSuccess;

@@ -110,8 +110,8 @@ void draw_patches(ViewContext& view, ImDrawList* dl) {
   }
 }
 
-// A ring with a cross on each dynamic light, so that the lights a game moves are found at a
-// glance; Ctrl + left drag on one moves it in the plane facing the camera.
+// A ring with a cross on each dynamic light, so that the lights whose bounce follows them are found
+// at a glance; Ctrl + left drag on one moves it in the plane facing the camera.
 void draw_overlay(ViewContext& view, ImDrawList* dl) {
   State& s = state();
   if (s.patches) draw_patches(view, dl);

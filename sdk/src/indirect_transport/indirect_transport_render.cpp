@@ -28,7 +28,7 @@ using vk::vk_struct;
 namespace {
 
 constexpr ViewInfo kViews[] = {
-    {"lightmap", "the indirect transport's bounce light of the moving lights in W/m^2 (the lightmap on its "
+    {"lightmap", "the indirect transport's bounce light of the DynamicLights in W/m^2 (the lightmap on its "
                  "patches, the bounce probes elsewhere), tone mapped"},
     {"patches", "the indirect transport's patches, one colour each, over their leaf texels"},
     {"bounce-probes", "the indirect transport's bounce probes: their irradiance at every surface, tone mapped"},

@@ -366,20 +366,10 @@ std::size_t add_default_indirect_transport(World& world, Preset preset) {
   // or not, since a texel holds light at the surface's own resolution, which the probe grid's
   // cells cannot (on the Cornell box the grid left the short block's front, which faces the
   // open side, 1.05x bright with a 17 % median error; the lightmap 0.98x and 4 %: penumbra bench
-  // image-accuracy); and any light an Animator carries.
+  // image-accuracy).
   std::vector<Entity> lights;
   world.view<Light>().each([&](Entity e, Light& light) {
     if (light.type != Light::Type::Directional) lights.push_back(e);
-  });
-  world.view<Animator>().each([&](Entity, Animator& animator) {
-    if (!animator.clips) return;
-    for (const AnimationClip& clip : *animator.clips)
-      for (const AnimationChannel& ch : clip.channels)
-        if (ch.target < clip.targets.size()) {
-          const Entity t = clip.targets[ch.target];
-          if (world.alive(t) && world.has<Light>(t) && world.get<Light>(t).type != Light::Type::Directional)
-            lights.push_back(t);
-        }
   });
   if (lights.empty()) return 0;
   for (Entity e : lights)
@@ -443,8 +433,8 @@ std::string explain_empty(World& world) {
   const std::size_t receivers = world.view<const IndirectReceiver>().count();
   if (transports == 0)
     return "indirect-transport bakes a scene with an IndirectTransport entity and this one has none (a built-in "
-           "scene with a point, spot or animated light gets one; add it, IndirectReceiver on the static meshes and DynamicLight on "
-           "the lights that move)";
+           "scene with a point, spot or rect light and a static planar mesh gets one; add it, IndirectReceiver on "
+           "the static meshes and DynamicLight on the lights whose bounce it should carry)";
   return "indirect-transport found " + std::to_string(transports) + " IndirectTransport entities but " +
          std::to_string(receivers) + " IndirectReceiver meshes with planar charts to bake";
 }
@@ -463,7 +453,8 @@ const LightingModule& indirect_transport_module() {
                                                     &dynamic_light_info()};
   static const LightingModule module{
       .name = "indirect-transport",
-      .description = "bounce light from moving lights (wavelet radiance transport, Kontkanen et al. 2006)",
+      .description = "bounce light of local lights on static surfaces, live as they move (wavelet radiance transport, "
+                     "Kontkanen et al. 2006)",
       .chunk_types = kChunkTypes,
       .components = components,
       .register_runtime = register_indirect_transport_system,

@@ -94,7 +94,7 @@ struct WorldLight {
 // rect are skipped with a logged warning. Cost: O(lights).
 std::vector<WorldLight> gather_lights(World& world);
 // The lights a bake of fixed lighting takes: gather_lights() less the enabled DynamicLights
-// (scene/components.h), whose light moves.
+// (scene/components.h), whose bounce the indirect transport carries.
 std::vector<WorldLight> baked_lights(World& world);
 
 struct IrradianceSettings {

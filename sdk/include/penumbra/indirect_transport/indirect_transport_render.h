@@ -1,7 +1,7 @@
 // The indirect-transport render feature (render/feature.h): a source. The first baked
 // IndirectTransport's patches, its bounce probes and its IndirectLightmap go to storage buffers; a
-// full-screen pass adds the moving lights' bounce light to the ambient image, on top of the probe
-// grid's fixed lights (the probe grid leaves DynamicLights out): the lightmap's indirect irradiance
+// full-screen pass adds the DynamicLights' bounce light to the ambient image, on top of the probe
+// grid's (which leaves DynamicLights out): the lightmap's indirect irradiance
 // on the surfaces the patches cover (sample_indirect_irradiance's lookup, in GLSL), the bounce
 // probes' elsewhere (sample_bounce_probes': moving objects, characters, other static meshes). Each
 // sync writes only the texels whose value changed since the last, and the probes (six values each)

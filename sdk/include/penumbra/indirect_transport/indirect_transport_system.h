@@ -79,8 +79,8 @@ void register_indirect_transport_system(World& world);
 // Gives a built-in scene its transport when it has a receiver and a local light: every Static
 // mesh made of at most six face directions (floors, walls, boxes; curved meshes are left out)
 // becomes an IndirectReceiver, every point, spot and rect light (moving or fixed: the lightmap
-// holds their bounce per texel, where the probe grid's cells are too coarse) and any light an
-// Animator's clip targets a DynamicLight, and the scene's root (the first receiver's topmost
+// holds their bounce per texel, where the probe grid's cells are too coarse) a DynamicLight, and
+// the scene's root (the first receiver's topmost
 // ancestor) gets IndirectTransport::preset(preset). Returns the number of receivers (0: nothing
 // added). O(triangles).
 std::size_t add_default_indirect_transport(World& world, Preset preset);
