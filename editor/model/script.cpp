@@ -355,8 +355,11 @@ Status ScriptRunner::run(EditorModel& model, const ScriptAction& a, bool& wait_h
     return {};
   }
   if (a.verb == "wait") {
-    model.poll();  // may start the next preset of `estimate all`
-    if (model.bakes().running()) {
+    // Read before poll(): a bake that ends between the two is then attached by the next frame's
+    // poll() before the script goes on, never left unattached.
+    const bool was_running = model.bakes().running();
+    model.poll();  // attaches a finished bake; may start the next preset of `estimate all`
+    if (was_running || model.bakes().running()) {
       wait_here = true;
       return {};
     }
