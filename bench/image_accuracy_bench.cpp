@@ -100,22 +100,32 @@ constexpr std::uint32_t kMaxSampleFactor = 8;
 // The pixel's relative-error floor: a dark pixel's error counts against 5 % of the view's mean.
 double error_floor(double ref, double view_mean) { return std::max(ref, 0.05 * view_mean); }
 
+// The reference's image of a view (lit*, direct* or indirect) and each pixel's standard error.
+struct ReferenceView {
+  const std::vector<glm::vec3>& image;
+  const std::vector<glm::vec3>& std_error;
+};
+ReferenceView reference_view(const OfflineImage& r, const std::string& view) {
+  if (view.starts_with("lit")) return {r.lit, r.lit_std_error};
+  if (view.starts_with("direct")) return {r.direct, r.direct_std_error};
+  return {r.indirect, r.indirect_std_error};
+}
+
 // The largest median per-pixel relative standard error of the reference over the large regions
 // (at least 2 % of the counted pixels) in the judged views lit, direct and indirect.
 double noisiest_region(const OfflineImage& reference, const std::vector<std::size_t>& counted,
                        const std::vector<int>& region_of, std::size_t regions) {
   double worst = 0.0;
-  for (const auto* view : {&reference.lit, &reference.direct, &reference.indirect}) {
-    const std::vector<glm::vec3>& error = view == &reference.lit      ? reference.lit_std_error
-                                          : view == &reference.direct ? reference.direct_std_error
-                                                                      : reference.indirect_std_error;
+  for (const char* name : {"lit", "direct", "indirect"}) {
+    const ReferenceView view = reference_view(reference, name);
     double mean = 0.0;
-    for (const std::size_t i : counted) mean += luminance((*view)[i]);
+    for (const std::size_t i : counted) mean += luminance(view.image[i]);
     mean /= double(counted.size());
     if (!(mean > 0.0)) continue;  // a view without light has nothing to judge
     std::vector<std::vector<double>> stderrs(regions);
     for (const std::size_t i : counted)
-      stderrs[std::size_t(region_of[i])].push_back(luminance(error[i]) / error_floor(luminance((*view)[i]), mean));
+      stderrs[std::size_t(region_of[i])].push_back(luminance(view.std_error[i]) /
+                                                   error_floor(luminance(view.image[i]), mean));
     for (const std::vector<double>& s : stderrs)
       if (s.size() * 50 >= counted.size()) worst = std::max(worst, median(s));
   }
@@ -222,10 +232,9 @@ Status measure(const Options& options, const std::string& scene, std::uint32_t w
     ref.width = width;
     ref.height = height;
     ref.rgba32f.assign(4 * count, 0.0f);
-    const bool lit = v.starts_with("lit"), direct = v.starts_with("direct");
-    const std::vector<glm::vec3>& ref_view = lit ? offline->lit : direct ? offline->direct : offline->indirect;
-    const std::vector<glm::vec3>& ref_error =
-        lit ? offline->lit_std_error : direct ? offline->direct_std_error : offline->indirect_std_error;
+    const ReferenceView reference_pixels = reference_view(*offline, v);
+    const std::vector<glm::vec3>& ref_view = reference_pixels.image;
+    const std::vector<glm::vec3>& ref_error = reference_pixels.std_error;
     std::vector<float> ref_lum(counted.size()), ref_se(counted.size()), rt_lum(counted.size());
     double mean_ref = 0.0;
     for (std::size_t k = 0; k < counted.size(); ++k) {
