@@ -176,7 +176,8 @@ TEST(BakeState, MovingCharactersAndCratesLeaveTheBakeUpToDate) {
 }
 
 // Auto-bake: nothing before the edits have settled for the delay, then a bake of what is stale
-// (everything at first, then only the grid after the light changed: vertex AO reads no light).
+// (everything at first, then the grid and the transport after the light changed: vertex AO reads
+// no light).
 TEST(BakeState, AutoBakeBakesWhatIsStaleOnceTheEditsSettle) {
   EditorModel model;
   ASSERT_TRUE(model.open("builtin:cornell", Preset::Draft).ok());  // the next bake at draft too
@@ -209,7 +210,8 @@ TEST(BakeState, AutoBakeBakesWhatIsStaleOnceTheEditsSettle) {
   ASSERT_EQ(status.state, BakeStatus::State::Done) << status.error;
   std::vector<std::string> baked;
   for (const auto& item : status.report.items) baked.push_back(item.baker);
-  EXPECT_EQ(baked, std::vector<std::string>{"probe-grid"});  // vertex AO reads no light
+  // Vertex AO reads no light; the transport bakes the fixed rect light's bounce.
+  EXPECT_EQ(baked, (std::vector<std::string>{"probe-grid", "indirect-transport"}));
   for (const BakeState& s : model.bake_states()) EXPECT_EQ(s.freshness, Freshness::UpToDate) << s.module;
 
   model.auto_bake = false;

@@ -46,7 +46,8 @@ std::uint32_t TransportData::leaf_count() const {
 }
 
 std::uint64_t TransportData::bytes() const {
-  std::uint64_t n = sizeof(*this) + global.bytes();
+  std::uint64_t n = sizeof(*this) + global.bytes() +
+                    (fixed_direct.capacity() + fixed_indirect.capacity() + fixed_probes.capacity()) * sizeof(glm::vec3);
   for (const TransportPatch& p : patches) n += sizeof(p) + p.key.capacity() + p.coverage.capacity() * sizeof(float);
   return n + probes.bytes();
 }

@@ -973,12 +973,18 @@ struct Header {
 };
 static_assert(sizeof(Header) == 3 * sizeof(float) + 3 * sizeof(std::uint32_t) + 2 * sizeof(std::uint64_t));
 
-// The header: the settings, then the patches and the probe grid (no entries: every probe open and
-// empty) as a chunk's payload, read back with the chunk's checks.
+// The header: the settings, then the patches, the probe grid (no entries: every probe open and
+// empty), whether a light moves and the fixed lights' direct irradiance, as a chunk's payload,
+// read back with the chunk's checks.
 std::vector<std::byte> write_header(const Header& h, const std::vector<TransportPatch>& patches,
-                                    const TransportProbes& grid) {
+                                    const TransportProbes& grid, bool moving_lights,
+                                    std::vector<glm::vec3> fixed_direct) {
   TransportData data;
   data.patches = patches;
+  data.moving_lights = moving_lights;
+  data.fixed_direct = std::move(fixed_direct);
+  data.fixed_indirect.assign(data.fixed_direct.size(), glm::vec3(0.0f));
+  if (!data.fixed_direct.empty()) data.fixed_probes.assign(6 * grid.nodes(), glm::vec3(0.0f));
   data.global.size = data.leaf_count();
   data.global.begin.assign(std::size_t{data.global.size} + 1, 0);
   data.probes = grid;
@@ -1010,6 +1016,15 @@ Entity transport_entity(World& world) {
   return all.empty() ? Entity::null() : all.front();
 }
 
+// The enabled local DynamicLights, in entity order (what the transport carries).
+std::vector<Entity> transport_lights(World& world) {
+  std::vector<Entity> out;
+  for (Entity e : world.view<DynamicLight, Light>().sorted_entities())
+    if (world.get<DynamicLight>(e).enabled && world.get<Light>(e).type != Light::Type::Directional)
+      out.push_back(e);
+  return out;
+}
+
 Result<BakeWork> plan_transport(BakeInputs& in) {
   BakeWork work;
   const Entity owner = transport_entity(in.world);
@@ -1033,12 +1048,26 @@ Result<BakeWork> plan_transport(BakeInputs& in) {
   if (patches->empty()) return work;
   const Header h{settings.refinement_threshold, settings.bounce_tolerance, settings.drop_threshold,
                  settings.finest_level, settings.max_bounces, 0, in.settings.seed, in.settings.memory_limit_bytes};
+  // The fixed lights' direct light at the leaves, baked (the finish applies the operator to it);
+  // the operator itself is dropped when there are lights and all of them are fixed.
+  auto fixed = dynamic_lights(in.world, LightMotion::Fixed);
+  if (!fixed) return fixed.error();
+  bool moving_lights = fixed->empty();
+  for (Entity e : transport_lights(in.world)) moving_lights = moving_lights || in.world.get<DynamicLight>(e).moves;
+  std::vector<glm::vec3> fixed_direct;
+  if (!fixed->empty()) {
+    TransportData leaves;
+    leaves.patches = *patches;
+    fixed_direct.resize(leaves.leaf_count());
+    const TransportOccluders occluders = TransportOccluders::build(in.world);
+    direct_irradiance(leaves, *fixed, &occluders, fixed_direct);
+  }
   auto shared = std::make_shared<std::vector<TransportPatch>>(std::move(*patches));
   auto grid = std::make_shared<const TransportProbes>(bounce_probe_grid(*shared, settings.probe_spacing));
   auto targets = std::make_shared<const BounceProbeTargets>(bounce_probe_targets(in.world, *shared));
   // Elements: the receiver patches (their links), then the bounce probes (what each saw).
   work.groups.push_back(BakeGroup{std::move(*key), shared->size() + grid->nodes(), kPatchBlock, 1000.0,
-                                  write_header(h, *shared, *grid)});
+                                  write_header(h, *shared, *grid, moving_lights, std::move(fixed_direct))});
   work.run = [&in, shared, grid, targets, h](std::size_t, std::uint64_t begin, std::uint64_t end,
                                              JobContext& jobs) -> Result<std::vector<std::byte>> {
     const std::uint64_t patch_end = std::min<std::uint64_t>(end, shared->size());
@@ -1131,6 +1160,24 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
     data.patches = patches;
     data.global = std::move(series->global);
     data.probes = std::move(probes);
+    // The fixed lights' bounce, by the whole operator (every direct coefficient kept), and what
+    // the bounce probes see of it.
+    data.fixed_direct = std::move(header->second.fixed_direct);
+    if (!data.fixed_direct.empty()) {
+      data.fixed_indirect.assign(data.fixed_direct.size(), glm::vec3(0.0f));
+      apply_transport(data, data.fixed_direct, data.fixed_indirect, 0.0f);
+      data.fixed_probes.assign(6 * data.probes.nodes(), glm::vec3(0.0f));
+      bounce_probe_irradiance(data, data.fixed_direct, data.fixed_indirect, data.fixed_probes);
+    }
+    // No light moves: neither the operator nor the probes' entries are needed.
+    data.moving_lights = header->second.moving_lights;
+    if (!data.moving_lights) {
+      data.global = SparseTransport{};
+      data.global.size = data.leaf_count();
+      data.global.begin.assign(std::size_t{data.global.size} + 1, 0);
+      data.probes.entries.clear();
+      data.probes.begin.assign(data.probes.nodes() + 1, 0);
+    }
     data.refinement_threshold = h.refinement_threshold;
     data.finest_level = h.finest_level;
     data.links = link_count;
@@ -1158,6 +1205,22 @@ void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
   for (Entity e : world.view<IndirectReceiver>().sorted_entities()) {
     h.add(std::string_view(entity_key(world, e)));
     hash_fields(indirect_receiver_info(), &world.get<IndirectReceiver>(e), h);
+  }
+  // The lights: whether each moves, and a fixed one's light and place (its bounce is baked).
+  for (Entity e : transport_lights(world)) {
+    const DynamicLight& d = world.get<DynamicLight>(e);
+    h.add(std::string_view(entity_key(world, e)));
+    h.add(d.moves);
+    if (d.moves) continue;
+    const Light& l = world.get<Light>(e);
+    h.add(l.type);
+    h.add(l.color);
+    h.add(l.intensity);
+    h.add(l.range);
+    h.add(l.inner_cone_angle);
+    h.add(l.outer_cone_angle);
+    h.add(l.size);
+    if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
   }
 }
 

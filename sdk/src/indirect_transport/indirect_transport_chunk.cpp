@@ -42,6 +42,9 @@ BakeChunk write_transport_chunk(const std::string& key, const TransportData& dat
   w.write_vector(data.global.begin);
   w.write_vector(data.global.row);
   w.write_vector(data.global.value);
+  w.write(static_cast<std::uint8_t>(data.moving_lights ? 1 : 0));
+  w.write_vector(data.fixed_direct);
+  w.write_vector(data.fixed_indirect);
   const TransportProbes& probes = data.probes;
   w.write(probes.origin);
   w.write(probes.spacing);
@@ -51,6 +54,7 @@ BakeChunk write_transport_chunk(const std::string& key, const TransportData& dat
   w.write_vector(probes.reach);
   w.write_vector(probes.begin);
   w.write_vector(probes.entries);
+  w.write_vector(data.fixed_probes);
   return BakeChunk{kTransportChunkType, kTransportChunkVersion, chunk_label("indirect-transport", key), w.take()};
 }
 
@@ -108,6 +112,23 @@ Result<TransportChunk> read_transport_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read_vector(g.begin, std::uint64_t{g.size} + 1));
   PENUMBRA_TRY(r.read_vector(g.row));
   PENUMBRA_TRY(r.read_vector(g.value, g.row.size()));
+  std::uint8_t moving = 0;
+  PENUMBRA_TRY(r.read(moving));
+  if (moving > 1) return bad("the moving-lights flag is neither 0 nor 1");
+  d.moving_lights = moving != 0;
+  PENUMBRA_TRY(r.read_vector(d.fixed_direct, g.size));
+  PENUMBRA_TRY(r.read_vector(d.fixed_indirect, g.size));
+  if ((!d.fixed_direct.empty() && d.fixed_direct.size() != g.size) ||
+      d.fixed_indirect.size() != d.fixed_direct.size())
+    return bad("the fixed lights' lightmap does not have one value per leaf");
+  // Direct light is never negative; the indirect light's Haar truncation may dip just below 0.
+  for (const glm::vec3& v : d.fixed_direct)
+    if (!finite(v) || v.x < 0.0f || v.y < 0.0f || v.z < 0.0f)
+      return bad("the fixed lights' direct irradiance is negative or not finite");
+  for (const glm::vec3& v : d.fixed_indirect)
+    if (!finite(v)) return bad("the fixed lights' indirect irradiance is not finite");
+  if (!d.moving_lights && !g.row.empty()) return bad("an operator is stored for a bake without moving lights");
+  if (!d.moving_lights && d.fixed_direct.empty()) return bad("a bake without moving lights has no fixed ones");
   TransportProbes& probes = d.probes;
   PENUMBRA_TRY(r.read(probes.origin));
   PENUMBRA_TRY(r.read(probes.spacing));
@@ -122,7 +143,12 @@ Result<TransportChunk> read_transport_chunk(const BakeChunk& chunk) {
   PENUMBRA_TRY(r.read_vector(probes.reach, nodes));
   PENUMBRA_TRY(r.read_vector(probes.begin, nodes + 1));
   PENUMBRA_TRY(r.read_vector(probes.entries));
+  PENUMBRA_TRY(r.read_vector(d.fixed_probes, 6 * nodes));
   PENUMBRA_TRY(r.finish());
+  if (d.fixed_probes.size() != (d.fixed_direct.empty() ? 0 : 6 * nodes))
+    return bad("the fixed lights' bounce probes do not have six values per probe");
+  for (const glm::vec3& v : d.fixed_probes)
+    if (!finite(v)) return bad("the fixed lights' bounce probes hold a non-finite irradiance");
   if (probes.open.size() != nodes || probes.reach.size() != nodes || probes.begin.size() != nodes + 1 ||
       probes.begin.front() != 0 ||
       probes.begin.back() != probes.entries.size())

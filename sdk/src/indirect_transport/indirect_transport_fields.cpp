@@ -51,6 +51,10 @@ constexpr FieldInfo kLightFields[] = {
     member<&DynamicLight::enabled>({.name = "enabled", .type = T::Bool, .min = 0, .max = 1,
                                     .help = "its bounce light comes from the indirect transport, not the probe grid",
                                     .hashed = true}),
+    member<&DynamicLight::moves>({.name = "moves", .type = T::Bool, .min = 0, .max = 1,
+                                  .help = "followed at runtime; off: its bounce is baked into the lightmap (moving it "
+                                          "needs a re-bake)",
+                                  .hashed = true}),
 };
 
 }  // namespace

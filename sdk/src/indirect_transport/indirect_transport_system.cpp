@@ -31,10 +31,11 @@ std::string light_name(const World& world, Entity e) {
 
 }  // namespace
 
-Result<std::vector<RuntimeLight>> dynamic_lights(World& world) {
+Result<std::vector<RuntimeLight>> dynamic_lights(World& world, LightMotion motion) {
   std::vector<RuntimeLight> out;
   for (Entity e : world.view<DynamicLight, Light, WorldTransform>().sorted_entities()) {
-    if (!world.get<DynamicLight>(e).enabled) continue;
+    const DynamicLight& tag = world.get<DynamicLight>(e);
+    if (!tag.enabled || tag.moves != (motion == LightMotion::Moving)) continue;
     const Light& light = world.get<Light>(e);
     if (light.type == Light::Type::Directional) continue;  // not a local light
     const LightFrame frame = light_frame(light, world.get<WorldTransform>(e).matrix);
@@ -258,6 +259,7 @@ struct TransportState {
   std::shared_ptr<TransportOccluders> occluders;
   std::shared_ptr<ThreadPool> pool = std::make_shared<ThreadPool>(2);  // the updates' two threads
   std::string last_error;
+  const TransportData* warned = nullptr;  // the bake whose missing operator was reported
 };
 
 std::uint64_t hash_lights(std::span<const RuntimeLight> lights) {
@@ -300,14 +302,34 @@ Result<bool> update_indirect_transport(World& world) {
     state.data = data.get();
   }
   state.lights_hash = lights_hash;
+  if (!data->moving_lights && !lights->empty()) {
+    if (state.warned != data.get())
+      log(LogLevel::Warning, "indirect transport: " + std::to_string(lights->size()) +
+                                 " DynamicLights move, but the bake kept no operator (every DynamicLight was fixed "
+                                 "when it baked): their bounce light is missing; re-bake");
+    state.warned = data.get();
+    lights->clear();
+  }
   IndirectLightmap& map = world.has<IndirectLightmap>(owner) ? world.patch<IndirectLightmap>(owner)
                                                              : world.add<IndirectLightmap>(owner);
-  map.direct.resize(data->leaf_count());
-  map.irradiance.resize(data->leaf_count());
-  direct_irradiance(*data, *lights, state.occluders.get(), map.direct, state.pool.get());
-  map.kept_coefficients = apply_transport(*data, map.direct, map.irradiance, 1e-4f, state.pool.get()).kept;
-  map.probes.resize(6 * data->probes.nodes());
-  bounce_probe_irradiance(*data, map.direct, map.irradiance, map.probes, state.pool.get());
+  const std::size_t leaves = data->leaf_count();
+  map.direct.assign(leaves, glm::vec3(0.0f));
+  map.irradiance.assign(leaves, glm::vec3(0.0f));
+  map.probes.assign(6 * data->probes.nodes(), glm::vec3(0.0f));
+  map.kept_coefficients = 0;
+  if (!lights->empty()) {
+    direct_irradiance(*data, *lights, state.occluders.get(), map.direct, state.pool.get());
+    map.kept_coefficients = apply_transport(*data, map.direct, map.irradiance, 1e-4f, state.pool.get()).kept;
+    bounce_probe_irradiance(*data, map.direct, map.irradiance, map.probes, state.pool.get());
+  }
+  // The bake's fixed part (the transport and the probes are linear in the direct light).
+  if (!data->fixed_direct.empty()) {
+    for (std::size_t i = 0; i < leaves; ++i) {
+      map.direct[i] += data->fixed_direct[i];
+      map.irradiance[i] += data->fixed_indirect[i];
+    }
+    for (std::size_t i = 0; i < map.probes.size(); ++i) map.probes[i] += data->fixed_probes[i];
+  }
   map.updated_tick = world.tick();
   return true;
 }
@@ -367,13 +389,31 @@ std::size_t add_default_indirect_transport(World& world, Preset preset) {
   // cells cannot (on the Cornell box the grid left the short block's front, which faces the
   // open side, 1.05x bright with a 17 % median error; the lightmap 0.97x and 4.4 %: penumbra bench
   // image-accuracy).
+  // A rect light (a window, a panel) that no clip animates is fixed: its bounce is baked into the
+  // lightmap, and a scene of fixed lights keeps no operator (the Cornell box: 0.9 MiB, not 56).
+  // Point and spot lights (lanterns, torches) move.
   std::vector<Entity> lights;
   world.view<Light>().each([&](Entity e, Light& light) {
     if (light.type != Light::Type::Directional) lights.push_back(e);
   });
   if (lights.empty()) return 0;
+  std::vector<Entity> animated;  // every clip's targets
+  world.view<Animator>().each([&](Entity, Animator& a) {
+    if (a.clips)
+      for (const AnimationClip& clip : *a.clips) animated.insert(animated.end(), clip.targets.begin(), clip.targets.end());
+  });
+  const auto is_animated = [&](Entity e) {
+    for (std::size_t depth = 0; e && world.alive(e) && depth < 1024; ++depth) {
+      if (std::find(animated.begin(), animated.end(), e) != animated.end()) return true;
+      const Parent* p = world.try_get<Parent>(e);
+      e = p ? p->entity : Entity::null();
+    }
+    return false;
+  };
   for (Entity e : lights)
-    if (!world.has<DynamicLight>(e)) world.add<DynamicLight>(e);
+    if (!world.has<DynamicLight>(e))
+      world.add<DynamicLight>(e, DynamicLight{.enabled = true,
+                                              .moves = world.get<Light>(e).type != Light::Type::Rect || is_animated(e)});
   for (Entity e : receivers)
     if (!world.has<IndirectReceiver>(e)) world.add<IndirectReceiver>(e);
   Entity root = receivers.front();
@@ -417,13 +457,18 @@ std::vector<std::string> describe_transport(const BakeChunk& chunk) {
                 static_cast<double>(d.last_term_ratio),
                 d.converged ? "" : " (NOT converged: raise max_bounces or lower the albedo)");
   out.emplace_back(line);
+  if (!d.fixed_direct.empty())
+    out.emplace_back(std::string("fixed lights' bounce baked into the lightmap (") +
+                     (d.moving_lights ? "the global operator kept for the moving lights)"
+                                      : "no light moves: the global operator is not kept)"));
   const TransportProbes& probes = d.probes;
   const auto open = static_cast<std::size_t>(std::count(probes.open.begin(), probes.open.end(), std::uint8_t{1}));
+  const std::string seen = d.moving_lights ? std::to_string(probes.entries.size()) + " cells seen"
+                                           : std::string("the fixed lights' light baked");
   std::snprintf(line, sizeof line,
-                "bounce probes (moving objects): %ux%ux%u every %.3g m, %zu open, %zu cells seen, %.3g MB, %u rays "
-                "each",
+                "bounce probes (moving objects): %ux%ux%u every %.3g m, %zu open, %s, %.3g MB, %u rays each",
                 probes.count.x, probes.count.y, probes.count.z, static_cast<double>(probes.spacing), open,
-                probes.entries.size(), double(probes.bytes()) / 1e6, probes.rays);
+                seen.c_str(), double(probes.bytes()) / 1e6, probes.rays);
   out.emplace_back(line);
   return out;
 }

@@ -15,6 +15,7 @@
 #include "penumbra/bakers.h"
 #include "penumbra/bake/ray_scene.h"
 #include "penumbra/core/jobs.h"
+#include "penumbra/core/log.h"
 #include "penumbra/core/random.h"
 #include "penumbra/ecs/transform.h"
 #include "penumbra/indirect_transport/indirect_transport.h"
@@ -682,6 +683,118 @@ TEST(IndirectTransportRuntime, UpdatesOnlyWhenALightMovesWithoutDriftOrGrowth) {
   }
   EXPECT_GT(sum, 0.0);
   EXPECT_GT(moved, 0.2 * sum);
+}
+
+// A light that does not move (DynamicLight::moves false) has its bounce baked: the bake applies
+// the whole operator to its direct light and, with no light moving, keeps the lightmap alone. The
+// maze's lantern, held at its start, baked both ways: the same lightmap (the runtime drops direct
+// coefficients below 1e-4 of the largest, the bake none), a file a small fraction of the size;
+// moving the fixed lantern changes the bake's inputs and not the lightmap; a lantern that moves
+// again finds no operator, and the lightmap stays the baked one, with a warning.
+TEST(IndirectTransportRuntime, AFixedLightsBounceIsBakedWithoutTheOperator) {
+  World world = builtin_with_defaults("maze", Preset::Draft);
+  Entity owner, lantern;
+  for (Entity e : world.view<IndirectTransport>().sorted_entities()) owner = e;
+  for (Entity e : world.view<DynamicLight>().sorted_entities()) lantern = e;
+  ASSERT_TRUE(owner && lantern);
+  ASSERT_TRUE(world.get<DynamicLight>(lantern).moves) << "a clip carries the lantern";
+  world.remove<Animator>(lantern);
+  const auto input_hash = [&] {
+    update_world_transforms(world);
+    return bake_input_hash(world, {"indirect-transport"}, BakeSettings{});
+  };
+  auto moving = bake(world, 2);
+  ASSERT_TRUE(moving.ok()) << moving.error().message;
+  const std::shared_ptr<const TransportData> with_operator = world.get<IndirectTransport>(owner).data;
+  ASSERT_TRUE(with_operator->moving_lights);
+  EXPECT_TRUE(with_operator->fixed_direct.empty());
+  ASSERT_TRUE(update_indirect_transport(world).ok());
+  const IndirectLightmap followed = world.get<IndirectLightmap>(owner);
+  const std::uint64_t moving_hash = input_hash();
+  world.patch<Transform>(lantern).translation += glm::vec3(0.5f, 0.0f, 0.0f);
+  EXPECT_EQ(input_hash(), moving_hash) << "a moving light is not among the bake's inputs";
+  world.patch<Transform>(lantern).translation -= glm::vec3(0.5f, 0.0f, 0.0f);
+
+  world.patch<DynamicLight>(lantern).moves = false;
+  const std::uint64_t fixed_hash = input_hash();
+  EXPECT_NE(fixed_hash, moving_hash);
+  auto fixed = bake(world, 2);
+  ASSERT_TRUE(fixed.ok()) << fixed.error().message;
+  const std::shared_ptr<const TransportData> data = world.get<IndirectTransport>(owner).data;
+  EXPECT_FALSE(data->moving_lights);
+  EXPECT_EQ(data->global.nonzeros(), 0u);
+  EXPECT_EQ(data->terms, with_operator->terms);
+  ASSERT_EQ(data->fixed_direct.size(), data->leaf_count());
+  EXPECT_EQ(data->fixed_direct, followed.direct);
+  double diff = 0.0, total = 0.0;
+  for (std::size_t i = 0; i < followed.irradiance.size(); ++i) {
+    const glm::vec3 d = data->fixed_indirect[i] - followed.irradiance[i];
+    diff += double(glm::dot(d, d));
+    total += double(glm::dot(followed.irradiance[i], followed.irradiance[i]));
+  }
+  ASSERT_GT(total, 0.0);
+  EXPECT_LT(std::sqrt(diff / total), 1e-3);
+  ASSERT_EQ(data->fixed_probes.size(), followed.probes.size());
+  diff = total = 0.0;
+  for (std::size_t i = 0; i < followed.probes.size(); ++i) {
+    const glm::vec3 d = data->fixed_probes[i] - followed.probes[i];
+    diff += double(glm::dot(d, d));
+    total += double(glm::dot(followed.probes[i], followed.probes[i]));
+  }
+  ASSERT_GT(total, 0.0);
+  EXPECT_LT(std::sqrt(diff / total), 1e-3);
+  EXPECT_TRUE(data->probes.entries.empty());
+  EXPECT_LT(fixed->file.chunks[0].payload.size() * 20, moving->file.chunks[0].payload.size());
+  auto reread = read_transport_chunk(fixed->file.chunks[0]);
+  ASSERT_TRUE(reread.ok()) << reread.error().message;
+  EXPECT_EQ(reread->data.fixed_indirect, data->fixed_indirect);
+  EXPECT_FALSE(reread->data.moving_lights);
+  const auto rejected = [](TransportData d) {
+    auto r = read_transport_chunk(write_transport_chunk("x", d));
+    return !r.ok() && r.error().message.find("re-bake") != std::string::npos;
+  };
+  TransportData damaged = reread->data;
+  damaged.fixed_direct[0].y = -1.0f;
+  EXPECT_TRUE(rejected(damaged));
+  damaged = reread->data;
+  damaged.fixed_indirect[3].z = std::nanf("");
+  EXPECT_TRUE(rejected(damaged));
+  damaged = reread->data;
+  damaged.fixed_indirect.pop_back();
+  EXPECT_TRUE(rejected(damaged));
+  damaged = reread->data;
+  damaged.fixed_probes.pop_back();
+  EXPECT_TRUE(rejected(damaged));
+  damaged = *with_operator;
+  damaged.moving_lights = false;
+  EXPECT_TRUE(rejected(damaged));
+
+  // The runtime adds nothing to the baked part, and does not follow the fixed lantern.
+  ASSERT_TRUE(update_indirect_transport(world).ok());
+  EXPECT_EQ(world.get<IndirectLightmap>(owner).irradiance, data->fixed_indirect);
+  EXPECT_EQ(world.get<IndirectLightmap>(owner).direct, data->fixed_direct);
+  EXPECT_EQ(world.get<IndirectLightmap>(owner).probes, data->fixed_probes);
+  world.patch<Transform>(lantern).translation += glm::vec3(0.5f, 0.0f, 0.0f);
+  EXPECT_NE(input_hash(), fixed_hash) << "a fixed light's place is among the bake's inputs";
+  auto after = update_indirect_transport(world);
+  ASSERT_TRUE(after.ok());
+  EXPECT_EQ(world.get<IndirectLightmap>(owner).irradiance, data->fixed_indirect);
+
+  // Moving again without a re-bake: no operator to follow it with; said once.
+  std::vector<std::string> warnings;
+  set_log_sink([&](LogLevel level, std::string_view message) {
+    if (level == LogLevel::Warning) warnings.emplace_back(message);
+  });
+  world.patch<DynamicLight>(lantern).moves = true;
+  update_world_transforms(world);
+  ASSERT_TRUE(update_indirect_transport(world).ok());
+  world.patch<Transform>(lantern).translation += glm::vec3(0.5f, 0.0f, 0.0f);
+  update_world_transforms(world);
+  ASSERT_TRUE(update_indirect_transport(world).ok());
+  set_log_sink({});
+  EXPECT_EQ(world.get<IndirectLightmap>(owner).irradiance, data->fixed_indirect);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("re-bake"), std::string::npos);
 }
 
 // The Cornell box's short block front looks out of the box's open side: a probe grid's cells

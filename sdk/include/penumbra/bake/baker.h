@@ -94,9 +94,10 @@ struct Baker {
   std::string name;         // the module's name, what `--only` names, e.g. "vertex-ao"
   std::string description;  // one line for `penumbra bake --help`
   int stages = 1;           // how many progress stages run() and finish() open
-  // Whether the bake reads the scene's lights and sky (the probe grid's does; the AO and transport
-  // operators do not): a change of a light or the sky leaves the others' data valid (the editor's
-  // bake state). The input hash holds the lights for every baker regardless.
+  // Whether the bake reads the scene's lights and sky (the probe grid's does; the AO bakes do not,
+  // and the transport reads only its fixed DynamicLights, which its hash_inputs holds): a change
+  // of a light or the sky leaves the others' data valid (the editor's bake state). The input hash
+  // holds the lights for every baker regardless.
   bool reads_lights = true;
   // Adds everything plan() reads (scene content it depends on, its settings) to the input hash,
   // so that an unchanged scene is not baked again.

@@ -174,6 +174,14 @@ struct TransportData {
   std::uint32_t terms = 0;              // Neumann terms summed
   float last_term_ratio = 0.0f;         // |T^terms|_F / |G|_F: below the tolerance when converged
   bool converged = false;
+  // The fixed lights' part (DynamicLight::moves false), baked: their direct and indirect irradiance
+  // per leaf (W/m^2) and the bounce probes' six irradiances per node (IndirectLightmap::probes),
+  // all empty when the bake had no fixed light. The runtime adds the moving lights' part to them.
+  std::vector<glm::vec3> fixed_direct, fixed_indirect, fixed_probes;
+  // Whether `global` and the probes' entries are kept for moving lights: false when the enabled
+  // DynamicLights at bake time were all fixed (one at least); both are then empty and the lightmap
+  // and the probes are the fixed part alone.
+  bool moving_lights = true;
 
   std::uint32_t leaf_count() const;  // the scene's leaves = Haar coefficients
   std::uint32_t cell_count() const;  // the bounce probes' cells (bounce_probe_cell_offsets)
@@ -256,7 +264,7 @@ inline constexpr float kTransportMargin = 0.01f;
 inline constexpr float kTransportPlaneSnap = 0.01f;
 
 inline constexpr std::uint32_t kTransportChunkType = fourcc("WRTO");
-inline constexpr std::uint32_t kTransportChunkVersion = 2;
+inline constexpr std::uint32_t kTransportChunkVersion = 3;
 
 // The "WRTO" chunk: one per bake (label "indirect-transport:<transport entity key>"). The reader
 // checks every size, index and value and names the chunk in its errors.

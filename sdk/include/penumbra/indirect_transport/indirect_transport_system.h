@@ -25,10 +25,14 @@ struct RuntimeLight {
   glm::vec3 half_x{0.5f, 0.0f, 0.0f}, half_y{0.0f, 0.5f, 0.0f};  // rect half-size vectors
 };
 
-// The enabled DynamicLight point, spot and rect lights with a WorldTransform, in entity order.
-// InvalidInput naming the light ("light 'lantern' (entity 7)") when its position, direction, size
-// or intensity is not finite, or a rect has zero area: fix its Transform or Light. O(lights).
-Result<std::vector<RuntimeLight>> dynamic_lights(World& world);
+// Which DynamicLights dynamic_lights() returns: those that move (DynamicLight::moves) or the fixed.
+enum class LightMotion { Moving, Fixed };
+
+// The enabled DynamicLight point, spot and rect lights with a WorldTransform whose `moves` matches
+// `motion`, in entity order. InvalidInput naming the light ("light 'lantern' (entity 7)") when its
+// position, direction, size or intensity is not finite, or a rect has zero area: fix its Transform
+// or Light. O(lights).
+Result<std::vector<RuntimeLight>> dynamic_lights(World& world, LightMotion motion = LightMotion::Moving);
 
 // The static geometry that shadows the dynamic lights at runtime: every Static mesh's triangles in
 // world space in a bounding volume hierarchy (median splits, 4 triangles per leaf). Built in
@@ -64,11 +68,15 @@ void direct_irradiance(const TransportData& data, std::span<const RuntimeLight> 
                        TaskScheduler* scheduler = nullptr);
 
 // One update: when the first IndirectTransport entity with data (in entity order) has no
-// IndirectLightmap yet, or its data, or any enabled dynamic light (its Light, WorldTransform or
-// DynamicLight) changed since the previous update, recomputes its IndirectLightmap (written with
-// World::patch) on two threads of its own. Returns true when it recomputed, false when nothing changed or nothing is baked;
-// InvalidInput from dynamic_lights (the lightmap is then left as it was). Cost: nothing but a
-// hash of the dynamic lights when none changed.
+// IndirectLightmap yet, or its data, or any enabled moving DynamicLight (its Light, WorldTransform
+// or DynamicLight) changed since the previous update, recomputes its IndirectLightmap (written
+// with World::patch) on two threads of its own: the bake's fixed part (TransportData::fixed_direct
+// and fixed_indirect) plus the moving lights' through the operator. Moving lights of a bake that
+// kept no operator (TransportData::moving_lights false) are left out, with a warning logged once
+// per bake: re-bake. Fixed lights are not followed: moving one leaves the lightmap as baked.
+// Returns true when it recomputed, false when nothing changed or nothing is baked; InvalidInput
+// from dynamic_lights (the lightmap is then left as it was). Cost: nothing but a hash of the
+// moving lights when none changed.
 Result<bool> update_indirect_transport(World& world);
 
 // Registers system "indirect-transport" in Phase::Lighting (reads Light, WorldTransform,
@@ -79,7 +87,9 @@ void register_indirect_transport_system(World& world);
 // Gives a built-in scene its transport when it has a receiver and a local light: every Static
 // mesh made of at most six face directions (floors, walls, boxes; curved meshes are left out)
 // becomes an IndirectReceiver, every point, spot and rect light (moving or fixed: the lightmap
-// holds their bounce per texel, where the probe grid's cells are too coarse) a DynamicLight, and
+// holds their bounce per texel, where the probe grid's cells are too coarse) a DynamicLight (a
+// rect light that no clip animates is fixed, `moves` false: a window or a panel; point and spot
+// lights move: lanterns, torches), and
 // the scene's root (the first receiver's topmost
 // ancestor) gets IndirectTransport::preset(preset). Returns the number of receivers (0: nothing
 // added). O(triangles).

@@ -233,11 +233,15 @@ struct Animator {
 };
 
 // On a Light: its bounce light comes from the indirect transport (indirect_transport/), whose
-// lightmap follows it when it moves at runtime (a lantern, a torch, headlights) and holds it per
-// texel on the static surfaces when it does not. Bakes of fixed lighting (the probe grid) leave it
-// out. Directional lights are not local lights: the transport ignores them.
+// lightmap holds it per texel on the static surfaces. A light that `moves` (a lantern, a torch,
+// headlights) is followed at runtime through the transport operator; one that does not (a window,
+// a ceiling panel) has its bounce baked into the lightmap, its Light and place among the bake's
+// inputs, and a transport whose lights are all fixed keeps no operator. Bakes of fixed lighting
+// (the probe grid) leave it out. Directional lights are not local lights: the transport ignores
+// them.
 struct DynamicLight {
   bool enabled = true;
+  bool moves = true;
 };
 
 // Tag: the entity and its geometry never move (baked into the static BVH).
