@@ -110,9 +110,9 @@ void hash_environment(World& world, Hasher& h) {
 }
 
 // What hash_scene adds for one entity with a Light (after its key). An enabled dynamic light's
-// world transform is left out when it moves: no bake holds its light (the indirect transport's
-// operator does not depend on where the light is), so carrying it around changes nothing baked.
-// A fixed one's bounce is baked into the transport's lightmap: its transform counts.
+// world transform is left out: the probe grid does not bake it, the indirect transport's operator
+// does not depend on where it is, and the transport's own inputs hold a fixed one's place
+// (DynamicLight::moves), so carrying a moving one around changes nothing baked.
 void hash_light_entity(World& world, Entity e, Hasher& h) {
   const Light& l = world.get<Light>(e);
   h.add(l.type);
@@ -123,9 +123,8 @@ void hash_light_entity(World& world, Entity e, Hasher& h) {
   h.add(l.outer_cone_angle);
   h.add(l.size);
   const DynamicLight* d = world.try_get<DynamicLight>(e);
-  const bool followed = d != nullptr && d->enabled && d->moves;
-  if (const auto* wt = world.try_get<WorldTransform>(e); wt && !followed) h.add(wt->matrix);
-  h.add(static_cast<std::uint8_t>(d == nullptr ? 0 : !d->enabled ? 2 : d->moves ? 1 : 3));
+  if (const auto* wt = world.try_get<WorldTransform>(e); wt && !(d && d->enabled)) h.add(wt->matrix);
+  h.add(static_cast<std::uint8_t>(d == nullptr ? 0 : d->enabled ? 1 : 2));
 }
 
 }  // namespace

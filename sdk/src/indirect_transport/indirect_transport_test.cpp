@@ -774,8 +774,10 @@ TEST(IndirectTransportRuntime, AFixedLightsBounceIsBakedWithoutTheOperator) {
   EXPECT_EQ(world.get<IndirectLightmap>(owner).irradiance, data->fixed_indirect);
   EXPECT_EQ(world.get<IndirectLightmap>(owner).direct, data->fixed_direct);
   EXPECT_EQ(world.get<IndirectLightmap>(owner).probes, data->fixed_probes);
+  const std::uint64_t grid_hash = bake_input_hash(world, {"probe-grid"}, BakeSettings{});
   world.patch<Transform>(lantern).translation += glm::vec3(0.5f, 0.0f, 0.0f);
   EXPECT_NE(input_hash(), fixed_hash) << "a fixed light's place is among the bake's inputs";
+  EXPECT_EQ(bake_input_hash(world, {"probe-grid"}, BakeSettings{}), grid_hash) << "the probe grid leaves it out";
   auto after = update_indirect_transport(world);
   ASSERT_TRUE(after.ok());
   EXPECT_EQ(world.get<IndirectLightmap>(owner).irradiance, data->fixed_indirect);
