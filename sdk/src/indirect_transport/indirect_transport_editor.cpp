@@ -54,7 +54,10 @@ void inspector(World& w, Entity e) {
                           static_cast<unsigned long long>(s->direct_coefficients), s->terms,
                           s->converged ? "" : " (not converged)", static_cast<double>(s->last_term_ratio),
                           static_cast<unsigned long long>(s->global_coefficients));
-      ImGui::Text("%zu dynamic lights, %zu receiving meshes", s->dynamic_lights, s->receivers);
+      ImGui::Text("%zu dynamic lights (%zu fixed: their bounce baked), %zu receiving meshes", s->dynamic_lights,
+                  s->fixed_lights, s->receivers);
+      if (!s->moving_lights)
+        ImGui::TextDisabled("no light moved when it baked: no operator kept; a light set to move needs a re-bake");
       if (s->has_lightmap) {
         ImGui::Text("last update: %u significant direct coefficients", s->kept_coefficients);
         irradiance_line("direct", s->direct);

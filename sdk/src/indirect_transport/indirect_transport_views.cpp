@@ -48,10 +48,12 @@ Result<TransportSummary> transport_summary(World& world, Entity e) {
   s.receivers = world.view<const IndirectReceiver>().count();
   world.view<const DynamicLight, const Light>().each([&](const DynamicLight& d, const Light&) {
     s.dynamic_lights += d.enabled ? 1 : 0;
+    s.fixed_lights += d.enabled && !d.moves ? 1 : 0;
   });
   if (!t->data) return s;
   const TransportData& d = *t->data;
   s.baked = true;
+  s.moving_lights = d.moving_lights;
   s.patches = static_cast<std::uint32_t>(d.patches.size());
   s.leaves = d.leaf_count();
   s.finest_level = d.finest_level;

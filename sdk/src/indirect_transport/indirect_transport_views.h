@@ -31,6 +31,8 @@ struct TransportSummary {
   std::uint64_t links = 0, direct_coefficients = 0, global_coefficients = 0, bytes = 0;
   std::size_t receivers = 0;        // meshes with IndirectReceiver
   std::size_t dynamic_lights = 0;   // enabled DynamicLights
+  std::size_t fixed_lights = 0;     // of them, those that do not move (their bounce baked)
+  bool moving_lights = true;        // the bake kept the operator (TransportData::moving_lights)
   bool has_lightmap = false;        // the system has written one
   std::uint32_t kept_coefficients = 0;  // significant direct coefficients of its last update
   IrradianceStats direct, indirect;     // over every leaf, of its last update

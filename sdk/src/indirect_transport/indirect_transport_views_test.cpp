@@ -25,6 +25,7 @@ TEST(IndirectTransportViews, SummariesRepeatTheBakeAndPartitionItAmongTheReceive
   ASSERT_TRUE(before.ok());
   EXPECT_FALSE(before->baked);
   EXPECT_EQ(before->dynamic_lights, 1u);  // the lantern
+  EXPECT_EQ(before->fixed_lights, 0u);    // a clip carries it
   const std::vector<Entity> receivers = w.view<const IndirectReceiver>().sorted_entities();
   ASSERT_FALSE(receivers.empty());
   EXPECT_EQ(before->receivers, receivers.size());
@@ -44,6 +45,7 @@ TEST(IndirectTransportViews, SummariesRepeatTheBakeAndPartitionItAmongTheReceive
   EXPECT_EQ(s->links, data.links);
   EXPECT_EQ(s->global_coefficients, data.global.nonzeros());
   EXPECT_EQ(s->terms, data.terms);
+  EXPECT_TRUE(s->moving_lights);
   ASSERT_TRUE(s->has_lightmap);
   EXPECT_EQ(s->indirect.leaves, data.leaf_count());
   EXPECT_GT(s->indirect.mean, 0.0f);
