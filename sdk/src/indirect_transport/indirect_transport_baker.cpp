@@ -953,6 +953,42 @@ Result<NeumannResult> neumann_series(const SparseTransport& direct, float tolera
 
 namespace {
 
+// With no light moving, only the fixed lights' light needs transporting: E_ind = sum_{k=1..K}
+// T^k E_d by products of T with one vector (K products of nonzeros(T) each) instead of the series
+// of matrices, with nothing dropped; it stops as neumann_series does, on the vector's norm (the
+// sum of squares over the leaves and channels). `direct` is T as a TransportData's operator.
+struct NeumannLight {
+  std::vector<glm::vec3> indirect;
+  std::uint32_t terms = 0;
+  float last_term_ratio = 0.0f;
+  bool converged = false;
+};
+Result<NeumannLight> neumann_light(const TransportData& direct, std::span<const glm::vec3> light, float tolerance,
+                                   std::uint32_t max_terms, JobContext& jobs) {
+  const std::size_t n = direct.leaf_count();
+  const auto norm = [](const std::vector<glm::vec3>& v) {
+    double s = 0.0;
+    for (const glm::vec3& x : v) s += double(x.x) * x.x + double(x.y) * x.y + double(x.z) * x.z;
+    return std::sqrt(s);
+  };
+  NeumannLight out;
+  out.indirect.assign(n, glm::vec3(0.0f));
+  std::vector<glm::vec3> term(light.begin(), light.end()), next(n);
+  jobs.begin_stage("Neumann series", max_terms);
+  while (!out.converged && out.terms < max_terms) {
+    if (jobs.cancelled()) return make_error(ErrorCode::Cancelled, "indirect transport: cancelled");
+    apply_transport(direct, term, next, 0.0f);
+    for (std::size_t i = 0; i < n; ++i) out.indirect[i] += next[i];
+    ++out.terms;
+    jobs.advance(1);
+    const double sum = norm(out.indirect);
+    out.last_term_ratio = sum > 0.0 ? static_cast<float>(norm(next) / sum) : 0.0f;
+    out.converged = !(out.last_term_ratio > tolerance);
+    std::swap(term, next);
+  }
+  return out;
+}
+
 constexpr std::uint64_t kPatchBlock = 4;  // receiver patches per work item
 // The layout of the links a part carries (TransportLink): in the inputs' hash, so that a part of
 // another layout is never merged.
@@ -1152,25 +1188,42 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
     probes.begin[probes.nodes()] = static_cast<std::uint32_t>(probes.entries.size());
     PENUMBRA_TRY(r.finish());
     jobs.begin_stage("direct operator", 1);
-    const SparseTransport direct = direct_operator(patches, links, jobs);
-    jobs.advance(1);
-    auto series = neumann_series(direct, h.bounce_tolerance, h.max_bounces, h.drop_threshold, h.memory_limit, jobs);
-    if (!series) return series.error();
     TransportData data;
     data.patches = patches;
-    data.global = std::move(series->global);
+    data.global = direct_operator(patches, links, jobs);
+    jobs.advance(1);
     data.probes = std::move(probes);
-    // The fixed lights' bounce, by the whole operator (every direct coefficient kept), and what
-    // the bounce probes see of it.
+    data.refinement_threshold = h.refinement_threshold;
+    data.finest_level = h.finest_level;
+    data.links = link_count;
+    data.direct_nonzeros = data.global.nonzeros();
     data.fixed_direct = std::move(header->second.fixed_direct);
+    data.fixed_indirect.assign(data.fixed_direct.size(), glm::vec3(0.0f));
+    data.moving_lights = header->second.moving_lights;
+    if (data.moving_lights) {
+      // G for the moving lights; the fixed ones' light through it whole (every coefficient kept).
+      auto series =
+          neumann_series(data.global, h.bounce_tolerance, h.max_bounces, h.drop_threshold, h.memory_limit, jobs);
+      if (!series) return series.error();
+      data.global = std::move(series->global);
+      data.terms = series->terms;
+      data.last_term_ratio = series->last_term_ratio;
+      data.converged = series->converged;
+      if (!data.fixed_direct.empty()) apply_transport(data, data.fixed_direct, data.fixed_indirect, 0.0f);
+    } else {
+      // No light moves: the fixed lights' light alone, and neither G nor the probes' entries kept.
+      auto light = neumann_light(data, data.fixed_direct, h.bounce_tolerance, h.max_bounces, jobs);
+      if (!light) return light.error();
+      data.fixed_indirect = std::move(light->indirect);
+      data.terms = light->terms;
+      data.last_term_ratio = light->last_term_ratio;
+      data.converged = light->converged;
+    }
+    // What the bounce probes see of the fixed lights' light.
     if (!data.fixed_direct.empty()) {
-      data.fixed_indirect.assign(data.fixed_direct.size(), glm::vec3(0.0f));
-      apply_transport(data, data.fixed_direct, data.fixed_indirect, 0.0f);
       data.fixed_probes.assign(6 * data.probes.nodes(), glm::vec3(0.0f));
       bounce_probe_irradiance(data, data.fixed_direct, data.fixed_indirect, data.fixed_probes);
     }
-    // No light moves: neither the operator nor the probes' entries are needed.
-    data.moving_lights = header->second.moving_lights;
     if (!data.moving_lights) {
       data.global = SparseTransport{};
       data.global.size = data.leaf_count();
@@ -1178,13 +1231,6 @@ Result<std::vector<BakeChunk>> finish_transport(std::span<const BakedGroup> grou
       data.probes.entries.clear();
       data.probes.begin.assign(data.probes.nodes() + 1, 0);
     }
-    data.refinement_threshold = h.refinement_threshold;
-    data.finest_level = h.finest_level;
-    data.links = link_count;
-    data.direct_nonzeros = direct.nonzeros();
-    data.terms = series->terms;
-    data.last_term_ratio = series->last_term_ratio;
-    data.converged = series->converged;
     if (!data.converged)
       log(LogLevel::Warning, context + ": the Neumann series did not converge in " + std::to_string(data.terms) +
                                  " terms (last term " + std::to_string(data.last_term_ratio) +

@@ -498,8 +498,8 @@ const LightingModule& indirect_transport_module() {
                                                     &dynamic_light_info()};
   static const LightingModule module{
       .name = "indirect-transport",
-      .description = "bounce light of local lights on static surfaces, live as they move (wavelet radiance transport, "
-                     "Kontkanen et al. 2006)",
+      .description = "bounce light of local lights on static surfaces, live as they move, baked for fixed ones "
+                     "(wavelet radiance transport, Kontkanen et al. 2006)",
       .chunk_types = kChunkTypes,
       .components = components,
       .register_runtime = register_indirect_transport_system,

@@ -685,12 +685,14 @@ TEST(IndirectTransportRuntime, UpdatesOnlyWhenALightMovesWithoutDriftOrGrowth) {
   EXPECT_GT(moved, 0.2 * sum);
 }
 
-// A light that does not move (DynamicLight::moves false) has its bounce baked: the bake applies
-// the whole operator to its direct light and, with no light moving, keeps the lightmap alone. The
-// maze's lantern, held at its start, baked both ways: the same lightmap (the runtime drops direct
-// coefficients below 1e-4 of the largest, the bake none), a file a small fraction of the size;
-// moving the fixed lantern changes the bake's inputs and not the lightmap; a lantern that moves
-// again finds no operator, and the lightmap stays the baked one, with a warning.
+// A light that does not move (DynamicLight::moves false) has its bounce baked and, with no light
+// moving, the bake sums the series for its light alone (T^k E, one vector per term) and keeps
+// neither G nor the probes' entries. The maze's lantern, held at its start, baked both ways: the
+// same lightmap and probes within 1 % RMS (G drops coefficients below drop_threshold after each
+// product and the runtime direct coefficients below 1e-4 of the largest; the fixed light's series
+// drops none), the same direct light, a file a small fraction of the size; moving the fixed
+// lantern changes the transport's inputs and not the lightmap; a lantern that moves again finds
+// no operator, and the lightmap stays the baked one, with a warning.
 TEST(IndirectTransportRuntime, AFixedLightsBounceIsBakedWithoutTheOperator) {
   World world = builtin_with_defaults("maze", Preset::Draft);
   Entity owner, lantern;
@@ -723,7 +725,8 @@ TEST(IndirectTransportRuntime, AFixedLightsBounceIsBakedWithoutTheOperator) {
   const std::shared_ptr<const TransportData> data = world.get<IndirectTransport>(owner).data;
   EXPECT_FALSE(data->moving_lights);
   EXPECT_EQ(data->global.nonzeros(), 0u);
-  EXPECT_EQ(data->terms, with_operator->terms);
+  EXPECT_GT(data->terms, 1u);  // the fixed light's own series (neumann_light)
+  EXPECT_TRUE(data->converged);
   ASSERT_EQ(data->fixed_direct.size(), data->leaf_count());
   EXPECT_EQ(data->fixed_direct, followed.direct);
   double diff = 0.0, total = 0.0;
@@ -733,7 +736,7 @@ TEST(IndirectTransportRuntime, AFixedLightsBounceIsBakedWithoutTheOperator) {
     total += double(glm::dot(followed.irradiance[i], followed.irradiance[i]));
   }
   ASSERT_GT(total, 0.0);
-  EXPECT_LT(std::sqrt(diff / total), 1e-3);
+  EXPECT_LT(std::sqrt(diff / total), 1e-2);
   ASSERT_EQ(data->fixed_probes.size(), followed.probes.size());
   diff = total = 0.0;
   for (std::size_t i = 0; i < followed.probes.size(); ++i) {
@@ -742,7 +745,7 @@ TEST(IndirectTransportRuntime, AFixedLightsBounceIsBakedWithoutTheOperator) {
     total += double(glm::dot(followed.probes[i], followed.probes[i]));
   }
   ASSERT_GT(total, 0.0);
-  EXPECT_LT(std::sqrt(diff / total), 1e-3);
+  EXPECT_LT(std::sqrt(diff / total), 1e-2);
   EXPECT_TRUE(data->probes.entries.empty());
   EXPECT_LT(fixed->file.chunks[0].payload.size() * 20, moving->file.chunks[0].payload.size());
   auto reread = read_transport_chunk(fixed->file.chunks[0]);

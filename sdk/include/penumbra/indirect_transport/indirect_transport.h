@@ -171,8 +171,11 @@ struct TransportData {
   std::uint32_t finest_level = 0;
   std::uint64_t links = 0;              // links of the hierarchical direct operator
   std::uint64_t direct_nonzeros = 0;    // coefficients of T in the Haar bases
-  std::uint32_t terms = 0;              // Neumann terms summed
-  float last_term_ratio = 0.0f;         // |T^terms|_F / |G|_F: below the tolerance when converged
+  // Neumann terms summed and the last one's size against the sum: |T^terms|_F / |G|_F, or with
+  // no light moving (moving_lights false) the fixed lights' |T^terms E| / |sum of T^k E| over the
+  // leaves; below the tolerance when converged.
+  std::uint32_t terms = 0;
+  float last_term_ratio = 0.0f;
   bool converged = false;
   // The fixed lights' part (DynamicLight::moves false), baked: their direct and indirect irradiance
   // per leaf (W/m^2) and the bounce probes' six irradiances per node (IndirectLightmap::probes),

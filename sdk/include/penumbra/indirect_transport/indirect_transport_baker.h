@@ -1,6 +1,8 @@
 // The indirect-transport bake (Kontkanen et al. 2006): patches from the receivers, the direct
 // transport operator T by hierarchical refinement, the global operator G by a truncated Neumann
-// series, one WRTO chunk.
+// series, one WRTO chunk. Fixed lights (DynamicLight::moves false) have their light carried
+// through G at bake time; when no light moves, G is not built: the series is summed for their
+// light alone, one product of T with a vector per term (TransportData::fixed_indirect).
 //
 // Refinement (per receiver patch, so a shard bakes some receivers): every pair of patches that face
 // each other starts as one link between their roots. A link is evaluated at 2 x 2 points on each
