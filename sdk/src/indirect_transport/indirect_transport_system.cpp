@@ -390,7 +390,8 @@ std::size_t add_default_indirect_transport(World& world, Preset preset) {
   // open side, 1.05x bright with a 17 % median error; the lightmap 0.97x and 4.4 %: penumbra bench
   // image-accuracy).
   // A rect light (a window, a panel) that no clip animates is fixed: its bounce is baked into the
-  // lightmap, and a scene of fixed lights keeps no operator (the Cornell box: 0.9 MiB, not 56).
+  // lightmap, and a scene of fixed lights needs no operator (the Cornell box at medium: 941 KiB in
+  // 4.8 s, against 56 MiB in 12.6 s).
   // Point and spot lights (lanterns, torches) move.
   std::vector<Entity> lights;
   world.view<Light>().each([&](Entity e, Light& light) {
