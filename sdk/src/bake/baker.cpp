@@ -114,7 +114,15 @@ void hash_environment(World& world, Hasher& h) {
 // does not depend on where it is, and the transport's own inputs hold a fixed one's place
 // (DynamicLight::moves), so carrying a moving one around changes nothing baked.
 void hash_light_entity(World& world, Entity e, Hasher& h) {
-  const Light& l = world.get<Light>(e);
+  hash_light(world.get<Light>(e), h);
+  const DynamicLight* d = world.try_get<DynamicLight>(e);
+  if (const auto* wt = world.try_get<WorldTransform>(e); wt && !(d && d->enabled)) h.add(wt->matrix);
+  h.add(static_cast<std::uint8_t>(d == nullptr ? 0 : d->enabled ? 1 : 2));
+}
+
+}  // namespace
+
+void hash_light(const Light& l, Hasher& h) {
   h.add(l.type);
   h.add(l.color);
   h.add(l.intensity);
@@ -122,12 +130,7 @@ void hash_light_entity(World& world, Entity e, Hasher& h) {
   h.add(l.inner_cone_angle);
   h.add(l.outer_cone_angle);
   h.add(l.size);
-  const DynamicLight* d = world.try_get<DynamicLight>(e);
-  if (const auto* wt = world.try_get<WorldTransform>(e); wt && !(d && d->enabled)) h.add(wt->matrix);
-  h.add(static_cast<std::uint8_t>(d == nullptr ? 0 : d->enabled ? 1 : 2));
 }
-
-}  // namespace
 
 void hash_scene(World& world, Hasher& h) {
   for (Entity e : world.view<Mesh>().sorted_entities()) {

@@ -1258,14 +1258,7 @@ void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
     h.add(std::string_view(entity_key(world, e)));
     h.add(d.moves);
     if (d.moves) continue;
-    const Light& l = world.get<Light>(e);
-    h.add(l.type);
-    h.add(l.color);
-    h.add(l.intensity);
-    h.add(l.range);
-    h.add(l.inner_cone_angle);
-    h.add(l.outer_cone_angle);
-    h.add(l.size);
+    hash_light(world.get<Light>(e), h);
     if (const auto* wt = world.try_get<WorldTransform>(e)) h.add(wt->matrix);
   }
 }

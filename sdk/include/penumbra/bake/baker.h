@@ -34,6 +34,7 @@
 namespace penumbra {
 
 class RayScene;
+struct Light;
 
 struct BakeSettings {
   Preset preset = Preset::Medium;
@@ -139,6 +140,9 @@ class BakerRegistry {
 // transforms of movable and skinned meshes and of enabled dynamic lights are not in it (no
 // baker reads where they are; a module that reads part of one hashes that part itself).
 void hash_scene(World& world, Hasher& hasher);
+// A Light's own fields (type, colour, intensity, range, cone angles, size; not its place), as
+// hash_scene adds them for each light: for a module that hashes a light itself. O(1).
+void hash_light(const Light& light, Hasher& hasher);
 
 // hash_scene's inputs one at a time, for telling what changed since a bake: one per entity with a
 // Mesh, then one per entity with a Light (in entity order, each with its entity key and the hash
