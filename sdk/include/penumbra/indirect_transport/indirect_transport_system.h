@@ -70,10 +70,11 @@ void direct_irradiance(const TransportData& data, std::span<const RuntimeLight> 
 // One update: when the first IndirectTransport entity with data (in entity order) has no
 // IndirectLightmap yet, or its data, or any enabled moving DynamicLight (its Light, WorldTransform
 // or DynamicLight) changed since the previous update, recomputes its IndirectLightmap (written
-// with World::patch) on two threads of its own: the bake's fixed part (TransportData::fixed_direct
-// and fixed_indirect) plus the moving lights' through the operator. Moving lights of a bake that
-// kept no operator (TransportData::moving_lights false) are left out, with a warning logged once
-// per bake: re-bake. Fixed lights are not followed: moving one leaves the lightmap as baked.
+// with World::patch) on two threads of its own: the bake's fixed part (TransportData::
+// fixed_direct, fixed_indirect, fixed_probes) plus the moving lights' through the operator.
+// Moving lights of a bake that kept no operator (TransportData::moving_lights false) are left
+// out, with a warning logged once per bake: re-bake. Fixed lights are not followed: moving one
+// leaves the lightmap as baked.
 // Returns true when it recomputed, false when nothing changed or nothing is baked; InvalidInput
 // from dynamic_lights (the lightmap is then left as it was). Cost: nothing but a hash of the
 // moving lights when none changed.
@@ -89,10 +90,9 @@ void register_indirect_transport_system(World& world);
 // becomes an IndirectReceiver, every point, spot and rect light (moving or fixed: the lightmap
 // holds their bounce per texel, where the probe grid's cells are too coarse) a DynamicLight (a
 // rect light that no clip animates is fixed, `moves` false: a window or a panel; point and spot
-// lights move: lanterns, torches), and
-// the scene's root (the first receiver's topmost
-// ancestor) gets IndirectTransport::preset(preset). Returns the number of receivers (0: nothing
-// added). O(triangles).
+// lights move: lanterns, torches), and the scene's root (the first receiver's topmost ancestor)
+// gets IndirectTransport::preset(preset). Returns the number of receivers (0: nothing added).
+// O(triangles).
 std::size_t add_default_indirect_transport(World& world, Preset preset);
 
 const LightingModule& indirect_transport_module();
