@@ -103,6 +103,40 @@ float role_limit(JointRole role, float unknown) {
   return unknown;
 }
 
+JointSide joint_side(std::string_view name) {
+  const std::string w = words(name);
+  if (has(w, " left ") || has(w, " l ")) return JointSide::Left;
+  if (has(w, " right ") || has(w, " r ")) return JointSide::Right;
+  return JointSide::None;
+}
+
+std::optional<RoleMotion> role_motion(JointRole role) {
+  using D = BodyDirection;
+  // {twist, {{towards, lo, hi}, {towards, lo, hi}}}, radians.
+  switch (role) {
+    case JointRole::Unknown:
+    case JointRole::Hips:
+    case JointRole::End: return std::nullopt;
+    case JointRole::Spine: return RoleMotion{0.25f, {{{D::Forward, -0.2f, 0.35f}, {D::Left, -0.2f, 0.2f}}}};
+    case JointRole::Neck: return RoleMotion{0.5f, {{{D::Forward, -0.3f, 0.4f}, {D::Left, -0.3f, 0.3f}}}};
+    case JointRole::Head: return RoleMotion{0.4f, {{{D::Forward, -0.3f, 0.35f}, {D::Left, -0.25f, 0.25f}}}};
+    case JointRole::Clavicle: return RoleMotion{0.1f, {{{D::Up, -0.15f, 0.3f}, {D::Forward, -0.25f, 0.25f}}}};
+    // The arm lowers by up to 1.2 rad from a T-pose (pose_space stops every swing downward 0.35 rad
+    // short of straight down) and raises 0.5.
+    case JointRole::UpperArm: return RoleMotion{0.7f, {{{D::Forward, -0.6f, 1.2f}, {D::Up, -1.2f, 0.5f}}}};
+    case JointRole::Forearm: return RoleMotion{0.8f, {{{D::Forward, 0.0f, 1.4f}, {D::Up, -0.05f, 0.05f}}}};
+    // Hands and fingers: which way a palm faces is not known from the skeleton, so their bends are
+    // symmetric.
+    case JointRole::Hand: return RoleMotion{0.1f, {{{D::Up, -0.6f, 0.6f}, {D::Forward, -0.3f, 0.3f}}}};
+    case JointRole::Finger: return RoleMotion{0.05f, {{{D::Up, -0.5f, 0.5f}, {D::Forward, -0.15f, 0.15f}}}};
+    case JointRole::Thigh: return RoleMotion{0.5f, {{{D::Forward, -0.5f, 1.2f}, {D::Medial, -0.6f, 0.2f}}}};
+    case JointRole::Calf: return RoleMotion{0.15f, {{{D::Forward, -1.4f, 0.0f}, {D::Medial, -0.05f, 0.05f}}}};
+    case JointRole::Foot: return RoleMotion{0.1f, {{{D::Up, -0.5f, 0.35f}, {D::Medial, -0.25f, 0.25f}}}};
+    case JointRole::Toe: return RoleMotion{0.05f, {{{D::Up, -0.3f, 0.5f}, {D::Medial, -0.05f, 0.05f}}}};
+  }
+  return std::nullopt;
+}
+
 namespace {
 
 std::string_view trim(std::string_view s) {

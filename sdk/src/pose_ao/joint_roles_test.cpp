@@ -58,6 +58,50 @@ TEST(JointRoles, LimitsAreHumanAndEndJointsStayFixed) {
   }
 }
 
+TEST(JointRoles, SidesComeFromTheSideWordsOfEachConvention) {
+  const std::pair<const char*, JointSide> cases[] = {
+      {"mixamorig:LeftForeArm", JointSide::Left}, {"mixamorig:RightHandIndex2", JointSide::Right},
+      {"upperarm_l", JointSide::Left},           {"calf_r", JointSide::Right},
+      {"Bip01 L Forearm", JointSide::Left},      {"Bip01 R Thigh", JointSide::Right},
+      {"DEF-thigh.R", JointSide::Right},         {"upper_arm.L", JointSide::Left},
+      {"lForearmBend", JointSide::Left},         {"rShin", JointSide::Right},
+      {"left_thigh", JointSide::Left},           {"mixamorig:Spine2", JointSide::None},
+      {"Bip01 Pelvis", JointSide::None},         {"neck_01", JointSide::None},
+      {"", JointSide::None},
+  };
+  for (const auto& [name, side] : cases) EXPECT_EQ(joint_side(name), side) << name;
+}
+
+TEST(JointRoles, KneesAndElbowsBendOneWayAndEveryMotionIsHuman) {
+  // The knee bends backward only, the elbow forward only (role_motion's sign convention: a
+  // positive swing moves the bone's tip towards the swing's direction).
+  const RoleMotion knee = role_motion(JointRole::Calf).value();
+  EXPECT_EQ(knee.swings[0].towards, BodyDirection::Forward);
+  EXPECT_LT(knee.swings[0].lo, -1.0f);
+  EXPECT_EQ(knee.swings[0].hi, 0.0f);
+  const RoleMotion elbow = role_motion(JointRole::Forearm).value();
+  EXPECT_EQ(elbow.swings[0].towards, BodyDirection::Forward);
+  EXPECT_EQ(elbow.swings[0].lo, 0.0f);
+  EXPECT_GT(elbow.swings[0].hi, 1.0f);
+  // A hip flexes forward further than it extends, and crosses the midline less than it abducts.
+  const RoleMotion hip = role_motion(JointRole::Thigh).value();
+  EXPECT_GT(hip.swings[0].hi, -hip.swings[0].lo);
+  EXPECT_EQ(hip.swings[1].towards, BodyDirection::Medial);
+  EXPECT_LT(hip.swings[1].hi, -hip.swings[1].lo);
+  for (const JointRole r : {JointRole::Unknown, JointRole::Hips, JointRole::End}) EXPECT_FALSE(role_motion(r)) << to_string(r);
+  for (int r = 0; r <= static_cast<int>(JointRole::End); ++r) {
+    const std::optional<RoleMotion> m = role_motion(static_cast<JointRole>(r));
+    if (!m) continue;
+    EXPECT_TRUE(m->twist >= 0.0f && m->twist <= 1.0f) << to_string(static_cast<JointRole>(r));
+    for (const RoleMotion::Swing& s : m->swings) {
+      EXPECT_LE(s.lo, 0.0f) << to_string(static_cast<JointRole>(r));
+      EXPECT_GE(s.hi, 0.0f) << to_string(static_cast<JointRole>(r));
+      EXPECT_LE(s.hi - s.lo, 2.0f) << to_string(static_cast<JointRole>(r));
+    }
+    EXPECT_NE(m->swings[0].towards, m->swings[1].towards) << to_string(static_cast<JointRole>(r));
+  }
+}
+
 }  // namespace
 }  // namespace penumbra
 

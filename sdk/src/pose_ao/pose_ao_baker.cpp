@@ -216,6 +216,118 @@ namespace {
 
 float width(const JointRange& r) { return std::max({r.max.x - r.min.x, r.max.y - r.min.y, r.max.z - r.min.z}); }
 
+// Each joint's range from its role's motion (role_motion) about its bone, in its bind frame; nullopt
+// where that cannot be placed: a role without a motion, no body frame (no head, neck or spine above
+// the hips, no joints named on both sides), a bone of no length, a medial swing on the midline, or a twist or
+// swing axis more than 37 degrees off every axis of the joint's frame (the range is a box in the
+// frame's axes). The body frame: up from the hips to the head (else the neck, else the spine),
+// left from the right-side joints to the left-side ones, forward = left x up.
+std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std::span<const JointRole> roles) {
+  const std::size_t J = rig.joint_count();
+  std::vector<std::optional<JointRange>> out(J);
+  const auto mean_of = [&](auto&& pick) -> std::optional<glm::vec3> {
+    glm::vec3 sum(0.0f);
+    int n = 0;
+    for (std::size_t j = 0; j < J; ++j)
+      if (pick(j)) {
+        sum += rig.bind_positions[j];
+        ++n;
+      }
+    return n > 0 ? std::optional<glm::vec3>(sum / float(n)) : std::nullopt;
+  };
+  const auto role_is = [&](JointRole r) { return [&, r](std::size_t j) { return roles[j] == r; }; };
+  std::optional<glm::vec3> hips = mean_of(role_is(JointRole::Hips));
+  if (!hips) hips = mean_of([&](std::size_t j) { return rig.parents[j] < 0; });
+  std::optional<glm::vec3> head = mean_of(role_is(JointRole::Head));
+  if (!head) head = mean_of(role_is(JointRole::Neck));
+  if (!head) head = mean_of(role_is(JointRole::Spine));
+  std::vector<JointSide> sides(J, JointSide::None);
+  for (std::size_t j = 0; j < J && j < rig.names.size(); ++j) sides[j] = joint_side(rig.names[j]);
+  const std::optional<glm::vec3> left = mean_of([&](std::size_t j) { return sides[j] == JointSide::Left; });
+  const std::optional<glm::vec3> right = mean_of([&](std::size_t j) { return sides[j] == JointSide::Right; });
+  if (!hips || !head || !left || !right) return out;
+  const float height = glm::length(*head - *hips);
+  if (!(height > 0.0f)) return out;
+  const glm::vec3 up = (*head - *hips) / height;
+  glm::vec3 side = *left - *right;
+  side -= glm::dot(side, up) * up;
+  if (!(glm::length(side) > 1e-3f * height)) return out;
+  side = glm::normalize(side);
+  const glm::vec3 forward = glm::cross(side, up);
+
+  // The frame each joint's rotation vector lives in (bind_rotation x exp(r)): the parent's world
+  // transform, the offset and the bind rotation, without the joint's own scale.
+  std::vector<glm::mat4> world(J, glm::mat4(1.0f));
+  std::vector<glm::mat3> frame(J, glm::mat3(1.0f));
+  std::vector<std::vector<std::uint32_t>> children(J);
+  for (const std::uint32_t j : rig.order) {
+    const glm::mat4 parent = rig.parents[j] >= 0 ? world[static_cast<std::size_t>(rig.parents[j])] : glm::mat4(1.0f);
+    world[j] = parent * rig.offsets[j] * rig.bind[j].matrix();
+    frame[j] = glm::mat3(parent * rig.offsets[j]) * glm::mat3_cast(rig.bind[j].rotation);
+    if (rig.parents[j] >= 0) children[static_cast<std::size_t>(rig.parents[j])].push_back(j);
+  }
+  for (std::size_t j = 0; j < J; ++j) {
+    const std::optional<RoleMotion> motion = role_motion(roles[j]);
+    if (!motion || !(glm::determinant(frame[j]) > 0.0f)) continue;
+    // The bone: to the mean of the children, or on from the parent for a joint without any.
+    glm::vec3 bone(0.0f);
+    for (const std::uint32_t c : children[j]) bone += rig.bind_positions[c] - rig.bind_positions[j];
+    if (!(glm::length(bone) > 1e-4f * height) && rig.parents[j] >= 0)
+      bone = rig.bind_positions[j] - rig.bind_positions[static_cast<std::size_t>(rig.parents[j])];
+    if (!(glm::length(bone) > 1e-4f * height)) continue;
+    bone = glm::normalize(bone);
+    const glm::mat3 to_local = glm::inverse(frame[j]);
+    // The frame axis a direction lies along (with its sign), or -1 when none is within 37 degrees.
+    const auto snap = [&](glm::vec3 v, float& sign) {
+      const glm::vec3 l = glm::normalize(to_local * v);
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(l[k]) >= 0.8f) {
+          sign = l[k] > 0.0f ? 1.0f : -1.0f;
+          return k;
+        }
+      return -1;
+    };
+    float twist_sign = 1.0f;
+    const int twist_axis = snap(bone, twist_sign);
+    JointRange range;
+    std::array<bool, 3> used{};
+    bool placed = twist_axis >= 0;
+    if (placed) {
+      used[static_cast<std::size_t>(twist_axis)] = true;
+      range.min[twist_axis] = -motion->twist;
+      range.max[twist_axis] = motion->twist;
+    }
+    for (const RoleMotion::Swing& s : motion->swings) {
+      if (!placed) break;
+      glm::vec3 towards = s.towards == BodyDirection::Forward ? forward : s.towards == BodyDirection::Up ? up : side;
+      if (s.towards == BodyDirection::Medial) {
+        if (sides[j] == JointSide::None) {
+          placed = false;
+          break;
+        }
+        towards = sides[j] == JointSide::Left ? -side : side;
+      }
+      const glm::vec3 axis = glm::cross(bone, towards);
+      float sign = 1.0f;
+      const int k = glm::length(axis) > 0.3f ? snap(axis, sign) : -1;
+      if (k < 0 || used[static_cast<std::size_t>(k)]) {
+        placed = false;
+        break;
+      }
+      used[static_cast<std::size_t>(k)] = true;
+      float lo = s.lo;
+      // A swing downward stops 0.35 rad short of straight down (an arm hangs, it does not enter
+      // the body): the bone's angle to straight down bounds it.
+      if (s.towards == BodyDirection::Up)
+        lo = std::max(lo, std::min(0.0f, 0.35f - std::acos(std::clamp(-glm::dot(bone, up), -1.0f, 1.0f))));
+      range.min[k] = sign > 0.0f ? lo : -s.hi;
+      range.max[k] = sign > 0.0f ? s.hi : -lo;
+    }
+    if (placed) out[j] = range;
+  }
+  return out;
+}
+
 }  // namespace
 
 PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
@@ -229,9 +341,11 @@ PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
   const std::size_t known_roles =
       J - static_cast<std::size_t>(std::count(roles.begin(), roles.end(), JointRole::Unknown));
   const auto by_role = [&] {
+    const std::vector<std::optional<JointRange>> anatomical = anatomical_ranges(rig, roles);
     for (std::size_t j = 0; j < J; ++j) {
       const float limit = role_limit(roles[j], settings.default_range);
-      space.ranges[j] = JointRange{glm::vec3(-limit), glm::vec3(limit)};
+      space.ranges[j] = anatomical[j] ? *anatomical[j] : JointRange{glm::vec3(-limit), glm::vec3(limit)};
+      space.anatomical += anatomical[j].has_value();
     }
     space.roles = known_roles;
   };
@@ -887,7 +1001,6 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
   data.rays_per_vertex = settings.rays_per_vertex;
   data.requested_locality = settings.locality;
   data.locality = k;
-  data.lambda = settings.lambda;
   data.requested_clusters = settings.clusters;
   std::vector<const std::vector<std::uint32_t>*> members;
   for (const auto& [set, vertices] : by_set) {
@@ -923,188 +1036,230 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
   };
   std::vector<GroupResult> results(data.groups.size());
   std::vector<double> group_error(data.groups.size(), 0.0);
-  jobs.begin_stage("pose-ao fit", data.groups.size());
-  PENUMBRA_TRY(jobs.parallel_for(data.groups.size(), 1, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t gi = begin; gi < end; ++gi) {
-      PoseAOGroup& g = data.groups[gi];
-      const std::vector<std::uint32_t>& vertices = *members[gi];
-      const std::size_t C = g.coefficient_count();
-      std::vector<double> theta(P * C);
-      std::vector<float> x(P * (C - 1));  // theta_local without the 1, for the clusters
-      for (std::size_t p = 0; p < P; ++p) {
-        theta[p * C] = 1.0;
-        for (std::uint32_t j = 0; j < g.joint_count; ++j)
-          for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e) {
-            const float f = training.features[p * F + std::size_t{g.joints[j]} * kPoseFeaturesPerJoint + e];
-            theta[p * C + 1 + j * kPoseFeaturesPerJoint + e] = static_cast<double>(f);
-            x[p * (C - 1) + j * kPoseFeaturesPerJoint + e] = f;
-          }
+  // The cluster counts tried (1, 2, 4, .. up to max_clusters) and the ridge strengths (lambda,
+  // lambda / 10, lambda / 100; 0 tries 0 alone).
+  std::vector<std::uint32_t> counts;
+  for (std::uint32_t c = 1; c <= max_clusters; c = c < max_clusters ? std::min(2 * c, max_clusters) : c + 1)
+    counts.push_back(c);
+  const double lambda = static_cast<double>(settings.lambda);
+  const std::vector<double> strengths =
+      lambda > 0.0 ? std::vector<double>{lambda, 0.1 * lambda, 0.01 * lambda} : std::vector<double>{0.0};
+  // Per joint set, the validation error of each (count, strength), counts outer.
+  std::vector<std::vector<double>> validation(data.groups.size());
+  // The cluster count of a set under a strength: each count must cut the least error so far by
+  // kClusterGain.
+  const auto chosen_count = [&](std::size_t gi, std::size_t strength) {
+    std::size_t chosen = 0;
+    double least = std::numeric_limits<double>::infinity();
+    for (std::size_t c = 0; c < counts.size() && !validation[gi].empty(); ++c)
+      if (const double e = validation[gi][c * strengths.size() + strength]; e < (1.0 - kClusterGain) * least) {
+        least = e;
+        chosen = c;
       }
-      std::uint64_t seed = 0;
-      for (std::uint32_t j = 0; j < g.joint_count; ++j) seed = seed * 65537u + g.joints[j] + 1u;
-
-      // A model of `clusters` clusters fitted to the poses `rows`: the clusters, then the design
-      // of the blended local models (pose_ao.h): row p holds w_m(pose p) theta_p in cluster m's
-      // columns, fitted jointly, each cluster's ridge scaled by its weight in the poses. One
-      // cluster: the thesis' linear model, its bias free.
-      struct Model {
-        std::uint32_t clusters = 1;
-        float band = 0.0f;
-        std::vector<float> centers;
-        std::optional<pose_ao_detail::RidgeSolver> solver;
-      };
-      const auto make_model = [&](const std::vector<std::size_t>& rows, std::uint32_t clusters, Model& m) {
-        const std::size_t R = rows.size(), U = std::size_t{clusters} * C;
-        m.clusters = clusters;
-        std::vector<double> weights(R * clusters, clusters == 1 ? 1.0 : 0.0);  // per row, per cluster
-        if (clusters > 1) {
-          std::vector<float> xs(R * (C - 1));
-          for (std::size_t r = 0; r < R; ++r)
-            std::copy_n(x.data() + rows[r] * (C - 1), C - 1, xs.data() + r * (C - 1));
-          m.centers.resize(std::size_t{clusters} * (C - 1));
-          m.band = cluster_poses(xs, R, C - 1, clusters, seed, m.centers.data());
-          float w[kPoseAOMaxClusters];
-          for (std::size_t r = 0; r < R; ++r) {
-            pose_ao_cluster_weights(m.centers.data(), clusters, static_cast<std::uint32_t>(C - 1),
-                                    xs.data() + r * (C - 1), m.band, w);
-            for (std::uint32_t c = 0; c < clusters; ++c) weights[r * clusters + c] = static_cast<double>(w[c]);
-          }
+    return chosen;
+  };
+  std::size_t strength = 0;  // chosen between the passes
+  // Two passes over the joint sets: the validation errors, then (with one strength for the whole
+  // character, see step 4c) the final fits.
+  for (const bool choosing : {true, false}) {
+    jobs.begin_stage(choosing ? "pose-ao fit: validation" : "pose-ao fit", data.groups.size());
+    PENUMBRA_TRY(jobs.parallel_for(data.groups.size(), 1, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t gi = begin; gi < end; ++gi) {
+        PoseAOGroup& g = data.groups[gi];
+        const std::vector<std::uint32_t>& vertices = *members[gi];
+        const std::size_t C = g.coefficient_count();
+        std::vector<double> theta(P * C);
+        std::vector<float> x(P * (C - 1));  // theta_local without the 1, for the clusters
+        for (std::size_t p = 0; p < P; ++p) {
+          theta[p * C] = 1.0;
+          for (std::uint32_t j = 0; j < g.joint_count; ++j)
+            for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e) {
+              const float f = training.features[p * F + std::size_t{g.joints[j]} * kPoseFeaturesPerJoint + e];
+              theta[p * C + 1 + j * kPoseFeaturesPerJoint + e] = static_cast<double>(f);
+              x[p * (C - 1) + j * kPoseFeaturesPerJoint + e] = f;
+            }
         }
-        std::vector<double> design(R * U, 0.0), mass(clusters, 0.0);
-        for (std::size_t r = 0; r < R; ++r)
-          for (std::uint32_t c = 0; c < clusters; ++c) {
-            const double w = weights[r * clusters + c];
-            mass[c] += w;
-            if (w != 0.0)
-              for (std::size_t e = 0; e < C; ++e) design[r * U + c * C + e] = w * theta[rows[r] * C + e];
-          }
-        std::vector<double> ridge(U);
-        for (std::uint32_t c = 0; c < clusters; ++c)
-          for (std::size_t e = 0; e < C; ++e)  // the bias: none alone, a hundredth among clusters
-            ridge[c * C + e] = static_cast<double>(settings.lambda) * mass[c] * (e > 0 ? 1.0 : clusters > 1 ? 0.01 : 0.0);
-        m.solver.emplace(design, R, U, ridge);
-      };
-      // Vertex v's coefficients t under model m over `rows`. The model is clamped to [0, 1] where it
-      // is evaluated, so a pose whose AO is at a bound (a vertex fully open) is fitted by any
-      // prediction beyond that bound: refit with such targets moved to the prediction (censored
-      // regression, a few fixed-point steps).
-      std::vector<float> target(P);
-      const auto fit_vertex = [&](const Model& m, const std::vector<std::size_t>& rows, std::uint32_t v,
-                                  std::vector<double>& t) {
-        t.assign(std::size_t{m.clusters} * C, 0.0);
-        for (std::size_t r = 0; r < rows.size(); ++r) target[r] = training.ao[rows[r] * V + v];
-        m.solver->solve(target.data(), 1, t);
-        for (int pass = 0; pass < kCensoredPasses; ++pass) {
-          bool changed = false;
-          for (std::size_t r = 0; r < rows.size(); ++r) {
-            const double a = m.solver->predict(r, t);
-            const float y = training.ao[rows[r] * V + v];
-            float y2 = y;
-            if (y >= 1.0f && a > 1.0) y2 = static_cast<float>(a);
-            if (y <= 0.0f && a < 0.0) y2 = static_cast<float>(a);
-            changed |= y2 != target[r];
-            target[r] = y2;
-          }
-          if (!changed) break;
-          m.solver->solve(target.data(), 1, t);
-        }
-      };
+        std::uint64_t seed = 0;
+        for (std::uint32_t j = 0; j < g.joint_count; ++j) seed = seed * 65537u + g.joints[j] + 1u;
 
-      // Step 4c: the cluster count, 1, 2, 4, .. up to max_clusters, by the error on every fifth
-      // pose when fitted to the others (more clusters fit the training poses better and overfit
-      // where the poses do not support them): each count must cut the least error so far by
-      // kClusterGain.
-      std::uint32_t clusters = 1;
-      if (g.joint_count > 0 && max_clusters > 1) {
-        std::vector<std::size_t> fit_rows, check_rows;
-        for (std::size_t p = 0; p < P; ++p) (p % 5 == 4 ? check_rows : fit_rows).push_back(p);
-        double least = std::numeric_limits<double>::infinity();
-        std::vector<double> t;
-        float w[kPoseAOMaxClusters];
-        for (std::uint32_t candidate = 1; candidate <= max_clusters; candidate = candidate < max_clusters ? std::min(2 * candidate, max_clusters) : candidate + 1) {
-          Model m;
-          make_model(fit_rows, candidate, m);
-          double error = 0.0;
-          for (std::uint32_t v : vertices) {
-            fit_vertex(m, fit_rows, v, t);
-            for (std::size_t p : check_rows) {
-              if (candidate > 1)
-                pose_ao_cluster_weights(m.centers.data(), candidate, static_cast<std::uint32_t>(C - 1),
-                                        x.data() + p * (C - 1), m.band, w);
-              double a = 0.0;
-              for (std::uint32_t c = 0; c < candidate; ++c) {
-                const double wc = candidate > 1 ? static_cast<double>(w[c]) : 1.0;
-                if (wc == 0.0) continue;
-                double dot = 0.0;
-                for (std::size_t e = 0; e < C; ++e) dot += t[c * C + e] * theta[p * C + e];
-                a += wc * dot;
-              }
-              const double d = std::clamp(a, 0.0, 1.0) - static_cast<double>(training.ao[p * V + v]);
-              error += d * d;
+        // A model of `clusters` clusters fitted to the poses `rows`: the clusters, then the design
+        // of the blended local models (pose_ao.h): row p holds w_m(pose p) theta_p in cluster m's
+        // columns, fitted jointly, each cluster's ridge scaled by its weight in the poses. One
+        // cluster: the thesis' linear model, its bias free.
+        struct Model {
+          std::uint32_t clusters = 1;
+          float band = 0.0f;
+          std::vector<float> centers;
+          std::optional<pose_ao_detail::RidgeSolver> solver;
+        };
+        const auto make_model = [&](const std::vector<std::size_t>& rows, std::uint32_t clusters, double lambda,
+                                    Model& m) {
+          const std::size_t R = rows.size(), U = std::size_t{clusters} * C;
+          m.clusters = clusters;
+          std::vector<double> weights(R * clusters, clusters == 1 ? 1.0 : 0.0);  // per row, per cluster
+          if (clusters > 1) {
+            std::vector<float> xs(R * (C - 1));
+            for (std::size_t r = 0; r < R; ++r)
+              std::copy_n(x.data() + rows[r] * (C - 1), C - 1, xs.data() + r * (C - 1));
+            m.centers.resize(std::size_t{clusters} * (C - 1));
+            m.band = cluster_poses(xs, R, C - 1, clusters, seed, m.centers.data());
+            float w[kPoseAOMaxClusters];
+            for (std::size_t r = 0; r < R; ++r) {
+              pose_ao_cluster_weights(m.centers.data(), clusters, static_cast<std::uint32_t>(C - 1),
+                                      xs.data() + r * (C - 1), m.band, w);
+              for (std::uint32_t c = 0; c < clusters; ++c) weights[r * clusters + c] = static_cast<double>(w[c]);
             }
           }
-          if (error < (1.0 - kClusterGain) * least) {
-            least = error;
-            clusters = candidate;
+          std::vector<double> design(R * U, 0.0), mass(clusters, 0.0);
+          for (std::size_t r = 0; r < R; ++r)
+            for (std::uint32_t c = 0; c < clusters; ++c) {
+              const double w = weights[r * clusters + c];
+              mass[c] += w;
+              if (w != 0.0)
+                for (std::size_t e = 0; e < C; ++e) design[r * U + c * C + e] = w * theta[rows[r] * C + e];
+            }
+          std::vector<double> ridge(U);
+          for (std::uint32_t c = 0; c < clusters; ++c)
+            for (std::size_t e = 0; e < C; ++e)  // the bias: none alone, a hundredth among clusters
+              ridge[c * C + e] = lambda * mass[c] * (e > 0 ? 1.0 : clusters > 1 ? 0.01 : 0.0);
+          m.solver.emplace(design, R, U, ridge);
+        };
+        // Vertex v's coefficients t under model m over `rows`. The model is clamped to [0, 1] where it
+        // is evaluated, so a pose whose AO is at a bound (a vertex fully open) is fitted by any
+        // prediction beyond that bound: refit with such targets moved to the prediction (censored
+        // regression, a few fixed-point steps).
+        std::vector<float> target(P);
+        const auto fit_vertex = [&](const Model& m, const std::vector<std::size_t>& rows, std::uint32_t v,
+                                    std::vector<double>& t) {
+          t.assign(std::size_t{m.clusters} * C, 0.0);
+          for (std::size_t r = 0; r < rows.size(); ++r) target[r] = training.ao[rows[r] * V + v];
+          m.solver->solve(target.data(), 1, t);
+          for (int pass = 0; pass < kCensoredPasses; ++pass) {
+            bool changed = false;
+            for (std::size_t r = 0; r < rows.size(); ++r) {
+              const double a = m.solver->predict(r, t);
+              const float y = training.ao[rows[r] * V + v];
+              float y2 = y;
+              if (y >= 1.0f && a > 1.0) y2 = static_cast<float>(a);
+              if (y <= 0.0f && a < 0.0) y2 = static_cast<float>(a);
+              changed |= y2 != target[r];
+              target[r] = y2;
+            }
+            if (!changed) break;
+            m.solver->solve(target.data(), 1, t);
           }
-        }
-      }
+        };
 
-      // The final fit on every pose.
-      std::vector<std::size_t> all(P);
-      for (std::size_t p = 0; p < P; ++p) all[p] = p;
-      Model model;
-      make_model(all, clusters, model);
-      g.cluster_count = clusters;
-      g.cluster_band = model.band;
-      const std::size_t U = std::size_t{clusters} * C;
-      GroupResult& result = results[gi];
-      result.centers = std::move(model.centers);
-      result.coefficients.assign(g.coefficient_span(), 0);
-      // Bind blend candidates (PoseAOGroup): none, then fractions of the median distance of the
-      // poses from the bind pose; each pose's weight per candidate.
-      std::vector<double> d2(P, 0.0);
-      for (std::size_t p = 0; p < P; ++p)
-        for (std::size_t c = 1; c < C; ++c) d2[p] += theta[p * C + c] * theta[p * C + c];
-      std::vector<double> sorted_d2 = d2;
-      std::nth_element(sorted_d2.begin(), sorted_d2.begin() + static_cast<std::ptrdiff_t>(P / 2), sorted_d2.end());
-      const double median_d2 = sorted_d2[P / 2];
-      std::vector<double> blends = {0.0};
-      if (g.joint_count > 0 && median_d2 > 0.0)
-        for (double fraction : kBindBlendFractions) blends.push_back(fraction * median_d2);
-      std::vector<double> weight(blends.size() * P), blend_error(blends.size(), 0.0);
-      for (std::size_t b = 0; b < blends.size(); ++b)
-        for (std::size_t p = 0; p < P; ++p)
-          weight[b * P + p] = blends[b] == 0.0 ? 1.0 : std::min(1.0, d2[p] / blends[b]);
-      std::vector<double> t;
-      for (std::uint32_t i = 0; i < g.count; ++i) {
-        const std::uint32_t v = vertices[i];
-        fit_vertex(model, all, v, t);
-        // As halves (the ridge keeps them far inside the half range; saturated in case it does not).
-        for (std::size_t u = 0; u < U; ++u) {
-          const auto m = static_cast<std::uint32_t>(u / C), c = static_cast<std::uint32_t>(u % C);
-          result.coefficients[g.coefficient_index(m, c, i) - g.coefficient_offset] =
-              glm::packHalf1x16(static_cast<float>(std::clamp(t[u], -65504.0, 65504.0)));
+        // Step 4c: the cluster count and the ridge strength by the error on every fifth pose when fitted
+        // to the others (more clusters and a weaker ridge fit the training poses better, and overfit
+        // where the poses do not support them). The strength is chosen for the whole character, the
+        // one whose counts give the least error summed over the sets (per set, a choice among more
+        // models picks up the noise of the 64-ray references), then each set's count under it.
+        if (choosing) {
+          if (g.joint_count == 0) continue;
+          std::vector<std::size_t> fit_rows, check_rows;
+          for (std::size_t p = 0; p < P; ++p) (p % 5 == 4 ? check_rows : fit_rows).push_back(p);
+          std::vector<double> t;
+          float w[kPoseAOMaxClusters];
+          for (const std::uint32_t candidate : counts)
+            for (const double ridge : strengths) {
+              Model m;
+              make_model(fit_rows, candidate, ridge, m);
+              double error = 0.0;
+              for (std::uint32_t v : vertices) {
+                fit_vertex(m, fit_rows, v, t);
+                for (std::size_t p : check_rows) {
+                  if (candidate > 1)
+                    pose_ao_cluster_weights(m.centers.data(), candidate, static_cast<std::uint32_t>(C - 1),
+                                            x.data() + p * (C - 1), m.band, w);
+                  double a = 0.0;
+                  for (std::uint32_t c = 0; c < candidate; ++c) {
+                    const double wc = candidate > 1 ? static_cast<double>(w[c]) : 1.0;
+                    if (wc == 0.0) continue;
+                    double dot = 0.0;
+                    for (std::size_t e = 0; e < C; ++e) dot += t[c * C + e] * theta[p * C + e];
+                    a += wc * dot;
+                  }
+                  const double d = std::clamp(a, 0.0, 1.0) - static_cast<double>(training.ao[p * V + v]);
+                  error += d * d;
+                }
+              }
+              validation[gi].push_back(error);
+            }
+          continue;
         }
-        const double bind = static_cast<double>(training.bind_ao[v]);
-        for (std::size_t p = 0; p < P; ++p) {
-          const double a = std::clamp(model.solver->predict(p, t), 0.0, 1.0);
-          const double y = static_cast<double>(training.ao[p * V + v]);
-          for (std::size_t b = 0; b < blends.size(); ++b) {
-            const double err = bind + weight[b * P + p] * (a - bind) - y;
-            blend_error[b] += err * err;
+        const std::uint32_t clusters = g.joint_count == 0 ? 1u : counts[chosen_count(gi, strength)];
+
+        // The final fit on every pose.
+        std::vector<std::size_t> all(P);
+        for (std::size_t p = 0; p < P; ++p) all[p] = p;
+        Model model;
+        make_model(all, clusters, strengths[strength], model);
+        g.cluster_count = clusters;
+        g.cluster_band = model.band;
+        const std::size_t U = std::size_t{clusters} * C;
+        GroupResult& result = results[gi];
+        result.centers = std::move(model.centers);
+        result.coefficients.assign(g.coefficient_span(), 0);
+        // Bind blend candidates (PoseAOGroup): none, then fractions of the median distance of the
+        // poses from the bind pose; each pose's weight per candidate.
+        std::vector<double> d2(P, 0.0);
+        for (std::size_t p = 0; p < P; ++p)
+          for (std::size_t c = 1; c < C; ++c) d2[p] += theta[p * C + c] * theta[p * C + c];
+        std::vector<double> sorted_d2 = d2;
+        std::nth_element(sorted_d2.begin(), sorted_d2.begin() + static_cast<std::ptrdiff_t>(P / 2), sorted_d2.end());
+        const double median_d2 = sorted_d2[P / 2];
+        std::vector<double> blends = {0.0};
+        if (g.joint_count > 0 && median_d2 > 0.0)
+          for (double fraction : kBindBlendFractions) blends.push_back(fraction * median_d2);
+        std::vector<double> weight(blends.size() * P), blend_error(blends.size(), 0.0);
+        for (std::size_t b = 0; b < blends.size(); ++b)
+          for (std::size_t p = 0; p < P; ++p)
+            weight[b * P + p] = blends[b] == 0.0 ? 1.0 : std::min(1.0, d2[p] / blends[b]);
+        std::vector<double> t;
+        for (std::uint32_t i = 0; i < g.count; ++i) {
+          const std::uint32_t v = vertices[i];
+          fit_vertex(model, all, v, t);
+          // As halves (the ridge keeps them far inside the half range; saturated in case it does not).
+          for (std::size_t u = 0; u < U; ++u) {
+            const auto m = static_cast<std::uint32_t>(u / C), c = static_cast<std::uint32_t>(u % C);
+            result.coefficients[g.coefficient_index(m, c, i) - g.coefficient_offset] =
+                glm::packHalf1x16(static_cast<float>(std::clamp(t[u], -65504.0, 65504.0)));
+          }
+          const double bind = static_cast<double>(training.bind_ao[v]);
+          for (std::size_t p = 0; p < P; ++p) {
+            const double a = std::clamp(model.solver->predict(p, t), 0.0, 1.0);
+            const double y = static_cast<double>(training.ao[p * V + v]);
+            for (std::size_t b = 0; b < blends.size(); ++b) {
+              const double err = bind + weight[b * P + p] * (a - bind) - y;
+              blend_error[b] += err * err;
+            }
           }
         }
+        // The blend with the least training error (the smallest on ties).
+        std::size_t best = 0;
+        for (std::size_t b = 1; b < blends.size(); ++b)
+          if (blend_error[b] < blend_error[best]) best = b;
+        g.bind_blend = static_cast<float>(blends[best]);
+        group_error[gi] = blend_error[best];
       }
-      // The blend with the least training error (the smallest on ties).
-      std::size_t best = 0;
-      for (std::size_t b = 1; b < blends.size(); ++b)
-        if (blend_error[b] < blend_error[best]) best = b;
-      g.bind_blend = static_cast<float>(blends[best]);
-      group_error[gi] = blend_error[best];
+    }));
+    if (choosing) {
+      // The strength of least summed validation error (the strongest on ties).
+      double least = std::numeric_limits<double>::infinity();
+      for (std::size_t s = 0; s < strengths.size(); ++s) {
+        double sum = 0.0;
+        for (std::size_t gi = 0; gi < data.groups.size(); ++gi)
+          if (!validation[gi].empty()) sum += validation[gi][chosen_count(gi, s) * strengths.size() + s];
+        if (sum < least) {
+          least = sum;
+          strength = s;
+        }
+      }
     }
-  }));
+  }
   // Assemble the sets' coefficients and centres in set order.
+  data.lambda = static_cast<float>(strengths[strength]);
   data.clusters = 1;
   for (std::size_t gi = 0; gi < data.groups.size(); ++gi) {
     PoseAOGroup& g = data.groups[gi];
@@ -1215,7 +1370,9 @@ Result<std::shared_ptr<PoseBake>> PoseBake::prepare(World& world, Entity e, cons
       if (warnings) warnings->push_back(message);
     }
     std::string roles;
-    if (space.roles > 0) roles = ", " + std::to_string(space.roles) + " joints by role";
+    if (space.roles > 0)
+      roles = ", " + std::to_string(space.roles) + " joints by role (" + std::to_string(space.anatomical) +
+              " swing and twist about the bone, the others +-their role's limit per axis)";
     if (space.limited > 0) roles += ", " + std::to_string(space.limited) + " by joint_limits";
     log(LogLevel::Info, context + ": pose space from " + to_string(space.source) + ": " + figures + " (" +
                             joint_name(space.widest) + ")" + roles);
@@ -1424,8 +1581,14 @@ Result<std::vector<BakeChunk>> finish_all(std::span<const BakedGroup> groups, Jo
   return chunks;
 }
 
+// The rules that turn the settings into a bake (the roles' motions in pose_space, the ridge
+// strengths the fit tries), in the inputs' hash so that a bake of an earlier rule reads as out of
+// date.
+constexpr std::uint32_t kPoseAORule = 2;
+
 void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
   h.add(kPoseAOChunkVersion);
+  h.add(kPoseAORule);
   for (Entity e : pose_ao_meshes(world)) {
     const SkinnedPoseAO& s = world.get<SkinnedPoseAO>(e);
     h.add(std::string_view(entity_key(world, e)));

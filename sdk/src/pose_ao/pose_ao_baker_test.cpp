@@ -254,8 +254,15 @@ TEST(PoseAOExtremes, ADegeneratePoseSpaceIsWidenedWithAWarningOrRefused) {
   const PoseSpace by_role = pose_space(held, s);
   EXPECT_EQ(by_role.source, PoseSpace::Source::DegenerateClipsRoles);
   EXPECT_EQ(by_role.roles, held.joint_count());
-  for (std::size_t j = 0; j < held.joint_count(); ++j)
-    EXPECT_EQ(by_role.ranges[j].max, glm::vec3(role_limit(joint_role(held.names[j]), 0.0f))) << held.names[j];
+  // The spine, thighs and shins get their roles' motions about their bones; the hips (no motion)
+  // and the arms (a bone 46 degrees off every axis of its frame) +-their role's limit on each axis.
+  EXPECT_EQ(by_role.anatomical, 5u);
+  for (std::size_t j = 0; j < held.joint_count(); ++j) {
+    const JointRole role = joint_role(held.names[j]);
+    const glm::vec3 per_axis(role_limit(role, 0.0f));
+    if (role == JointRole::Hips || role == JointRole::UpperArm) EXPECT_EQ(by_role.ranges[j].max, per_axis) << held.names[j];
+    else EXPECT_NE(by_role.ranges[j].max, per_axis) << held.names[j];
+  }
   // Asked for the clips alone: keys that never change rotate no joint, so every joint gets
   // +-default_range.
   s.pose_source = SkinnedPoseAO::PoseSource::Clips;
@@ -312,7 +319,7 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
   const PoseSpace space = pose_space(*rig, SkinnedPoseAO{});
   EXPECT_EQ(space.source, PoseSpace::Source::DegenerateClipsRoles);
   EXPECT_EQ(space.roles, 65u);
-  // End joints stay fixed, the forearm gets the forearm's limit, a finger the finger's.
+  // End joints stay fixed; the arms and fingers lie along x in the T-pose, so x is their twist.
   const auto range_of = [&](std::string_view name) {
     for (std::size_t j = 0; j < rig->joint_count(); ++j)
       if (rig->names[j] == name) return space.ranges[j].max.x;
@@ -320,9 +327,12 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
     return -1.0f;
   };
   EXPECT_EQ(range_of("mixamorig:HeadTop_End"), 0.0f);
-  EXPECT_EQ(range_of("mixamorig:LeftForeArm"), role_limit(JointRole::Forearm, 0.5f));
-  EXPECT_EQ(range_of("mixamorig:RightHandIndex2"), role_limit(JointRole::Finger, 0.5f));
+  EXPECT_EQ(range_of("mixamorig:LeftForeArm"), role_motion(JointRole::Forearm)->twist);
+  EXPECT_EQ(range_of("mixamorig:RightHandIndex2"), role_motion(JointRole::Finger)->twist);
   EXPECT_EQ(space.moving, 62u);  // all but the three end joints
+  // Every joint of a role with a motion gets it about its bone, but the hips (no motion) and the
+  // thumbs' four joints each, which point 41 degrees off every axis of their frames.
+  EXPECT_EQ(space.anatomical, 62u - 1u - 8u);
 
   // Limits by name go over the roles; a pattern that matches nothing is named in a warning.
   SkinnedPoseAO limited;
@@ -337,13 +347,60 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
   };
   EXPECT_EQ(limited_range("mixamorig:LeftForeArm"), 1.5f);
   EXPECT_EQ(limited_range("mixamorig:RightHandIndex2"), 0.0f);
-  EXPECT_EQ(limited_range("mixamorig:RightForeArm"), role_limit(JointRole::Forearm, 0.5f));
+  EXPECT_EQ(limited_range("mixamorig:RightForeArm"), role_motion(JointRole::Forearm)->twist);
   EXPECT_EQ(by_name.limited, 1u + 2u * 21u);  // the forearm, both hands and their 20 finger joints each
   EXPECT_EQ(by_name.unmatched_limits, std::vector<std::string>{"nosuch"});
   limited.joint_limits = "Spine=fast";
   auto refused = validate_pose_ao(limited, rig->joint_count(), "humanoid");
   ASSERT_FALSE(refused);
   EXPECT_NE(refused.error().message.find("'Spine=fast'"), std::string::npos) << refused.error().message;
+}
+
+// The roles' ranges are placed on each joint's bone in the body's frame (up from the hips to the
+// head, left from the right-side joints to the left-side ones; the humanoid faces +Z, its left is
+// +X, no joint is rotated in the bind pose): in every random pose the knees bend backward and the
+// elbows forward (to 0.01, what a twist and a side swing of a few hundredths give together: the
+// range is a box of rotation vectors), and a thigh crosses the midline by far less than it can
+// move away from it (0.2 rad asked, up to 0.45 with the twist and the flexion).
+TEST(PoseAOProductionRig, TheRolesBendKneesBackwardAndElbowsForward) {
+  Humanoid h;
+  auto rig = make_pose_rig(*h.world, h.body, "humanoid").value();
+  const PoseSpace space = pose_space(rig, SkinnedPoseAO{});
+  const auto joint = [&](std::string_view name) {
+    for (std::size_t j = 0; j < rig.joint_count(); ++j)
+      if (rig.names[j] == "mixamorig:" + std::string(name)) return j;
+    ADD_FAILURE() << name;
+    return std::size_t{0};
+  };
+  // The bone of joint j (to its child `child`) turned by the pose's rotation of j.
+  const auto tip = [&](const Pose& pose, std::string_view name, std::string_view child) {
+    const std::size_t j = joint(name);
+    const glm::vec3 bone = glm::normalize(rig.bind_positions[joint(child)] - rig.bind_positions[j]);
+    return std::pair{bone, pose[j].rotation * bone};
+  };
+  int bent_knees = 0, bent_elbows = 0;
+  float most_medial = 0.0f, most_lateral = 0.0f;
+  for (std::uint64_t p = 0; p < 200; ++p) {
+    const Pose pose = random_pose(rig, space.ranges, 11, p);
+    for (const char* side : {"Left", "Right"}) {
+      const std::string s = side;
+      const auto [shin, shin_now] = tip(pose, s + "Leg", s + "Foot");
+      EXPECT_LE(shin_now.z, 0.01f) << side << " knee, pose " << p;  // backward
+      bent_knees += shin_now.z < -0.3f;
+      const auto [forearm, forearm_now] = tip(pose, s + "ForeArm", s + "Hand");
+      EXPECT_GE(forearm_now.z, -0.01f) << side << " elbow, pose " << p;  // forward
+      bent_elbows += forearm_now.z > 0.3f;
+      const float medial = s == "Left" ? -1.0f : 1.0f;
+      const auto [thigh, thigh_now] = tip(pose, s + "UpLeg", s + "Leg");
+      EXPECT_LE(medial * thigh_now.x, 0.45f) << side << " hip, pose " << p;
+      most_medial = std::max(most_medial, medial * thigh_now.x);
+      most_lateral = std::max(most_lateral, -medial * thigh_now.x);
+    }
+  }
+  EXPECT_GT(most_lateral, most_medial + 0.1f);
+  // And they do bend: the ranges are not empty.
+  EXPECT_GT(bent_knees, 100);
+  EXPECT_GT(bent_elbows, 100);
 }
 
 // Mean of `ao` over the body's upward-facing vertices under the left sleeve (the gear's tube of

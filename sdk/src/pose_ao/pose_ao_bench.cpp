@@ -17,7 +17,8 @@
 // evaluate_pose_ao per frame on one thread, over the vertices (the best of many blocks of 10
 // frames, each frame another random pose, so that the blends near cluster boundaries are paid as
 // often as poses fall there). clusters: the most any joint set of the model uses (the fit chooses
-// per set, up to the count asked for).
+// per set, up to the count asked for). lambda: the strongest ridge the fit tries (it takes lambda,
+// a tenth or a hundredth of it for the character, by validation).
 // Goals (issue 19): the default model's RMSE <= 0.5x the better baseline on random and on clip
 // poses alike, on CesiumMan and the humanoid, never worse than bind-pose AO; <= 5 ns per vertex on
 // both (the walker's cost is printed beside it).
@@ -318,7 +319,8 @@ Result<Report> run(const Options& options) {
             name + " (" + std::to_string(V) + " vertices, " + std::to_string(rig->joint_count()) + " joints), " +
             std::to_string(total) + " poses: held-out RMSE random/clip: clustered " + fmt(c_r.rmse, 3) + "/" +
             fmt(c_w.rmse, 3) + " (" + std::to_string(clustered_vertices) + " vertices in joint sets of 2-" +
-            std::to_string(d.clusters) + " clusters), linear " + fmt(l_r.rmse, 3) + "/" + fmt(l_w.rmse, 3) +
+            std::to_string(d.clusters) + " clusters, ridge strength " + fmt(d.lambda, 2) + "), linear " +
+            fmt(l_r.rmse, 3) + "/" + fmt(l_w.rmse, 3) + " (strength " + fmt(dl.lambda, 2) + ")" +
             ", pose average " + fmt(mean_r.rmse, 3) + "/" + fmt(mean_w.rmse, 3) + ", bind pose " + fmt(bind_r.rmse, 3) +
             "/" + fmt(bind_w.rmse, 3) + "; against the better baseline: clustered " + fmt(c_r.rmse / better_r, 3) + "/" +
             fmt(c_w.rmse / better_w, 3) + ", linear " + fmt(l_r.rmse / better_r, 3) + "/" + fmt(l_w.rmse / better_w, 3) +

@@ -1,5 +1,5 @@
-// Humanoid joint roles from joint names, and the default rotation limit of each role: the pose
-// space of a character whose file carries no usable clip (pose_ao_baker.h, pose_space).
+// Humanoid joint roles and sides from joint names, and each role's range of motion: the pose space
+// of a character whose file carries no usable clip (pose_ao_baker.h, pose_space).
 //
 // joint_role recognises the naming conventions of the common character pipelines, e.g.
 //   Mixamo        "mixamorig:LeftForeArm", "mixamorig:RightHandIndex2", "mixamorig:LeftUpLeg"
@@ -12,6 +12,8 @@
 // matches nothing is Unknown.
 #pragma once
 
+#include <array>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -44,12 +46,43 @@ JointRole joint_role(std::string_view name);
 // "forearm", "finger", ... ("unknown" for Unknown).
 const char* to_string(JointRole role);
 
-// The default limit of a role: the joint turns within +-limit radians about each axis of its
-// bind frame (the axes of a bend are not known from a name, so the limit is per axis). Human
+// The per-axis limit of a role, for a joint whose role_motion cannot be placed on its bone
+// (pose_space): the joint turns within +-limit radians about each axis of its bind frame. Human
 // ranges of motion, conservative: forearm 1.0, upper arm 0.9, calf 0.9, thigh 0.7, hand 0.6,
 // finger 0.5, head 0.4, foot 0.4, neck 0.35, toe 0.3, spine 0.25, clavicle 0.25, hips 0.3; End 0;
 // Unknown returns `unknown`.
 float role_limit(JointRole role, float unknown);
+
+// The side of the body a joint is on, from the side words of its name ("Left", "L", "_l", ".R",
+// "Bip01 R ..."): None for a name without one (the midline). Cost: O(name length). Thread-safe.
+enum class JointSide : unsigned char { None, Left, Right };
+JointSide joint_side(std::string_view name);
+
+// A direction of the character's body in its bind pose, found from its skeleton
+// (pose_ao_baker.h, pose_space).
+enum class BodyDirection : unsigned char {
+  Forward,  // where the character faces
+  Up,       // from the hips to the head
+  Left,     // the character's left
+  Medial,   // towards the body's midline: Left for a joint on the right side
+};
+
+// A role's anatomical range of motion about its bone (the joint to its children): a twist within
+// +-twist about the bone, and two swings, each an angle in [lo, hi] about the axis bone x towards,
+// so that a positive swing moves the bone's tip towards `towards`. Human ranges, conservative:
+// the knee bends backward only (Forward, [-1.4, 0]), the elbow forward only, the hip flexes 1.2
+// rad forward and extends 0.5 back, abducts 0.6 and crosses the midline by 0.2. Where a role
+// bends one way only, limits per axis (role_limit) would bend it both ways and through the body.
+struct RoleMotion {
+  struct Swing {
+    BodyDirection towards = BodyDirection::Forward;
+    float lo = 0.0f, hi = 0.0f;
+  };
+  float twist = 0.0f;
+  std::array<Swing, 2> swings{};
+};
+// The motion of `role`; nullopt for Unknown, Hips (the root turns the whole body) and End.
+std::optional<RoleMotion> role_motion(JointRole role);
 
 // A limit set by name (SkinnedPoseAO::joint_limits): the joints whose names match `pattern` turn
 // within +-limit radians about each axis.

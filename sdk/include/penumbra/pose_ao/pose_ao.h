@@ -80,6 +80,8 @@ struct SkinnedPoseAO {
   std::uint32_t locality = 4;
   // Ridge strength per pose: t_v minimises sum_p (t . theta_p - a_p)^2 + lambda P |t_1..|^2 over the
   // P poses (the bias t_0 is not regularised; with clusters, P is each cluster's weight in the poses).
+  // The strongest the fit tries: it takes lambda, lambda / 10 or lambda / 100 for the character,
+  // whichever fits poses held out of the fit best (0 tries 0 alone).
   float lambda = 1e-3f;
   // Local linear models per joint set, at most (1..kPoseAOMaxClusters; see the top of this file):
   // 1 is the thesis' single linear model. The bake uses fewer where the poses are too few for them
@@ -91,8 +93,9 @@ struct SkinnedPoseAO {
   //   Auto     the clips when they turn some joint (kPoseMinJointRange); else the joints' roles
   //            when their names give any (joint_roles.h); else +-default_range on every joint.
   //   Clips    the clips (clips that barely move: +-default_range on the joints they animate).
-  //   Roles    the joints' roles by name, whatever the clips hold: each joint within
-  //            +-role_limit(role) on each axis (+-default_range for a joint of no known role).
+  //   Roles    the joints' roles by name, whatever the clips hold: each joint within its role's
+  //            motion about its bone (role_motion: a knee bends backward only), or +-role_limit(role)
+  //            on each axis where that cannot be placed (+-default_range for no known role).
   //   Uniform  +-default_range on every joint.
   enum class PoseSource : std::uint8_t { Auto, Clips, Roles, Uniform };
   PoseSource pose_source = PoseSource::Auto;
@@ -213,7 +216,7 @@ struct PoseAOData {
   std::uint32_t locality = 0;          // < requested when there were fewer poses than coefficients
   std::uint32_t requested_clusters = 1;
   std::uint32_t clusters = 1;          // the most of any joint set (< requested: too few poses)
-  float lambda = 0.0f;
+  float lambda = 0.0f;                 // the ridge strength the fit chose (SkinnedPoseAO::lambda)
   float training_rmse = 0.0f;          // of the clamped model over the reference poses
   PoseSpaceSource pose_space = PoseSpaceSource::Default;  // where the random poses' ranges came from
   std::uint32_t moving_joints = 0;     // joints whose range exceeds kPoseMinJointRange (pose_ao_baker.h)

@@ -68,6 +68,8 @@ struct PoseSpace {
   std::vector<JointRange> ranges;  // per skin joint
   std::size_t moving = 0;          // joints wider than kPoseMinJointRange
   std::size_t roles = 0;           // joints whose range came from a known role (Source::Roles)
+  std::size_t anatomical = 0;      // of those, joints given their role's motion about the bone
+                                   // (role_motion); the others turn +-role_limit on each axis
   std::size_t limited = 0;         // joints whose range joint_limits set
   std::vector<std::string> unmatched_limits;  // joint_limits patterns that match no joint
   std::size_t widest = 0;          // the joint of the widest range (any axis), and that width
