@@ -1,6 +1,7 @@
 // Joint roles by name (joint_roles.h).
 #include "penumbra/pose_ao/joint_roles.h"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -103,6 +104,58 @@ float role_limit(JointRole role, float unknown) {
   return unknown;
 }
 
+void assign_chain_roles(std::span<const std::int32_t> parents, std::span<JointRole> roles) {
+  const std::size_t J = parents.size();
+  std::vector<std::vector<std::size_t>> children(J);
+  for (std::size_t j = 0; j < J; ++j) {
+    const auto p = static_cast<std::size_t>(parents[j]);
+    if (parents[j] >= 0 && p < J) children[p].push_back(j);
+  }
+  const std::vector<JointRole> named(roles.begin(), roles.end());
+  for (std::size_t start = 0; start < J; ++start) {
+    const JointRole role = named[start];
+    if (role != JointRole::UpperArm && role != JointRole::Calf) continue;
+    // Only from a chain's start.
+    if (parents[start] >= 0 && named[static_cast<std::size_t>(parents[start])] == role) continue;
+    const bool arm = role == JointRole::UpperArm;
+    using R = JointRole;
+    const std::array<R, 4> order =
+        arm ? std::array{R::UpperArm, R::Forearm, R::Hand, R::Finger} : std::array{R::Thigh, R::Calf, R::Foot, R::Toe};
+    // The chain, whether it branches, and whether the limb names its other parts.
+    std::vector<std::size_t> chain{start};
+    bool branched = false;
+    for (;;) {
+      std::size_t next = J, count = 0;
+      for (const std::size_t c : children[chain.back()])
+        if (named[c] == role) {
+          next = c;
+          ++count;
+        }
+      branched = count > 1;
+      if (count != 1 || chain.size() == J) break;
+      chain.push_back(next);
+    }
+    const auto other_part = [&](std::size_t j) {
+      return named[j] != role && std::find(order.begin(), order.end(), named[j]) != order.end();
+    };
+    bool specific = false;
+    std::int32_t a = parents[start];
+    for (std::size_t steps = 0; a >= 0 && static_cast<std::size_t>(a) < J && steps < J && !specific; ++steps) {
+      specific = other_part(static_cast<std::size_t>(a));
+      a = parents[static_cast<std::size_t>(a)];
+    }
+    std::vector<std::size_t> stack{start};
+    for (std::size_t visited = 0; !stack.empty() && !specific && visited <= J; ++visited) {
+      const std::size_t j = stack.back();
+      stack.pop_back();
+      specific = other_part(j);
+      stack.insert(stack.end(), children[j].begin(), children[j].end());
+    }
+    if (chain.size() < 2 || branched || specific) continue;
+    for (std::size_t k = 0; k < chain.size(); ++k) roles[chain[k]] = order[std::min<std::size_t>(k, order.size() - 1)];
+  }
+}
+
 JointSide joint_side(std::string_view name) {
   const std::string w = words(name);
   if (has(w, " left ") || has(w, " l ")) return JointSide::Left;
@@ -121,8 +174,8 @@ std::optional<RoleMotion> role_motion(JointRole role) {
     case JointRole::Neck: return RoleMotion{0.5f, {{{D::Forward, -0.3f, 0.4f}, {D::Left, -0.3f, 0.3f}}}};
     case JointRole::Head: return RoleMotion{0.4f, {{{D::Forward, -0.3f, 0.35f}, {D::Left, -0.25f, 0.25f}}}};
     case JointRole::Clavicle: return RoleMotion{0.1f, {{{D::Up, -0.15f, 0.3f}, {D::Forward, -0.25f, 0.25f}}}};
-    // The arm lowers by up to 1.2 rad from a T-pose (pose_space stops every swing downward 0.35 rad
-    // short of straight down) and raises 0.5.
+    // The arm lowers by up to 1.2 rad from a T-pose (pose_space stops it 0.35 rad short of
+    // hanging straight down) and raises 0.5.
     case JointRole::UpperArm: return RoleMotion{0.7f, {{{D::Forward, -0.6f, 1.2f}, {D::Up, -1.2f, 0.5f}}}};
     case JointRole::Forearm: return RoleMotion{0.8f, {{{D::Forward, 0.0f, 1.4f}, {D::Up, -0.05f, 0.05f}}}};
     // Hands and fingers: which way a palm faces is not known from the skeleton, so their bends are

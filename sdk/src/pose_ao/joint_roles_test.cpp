@@ -58,6 +58,29 @@ TEST(JointRoles, LimitsAreHumanAndEndJointsStayFixed) {
   }
 }
 
+TEST(JointRoles, ALimbNamedAsOneChainTakesItsPartsInOrder) {
+  // 0 spine; 1-4 "leg_1".."leg_4" (all Calf by name); 5-8 "arm_1".."arm_4" (all UpperArm), arm_2
+  // with two children of the role (7, 8: the chain branches, so it is left as named); 9-11 an Unreal
+  // arm, upperarm_l (9) with lowerarm_l (10) and upperarm_twist_01_l (11): left as named.
+  const std::vector<std::int32_t> parents = {-1, 0, 1, 2, 3, 0, 5, 6, 6, 0, 9, 9};
+  using R = JointRole;
+  std::vector<R> roles = {R::Spine,    R::Calf,     R::Calf,     R::Calf,     R::Calf,    R::UpperArm,
+                          R::UpperArm, R::UpperArm, R::UpperArm, R::UpperArm, R::Forearm, R::UpperArm};
+  assign_chain_roles(parents, roles);
+  const std::vector<R> expected = {R::Spine,    R::Thigh,    R::Calf,     R::Foot,     R::Toe,     R::UpperArm,
+                                   R::UpperArm, R::UpperArm, R::UpperArm, R::UpperArm, R::Forearm, R::UpperArm};
+  for (std::size_t j = 0; j < roles.size(); ++j) EXPECT_EQ(roles[j], expected[j]) << j << ": " << to_string(roles[j]);
+  // Two arms off the spine, each a chain of one: nothing changes.
+  std::vector<R> branch = {R::Spine, R::UpperArm, R::UpperArm};
+  assign_chain_roles(std::vector<std::int32_t>{-1, 0, 0}, branch);
+  EXPECT_EQ(branch[1], JointRole::UpperArm);
+  EXPECT_EQ(branch[2], JointRole::UpperArm);
+  // A cycle (not a hierarchy) stops the walks.
+  std::vector<R> loop = {R::Calf, R::Calf};
+  assign_chain_roles(std::vector<std::int32_t>{1, 0}, loop);
+  EXPECT_EQ(loop, (std::vector<R>{R::Calf, R::Calf}));
+}
+
 TEST(JointRoles, SidesComeFromTheSideWordsOfEachConvention) {
   const std::pair<const char*, JointSide> cases[] = {
       {"mixamorig:LeftForeArm", JointSide::Left}, {"mixamorig:RightHandIndex2", JointSide::Right},
@@ -88,7 +111,8 @@ TEST(JointRoles, KneesAndElbowsBendOneWayAndEveryMotionIsHuman) {
   EXPECT_GT(hip.swings[0].hi, -hip.swings[0].lo);
   EXPECT_EQ(hip.swings[1].towards, BodyDirection::Medial);
   EXPECT_LT(hip.swings[1].hi, -hip.swings[1].lo);
-  for (const JointRole r : {JointRole::Unknown, JointRole::Hips, JointRole::End}) EXPECT_FALSE(role_motion(r)) << to_string(r);
+  for (const JointRole r : {JointRole::Unknown, JointRole::Hips, JointRole::End})
+    EXPECT_FALSE(role_motion(r)) << to_string(r);
   for (int r = 0; r <= static_cast<int>(JointRole::End); ++r) {
     const std::optional<RoleMotion> m = role_motion(static_cast<JointRole>(r));
     if (!m) continue;

@@ -316,9 +316,9 @@ std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std
       }
       used[static_cast<std::size_t>(k)] = true;
       float lo = s.lo;
-      // A swing downward stops 0.35 rad short of straight down (an arm hangs, it does not enter
-      // the body): the bone's angle to straight down bounds it.
-      if (s.towards == BodyDirection::Up)
+      // An upper arm lowers to 0.35 rad short of straight down (it hangs, it does not enter the
+      // body): the bone's angle to straight down bounds its downward swing.
+      if (s.towards == BodyDirection::Up && roles[j] == JointRole::UpperArm)
         lo = std::max(lo, std::min(0.0f, 0.35f - std::acos(std::clamp(-glm::dot(bone, up), -1.0f, 1.0f))));
       range.min[k] = sign > 0.0f ? lo : -s.hi;
       range.max[k] = sign > 0.0f ? s.hi : -lo;
@@ -338,6 +338,7 @@ PoseSpace pose_space(const PoseRig& rig, const SkinnedPoseAO& settings) {
   // Ranges by role (joint_roles.h); joints of no known role get +-default_range.
   std::vector<JointRole> roles(J, JointRole::Unknown);
   for (std::size_t j = 0; j < J && j < rig.names.size(); ++j) roles[j] = joint_role(rig.names[j]);
+  assign_chain_roles(rig.parents, roles);
   const std::size_t known_roles =
       J - static_cast<std::size_t>(std::count(roles.begin(), roles.end(), JointRole::Unknown));
   const auto by_role = [&] {

@@ -116,6 +116,57 @@ TEST(PoseAORig, CesiumManMatchesTheAnimationSystem) {
   EXPECT_GT(animated, 10u);
 }
 
+// CesiumMan's joints are named per limb ("leg_joint_L_1" .. "_5", "Skeleton_arm_joint_L__4_" ..
+// "__2_"): each limb's chain takes its parts in order, and its pose space by role places the parts'
+// motions on their bones.
+TEST(PoseAORig, CesiumMansLimbChainsTakeTheirPartsInOrder) {
+  const std::string path = std::string(checkout::kSharedDir) + "/assets/CesiumMan.glb";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (the shared assets are not checked out)";
+  World world;
+  ASSERT_TRUE(load_scene(world, path));
+  update_world_transforms(world);
+  update_skin_poses(world);
+  Entity mesh;
+  world.view<Skin, Mesh>().each([&](Entity e, Skin&, Mesh&) { mesh = e; });
+  auto rig = make_pose_rig(world, mesh, "CesiumMan").value();
+  std::vector<JointRole> roles;
+  for (const std::string& n : rig.names) roles.push_back(joint_role(n));
+  assign_chain_roles(rig.parents, roles);
+  const auto role_of = [&](std::string_view name) {
+    for (std::size_t j = 0; j < rig.joint_count(); ++j)
+      if (rig.names[j] == name) return roles[j];
+    ADD_FAILURE() << name;
+    return JointRole::Unknown;
+  };
+  EXPECT_EQ(role_of("leg_joint_L_1"), JointRole::Thigh);
+  EXPECT_EQ(role_of("leg_joint_R_2"), JointRole::Calf);
+  EXPECT_EQ(role_of("leg_joint_L_3"), JointRole::Foot);
+  EXPECT_EQ(role_of("leg_joint_R_5"), JointRole::Toe);
+  EXPECT_EQ(role_of("Skeleton_arm_joint_L__4_"), JointRole::UpperArm);
+  EXPECT_EQ(role_of("Skeleton_arm_joint_R__2_"), JointRole::Forearm);
+  EXPECT_EQ(role_of("Skeleton_arm_joint_L__2_"), JointRole::Hand);
+  EXPECT_EQ(role_of("Skeleton_neck_joint_1"), JointRole::Neck);
+  SkinnedPoseAO s;
+  s.pose_source = SkinnedPoseAO::PoseSource::Roles;
+  const PoseSpace space = pose_space(rig, s);
+  EXPECT_EQ(space.source, PoseSpace::Source::Roles);
+  EXPECT_EQ(space.roles, 19u);
+  // Placed on their bones: all but the forearms, hands, the root's spine joint and the left thigh,
+  // whose bind frames lie more than 37 degrees off their bones (they turn +-their role's limit
+  // about each axis). Each knee bends one way, 1.4 rad.
+  EXPECT_EQ(space.anatomical, 13u);
+  for (const char* knee : {"leg_joint_L_2", "leg_joint_R_2"}) {
+    std::size_t j = 0;
+    while (rig.names[j] != knee) ++j;
+    int one_way = 0;
+    for (int a = 0; a < 3; ++a) {
+      const float lo = space.ranges[j].min[a], hi = space.ranges[j].max[a];
+      one_way += (lo == 0.0f && hi == 1.4f) || (lo == -1.4f && hi == 0.0f);
+    }
+    EXPECT_EQ(one_way, 1) << knee;
+  }
+}
+
 TEST(PoseAOBake, BitIdenticalAtOneAndTwoThreads) {
   Walker w;
   const SkinnedPoseAO s = quick();
@@ -260,8 +311,10 @@ TEST(PoseAOExtremes, ADegeneratePoseSpaceIsWidenedWithAWarningOrRefused) {
   for (std::size_t j = 0; j < held.joint_count(); ++j) {
     const JointRole role = joint_role(held.names[j]);
     const glm::vec3 per_axis(role_limit(role, 0.0f));
-    if (role == JointRole::Hips || role == JointRole::UpperArm) EXPECT_EQ(by_role.ranges[j].max, per_axis) << held.names[j];
-    else EXPECT_NE(by_role.ranges[j].max, per_axis) << held.names[j];
+    if (role == JointRole::Hips || role == JointRole::UpperArm)
+      EXPECT_EQ(by_role.ranges[j].max, per_axis) << held.names[j];
+    else
+      EXPECT_NE(by_role.ranges[j].max, per_axis) << held.names[j];
   }
   // Asked for the clips alone: keys that never change rotate no joint, so every joint gets
   // +-default_range.
