@@ -87,15 +87,28 @@ TEST(PoseAORig, MatchesTheAnimationSystem) {
   EXPECT_EQ(ranges[0].max, glm::vec3(0.0f));
 }
 
-TEST(PoseAORig, CesiumManMatchesTheAnimationSystem) {
+// The shared CesiumMan.glb ("" when the shared assets are not checked out).
+std::string cesium_man_path() {
   const std::string path = std::string(checkout::kSharedDir) + "/assets/CesiumMan.glb";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (the shared assets are not checked out)";
-  World world;
-  ASSERT_TRUE(load_scene(world, path));
+  return std::filesystem::exists(path) ? path : std::string();
+}
+
+// Loads `path` into `world`, transforms and skin poses updated; its (last) skinned mesh, null on
+// failure.
+Entity load_skinned(World& world, const std::string& path) {
+  if (!load_scene(world, path)) return Entity{};
   update_world_transforms(world);
   update_skin_poses(world);
   Entity mesh;
   world.view<Skin, Mesh>().each([&](Entity e, Skin&, Mesh&) { mesh = e; });
+  return mesh;
+}
+
+TEST(PoseAORig, CesiumManMatchesTheAnimationSystem) {
+  const std::string path = cesium_man_path();
+  if (path.empty()) GTEST_SKIP() << "CesiumMan.glb not found (the shared assets are not checked out)";
+  World world;
+  const Entity mesh = load_skinned(world, path);
   ASSERT_TRUE(mesh);
   auto rig = make_pose_rig(world, mesh, "CesiumMan");
   ASSERT_TRUE(rig) << rig.error().message;
@@ -120,14 +133,11 @@ TEST(PoseAORig, CesiumManMatchesTheAnimationSystem) {
 // "__2_"): each limb's chain takes its parts in order, and its pose space by role places the parts'
 // motions on their bones.
 TEST(PoseAORig, CesiumMansLimbChainsTakeTheirPartsInOrder) {
-  const std::string path = std::string(checkout::kSharedDir) + "/assets/CesiumMan.glb";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (the shared assets are not checked out)";
+  const std::string path = cesium_man_path();
+  if (path.empty()) GTEST_SKIP() << "CesiumMan.glb not found (the shared assets are not checked out)";
   World world;
-  ASSERT_TRUE(load_scene(world, path));
-  update_world_transforms(world);
-  update_skin_poses(world);
-  Entity mesh;
-  world.view<Skin, Mesh>().each([&](Entity e, Skin&, Mesh&) { mesh = e; });
+  const Entity mesh = load_skinned(world, path);
+  ASSERT_TRUE(mesh);
   auto rig = make_pose_rig(world, mesh, "CesiumMan").value();
   std::vector<JointRole> roles;
   for (const std::string& n : rig.names) roles.push_back(joint_role(n));
@@ -570,13 +580,11 @@ TEST(PoseAOProductionRig, TheOptionalGroundDarkensTheFeetAndNotTheHead) {
 // CesiumMan stores its vertices Z-up under a node that turns them Y-up: the ground follows world
 // up into the mesh's frame and lies under the feet.
 TEST(PoseAOProductionRig, TheGroundLiesUnderAZUpCharactersFeet) {
-  const std::string path = std::string(checkout::kSharedDir) + "/assets/CesiumMan.glb";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (the shared assets are not checked out)";
+  const std::string path = cesium_man_path();
+  if (path.empty()) GTEST_SKIP() << "CesiumMan.glb not found (the shared assets are not checked out)";
   World world;
-  ASSERT_TRUE(load_scene(world, path));
-  update_world_transforms(world);
-  Entity mesh;
-  world.view<Skin, Mesh>().each([&](Entity e, Skin&, Mesh&) { mesh = e; });
+  const Entity mesh = load_skinned(world, path);
+  ASSERT_TRUE(mesh);
   const MeshData& data = *world.get<Mesh>(mesh).data;
   const PoseAOOccluder ground = ground_occluder(data, {}, world.get<WorldTransform>(mesh).matrix);
   const glm::vec3 up = ground.mesh->normals[0];
