@@ -216,12 +216,12 @@ namespace {
 
 float width(const JointRange& r) { return std::max({r.max.x - r.min.x, r.max.y - r.min.y, r.max.z - r.min.z}); }
 
-// Each joint's range from its role's motion (role_motion) about its bone, in its bind frame; nullopt
-// where that cannot be placed: a role without a motion, no body frame (no head, neck or spine above
-// the hips, no joints named on both sides), a bone of no length, a medial swing on the midline, or a twist or
-// swing axis more than 37 degrees off every axis of the joint's frame (the range is a box in the
-// frame's axes). The body frame: up from the hips to the head (else the neck, else the spine),
-// left from the right-side joints to the left-side ones, forward = left x up.
+// Each joint's range from its role's motion (role_motion) about its bone, in its bind frame;
+// nullopt where that cannot be placed: a role without a motion, no body frame (no head, neck or
+// spine above the hips, no joints named on both sides), a bone of no length, a medial swing on the
+// midline, or a twist or swing axis more than 37 degrees off every axis of the joint's frame (the
+// range is a box in the frame's axes). The body frame: up from the hips to the head (else the
+// neck, else the spine), left from the right-side joints to the left-side ones, forward = left x up.
 std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std::span<const JointRole> roles) {
   const std::size_t J = rig.joint_count();
   std::vector<std::optional<JointRange>> out(J);

