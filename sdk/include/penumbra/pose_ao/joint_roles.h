@@ -48,13 +48,13 @@ JointRole joint_role(std::string_view name);
 // "forearm", "finger", ... ("unknown" for Unknown).
 const char* to_string(JointRole role);
 
-// Generic names give a whole limb one role ("leg_joint_L_1", "_2", "_3" are all Calf, "arm_joint_L_2"
-// all UpperArm). A chain of two or more joints of UpperArm (or Calf), each the only child of that
-// role of the one before (the last with none), with no joint of the limb's other roles among its ancestors and
-// descendants (an Unreal "upperarm_twist_01_l" sits beside a "lowerarm_l"), takes the limb's roles
-// in order: upper arm, forearm, hand, then finger; thigh, calf, foot, then toe. `parents[j]` is
-// joint j's parent (-1 for a root; a cycle stops the walks). Precondition: roles.size() ==
-// parents.size(). Cost: O(joints x (depth + limb joints)).
+// Generic names give a whole limb one role ("leg_joint_L_1", "_2", "_3" are all Calf,
+// "arm_joint_L_2" all UpperArm). A chain of two or more joints of UpperArm (or Calf), each the
+// only child of that role of the one before (the last with none), with no joint of the limb's
+// other roles among its ancestors and descendants (an Unreal "upperarm_twist_01_l" sits beside a
+// "lowerarm_l"), takes the limb's roles in order: upper arm, forearm, hand, then finger; thigh,
+// calf, foot, then toe. `parents[j]` is joint j's parent (-1 for a root; a cycle stops the walks).
+// Precondition: roles.size() == parents.size(). Cost: O(joints x (depth + limb joints)).
 void assign_chain_roles(std::span<const std::int32_t> parents, std::span<JointRole> roles);
 
 // The per-axis limit of a role, for a joint whose role_motion cannot be placed on its bone
