@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <mutex>
 #include <stdexcept>
@@ -43,6 +45,8 @@ std::string type_name_from_signature(std::string_view signature) {
 
 namespace detail {
 
+constexpr std::size_t kHugePage = std::size_t{2} << 20;
+
 ComponentId register_component(std::string_view signature) {
   ComponentRegistry& r = registry();
   std::lock_guard lock(r.mutex);
@@ -51,7 +55,6 @@ ComponentId register_component(std::string_view signature) {
 }
 
 void* allocate_block(std::size_t bytes, std::size_t align) {
-  constexpr std::size_t kHugePage = std::size_t{2} << 20;
   const bool huge = bytes >= kHugePage;
   if (huge) align = std::max(align, kHugePage);
   const std::size_t size = (bytes + align - 1) / align * align;  // aligned_alloc wants a multiple
@@ -65,25 +68,110 @@ void* allocate_block(std::size_t bytes, std::size_t align) {
 
 void BlockDeleter::operator()(void* block) const { std::free(block); }
 
-void ZeroedWords::grow(std::size_t count) {
-  if (count <= size_) return;
+void* zeroed_grow(void* data, std::size_t& bytes, std::size_t wanted) {
   // calloc: fresh pages from the OS come zeroed without being touched here.
-  std::unique_ptr<std::uint64_t[], Free> words(static_cast<std::uint64_t*>(std::calloc(count, sizeof(std::uint64_t))));
-  if (!words) throw std::bad_alloc();
-  if (size_ != 0) std::memcpy(words.get(), words_.get(), size_ * sizeof(std::uint64_t));
-  words_ = std::move(words);
-  size_ = count;
+  void* grown = std::calloc(wanted, 1);
+  if (!grown) throw std::bad_alloc();
+  if (data) {
+    std::memcpy(grown, data, bytes);
+    std::free(data);
+  }
+  bytes = wanted;
+  return grown;
 }
 
-void ZeroedWords::Free::operator()(std::uint64_t* p) const { std::free(p); }
+void zeroed_free(void* data) { std::free(data); }
+
+#ifdef __linux__
+namespace {
+
+// Regions released by pools, kept for the next pool as the heap keeps freed blocks: their
+// committed pages are already faulted in, so filling a new World does not pay for fresh memory
+// again. At most kCachedBytes committed in all; never destroyed, so pools of static Worlds may
+// release into it at exit.
+struct RegionCache {
+  struct Entry {
+    void* mapping;
+    std::size_t mapping_bytes;
+    std::byte* base;
+    std::size_t committed;
+  };
+  static constexpr std::size_t kCachedBytes = std::size_t{64} << 20;
+  std::mutex mutex;
+  std::vector<Entry> entries;
+  std::size_t committed = 0;
+};
+
+RegionCache& region_cache() {
+  static RegionCache* cache = new RegionCache;
+  return *cache;
+}
+
+}  // namespace
+#endif
+
+Region::~Region() {
+#ifdef __linux__
+  if (!mapping_) return;
+  RegionCache& cache = region_cache();
+  {
+    std::lock_guard lock(cache.mutex);
+    if (cache.committed + committed_ <= RegionCache::kCachedBytes) {
+      cache.entries.push_back({mapping_, mapping_bytes_, base_, committed_});
+      cache.committed += committed_;
+      return;
+    }
+  }
+  munmap(mapping_, mapping_bytes_);
+#endif
+}
+
+bool Region::reserve() {
+#ifdef __linux__
+  if (mapping_ || sizeof(void*) < 8) return false;
+  RegionCache& cache = region_cache();
+  {
+    std::lock_guard lock(cache.mutex);
+    if (!cache.entries.empty()) {
+      const RegionCache::Entry e = cache.entries.back();
+      cache.entries.pop_back();
+      cache.committed -= e.committed;
+      mapping_ = e.mapping;
+      mapping_bytes_ = e.mapping_bytes;
+      base_ = e.base;
+      committed_ = e.committed;
+      return true;
+    }
+  }
+  // PROT_NONE and MAP_NORESERVE: address space only, no commit charge until commit(). One huge
+  // page more than asked, to align the start.
+  const std::size_t size = kRegionBytes + kHugePage;
+  void* mapping = mmap(nullptr, size, PROT_NONE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+  if (mapping == MAP_FAILED) return false;
+  mapping_ = mapping;
+  mapping_bytes_ = size;
+  const auto start = reinterpret_cast<std::uintptr_t>(mapping);
+  base_ = reinterpret_cast<std::byte*>((start + kHugePage - 1) / kHugePage * kHugePage);
+  madvise(base_, kRegionBytes, MADV_HUGEPAGE);  // advice only
+  return true;
+#else
+  return false;
+#endif
+}
+
+void Region::commit(std::size_t bytes) {
+#ifdef __linux__
+  constexpr std::size_t kOsPage = 4096;
+  const std::size_t size = (bytes + kOsPage - 1) / kOsPage * kOsPage;
+  if (size <= committed_) return;
+  if (mprotect(base_ + committed_, size - committed_, PROT_READ | PROT_WRITE) != 0) throw std::bad_alloc();
+  committed_ = size;
+#else
+  (void)bytes;
+#endif
+}
 
 // --- PoolBase ----------------------------------------------------------------------------------
-
-void PoolBase::add_sparse_page(std::uint32_t page) {
-  if (page >= sparse_.size()) sparse_.resize(page + 1);
-  sparse_[page] = std::make_unique_for_overwrite<std::uint32_t[]>(kSparsePage);
-  std::fill_n(sparse_[page].get(), kSparsePage, kNone);
-}
 
 void PoolBase::grow() {
   // Blocks grow geometrically, as for the components (Pool::emplace).
@@ -103,7 +191,7 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
     // Leave a tombstone: positions the running iteration has not reached must not move.
     const std::uint32_t removed = index(pos);
     ++layout_version_;
-    sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
+    sparse_[removed] = 0;
     destroy_at(pos);
     index(pos) = kNone;
     ++tombstones_;
@@ -127,7 +215,7 @@ void PoolBase::compact() {
       relocate(i, out);
       index(out) = index(i);
       tick(out) = tick(i);
-      sparse_entry(index(out)) = out;
+      sparse_[index(out)] = out + 1;
     }
     ++out;
   }
@@ -141,8 +229,8 @@ void PoolBase::swap_slots(std::uint32_t a, std::uint32_t b) {
   swap_components(a, b);
   std::swap(index(a), index(b));
   std::swap(tick(a), tick(b));
-  sparse_entry(index(a)) = a;
-  sparse_entry(index(b)) = b;
+  sparse_[index(a)] = a + 1;
+  sparse_[index(b)] = b + 1;
 }
 
 void PoolBase::reserve(std::uint32_t count) {
@@ -302,7 +390,7 @@ detail::PoolBase& World::add_pool(ComponentId id, std::unique_ptr<detail::PoolBa
     // One more mask word per entity: spread the masks out.
     const std::uint32_t words = mask_words_ + 1;
     const std::size_t rows = masks_.size() / mask_words_;
-    detail::ZeroedWords masks;
+    detail::ZeroedArray<std::uint64_t> masks;
     masks.grow(rows * words);
     for (std::size_t i = 0; i < rows; ++i)
       for (std::uint32_t w = 0; w < mask_words_; ++w) masks[i * words + w] = masks_[i * mask_words_ + w];

@@ -1093,7 +1093,7 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
           std::vector<float> centers;
           std::optional<pose_ao_detail::RidgeSolver> solver;
         };
-        const auto make_model = [&](const std::vector<std::size_t>& rows, std::uint32_t clusters, double lambda,
+        const auto make_model = [&](const std::vector<std::size_t>& rows, std::uint32_t clusters, double ridge_strength,
                                     Model& m) {
           const std::size_t R = rows.size(), U = std::size_t{clusters} * C;
           m.clusters = clusters;
@@ -1122,7 +1122,7 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
           std::vector<double> ridge(U);
           for (std::uint32_t c = 0; c < clusters; ++c)
             for (std::size_t e = 0; e < C; ++e)  // the bias: none alone, a hundredth among clusters
-              ridge[c * C + e] = lambda * mass[c] * (e > 0 ? 1.0 : clusters > 1 ? 0.01 : 0.0);
+              ridge[c * C + e] = ridge_strength * mass[c] * (e > 0 ? 1.0 : clusters > 1 ? 0.01 : 0.0);
           m.solver.emplace(design, R, U, ridge);
         };
         // Vertex v's coefficients t under model m over `rows`. The model is clamped to [0, 1] where it

@@ -1,10 +1,13 @@
 // The entity-component-system World: entities with generation-checked handles, components in
 // sparse sets, views, groups, systems run in phases, change ticks, add/remove events and resources.
 //
-// Storage. Each component type T has one pool, a sparse set: a paged sparse array (entity index ->
-// dense position) and, per dense position, the entity index, the component and its change tick,
-// all three in pages of 1024 carved from geometrically growing blocks (adding a component never
-// moves existing ones, and consecutive pages are mostly adjacent, so iteration streams). Views
+// Storage. Each component type T has one pool, a sparse set: a sparse array (entity index ->
+// dense position; one flat array, zero until written, whose untouched pages cost nothing) and, per
+// dense position, the entity index, the component and its change tick, all three in pages of 1024
+// (adding a component never moves existing ones). The components' pages are committed in a
+// reserved address range (1 GiB per pool), so up to that size they are one array and a look-up is
+// sparse array, then component; beyond it, and the entities' and ticks' pages, come from
+// geometrically growing blocks, so consecutive pages are mostly adjacent and iteration streams. Views
 // walk the smallest pool and find the others' components at the same position when the pools
 // line up (entities given the same components in the same order), else through the sparse array.
 // Component ids are process-wide, but a World holds pools only for the types it uses and keeps a
@@ -166,8 +169,6 @@ namespace detail {
 inline constexpr std::uint32_t kNone = ~0u;             // no dense position / tombstone index
 inline constexpr std::uint32_t kPageShift = 10;          // 1024 components per page
 inline constexpr std::uint32_t kPageSize = 1u << kPageShift;
-inline constexpr std::uint32_t kSparseShift = 12;        // 4096 sparse entries per page
-inline constexpr std::uint32_t kSparsePage = 1u << kSparseShift;
 
 // Raw storage for pool pages, aligned to `align` (a power of two). Blocks of 2 MiB or more ask
 // the OS for transparent huge pages (Linux), which cuts the first-touch page faults that dominate
@@ -180,29 +181,83 @@ using Block = std::unique_ptr<void, BlockDeleter>;
 
 class GroupBase;
 
-// A growable array of 64-bit words that are zero until written; growth is one calloc (fresh
-// pages from the OS arrive zeroed, untouched) and one memcpy. Moving leaves the source empty.
-class ZeroedWords {
+// Zeroed memory for arrays indexed by entity: growth is one calloc (fresh pages from the OS arrive
+// zeroed, untouched) and one memcpy of the `bytes` held. Returns the new start, `bytes` set to
+// `wanted`; throws std::bad_alloc.
+void* zeroed_grow(void* data, std::size_t& bytes, std::size_t wanted);
+void zeroed_free(void* data);
+
+// A growable array of trivial words that are zero until written. Growth (doubling) moves it.
+// Moving the array leaves the source empty.
+template <class W>
+class ZeroedArray {
+  static_assert(std::is_trivially_copyable_v<W>);
+
  public:
-  ZeroedWords() = default;
-  ZeroedWords(ZeroedWords&& other) noexcept : words_(std::move(other.words_)), size_(std::exchange(other.size_, 0)) {}
-  ZeroedWords& operator=(ZeroedWords&& other) noexcept {
-    words_ = std::move(other.words_);
-    size_ = std::exchange(other.size_, 0);
+  ZeroedArray() = default;
+  ZeroedArray(ZeroedArray&& other) noexcept { *this = std::move(other); }
+  ZeroedArray& operator=(ZeroedArray&& other) noexcept {
+    if (this != &other) {
+      release();
+      words_ = std::exchange(other.words_, nullptr);
+      size_ = std::exchange(other.size_, 0);
+      bytes_ = std::exchange(other.bytes_, 0);
+    }
     return *this;
   }
+  ~ZeroedArray() { release(); }
   std::size_t size() const { return size_; }
-  std::uint64_t& operator[](std::size_t i) { return words_[i]; }
-  std::uint64_t operator[](std::size_t i) const { return words_[i]; }
-  // Grows to `count` words (no-op when not larger), the new ones zero. O(size()) copied.
-  void grow(std::size_t count);
+  W& operator[](std::size_t i) { return words_[i]; }
+  W operator[](std::size_t i) const { return words_[i]; }
+  // Grows to `count` words (no-op when not larger), the new ones zero. Amortised O(1) per word.
+  void grow(std::size_t count) {
+    if (count <= size_) return;
+    if (count * sizeof(W) > bytes_) {
+      const std::size_t wanted = std::max(count * sizeof(W), 2 * bytes_);
+      words_ = static_cast<W*>(zeroed_grow(words_, bytes_, wanted));
+    }
+    size_ = count;
+  }
 
  private:
-  struct Free {
-    void operator()(std::uint64_t* p) const;
-  };
-  std::unique_ptr<std::uint64_t[], Free> words_;
-  std::size_t size_ = 0;
+  void release() {
+    if (words_) zeroed_free(words_);
+    words_ = nullptr;
+    size_ = bytes_ = 0;
+  }
+  W* words_ = nullptr;
+  std::size_t size_ = 0;   // words in use; those past it up to bytes_ are zero too
+  std::size_t bytes_ = 0;  // the allocation
+};
+
+// Address space reserved per pool for its flat first components (see Region): 1 GiB, so a World
+// with a few thousand pools stays inside the address space sanitizers leave to the program.
+inline constexpr std::size_t kRegionBytes = std::size_t{1} << 30;
+
+// kRegionBytes of address space reserved for the first components of a pool and committed page by
+// page as it grows, so that they form one array and a look-up by dense position is one index
+// (Linux; where it is missing or refused, reserve() returns false and the pool's pages all come
+// from blocks). Reserving costs address space only, and the mapping asks for transparent huge
+// pages. A released region is kept for the next pool (its committed pages stay faulted in, up to
+// 64 MiB in the process), so it may hold earlier bytes: construct before reading.
+class Region {
+ public:
+  Region() = default;
+  Region(const Region&) = delete;
+  Region& operator=(const Region&) = delete;
+  ~Region();
+  // Reserves kRegionBytes, 2 MiB aligned. False (nothing reserved) when the platform or the OS refuses.
+  bool reserve();
+  // Makes the first `bytes` readable and writable. Precondition: bytes <= the reservation.
+  // Throws std::bad_alloc when the OS refuses.
+  void commit(std::size_t bytes);
+  std::byte* data() const { return base_; }
+
+ private:
+  void* mapping_ = nullptr;
+  std::size_t mapping_bytes_ = 0;
+  std::byte* base_ = nullptr;
+  std::size_t committed_ = 0;
 };
 
 // The type-independent half of a component pool (see the header comment for the layout). Dense
@@ -227,33 +282,30 @@ class PoolBase {
   std::uint64_t tick(std::uint32_t pos) const { return tick_pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
   const std::uint32_t* index_page(std::uint32_t page) const { return index_pages_[page]; }
 
-  // Dense position of the entity with this index, or kNone.
-  std::uint32_t find(std::uint32_t index) const {
-    const std::uint32_t page = index >> kSparseShift;
-    if (page >= sparse_.size() || !sparse_[page]) return kNone;
-    return sparse_[page][index & (kSparsePage - 1)];
-  }
+  // Dense position of the entity with this index, or kNone. (A sparse entry holds the position
+  // plus one, so the zero of fresh memory means none, and 0 - 1 is kNone.)
+  std::uint32_t find(std::uint32_t index) const { return (index < sparse_.size() ? sparse_[index] : 0u) - 1u; }
   // As find(), trying `hint` first: pools filled in the same order line up, so a view's other
   // pools are usually at the lead pool's position.
   std::uint32_t find(std::uint32_t index, std::uint32_t hint) const {
     if (hint < size_ && this->index(hint) == index) return hint;
     return find(index);
   }
-  // As find(), without the range checks. Precondition: the entity with this index has a component here.
-  std::uint32_t position(std::uint32_t index) const { return sparse_[index >> kSparseShift][index & (kSparsePage - 1)]; }
+  // As find(), without the range check. Precondition: the entity with this index has a component here.
+  std::uint32_t position(std::uint32_t index) const { return sparse_[index] - 1u; }
 
-  // The sparse entry of the entity with this index (kNone: no component here), its page made
-  // when missing. The reference stays valid until the pool is destroyed.
+  // The sparse entry of the entity with this index (its position plus one; 0: no component
+  // here), the array grown to hold it. The reference stays valid until the next call grows it.
   std::uint32_t& sparse_entry(std::uint32_t entity_index) {
-    const std::uint32_t page = entity_index >> kSparseShift;
-    if (page >= sparse_.size() || !sparse_[page]) add_sparse_page(page);
-    return sparse_[page][entity_index & (kSparsePage - 1)];
+    if (entity_index >= sparse_.size())
+      sparse_.grow(std::max<std::size_t>(std::size_t{entity_index} + 1, kPageSize));
+    return sparse_[entity_index];
   }
   // Appends entity `index`, whose sparse entry is `entry` (its component must already be
   // constructed at position size()). Precondition: size() < capacity().
   void push(std::uint32_t entity_index, std::uint32_t& entry, std::uint64_t tick_value) {
     const std::uint32_t pos = size_;
-    entry = pos;
+    entry = pos + 1;
     index(pos) = entity_index;
     tick(pos) = tick_value;
     ++size_;
@@ -267,12 +319,12 @@ class PoolBase {
   std::uint32_t pop_slot(std::uint32_t pos, std::uint32_t removed) {
     const std::uint32_t last = size_ - 1;
     ++layout_version_;
-    sparse_[removed >> kSparseShift][removed & (kSparsePage - 1)] = kNone;
+    sparse_[removed] = 0;
     if (pos != last) {
       const std::uint32_t moved = index(last);
       index(pos) = moved;
       tick(pos) = tick(last);
-      sparse_[moved >> kSparseShift][moved & (kSparsePage - 1)] = pos;
+      sparse_[moved] = pos + 1;
     }
     --size_;
     return last;
@@ -337,7 +389,6 @@ class PoolBase {
   friend class penumbra::World;
 
  private:
-  void add_sparse_page(std::uint32_t page);
   void grow();  // adds index and tick pages
 
   std::uint32_t size_ = 0;
@@ -345,7 +396,7 @@ class PoolBase {
   std::vector<std::uint32_t*> index_pages_;  // kPageSize entity indices each, inside blocks_
   std::vector<std::uint64_t*> tick_pages_;   // kPageSize ticks each, inside blocks_
   std::vector<Block> blocks_;                // the allocations behind index_pages_ and tick_pages_
-  std::vector<std::unique_ptr<std::uint32_t[]>> sparse_;  // kSparsePage positions each (null: none yet)
+  ZeroedArray<std::uint32_t> sparse_;        // per entity index: dense position + 1 (0: none)
 };
 
 template <class T>
@@ -361,11 +412,13 @@ class Pool final : public PoolBase {
   ~Pool() override {
     for (std::uint32_t i = 0; i < size(); ++i)
       if (index(i) != kNone) at(i).~T();
-
   }
 
-  T& at(std::uint32_t pos) { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
-  const T& at(std::uint32_t pos) const { return pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  // The component at dense position `pos`: one index into the flat region, else through the pages.
+  T& at(std::uint32_t pos) { return pos < flat_slots_ ? flat_[pos] : pages_[pos >> kPageShift][pos & (kPageSize - 1)]; }
+  const T& at(std::uint32_t pos) const {
+    return pos < flat_slots_ ? flat_[pos] : pages_[pos >> kPageShift][pos & (kPageSize - 1)];
+  }
   T* page(std::uint32_t p) { return pages_[p]; }
   // erase(pos, false) without the virtual calls; `entity_index` is the entity at `pos`.
   void pop(std::uint32_t pos, std::uint32_t entity_index) {
@@ -409,17 +462,35 @@ class Pool final : public PoolBase {
     while ((std::size_t{count} + kPageSize - 1) / kPageSize > pages_.size()) add_block();
     return static_cast<std::uint32_t>(std::min<std::size_t>(pages_.size() * kPageSize, kNone));
   }
-  // A new block as large as all before it (one page at first): pages stay put, and consecutive
-  // pages are mostly adjacent in memory, which keeps iteration streaming.
+  // As many new pages as there are (one at first): committed in the region while it has room,
+  // then a block. Pages stay put, and consecutive pages are mostly adjacent in memory, which keeps
+  // iteration streaming.
   void add_block() {
     const std::size_t count = pages_.empty() ? 1 : pages_.size();
+    if (pages_.empty() && region_pages() > 0 && alignof(T) <= 4096 && region_.reserve())
+      flat_ = reinterpret_cast<T*>(region_.data());
+    if (flat_ && pages_.size() < region_pages()) {
+      const std::size_t pages = std::min(pages_.size() + count, region_pages());
+      region_.commit(pages * kPageSize * sizeof(T));
+      while (pages_.size() < pages) pages_.push_back(flat_ + pages_.size() * kPageSize);
+      flat_slots_ = static_cast<std::uint32_t>(pages * kPageSize);
+      return;
+    }
     T* block = static_cast<T*>(allocate_block(sizeof(T) * kPageSize * count, alignof(T)));
     blocks_.emplace_back(block);
     for (std::size_t i = 0; i < count; ++i) pages_.push_back(block + i * kPageSize);
   }
 
-  std::vector<T*> pages_;   // kPageSize components each, inside blocks_
-  std::vector<Block> blocks_;  // the allocations
+  // The region's pages: as many as kRegionBytes holds, at most 2^31 slots.
+  static constexpr std::size_t region_pages() {
+    return std::min(kRegionBytes / (sizeof(T) * kPageSize), (std::size_t{1} << 31) / kPageSize);
+  }
+
+  Region region_;
+  T* flat_ = nullptr;             // the region's components (null: no region)
+  std::uint32_t flat_slots_ = 0;  // committed slots of the region: positions below it index flat_
+  std::vector<T*> pages_;         // kPageSize components each, in the region, then inside blocks_
+  std::vector<Block> blocks_;     // the allocations after the region
 };
 
 template <class Fn, class... T>
@@ -728,7 +799,7 @@ class World {
   std::vector<detail::PoolBase*> by_bit_;
   // Per entity index, mask_words_ 64-bit words: bit b set while by_bit_[b] holds its component.
   // At least one row per entity slot; a free index's row is zero but for its free-list link.
-  detail::ZeroedWords masks_;
+  detail::ZeroedArray<std::uint64_t> masks_;
   std::uint32_t mask_words_ = 1;
   std::vector<std::unique_ptr<detail::GroupBase>> groups_;
   std::vector<detail::GroupBase*> dirty_groups_;
@@ -1085,7 +1156,8 @@ T& World::add_to(detail::Pool<T>& p, Entity e, Args&&... args) {
   assert(alive(e) && "World::add: stale or null entity handle");
   assert(write_declared(component_id<T>()) && "a system adds a component it did not declare in SystemDesc::writes");
   std::uint32_t& entry = p.sparse_entry(e.index);
-  if (const std::uint32_t pos = entry; pos != detail::kNone) {
+  if (entry != 0) {
+    const std::uint32_t pos = entry - 1;
     T& c = p.at(pos);
     if constexpr (std::is_constructible_v<T, Args&&...>)
       c = T(std::forward<Args>(args)...);
