@@ -368,10 +368,10 @@ std::string raw_counterpart(const std::string& ecs_case) {
 Result<Report> run_ecs_bench(const Options& options) {
   const std::vector<std::size_t> sizes =
       options.quick ? std::vector<std::size_t>{1000, 100000} : std::vector<std::size_t>{1000, 10000, 100000, 1000000};
-  // The fastest of three rounds: each round runs every case once, raw and World cases side by
+  // The fastest of five rounds: each round runs every case once, raw and World cases side by
   // side, so a spike of a shared machine spoils one round of a case, not the comparison.
   const double min_time = options.quick ? 0.02 : 0.1;
-  constexpr int kRounds = 3;
+  constexpr int kRounds = 5;
 
   Report report;
   report.columns = {"case", "entities", "ns_per_entity", "ratio_to_raw"};
