@@ -3,6 +3,7 @@
 #include "penumbra/ecs/world.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cstdint>
@@ -110,6 +111,12 @@ RegionCache& region_cache() {
 }  // namespace
 #endif
 
+namespace {
+std::atomic<bool> regions_enabled{true};
+}  // namespace
+
+void Region::enable(bool on) { regions_enabled.store(on, std::memory_order_relaxed); }
+
 Region::~Region() {
 #ifdef __linux__
   if (!mapping_) return;
@@ -128,7 +135,7 @@ Region::~Region() {
 
 bool Region::reserve() {
 #ifdef __linux__
-  if (mapping_ || sizeof(void*) < 8) return false;
+  if (mapping_ || sizeof(void*) < 8 || !regions_enabled.load(std::memory_order_relaxed)) return false;
   RegionCache& cache = region_cache();
   {
     std::lock_guard lock(cache.mutex);

@@ -843,43 +843,43 @@ TEST(WorldPool, HoistedGetsAgreeWithTheWorld) {
   EXPECT_EQ(w.pool<Mass>().try_get(reused), nullptr);  // a pool the World had not used yet
 }
 
-// Aligned beyond an OS page, so its pool has no region: its pages all come from blocks.
-struct alignas(8192) PageAligned {
-  int value = 0;
-};
-
-// Components in a pool's region (Health) and in blocks (PageAligned), across several pages of
+// Components in a pool's region and, with regions turned off, in blocks, across several pages of
 // 1024, agree with a model through adds, replacements and swap-and-pop removals.
 TEST(WorldStorage, RegionAndBlockPagesAgreeWithAModel) {
-  World w;
-  std::vector<Entity> es(2500);
-  w.create(es);
-  std::map<std::uint32_t, int> model;
-  Rng rng = Rng::stream(7, 0);
-  for (int step = 0; step < 10000; ++step) {
-    const Entity e = es[rng.next_u32() % es.size()];
-    if (rng.next_u32() % 3 != 0) {
-      w.add<Health>(e, step);
-      w.add<PageAligned>(e, step);
-      model[e.index] = step;
-    } else {
-      EXPECT_EQ(w.remove<Health>(e), model.erase(e.index) == 1);
-      w.remove<PageAligned>(e);
+  for (const bool regions : {true, false}) {
+    SCOPED_TRACE(regions ? "region" : "blocks");
+    detail::Region::enable(regions);
+    World w;
+    std::vector<Entity> es(2500);
+    w.create(es);
+    std::map<std::uint32_t, int> model;
+    Rng rng = Rng::stream(7, 0);
+    for (int step = 0; step < 10000; ++step) {
+      const Entity e = es[rng.next_u32() % es.size()];
+      if (rng.next_u32() % 3 != 0) {
+        w.add<Health>(e, step);
+        model[e.index] = step;
+      } else {
+        EXPECT_EQ(w.remove<Health>(e), model.erase(e.index) == 1);
+      }
     }
-  }
-  const ComponentPool<Health> health = w.pool<Health>();
-  const ComponentPool<PageAligned> aligned = w.pool<PageAligned>();
-  ASSERT_GT(model.size(), 1024u);  // more than one page
-  ASSERT_EQ(health.size(), model.size());
-  ASSERT_EQ(aligned.size(), model.size());
-  for (const Entity e : es) {
-    const auto it = model.find(e.index);
-    ASSERT_EQ(health.contains(e), it != model.end());
-    ASSERT_EQ(aligned.contains(e), it != model.end());
-    if (it == model.end()) continue;
-    EXPECT_EQ(health.get(e).value, it->second);
-    EXPECT_EQ(aligned.get(e).value, it->second);
-    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(&aligned.get(e)) % alignof(PageAligned), 0u);
+    detail::Region::enable(true);
+    const ComponentPool<Health> health = w.pool<Health>();
+    ASSERT_GT(model.size(), 1024u);  // more than one page
+    ASSERT_EQ(health.size(), model.size());
+    for (const Entity e : es) {
+      const auto it = model.find(e.index);
+      ASSERT_EQ(health.contains(e), it != model.end());
+      if (it != model.end()) {
+        EXPECT_EQ(health.get(e).value, it->second);
+      }
+    }
+    std::size_t visited = 0;
+    w.each<Health>([&](Entity e, Health& h) {
+      EXPECT_EQ(h.value, model.at(e.index));
+      ++visited;
+    });
+    EXPECT_EQ(visited, model.size());
   }
 }
 

@@ -246,8 +246,12 @@ class Region {
   Region(const Region&) = delete;
   Region& operator=(const Region&) = delete;
   ~Region();
-  // Reserves kRegionBytes, 2 MiB aligned. False (nothing reserved) when the platform or the OS refuses.
+  // Reserves kRegionBytes, 2 MiB aligned. False (nothing reserved) when the platform or the OS
+  // refuses, or regions are turned off.
   bool reserve();
+  // Turns reservations on (the default) or off for pools made from now on, process-wide: off for
+  // hosts that must not reserve address space (a low `ulimit -v`), and for tests of the blocks.
+  static void enable(bool on);
   // Makes the first `bytes` readable and writable. Precondition: bytes <= the reservation.
   // Throws std::bad_alloc when the OS refuses.
   void commit(std::size_t bytes);
@@ -467,7 +471,7 @@ class Pool final : public PoolBase {
   // iteration streaming.
   void add_block() {
     const std::size_t count = pages_.empty() ? 1 : pages_.size();
-    if (pages_.empty() && region_pages() > 0 && alignof(T) <= 4096 && region_.reserve())
+    if (pages_.empty() && region_pages() > 0 && region_.reserve())
       flat_ = reinterpret_cast<T*>(region_.data());
     if (flat_ && pages_.size() < region_pages()) {
       const std::size_t pages = std::min(pages_.size() + count, region_pages());
