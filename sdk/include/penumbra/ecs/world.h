@@ -2,12 +2,12 @@
 // sparse sets, views, groups, systems run in phases, change ticks, add/remove events and resources.
 //
 // Storage. Each component type T has one pool, a sparse set: a sparse array (entity index ->
-// dense position; one flat array, zero until written, whose untouched pages cost nothing) and, per
-// dense position, the entity index, the component and its change tick, all three in pages of 1024
-// (adding a component never moves existing ones). The components' pages are committed in a
-// reserved address range (1 GiB per pool), so up to that size they are one array and a look-up is
-// sparse array, then component; beyond it, and the entities' and ticks' pages, come from
-// geometrically growing blocks, so consecutive pages are mostly adjacent and iteration streams. Views
+// dense position; one flat array, zero until written) and, per dense position, the entity index,
+// the component and its change tick, all three in pages of 1024 (adding a component never moves
+// existing ones). The components' pages are committed in a reserved address range (1 GiB per
+// pool), so up to that size they are one array and a look-up is two indexed reads: sparse entry,
+// then component. Pages beyond it, and the entities' and ticks' pages, come from geometrically
+// growing blocks, so consecutive pages are mostly adjacent and iteration streams. Views
 // walk the smallest pool and find the others' components at the same position when the pools
 // line up (entities given the same components in the same order), else through the sparse array.
 // Component ids are process-wide, but a World holds pools only for the types it uses and keeps a
