@@ -10,6 +10,7 @@
 #include <memory>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <optional>
 #include <unordered_map>
 
@@ -859,22 +860,81 @@ std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, co
     sets[v] = set;
   }
 
-  // Few large groups run fast (blocks of 16 vertices at runtime): a vertex whose set has fewer
-  // than kMinGroup vertices moves to the large set that serves it best, when one exists.
-  constexpr std::size_t kMinGroup = 16;
+  // Few large groups run fast (blocks of kPoseAOBlock vertices at runtime), so a vertex whose set
+  // has fewer than kMinGroup vertices moves to another: the one whose linear fit explains most of
+  // its AO over the reference poses, among the set pooled for its dominant joint (the k joints of
+  // most skinning weight, then most explained AO, summed over that joint's vertices of rare sets)
+  // and the kMergeCandidates large sets that cover most of its skinning weight and that explain
+  // most alone. Where the vertices' own sets scatter (fingers, whose neighbours each explain a
+  // little), the pooled set keeps their own joints, which no large set holds.
+  constexpr std::size_t kMinGroup = 16, kMergeCandidates = 8;
   std::map<JointSet, std::size_t> sizes;
   for (const JointSet& set : sets) ++sizes[set];
   std::vector<JointSet> large;
   for (const auto& [set, size] : sizes)
     if (size >= kMinGroup) large.push_back(set);
-  if (!large.empty())
-    for (std::size_t v = 0; v < n; ++v) {
-      if (sizes[sets[v]] >= kMinGroup) continue;
-      std::size_t best = 0;
-      for (std::size_t i = 1; i < large.size(); ++i)
-        if (value(v, large[i]) > value(v, large[best])) best = i;
-      sets[v] = large[best];
+  // A set's design [1, f_j1 .. f_jk] over the poses and its factorisation, made when first needed.
+  std::map<JointSet, pose_ao_detail::RidgeSolver> solvers;
+  const auto solver_of = [&](const JointSet& set) -> const pose_ao_detail::RidgeSolver& {
+    if (const auto it = solvers.find(set); it != solvers.end()) return it->second;
+    const std::size_t count = set[kPoseAOMaxLocality], C = pose_ao_coefficients(static_cast<std::uint32_t>(count));
+    std::vector<double> design(poses * C);
+    for (std::size_t p = 0; p < poses; ++p) {
+      design[p * C] = 1.0;
+      for (std::size_t i = 0; i < count; ++i)
+        for (std::size_t e = 0; e < kPoseFeaturesPerJoint; ++e)
+          design[p * C + 1 + i * kPoseFeaturesPerJoint + e] =
+              static_cast<double>(training.features[p * F + set[i] * kPoseFeaturesPerJoint + e]);
     }
+    return solvers.try_emplace(set, design, poses, C, lambda).first->second;
+  };
+  std::map<std::size_t, std::vector<std::size_t>> rare;  // by dominant joint
+  for (std::size_t v = 0; v < n; ++v)
+    if (sizes[sets[v]] < kMinGroup) rare[dominant(v)].push_back(v);
+  std::vector<std::pair<float, double>> score(joints);
+  std::vector<std::size_t> by_value(large.size()), by_explained(large.size());
+  for (const auto& [own, vertices] : rare) {
+    std::fill(score.begin(), score.end(), std::pair<float, double>{0.0f, 0.0});
+    std::vector<bool> candidate(joints, false);
+    for (const std::size_t v : vertices)
+      for (std::size_t j = 0; j < joints; ++j) {
+        if (explained_of[v * joints + j] < 0.0) continue;
+        candidate[j] = true;
+        score[j].first += weight_of[v * joints + j];
+        score[j].second += explained_of[v * joints + j];
+      }
+    ranked.clear();
+    for (std::size_t j = 0; j < joints; ++j)
+      if (candidate[j]) ranked.push_back({{-score[j].first, -score[j].second}, j});
+    std::sort(ranked.begin(), ranked.end());
+    JointSet pooled{};
+    const std::size_t count = std::min<std::size_t>(k, ranked.size());
+    for (std::size_t i = 0; i < count; ++i) pooled[i] = static_cast<std::uint16_t>(ranked[i].second);
+    std::sort(pooled.begin(), pooled.begin() + static_cast<std::ptrdiff_t>(count));
+    pooled[kPoseAOMaxLocality] = static_cast<std::uint16_t>(count);
+    for (const std::size_t v : vertices) {
+      std::iota(by_value.begin(), by_value.end(), std::size_t{0});
+      std::iota(by_explained.begin(), by_explained.end(), std::size_t{0});
+      const std::size_t m = std::min(kMergeCandidates, large.size());
+      const auto first = [&](std::vector<std::size_t>& order, auto key) {
+        std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(m), order.end(),
+                          [&](std::size_t a, std::size_t b) { return key(a) > key(b) || (key(a) == key(b) && a < b); });
+      };
+      first(by_value, [&](std::size_t i) { return value(v, large[i]); });
+      first(by_explained, [&](std::size_t i) { return value(v, large[i]).second; });
+      const JointSet* best = &pooled;
+      double most = solver_of(pooled).explained(training.ao.data() + v, n);
+      for (const auto* order : {&by_value, &by_explained})
+        for (std::size_t c = 0; c < m; ++c) {
+          const JointSet& set = large[(*order)[c]];
+          if (const double e = solver_of(set).explained(training.ao.data() + v, n); e > most) {
+            most = e;
+            best = &set;
+          }
+        }
+      sets[v] = *best;
+    }
+  }
   return sets;
 }
 

@@ -177,6 +177,77 @@ TEST(PoseAOFit, RecoversAnExactlyLinearAO) {
   }
 }
 
+// Two limbs under a root: 40 vertices on limb 1 and 5 on limb 2, each vertex's AO linear in its
+// own limb's parameters. Limb 2's set is too small to run as a group of its own and no large set
+// holds joint 2, so its vertices take the set pooled for their dominant joint, which keeps it:
+// both limbs' AO is recovered (moved into limb 1's set they would keep only their pose average).
+TEST(PoseAOFit, VerticesOfRareJointSetsKeepTheirOwnJoint) {
+  PoseRig rig;
+  rig.parents = {-1, 0, 0};
+  rig.order = {0, 1, 2};
+  rig.offsets.assign(3, glm::mat4(1.0f));
+  rig.inverse_bind.assign(3, glm::mat4(1.0f));
+  rig.bind.assign(3, Transform{});
+  rig.bind_positions = {glm::vec3(0.0f), glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(-1.0f, 0.0f, 0.0f)};
+  rig.animated = {true, true, true};
+  rig.clip_ranges.assign(3, JointRange{});
+  constexpr std::size_t kLimb1 = 40, kLimb2 = 5, V = kLimb1 + kLimb2;
+  MeshData mesh;
+  for (std::size_t v = 0; v < V; ++v) {
+    const bool first = v < kLimb1;
+    mesh.positions.push_back(glm::vec3(first ? 1.0f : -1.0f, 0.01f * float(v), 0.0f));
+    mesh.joints.push_back(glm::u16vec4(first ? 1 : 2, 0, 0, 0));
+  }
+  mesh.normals.assign(V, glm::vec3(0, 1, 0));
+  mesh.weights.assign(V, glm::vec4(1, 0, 0, 0));
+  mesh.indices = {0, 1, 2, 40, 41, 42};
+  std::vector<float> w(V * 9);
+  Rng wr = Rng::stream(77, 1);
+  for (float& x : w) x = 0.04f * (wr.next_float() - 0.5f);
+  const auto training = [&](std::size_t poses, std::uint64_t seed) {
+    PoseAOTraining tr;
+    tr.vertex_count = V;
+    tr.joint_count = 3;
+    tr.bind_ao.assign(V, 0.5f);
+    for (std::size_t p = 0; p < poses; ++p) {
+      Rng rng = Rng::stream(seed, p);
+      const auto random_turn = [&] {
+        const glm::vec3 axis(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f + 1e-3f);
+        return rotation(2.0f * rng.next_float() - 1.0f, axis);
+      };
+      const glm::mat4 r1 = random_turn(), r2 = random_turn();
+      std::vector<float> f;
+      pose_features(rig.parents, std::vector<glm::mat4>{glm::mat4(1.0f), r1, r2}, f);
+      tr.features.insert(tr.features.end(), f.begin(), f.end());
+      for (std::size_t v = 0; v < V; ++v) {
+        const float* limb = f.data() + (v < kLimb1 ? 9 : 18);
+        float a = 0.5f;
+        for (std::size_t e = 0; e < 9; ++e) a += w[v * 9 + e] * limb[e];
+        tr.ao.push_back(a);
+      }
+    }
+    return tr;
+  };
+  SkinnedPoseAO s;
+  s.lambda = 0.0f;
+  s.locality = 1;
+  s.clusters = 1;
+  JobContext jobs;
+  auto data = fit_pose_ao(training(200, 5), rig, mesh, s, 0, jobs);
+  ASSERT_TRUE(data) << data.error().message;
+  for (const PoseAOGroup& g : data->groups)
+    for (std::uint32_t i = 0; i < g.count; ++i) {
+      ASSERT_EQ(g.joint_count, 1u);
+      EXPECT_EQ(g.joints[0], data->vertex_order[g.first + i] < kLimb1 ? 1u : 2u);
+    }
+  const PoseAOTraining test = training(10, 500);
+  std::vector<float> ao(V);
+  for (std::size_t p = 0; p < test.poses(); ++p) {
+    evaluate_pose_ao(*data, std::span(test.features).subspan(p * 27, 27), ao);
+    for (std::size_t v = 0; v < V; ++v) EXPECT_NEAR(ao[v], test.ao[p * V + v], 1e-3f) << p << " " << v;
+  }
+}
+
 TEST(PoseAOFit, FewerPosesThanCoefficientsReducesLocalityWithAWarning) {
   TinyCharacter c;
   std::vector<float> w;

@@ -173,7 +173,8 @@ struct PoseAOTraining {
 // Locality as SkinnedPoseAO::locality over `mesh`'s weights, the rig's hierarchy and the poses
 // (a 10-coefficient fit per joint scores it); a joint whose features are constant (within 1e-5)
 // over those poses is never selected; vertices of joint sets shared by fewer than 16 vertices
-// join the large set that serves them best (large groups evaluate fastest). When the poses are
+// join the set whose linear fit explains most of their AO among a few large sets and one pooled
+// for their dominant joint (large groups evaluate fastest). When the poses are
 // fewer than the coefficients (poses < 1 + 9 k) k is reduced to fit and a warning is logged and
 // appended to `warnings`. Normal equations per joint set in double, Cholesky with a pivot floor (1e-9 of the
 // trace), so rank-deficient data (a joint that never moves, collinear parameters, lambda = 0)
@@ -190,7 +191,8 @@ struct PoseAOTraining {
 // Deterministic (fixed summation order and seeds, any thread count). Errors: InvalidArgument when
 // training has no pose. Cost: per joint set and cluster count K tried, about P C^2 (a pose's row
 // holds one or two clusters' entries) + (K C)^3 / 6; per vertex about P C per count tried; plus
-// P x 10 per candidate joint (the scores).
+// P x 10 per candidate joint (the scores) and, per vertex of a rare set, P C for each of up to 17
+// sets it may join (each set factorised once).
 Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
                                const SkinnedPoseAO& settings, std::size_t poses, JobContext& jobs,
                                std::vector<std::string>* warnings = nullptr, std::string_view context = "pose-AO");
