@@ -68,6 +68,10 @@ TEST(PoseAORidge, RankDeficientColumnsDoNotBlowUp) {
 }
 
 glm::mat4 rotation(float angle, glm::vec3 axis) { return glm::mat4_cast(glm::angleAxis(angle, glm::normalize(axis))); }
+// A random axis (never zero) for the synthetic poses.
+glm::vec3 random_axis(Rng& rng) {
+  return {rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f + 1e-3f};
+}
 
 TEST(PoseAOFeatures, LocalRotationRelativeToTheParent) {
   const glm::mat4 r1 = rotation(0.7f, {1, 2, 0}), r2 = rotation(-0.4f, {0, 1, 1});
@@ -121,7 +125,7 @@ PoseAOTraining linear_training(const TinyCharacter& c, std::size_t poses, std::u
   for (float& x : weights) x = 0.04f * (w.next_float() - 0.5f);
   for (std::size_t p = 0; p < poses; ++p) {
     Rng rng = Rng::stream(seed, p);
-    const glm::vec3 axis(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f + 1e-3f);
+    const glm::vec3 axis = random_axis(rng);
     const glm::mat4 r = rotation(3.0f * rng.next_float(), axis);
     std::vector<float> f;
     pose_features(c.rig.parents, std::vector<glm::mat4>{glm::mat4(1.0f), r}, f);
@@ -211,9 +215,9 @@ TEST(PoseAOFit, VerticesOfRareJointSetsKeepTheirOwnJoint) {
     tr.bind_ao.assign(V, 0.5f);
     for (std::size_t p = 0; p < poses; ++p) {
       Rng rng = Rng::stream(seed, p);
-      const auto random_turn = [&] {
-        const glm::vec3 axis(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f + 1e-3f);
-        return rotation(2.0f * rng.next_float() - 1.0f, axis);
+      const auto random_turn = [&rng] {
+        const float angle = 2.0f * rng.next_float() - 1.0f;
+        return rotation(angle, random_axis(rng));
       };
       const glm::mat4 r1 = random_turn(), r2 = random_turn();
       std::vector<float> f;
@@ -408,7 +412,7 @@ PoseAOTraining hinge_training(const TinyCharacter& c, std::size_t poses, std::ui
   tr.bind_ao.assign(kVertices, 0.9f);
   for (std::size_t p = 0; p < poses; ++p) {
     Rng rng = Rng::stream(seed, p);
-    const glm::vec3 axis(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f + 1e-3f);
+    const glm::vec3 axis = random_axis(rng);
     std::vector<float> f;
     pose_features(c.rig.parents, std::vector<glm::mat4>{glm::mat4(1.0f), rotation(3.0f * rng.next_float(), axis)}, f);
     tr.features.insert(tr.features.end(), f.begin(), f.end());
