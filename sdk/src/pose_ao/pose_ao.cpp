@@ -236,9 +236,13 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
         theta[1 + kPoseFeaturesPerJoint * k + e] = features[std::size_t{g.joints[k]} * kPoseFeaturesPerJoint + e];
     // The clusters' weights, then one term per blended cluster.
     float cluster_weight[kPoseAOMaxClusters] = {1.0f};
-    if (g.cluster_count > 1)
-      pose_ao_cluster_weights(data.centers.data() + g.center_offset, g.cluster_count, C - 1, theta + 1, g.cluster_band,
-                              cluster_weight);
+    if (g.cluster_count > 1) {
+      // theta_local in the clusters' metric: the scales precede the centres.
+      const float* scales = data.centers.data() + g.center_offset;
+      float scaled[kMaxCoefficients - 1];
+      for (std::uint32_t c = 0; c + 1 < C; ++c) scaled[c] = theta[1 + c] * scales[c];
+      pose_ao_cluster_weights(scales + (C - 1), g.cluster_count, C - 1, scaled, g.cluster_band, cluster_weight);
+    }
     Term terms[kPoseAOMaxClusters];
     std::uint32_t term_count = 0;
     for (std::uint32_t m = 0; m < g.cluster_count; ++m) {

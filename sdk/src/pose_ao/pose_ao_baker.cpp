@@ -1150,8 +1150,12 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
         struct Model {
           std::uint32_t clusters = 1;
           float band = 0.0f;
-          std::vector<float> centers;
+          std::vector<float> centers;  // the metric's scales, then the centres (PoseAOGroup)
           std::optional<pose_ao_detail::RidgeSolver> solver;
+          // theta_local without the 1 of pose p, in the clusters' metric.
+          void scaled(const float* x, std::size_t dims, float* out) const {
+            for (std::size_t e = 0; e < dims; ++e) out[e] = x[e] * centers[e];
+          }
         };
         const auto make_model = [&](const std::vector<std::size_t>& rows, std::uint32_t clusters, double ridge_strength,
                                     Model& m) {
@@ -1159,14 +1163,30 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
           m.clusters = clusters;
           std::vector<double> weights(R * clusters, clusters == 1 ? 1.0 : 0.0);  // per row, per cluster
           if (clusters > 1) {
+            // The clusters' metric (PoseAOGroup): each parameter scaled by the RMS over the set's
+            // vertices of its coefficient in the set's linear model on these rows.
+            m.centers.assign(std::size_t{clusters + 1} * (C - 1), 0.0f);
+            {
+              std::vector<double> linear(R * C);
+              for (std::size_t r = 0; r < R; ++r) std::copy_n(theta.data() + rows[r] * C, C, linear.data() + r * C);
+              const pose_ao_detail::RidgeSolver solver(linear, R, C, ridge_strength);
+              std::vector<float> y(R);
+              std::vector<double> t(C), sum(C, 0.0);
+              for (const std::uint32_t v : vertices) {
+                for (std::size_t r = 0; r < R; ++r) y[r] = training.ao[rows[r] * V + v];
+                solver.solve(y.data(), 1, t);
+                for (std::size_t e = 1; e < C; ++e) sum[e] += t[e] * t[e];
+              }
+              for (std::size_t e = 1; e < C; ++e)
+                m.centers[e - 1] = static_cast<float>(std::sqrt(sum[e] / static_cast<double>(vertices.size())));
+            }
             std::vector<float> xs(R * (C - 1));
-            for (std::size_t r = 0; r < R; ++r)
-              std::copy_n(x.data() + rows[r] * (C - 1), C - 1, xs.data() + r * (C - 1));
-            m.centers.resize(std::size_t{clusters} * (C - 1));
-            m.band = cluster_poses(xs, R, C - 1, clusters, seed, m.centers.data());
+            for (std::size_t r = 0; r < R; ++r) m.scaled(x.data() + rows[r] * (C - 1), C - 1, xs.data() + r * (C - 1));
+            float* centers = m.centers.data() + (C - 1);
+            m.band = cluster_poses(xs, R, C - 1, clusters, seed, centers);
             float w[kPoseAOMaxClusters];
             for (std::size_t r = 0; r < R; ++r) {
-              pose_ao_cluster_weights(m.centers.data(), clusters, static_cast<std::uint32_t>(C - 1),
+              pose_ao_cluster_weights(centers, clusters, static_cast<std::uint32_t>(C - 1),
                                       xs.data() + r * (C - 1), m.band, w);
               for (std::uint32_t c = 0; c < clusters; ++c) weights[r * clusters + c] = static_cast<double>(w[c]);
             }
@@ -1221,6 +1241,7 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
           std::vector<std::size_t> fit_rows, check_rows;
           for (std::size_t p = 0; p < P; ++p) (p % 5 == 4 ? check_rows : fit_rows).push_back(p);
           std::vector<double> t;
+          std::vector<float> xp(C - 1);
           float w[kPoseAOMaxClusters];
           for (const std::uint32_t candidate : counts)
             for (const double ridge : strengths) {
@@ -1230,9 +1251,11 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
               for (std::uint32_t v : vertices) {
                 fit_vertex(m, fit_rows, v, t);
                 for (std::size_t p : check_rows) {
-                  if (candidate > 1)
-                    pose_ao_cluster_weights(m.centers.data(), candidate, static_cast<std::uint32_t>(C - 1),
-                                            x.data() + p * (C - 1), m.band, w);
+                  if (candidate > 1) {
+                    m.scaled(x.data() + p * (C - 1), C - 1, xp.data());
+                    pose_ao_cluster_weights(m.centers.data() + (C - 1), candidate, static_cast<std::uint32_t>(C - 1),
+                                            xp.data(), m.band, w);
+                  }
                   double a = 0.0;
                   for (std::uint32_t c = 0; c < candidate; ++c) {
                     const double wc = candidate > 1 ? static_cast<double>(w[c]) : 1.0;

@@ -146,7 +146,7 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
       return bad("joint set " + std::to_string(i) + " is malformed (joints, count, offsets, bind blend or clusters)");
     vertices += g.count;
     coefficients += std::uint64_t{g.cluster_count} * g.coefficient_count() * g.count;
-    if (clustered) centers += std::uint64_t{g.cluster_count} * (g.coefficient_count() - 1);
+    if (clustered) centers += std::uint64_t{g.cluster_count + 1} * (g.coefficient_count() - 1);
     if (vertices > V) return bad("the joint sets hold more than " + std::to_string(V) + " vertices");
   }
   if (vertices != V) return bad("the joint sets hold " + std::to_string(vertices) + " of " + std::to_string(V) + " vertices");

@@ -10,7 +10,10 @@
 // character skins"): AO is far from linear in the pose over a wide pose space (a limb swings into
 // a vertex's hemisphere and out again), so the vertices that share a joint set may instead have a
 // linear map per cluster of poses, the clusters' centres found by k-means over the training poses'
-// theta_local. A pose takes the map of its nearest centre; within a band of the Voronoi boundary
+// theta_local in a metric that scales each parameter by how much the set's AO depends on it (the
+// RMS over its vertices of the parameter's coefficient in the set's linear model): the clusters
+// split the poses where the AO changes, not where the poses spread most (joints that move far and
+// shade nothing). A pose takes the map of its nearest centre; within a band of the Voronoi boundary
 // it blends the maps of the centres about as near (pose_ao_cluster_weights), so AO stays
 // continuous as the pose moves while most frames evaluate one map per vertex.
 //
@@ -138,8 +141,10 @@ Status validate_pose_ao(const SkinnedPoseAO& settings, std::size_t joint_count, 
 // coefficients[coefficient_index(m, c, i)] = coefficients[coefficient_offset + ((m blocks() + b)
 // coefficient_count() + c) kPoseAOBlock + l], the last block's lanes past `count` zero. A cluster's
 // coefficients are then one contiguous run that the runtime reads front to back, a block's worth
-// of each coefficient at a time. Cluster m's centre is centers[center_offset + m *
-// (coefficient_count() - 1) ..], in the space of theta_local without its leading 1.
+// of each coefficient at a time. With D = coefficient_count() - 1, a clustered group's entries in
+// centers are the metric's scales s (D of them, at center_offset), then cluster m's centre at
+// center_offset + (m + 1) D, in the space of s times theta_local without its leading 1 (entry by
+// entry; see the top of this file).
 //
 // Near the bind pose a group blends towards the bind-pose AO, which the bake traced:
 // with d^2 = |f_j1 .. f_jk|^2 (zero in the bind pose), ao = bind + w (clamp(t . theta) - bind),
@@ -170,7 +175,7 @@ struct PoseAOGroup {
 };
 
 // Blend weights of a joint set's clusters at the pose `theta` (theta_local without its leading 1,
-// `dims` entries): with d_m the squared distance to centre m and d the least of them, w_m =
+// scaled into the clusters' metric, `dims` entries): with d_m the squared distance to centre m and d the least of them, w_m =
 // s((d_m - d) / band), s(x) = 1 - 3x^2 + 2x^3 below 1 and 0 beyond, normalised to sum 1. Each w_m
 // is continuous in theta (d_m - d is zero on the nearest centre and changes continuously when the
 // nearest changes), so is the blended AO; band 0 takes the nearest centre alone (ties: the lower
@@ -255,7 +260,7 @@ void evaluate_pose_ao(const PoseAOData& data, std::span<const float> features, s
 // written. The reader checks the version, every size and index, that the groups
 // partition the vertices, finiteness and [0, 1] baselines, naming the chunk in its errors.
 inline constexpr std::uint32_t kPoseAOChunkType = fourcc("PSAO");
-inline constexpr std::uint32_t kPoseAOChunkVersion = 5;  // 5: the groups' clusters
+inline constexpr std::uint32_t kPoseAOChunkVersion = 6;  // 6: the clusters' metric
 BakeChunk write_pose_ao_chunk(const PoseAOData& data);
 Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk);
 

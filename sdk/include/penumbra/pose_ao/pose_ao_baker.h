@@ -183,16 +183,17 @@ struct PoseAOTraining {
 // it is evaluated: censored regression). Per joint set the bind blend (PoseAOGroup) is the one
 // of none and 0.001..0.3 x the poses' median squared distance from the bind pose that gives the
 // least training error. Clusters (pose_ao.h, SkinnedPoseAO::clusters): per joint set k-means over
-// the poses (seeded per joint set), the clusters' maps fitted jointly with their blend weights;
-// 1, 2, 4, .. up to the count asked for (at most one per 3 x coefficients poses, a note in
-// `warnings` when that caps it) are fitted to four fifths of the poses and the count whose error
+// the poses (seeded per joint set) in the metric of the set's linear model fitted to the same
+// poses, the clusters' maps fitted jointly with their blend weights; 1, 2, 4, .. up to the count
+// asked for (at most one per 3 x coefficients poses, a note in `warnings` when that caps it) are
+// fitted to four fifths of the poses and the count whose error
 // on the fifth left out is least (by 1 % at least over fewer) is refitted to all. The coefficients
 // are rounded to IEEE halves (PoseAOGroup), what the chunk stores and the runtime reads.
 // Deterministic (fixed summation order and seeds, any thread count). Errors: InvalidArgument when
 // training has no pose. Cost: per joint set and cluster count K tried, about P C^2 (a pose's row
-// holds one or two clusters' entries) + (K C)^3 / 6; per vertex about P C per count tried; plus
-// P x 10 per candidate joint (the scores) and, per vertex of a rare set, P C for each of up to 17
-// sets it may join (each set factorised once).
+// holds one or two clusters' entries) + (K C)^3 / 6; per vertex about P C per count tried (twice
+// above one cluster: the metric's linear fit); plus P x 10 per candidate joint (the scores) and,
+// per vertex of a rare set, P C for each of up to 17 sets it may join (each factorised once).
 Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
                                const SkinnedPoseAO& settings, std::size_t poses, JobContext& jobs,
                                std::vector<std::string>* warnings = nullptr, std::string_view context = "pose-AO");
