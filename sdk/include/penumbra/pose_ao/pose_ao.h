@@ -175,12 +175,12 @@ struct PoseAOGroup {
 };
 
 // Blend weights of a joint set's clusters at the pose `theta` (theta_local without its leading 1,
-// scaled into the clusters' metric, `dims` entries): with d_m the squared distance to centre m and d the least of them, w_m =
-// s((d_m - d) / band), s(x) = 1 - 3x^2 + 2x^3 below 1 and 0 beyond, normalised to sum 1. Each w_m
-// is continuous in theta (d_m - d is zero on the nearest centre and changes continuously when the
-// nearest changes), so is the blended AO; band 0 takes the nearest centre alone (ties: the lower
-// index). Writes `clusters` weights, returns how many are non-zero. Cost: clusters x dims
-// multiply-adds. Thread-safe.
+// scaled into the clusters' metric, `dims` entries): with d_m the squared distance to centre m and
+// d the least of them, w_m = s((d_m - d) / band), s(x) = 1 - 3x^2 + 2x^3 below 1 and 0 beyond,
+// normalised to sum 1. Each w_m is continuous in theta (d_m - d is zero on the nearest centre and
+// changes continuously when the nearest changes), so is the blended AO; band 0 takes the nearest
+// centre alone (ties: the lower index). Writes `clusters` weights, returns how many are non-zero.
+// Cost: clusters x dims multiply-adds. Thread-safe.
 std::uint32_t pose_ao_cluster_weights(const float* centers, std::uint32_t clusters, std::uint32_t dims,
                                       const float* theta, float band, float* weights);
 
