@@ -12,6 +12,7 @@
 #include <map>
 #include <numeric>
 #include <optional>
+#include <tuple>
 #include <unordered_map>
 
 #include <glm/gtc/packing.hpp>
@@ -763,6 +764,22 @@ constexpr double kClusterGain = 0.01;
 // Bind blend candidates (PoseAOGroup), as fractions of the median squared pose distance.
 constexpr double kBindBlendFractions[] = {1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3};
 
+// The design of a joint set over the first `poses` poses: row p is theta_local = [1, f_j1 .. f_jk]
+// (pose_ao.h) of pose p, poses x (1 + 9 k) row-major.
+std::vector<double> set_design(const PoseAOTraining& training, std::span<const std::uint16_t> joints,
+                               std::size_t poses) {
+  const std::size_t F = training.joint_count * kPoseFeaturesPerJoint, C = 1 + joints.size() * kPoseFeaturesPerJoint;
+  std::vector<double> design(poses * C);
+  for (std::size_t p = 0; p < poses; ++p) {
+    design[p * C] = 1.0;
+    for (std::size_t i = 0; i < joints.size(); ++i)
+      for (std::size_t e = 0; e < kPoseFeaturesPerJoint; ++e)
+        design[p * C + 1 + i * kPoseFeaturesPerJoint + e] =
+            static_cast<double>(training.features[p * F + std::size_t{joints[i]} * kPoseFeaturesPerJoint + e]);
+  }
+  return design;
+}
+
 // Locality (algorithms.md P5): per vertex at most k joints. Candidates are the joints whose
 // rotation can move geometry against the vertex: joint j's rotation moves its subtree against the
 // rest of the character, so j qualifies when there is geometry on the other side of it (roots
@@ -774,20 +791,11 @@ constexpr double kBindBlendFractions[] = {1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3};
 std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, const std::vector<bool>& moving,
                                     std::uint32_t k, const PoseAOTraining& training, std::size_t poses, double lambda) {
   const std::size_t n = mesh.positions.size(), joints = rig.joint_count();
-  const std::size_t F = joints * kPoseFeaturesPerJoint;
   // One single-joint design [1, f_j] and factorisation per moving joint.
-  constexpr std::size_t kCols = pose_ao_coefficients(1);
-  std::vector<std::vector<double>> designs(joints);
   std::vector<std::optional<pose_ao_detail::RidgeSolver>> alone(joints);
   for (std::size_t j = 0; j < joints; ++j) {
-    if (!moving[j]) continue;
-    designs[j].resize(poses * kCols);
-    for (std::size_t p = 0; p < poses; ++p) {
-      designs[j][p * kCols] = 1.0;
-      for (std::size_t e = 0; e < kPoseFeaturesPerJoint; ++e)
-        designs[j][p * kCols + 1 + e] = static_cast<double>(training.features[p * F + j * kPoseFeaturesPerJoint + e]);
-    }
-    alone[j].emplace(designs[j], poses, kCols, lambda);
+    const auto joint = static_cast<std::uint16_t>(j);
+    if (moving[j]) alone[j].emplace(set_design(training, {&joint, 1}, poses), poses, pose_ao_coefficients(1), lambda);
   }
   const auto dominant = [&](std::size_t v) {
     std::size_t best = joints;
@@ -877,16 +885,11 @@ std::vector<JointSet> select_joints(const MeshData& mesh, const PoseRig& rig, co
   std::map<JointSet, pose_ao_detail::RidgeSolver> solvers;
   const auto solver_of = [&](const JointSet& set) -> const pose_ao_detail::RidgeSolver& {
     if (const auto it = solvers.find(set); it != solvers.end()) return it->second;
-    const std::size_t count = set[kPoseAOMaxLocality], C = pose_ao_coefficients(static_cast<std::uint32_t>(count));
-    std::vector<double> design(poses * C);
-    for (std::size_t p = 0; p < poses; ++p) {
-      design[p * C] = 1.0;
-      for (std::size_t i = 0; i < count; ++i)
-        for (std::size_t e = 0; e < kPoseFeaturesPerJoint; ++e)
-          design[p * C + 1 + i * kPoseFeaturesPerJoint + e] =
-              static_cast<double>(training.features[p * F + set[i] * kPoseFeaturesPerJoint + e]);
-    }
-    return solvers.try_emplace(set, design, poses, C, lambda).first->second;
+    const std::size_t count = set[kPoseAOMaxLocality];
+    return solvers
+        .try_emplace(set, set_design(training, std::span(set).first(count), poses), poses,
+                     pose_ao_coefficients(static_cast<std::uint32_t>(count)), lambda)
+        .first->second;
   };
   std::map<std::size_t, std::vector<std::size_t>> rare;  // by dominant joint
   for (std::size_t v = 0; v < n; ++v)
@@ -1129,17 +1132,10 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
         PoseAOGroup& g = data.groups[gi];
         const std::vector<std::uint32_t>& vertices = *members[gi];
         const std::size_t C = g.coefficient_count();
-        std::vector<double> theta(P * C);
+        const std::vector<double> theta = set_design(training, std::span(g.joints).first(g.joint_count), P);
         std::vector<float> x(P * (C - 1));  // theta_local without the 1, for the clusters
-        for (std::size_t p = 0; p < P; ++p) {
-          theta[p * C] = 1.0;
-          for (std::uint32_t j = 0; j < g.joint_count; ++j)
-            for (std::uint32_t e = 0; e < kPoseFeaturesPerJoint; ++e) {
-              const float f = training.features[p * F + std::size_t{g.joints[j]} * kPoseFeaturesPerJoint + e];
-              theta[p * C + 1 + j * kPoseFeaturesPerJoint + e] = static_cast<double>(f);
-              x[p * (C - 1) + j * kPoseFeaturesPerJoint + e] = f;
-            }
-        }
+        for (std::size_t p = 0; p < P; ++p)
+          for (std::size_t e = 1; e < C; ++e) x[p * (C - 1) + e - 1] = static_cast<float>(theta[p * C + e]);
         std::uint64_t seed = 0;
         for (std::uint32_t j = 0; j < g.joint_count; ++j) seed = seed * 65537u + g.joints[j] + 1u;
 
@@ -1157,29 +1153,37 @@ Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& ri
             for (std::size_t e = 0; e < dims; ++e) out[e] = x[e] * centers[e];
           }
         };
+        // The clusters' metric (PoseAOGroup): each parameter's scale, the RMS over the set's
+        // vertices of its coefficient in the set's linear model on the poses `rows`. Once per rows
+        // and strength (every cluster count tried shares it).
+        std::vector<std::tuple<const std::vector<std::size_t>*, double, std::vector<float>>> metrics;
+        const auto metric = [&](const std::vector<std::size_t>& rows, double ridge_strength) -> const std::vector<float>& {
+          for (const auto& [made_for, made_with, scales] : metrics)
+            if (made_for == &rows && made_with == ridge_strength) return scales;
+          const std::size_t R = rows.size();
+          std::vector<double> linear(R * C);
+          for (std::size_t r = 0; r < R; ++r) std::copy_n(theta.data() + rows[r] * C, C, linear.data() + r * C);
+          const pose_ao_detail::RidgeSolver solver(linear, R, C, ridge_strength);
+          std::vector<float> y(R);
+          std::vector<double> t(C), sum(C, 0.0);
+          for (const std::uint32_t v : vertices) {
+            for (std::size_t r = 0; r < R; ++r) y[r] = training.ao[rows[r] * V + v];
+            solver.solve(y.data(), 1, t);
+            for (std::size_t e = 1; e < C; ++e) sum[e] += t[e] * t[e];
+          }
+          std::vector<float> scales(C - 1);
+          for (std::size_t e = 1; e < C; ++e)
+            scales[e - 1] = static_cast<float>(std::sqrt(sum[e] / static_cast<double>(vertices.size())));
+          return std::get<2>(metrics.emplace_back(&rows, ridge_strength, std::move(scales)));
+        };
         const auto make_model = [&](const std::vector<std::size_t>& rows, std::uint32_t clusters, double ridge_strength,
                                     Model& m) {
           const std::size_t R = rows.size(), U = std::size_t{clusters} * C;
           m.clusters = clusters;
           std::vector<double> weights(R * clusters, clusters == 1 ? 1.0 : 0.0);  // per row, per cluster
           if (clusters > 1) {
-            // The clusters' metric (PoseAOGroup): each parameter scaled by the RMS over the set's
-            // vertices of its coefficient in the set's linear model on these rows.
-            m.centers.assign(std::size_t{clusters + 1} * (C - 1), 0.0f);
-            {
-              std::vector<double> linear(R * C);
-              for (std::size_t r = 0; r < R; ++r) std::copy_n(theta.data() + rows[r] * C, C, linear.data() + r * C);
-              const pose_ao_detail::RidgeSolver solver(linear, R, C, ridge_strength);
-              std::vector<float> y(R);
-              std::vector<double> t(C), sum(C, 0.0);
-              for (const std::uint32_t v : vertices) {
-                for (std::size_t r = 0; r < R; ++r) y[r] = training.ao[rows[r] * V + v];
-                solver.solve(y.data(), 1, t);
-                for (std::size_t e = 1; e < C; ++e) sum[e] += t[e] * t[e];
-              }
-              for (std::size_t e = 1; e < C; ++e)
-                m.centers[e - 1] = static_cast<float>(std::sqrt(sum[e] / static_cast<double>(vertices.size())));
-            }
+            m.centers = metric(rows, ridge_strength);
+            m.centers.resize(std::size_t{clusters + 1} * (C - 1));
             std::vector<float> xs(R * (C - 1));
             for (std::size_t r = 0; r < R; ++r) m.scaled(x.data() + rows[r] * (C - 1), C - 1, xs.data() + r * (C - 1));
             float* centers = m.centers.data() + (C - 1);

@@ -181,11 +181,8 @@ TEST(PoseAOFit, RecoversAnExactlyLinearAO) {
   }
 }
 
-// Two limbs under a root: 40 vertices on limb 1 and 5 on limb 2, each vertex's AO linear in its
-// own limb's parameters. Limb 2's set is too small to run as a group of its own and no large set
-// holds joint 2, so its vertices take the set pooled for their dominant joint, which keeps it:
-// both limbs' AO is recovered (moved into limb 1's set they would keep only their pose average).
-TEST(PoseAOFit, VerticesOfRareJointSetsKeepTheirOwnJoint) {
+// A root (joint 0) with two limbs, joint 1 along +x and joint 2 along -x.
+PoseRig two_limb_rig() {
   PoseRig rig;
   rig.parents = {-1, 0, 0};
   rig.order = {0, 1, 2};
@@ -195,6 +192,15 @@ TEST(PoseAOFit, VerticesOfRareJointSetsKeepTheirOwnJoint) {
   rig.bind_positions = {glm::vec3(0.0f), glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(-1.0f, 0.0f, 0.0f)};
   rig.animated = {true, true, true};
   rig.clip_ranges.assign(3, JointRange{});
+  return rig;
+}
+
+// Two limbs under a root: 40 vertices on limb 1 and 5 on limb 2, each vertex's AO linear in its
+// own limb's parameters. Limb 2's set is too small to run as a group of its own and no large set
+// holds joint 2, so its vertices take the set pooled for their dominant joint, which keeps it:
+// both limbs' AO is recovered (moved into limb 1's set they would keep only their pose average).
+TEST(PoseAOFit, VerticesOfRareJointSetsKeepTheirOwnJoint) {
+  const PoseRig rig = two_limb_rig();
   constexpr std::size_t kLimb1 = 40, kLimb2 = 5, V = kLimb1 + kLimb2;
   MeshData mesh;
   for (std::size_t v = 0; v < V; ++v) {
@@ -475,15 +481,7 @@ TEST(PoseAOFit, ClustersFollowAHingeThatOneLinearMapCannot) {
 // poses by limb 2, whose parameters spread most; in the metric of the set's linear model
 // (PoseAOGroup) limb 2 weighs nothing and the clusters follow the hinge.
 TEST(PoseAOFit, ClustersSplitThePosesWhereTheAOChangesNotWhereThePosesSpread) {
-  PoseRig rig;
-  rig.parents = {-1, 0, 0};
-  rig.order = {0, 1, 2};
-  rig.offsets.assign(3, glm::mat4(1.0f));
-  rig.inverse_bind.assign(3, glm::mat4(1.0f));
-  rig.bind.assign(3, Transform{});
-  rig.bind_positions = {glm::vec3(0.0f), glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(-1.0f, 0.0f, 0.0f)};
-  rig.animated = {true, true, true};
-  rig.clip_ranges.assign(3, JointRange{});
+  const PoseRig rig = two_limb_rig();
   MeshData mesh;
   mesh.positions = {{1, 0, 0}, {1, 1, 0}, {1, 0, 1}, {-1, 0, 0}};
   mesh.normals.assign(4, glm::vec3(0, 1, 0));
