@@ -3,7 +3,7 @@
 // t = argmin |Theta t - y|^2 + sum_c r_c t_c^2 with a ridge r_c per column. The normal matrix G =
 // Theta^T Theta + diag(r) is formed and Cholesky-factored once (double precision); each target then
 // costs one product Theta^T y and two triangular solves. Rows may be sparse (the blended cluster
-// models of pose_ao_clusters.h): each row's non-zero entries are kept, so forming G costs the sum of
+// models of fit_pose_ao): each row's non-zero entries are kept, so forming G costs the sum of
 // their squares and Theta^T y their count. A pivot below 1e-9 of the mean diagonal is raised to that
 // floor, so a zero column (a joint that never moves), collinear columns or a zero ridge give finite
 // coefficients that are zero (or negligible) along the null directions instead of a blow-up.
