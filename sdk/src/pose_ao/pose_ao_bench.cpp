@@ -38,6 +38,7 @@
 #include "penumbra/core/jobs.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/ecs/transform.h"
+#include "penumbra/pose_ao/joint_roles.h"
 #include "penumbra/pose_ao/pose_ao_baker.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
@@ -127,8 +128,8 @@ Errors errors(const HeldOut& h, const std::function<void(const std::vector<float
 // character, which the pose pushed through it; hidden itself, it still shades the visible part of
 // its triangles, so the goal counts it), their share of the model's squared error and the
 // model's ratio to the better baseline without them; then the body parts (vertices by their
-// heaviest skinning joint) of the largest shares, each with the model's RMSE over the pose
-// average's there.
+// heaviest skinning joint) and the joints' roles of the largest shares, each with the model's RMSE
+// over the pose average's there.
 constexpr float kEnclosed = 0.02f;
 std::string error_by_part(const HeldOut& h, const PoseAOData& d, const MeshData& mesh, const PoseRig& rig) {
   const std::size_t V = d.vertex_count, J = rig.joint_count();
@@ -165,23 +166,41 @@ std::string error_by_part(const HeldOut& h, const PoseAOData& d, const MeshData&
       }
     }
   }
-  std::vector<std::size_t> order(J);
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return model[a] > model[b]; });
-  std::string parts;
-  for (std::size_t i = 0; i < std::min<std::size_t>(6, J) && model[order[i]] > 0.0; ++i) {
-    const std::size_t j = order[i];
-    parts += (parts.empty() ? "" : ", ") + (rig.names[j].empty() ? "joint " + std::to_string(j) : rig.names[j]) +
-             " " + fmt(100.0 * model[j] / total, 2) + " % (" + fmt(std::sqrt(model[j] / std::max(average[j], 1e-30)), 2) +
-             ")";
+  // The largest shares of the squared error, `shown` of them, over the groups named `name(i)`.
+  const auto largest = [&](const std::vector<double>& error, const std::vector<double>& baseline, std::size_t shown,
+                           auto name) {
+    std::vector<std::size_t> order(error.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return error[a] > error[b]; });
+    std::string list;
+    for (std::size_t i = 0; i < std::min(shown, order.size()) && error[order[i]] > 0.0; ++i)
+      list += (list.empty() ? "" : ", ") + name(order[i]) + " " + fmt(100.0 * error[order[i]] / total, 2) + " % (" +
+              fmt(std::sqrt(error[order[i]] / std::max(baseline[order[i]], 1e-30)), 2) + ")";
+    return list;
+  };
+  // The same by the joints' roles (joint_roles.h), where their names give them.
+  std::vector<JointRole> roles(J);
+  for (std::size_t j = 0; j < J; ++j) roles[j] = joint_role(rig.names[j]);
+  assign_chain_roles(rig.parents, roles);
+  const std::size_t role_count = static_cast<std::size_t>(JointRole::End) + 1;
+  std::vector<double> role_model(role_count, 0.0), role_average(role_count, 0.0);
+  for (std::size_t j = 0; j < J; ++j) {
+    role_model[static_cast<std::size_t>(roles[j])] += model[j];
+    role_average[static_cast<std::size_t>(roles[j])] += average[j];
   }
+  const std::string parts = largest(model, average, 6, [&](std::size_t j) {
+    return rig.names[j].empty() ? "joint " + std::to_string(j) : rig.names[j];
+  });
+  const std::string by_role = largest(role_model, role_average, 4, [](std::size_t r) {
+    return std::string(to_string(static_cast<JointRole>(r)));
+  });
   return fmt(100.0 * double(enclosed_count) / double(std::max<std::size_t>(count, 1)), 2) +
          " % of the vertex-poses are fully occluded in the reference (AO < " + fmt(kEnclosed) +
          ": inside another part of the character) and hold " + fmt(100.0 * enclosed / std::max(total, 1e-30), 3) +
          " % of the clustered model's squared error; without them its RMSE is " +
          fmt(std::sqrt(open_model / std::max(std::min(open_mean, open_bind), 1e-30)), 3) +
          "x the better baseline's (references' noise included); largest shares by body part (model / pose "
-         "average RMSE there): " + parts;
+         "average RMSE there): " + parts + "; by the joints' roles: " + by_role;
 }
 
 Result<Report> run(const Options& options) {
