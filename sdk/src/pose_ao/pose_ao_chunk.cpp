@@ -134,7 +134,7 @@ Result<PoseAOData> read_pose_ao_chunk(const BakeChunk& chunk) {
     PENUMBRA_TRY(r.read(g.cluster_count));
     PENUMBRA_TRY(r.read(g.center_offset));
     PENUMBRA_TRY(r.read(g.cluster_band));
-    // Several clusters need a centre each (in the joints' parameter space) and at least one joint.
+    // Several clusters need at least one joint, the metric's scales and a centre each (PoseAOGroup).
     const bool clustered = g.cluster_count > 1;
     bool ok = g.joint_count <= d.locality && g.count >= 1 && g.first == vertices &&
               g.coefficient_offset == coefficients && std::isfinite(g.bind_blend) && g.bind_blend >= 0.0f &&

@@ -174,9 +174,9 @@ struct PoseAOTraining {
 // (a 10-coefficient fit per joint scores it); a joint whose features are constant (within 1e-5)
 // over those poses is never selected; vertices of joint sets shared by fewer than 16 vertices
 // join the set whose linear fit explains most of their AO among a few large sets and one pooled
-// for their dominant joint (large groups evaluate fastest). When the poses are
-// fewer than the coefficients (poses < 1 + 9 k) k is reduced to fit and a warning is logged and
-// appended to `warnings`. Normal equations per joint set in double, Cholesky with a pivot floor (1e-9 of the
+// for their dominant joint (large groups evaluate fastest). When the poses are fewer than the
+// coefficients (poses < 1 + 9 k) k is reduced to fit and a warning is logged and appended to
+// `warnings`. Normal equations per joint set in double, Cholesky with a pivot floor (1e-9 of the
 // trace), so rank-deficient data (a joint that never moves, collinear parameters, lambda = 0)
 // gives finite, bounded coefficients. Each vertex is refitted a few times with the poses whose AO
 // sits at 0 or 1 and whose prediction lies beyond it taken as fitted (the model is clamped where
@@ -186,14 +186,14 @@ struct PoseAOTraining {
 // the poses (seeded per joint set) in the metric of the set's linear model fitted to the same
 // poses, the clusters' maps fitted jointly with their blend weights; 1, 2, 4, .. up to the count
 // asked for (at most one per 3 x coefficients poses, a note in `warnings` when that caps it) are
-// fitted to four fifths of the poses and the count whose error
-// on the fifth left out is least (by 1 % at least over fewer) is refitted to all. The coefficients
-// are rounded to IEEE halves (PoseAOGroup), what the chunk stores and the runtime reads.
-// Deterministic (fixed summation order and seeds, any thread count). Errors: InvalidArgument when
-// training has no pose. Cost: per joint set and cluster count K tried, about P C^2 (a pose's row
-// holds one or two clusters' entries) + (K C)^3 / 6; per vertex about P C per count tried (twice
-// above one cluster: the metric's linear fit); plus P x 10 per candidate joint (the scores) and,
-// per vertex of a rare set, P C for each of up to 17 sets it may join (each factorised once).
+// fitted to four fifths of the poses and the count whose error on the fifth left out is least (by
+// 1 % at least over fewer) is refitted to all. The coefficients are rounded to IEEE halves
+// (PoseAOGroup), what the chunk stores and the runtime reads. Deterministic (fixed summation order
+// and seeds, any thread count). Errors: InvalidArgument when training has no pose. Cost: per joint
+// set and cluster count K tried, about P C^2 (a pose's row holds one or two clusters' entries) +
+// (K C)^3 / 6; per vertex about P C per count and ridge strength tried, and P C per strength for
+// the metric's linear fit; plus P x 10 per candidate joint (the scores) and, per vertex of a rare
+// set, P C for each of up to 17 sets it may join (each factorised once).
 Result<PoseAOData> fit_pose_ao(const PoseAOTraining& training, const PoseRig& rig, const MeshData& mesh,
                                const SkinnedPoseAO& settings, std::size_t poses, JobContext& jobs,
                                std::vector<std::string>* warnings = nullptr, std::string_view context = "pose-AO");
