@@ -147,7 +147,16 @@ Status UndoStack::delete_subtree(World& world, Entity root) {
   if (!world.alive(root))
     return make_error(ErrorCode::InvalidArgument, "delete: the entity no longer exists; select another");
   const Name* name = world.try_get<Name>(root);
-  Edit edit{root, "delete '" + (name ? name->value : "#" + std::to_string(root.index)) + "'", {}};
+  // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "literal" + std::string&& here.
+  std::string label = "delete '";
+  if (name) {
+    label += name->value;
+  } else {
+    label += '#';
+    label += std::to_string(root.index);
+  }
+  label += '\'';
+  Edit edit{root, std::move(label), {}};
   edit.subtree = Edit::Subtree::Deleted;
   take_out_subtree(world, edit);
   push(std::move(edit));

@@ -193,7 +193,40 @@ void PoolBase::grow() {
   }
 }
 
+void PoolBase::put(std::uint32_t entity_index, std::uint32_t& entry, std::uint64_t tick_value) {
+  const std::uint32_t pos = entity_index;
+  if (pos < size_) {
+    ++layout_version_;  // a hole takes an entity
+    --tombstones_;
+  } else {
+    for (std::uint32_t hole = size_; hole < pos; ++hole) index(hole) = kNone;
+    tombstones_ += pos - size_;
+    size_ = pos + 1;
+  }
+  entry = pos + 1;
+  index(pos) = entity_index;
+  tick(pos) = tick_value;
+}
+
+void PoolBase::vacate(std::uint32_t pos, std::uint32_t removed, bool iterating) {
+  ++layout_version_;
+  sparse_[removed] = 0;
+  index(pos) = kNone;
+  ++tombstones_;
+  if (iterating) return;  // a running iteration has taken size() already
+  while (size_ > 0 && index(size_ - 1) == kNone) {
+    --size_;
+    --tombstones_;
+  }
+}
+
 bool PoolBase::erase(std::uint32_t pos, bool iterating) {
+  if (indexed_) {
+    const std::uint32_t removed = index(pos);
+    destroy_at(pos);
+    vacate(pos, removed, iterating);
+    return false;
+  }
   if (iterating) {
     // Leave a tombstone: positions the running iteration has not reached must not move.
     const std::uint32_t removed = index(pos);
@@ -443,6 +476,10 @@ detail::GroupBase& World::make_group(std::vector<detail::PoolBase*> owned, std::
   for (const auto& g : groups_)
     if (ids(g->owned) == owned_ids && ids(g->observed) == observed_ids) return *g;
   for (const detail::PoolBase* p : owned) {
+    if (p->indexed_)
+      throw std::logic_error("World::group: " + std::string(component_name(p->id_)) +
+                             " has indexed storage, whose slots are fixed by entity index, so no group can own it "
+                             "(observe it instead)");
     if (!p->owner_) continue;
     std::string names;
     for (const ComponentId id : p->owner_->types) names += (names.empty() ? "" : ", ") + std::string(component_name(id));

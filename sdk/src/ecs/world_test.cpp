@@ -40,6 +40,23 @@ struct Tracked {
   ~Tracked() { --live; }
 };
 
+// Component types of indexed storage (specialised below, before their first use).
+struct Slot {
+  float x = 0, y = 0;
+};
+struct TrackedSlot : Tracked {
+  using Tracked::Tracked;
+};
+
+}  // namespace
+
+template <>
+inline constexpr Storage kComponentStorage<Slot> = Storage::Indexed;
+template <>
+inline constexpr Storage kComponentStorage<TrackedSlot> = Storage::Indexed;
+
+namespace {
+
 std::set<std::uint32_t> visited_indices(World& w) {
   std::set<std::uint32_t> out;
   w.each<Position, Velocity>([&](Entity e, Position&, Velocity&) { out.insert(e.index); });
@@ -841,6 +858,167 @@ TEST(WorldPool, HoistedGetsAgreeWithTheWorld) {
   EXPECT_EQ(health.try_get(es[0]), nullptr);
   EXPECT_EQ(health.get(reused).value, 77);
   EXPECT_EQ(w.pool<Mass>().try_get(reused), nullptr);  // a pool the World had not used yet
+}
+
+// Indexed storage: each component sits at its entity's index, one read from a hoisted pool; the
+// indices without one are skipped; removals leave the other components where they are.
+TEST(WorldIndexed, ComponentsSitAtTheirEntityIndex) {
+  World w;
+  std::vector<Entity> es(3000);
+  w.create(es);
+  for (std::size_t i = 0; i < es.size(); i += 3) w.add<Slot>(es[i], float(i), 0.0f);
+  const ComponentPool<Slot> slots = w.pool<Slot>();
+  EXPECT_EQ(slots.size(), 1000u);
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    ASSERT_EQ(slots.contains(es[i]), i % 3 == 0);
+    EXPECT_EQ(slots.try_get(es[i]), w.try_get<Slot>(es[i]));
+    if (i % 3 == 0) {
+      EXPECT_EQ(&slots.get(es[i]), &w.get<Slot>(es[i]));
+      EXPECT_EQ(slots.get(es[i]).x, float(i));
+    }
+  }
+  // In the pool's region, slot i is element i of one array.
+  EXPECT_EQ(&slots.get(es[300]) - &slots.get(es[0]), 300);
+  Slot* kept = &w.get<Slot>(es[1500]);
+  for (std::size_t i = 0; i < 1500; i += 3) w.remove<Slot>(es[i]);  // no swap-and-pop
+  w.destroy(es[2997]);                                               // the last one: trailing holes go
+  EXPECT_EQ(&w.get<Slot>(es[1500]), kept);
+  EXPECT_EQ(w.count<Slot>(), 499u);
+  std::vector<std::uint32_t> seen;
+  w.each<Slot>([&](Entity e, Slot& s) {
+    EXPECT_EQ(s.x, float(e.index));
+    seen.push_back(e.index);
+  });
+  ASSERT_EQ(seen.size(), 499u);
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));  // index order
+  EXPECT_EQ(seen.front(), 1500u);
+  EXPECT_EQ(seen.back(), 2994u);
+  // A stale handle at a reused index is refused; the new entity's component takes the slot.
+  w.destroy(es[1500]);
+  const Entity reused = w.create();
+  ASSERT_EQ(reused.index, es[1500].index);
+  EXPECT_EQ(slots.try_get(es[1500]), nullptr);
+  w.add<Slot>(reused, -1.0f, 0.0f);
+  EXPECT_EQ(&slots.get(reused), kept);
+  EXPECT_EQ(slots.try_get(es[1500]), nullptr);
+}
+
+// Indexed and dense pools together, through random creates, destroys, adds, replacements and
+// removals (some during iteration), agree with a model; views led by either pool visit the
+// intersection.
+TEST(WorldIndexed, RandomOperationsMatchAReferenceModel) {
+  World w;
+  std::map<std::uint32_t, Entity> entities;
+  std::map<std::uint32_t, float> slot, vel;
+  Rng rng = Rng::stream(7, 0);
+  const auto pick = [&]() {
+    auto it = entities.begin();
+    std::advance(it, rng.next_u32() % entities.size());
+    return it->second;
+  };
+  for (int step = 0; step < 20000; ++step) {
+    const std::uint32_t op = rng.next_u32() % 9;
+    if (op == 0 || entities.size() < 4) {
+      const Entity e = w.create();
+      entities[e.index] = e;
+    } else if (op == 1) {
+      const Entity e = pick();
+      w.destroy(e);
+      entities.erase(e.index);
+      slot.erase(e.index);
+      vel.erase(e.index);
+    } else if (op <= 3) {
+      const Entity e = pick();
+      w.add<Slot>(e, float(step), 0.0f);
+      slot[e.index] = float(step);
+    } else if (op <= 5) {
+      const Entity e = pick();
+      w.add<Velocity>(e, float(-step), 0.0f);
+      vel[e.index] = float(-step);
+    } else if (op == 6) {
+      const Entity e = pick();
+      EXPECT_EQ(w.remove<Slot>(e), slot.erase(e.index) == 1);
+    } else if (op == 7) {
+      const Entity e = pick();
+      EXPECT_EQ(w.remove<Velocity>(e), vel.erase(e.index) == 1);
+    } else if (step % 50 == 0) {
+      // During iteration: every visited entity whose value is odd loses its Slot.
+      w.each<Slot>([&](Entity e, Slot& s) {
+        if (int(s.x) % 2 != 0) {
+          w.remove<Slot>(e);
+          slot.erase(e.index);
+        }
+      });
+    }
+  }
+  ASSERT_EQ(w.count<Slot>(), slot.size());
+  ASSERT_EQ(w.count<Velocity>(), vel.size());
+  const ComponentPool<Slot> slots = w.pool<Slot>();
+  for (const auto& [index, e] : entities) {
+    const Slot* s = w.try_get<Slot>(e);
+    ASSERT_EQ(s != nullptr, slot.count(index) == 1);
+    if (s) {
+      EXPECT_EQ(s->x, slot[index]);
+      EXPECT_EQ(&slots.get(e), s);
+    }
+  }
+  std::set<std::uint32_t> both;
+  for (const auto& [index, x] : slot)
+    if (vel.count(index)) both.insert(index);
+  std::set<std::uint32_t> by_slot, by_vel;
+  w.each<Slot, Velocity>([&](Entity e, Slot& s, Velocity& v) {
+    EXPECT_EQ(s.x, slot.at(e.index));
+    EXPECT_EQ(v.x, vel.at(e.index));
+    by_slot.insert(e.index);
+  });
+  w.each<Velocity, Slot>([&](Entity e, Velocity&, Slot&) { by_vel.insert(e.index); });
+  EXPECT_EQ(by_slot, both);
+  EXPECT_EQ(by_vel, both);
+  std::size_t n = 0;
+  w.each<Slot>([&](Entity, Slot&) { ++n; });
+  EXPECT_EQ(n, slot.size());
+}
+
+TEST(WorldIndexed, EveryComponentIsDestroyedExactlyOnce) {
+  Tracked::live = 0;
+  {
+    World w;
+    std::vector<Entity> es(3000);
+    w.create(es);
+    for (std::size_t i = 0; i < es.size(); ++i) w.add<TrackedSlot>(es[i], int(i));
+    for (std::size_t i = 0; i < es.size(); i += 3) w.remove<TrackedSlot>(es[i]);
+    w.each<TrackedSlot>([&](Entity e, TrackedSlot& t) {
+      if (t.value % 3 == 1) w.destroy(e);  // holes left during the iteration
+    });
+    w.add<TrackedSlot>(es[0], 0);  // into a hole
+    w.add<TrackedSlot>(es[0], 3);  // replaced
+    EXPECT_EQ(Tracked::live, 1001);
+    EXPECT_EQ(w.count<TrackedSlot>(), 1001u);
+    w.each<TrackedSlot>([](TrackedSlot& t) { EXPECT_EQ(t.value % 3, t.value == 3 ? 0 : 2); });
+  }
+  EXPECT_EQ(Tracked::live, 0);
+}
+
+TEST(WorldIndexed, NoGroupOwnsIt) {
+  World w;
+  std::vector<Entity> es(10);
+  w.create(es);
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    if (i % 2 == 0) w.add<Slot>(es[i]);
+    if (i % 3 == 0) w.add<Velocity>(es[i]);
+  }
+  try {
+    w.group<Slot, Velocity>();
+    FAIL() << "a group took an indexed pool";
+  } catch (const std::logic_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("Slot"), std::string::npos) << what;
+    EXPECT_NE(what.find("indexed"), std::string::npos) << what;
+  }
+  w.group<Velocity>(observe<Slot>);  // observing it is fine
+  EXPECT_EQ((w.view<Velocity, Slot>().count()), 2u);  // entities 0 and 6
+  w.remove<Slot>(es[6]);
+  EXPECT_EQ((w.view<Velocity, Slot>().count()), 1u);
 }
 
 // Components in a pool's region and, with regions turned off, in blocks, across several pages of

@@ -13,6 +13,16 @@
 // Component ids are process-wide, but a World holds pools only for the types it uses and keeps a
 // bit mask per entity of the pools that hold its components, so destroy() visits only those.
 //
+// Indexed storage. A type declared Storage::Indexed (kComponentStorage below) keeps entity i's
+// component at dense position i, so a hoisted get is one indexed read (ComponentPool::get); the
+// positions of entities without it are holes that iteration skips like tombstones. Its pool spans
+// the largest entity index that has the component (memory and iteration cost by that index, not
+// by the count), a removal leaves a hole instead of moving the last component (references stay
+// valid until their own component goes), and no group may own it (observing is fine). Suits types
+// that most entities have and that systems look up at random (transforms); keep the default for
+// types a few entities have. An entity given such a component during an iteration is visited if
+// its index lies ahead of the iteration (the rule above holds for Dense types only).
+//
 // Groups. world.group<A, B>() (or group<A>(observe<B>)) keeps the entities that have every one of
 // the group's types packed at the front of each owned pool (A and B in the first form; only A in
 // the second, where B is observed), in the same order, updated on every add and remove. A view of exactly the group's types then walks
@@ -35,8 +45,9 @@
 // References. A reference to a component stays valid while other components are added (to any
 // pool) and while anything is removed during iteration. A removal outside iteration (including
 // the compaction at the end of an iteration with removals) may move other components of that
-// pool: fetch again after removing. The exception is a group's owned pools: outside iteration,
-// adding or removing any of the group's types may move their components.
+// pool: fetch again after removing (indexed storage never moves a component). The exception is a
+// group's owned pools: outside iteration, adding or removing any of the group's types may move
+// their components.
 //
 // Thread safety: a World is not thread-safe; use it from one thread at a time (systems may fan
 // work out to the job system over component references they fetched beforehand).
@@ -88,6 +99,14 @@ ComponentId component_id_of() {
   return id;
 }
 }  // namespace detail
+
+// How a component type's pool stores it (see "Storage" and "Indexed storage" at the top).
+enum class Storage : std::uint8_t { Dense, Indexed };
+// The storage of component type T: Dense unless specialised, e.g.
+//   template <> inline constexpr Storage kComponentStorage<Transform> = Storage::Indexed;
+// in namespace penumbra, before T's first use.
+template <class T>
+inline constexpr Storage kComponentStorage = Storage::Dense;
 
 // The id of component type T (cv-qualifiers ignored). Thread-safe.
 template <class T>
@@ -314,8 +333,16 @@ class PoolBase {
     tick(pos) = tick_value;
     ++size_;
   }
-  // Removes the component at `pos`: swap-and-pop, or a tombstone while `iterating`.
-  // Returns true when a tombstone was left (the pool then needs compact()).
+  // Indexed storage: entity `entity_index`, whose sparse entry is `entry`, takes slot
+  // entity_index (its component must already be constructed there); the slots between the old
+  // size() and it become holes. Precondition: entity_index < capacity() and the slot is a hole
+  // or at or past size().
+  void put(std::uint32_t entity_index, std::uint32_t& entry, std::uint64_t tick_value);
+  // Indexed storage: the bookkeeping of removing entity `removed` from slot `pos` (its component
+  // already destroyed): the slot becomes a hole, and trailing holes are dropped unless `iterating`.
+  void vacate(std::uint32_t pos, std::uint32_t removed, bool iterating);
+  // Removes the component at `pos`: swap-and-pop, or a tombstone while `iterating` (indexed
+  // storage: always a hole). Returns true when a tombstone was left (the pool then needs compact()).
   bool erase(std::uint32_t pos, bool iterating);
   // Swap-and-pop of slot `pos`, which holds entity `removed`, for the entities, ticks and sparse
   // array: the last slot's entity takes `pos`. Returns that last slot, whose component the caller
@@ -346,8 +373,9 @@ class PoolBase {
   // Drops disconnected listeners unless an event of this pool is firing.
   void prune_listeners();
 
-  std::uint32_t tombstones_ = 0;
+  std::uint32_t tombstones_ = 0;  // tombstones and, in an indexed pool, holes
   bool compact_pending_ = false;
+  bool indexed_ = false;  // Storage::Indexed: slot = entity index
   // Bumped whenever an existing slot may change its entity (erase, compact); appends keep it.
   std::uint64_t layout_version_ = 0;
   // A view's memo: this pool's first aligned_count_ slots hold the same entities as
@@ -406,7 +434,10 @@ class PoolBase {
 template <class T>
 class Pool final : public PoolBase {
  public:
+  static constexpr bool kIndexed = kComponentStorage<T> == Storage::Indexed;
+
   Pool() {
+    indexed_ = kIndexed;
     typed_pop_ = [](PoolBase& p, std::uint32_t entity_index, std::uint64_t bits, PoolBase* const* pools) {
       static_cast<Pool&>(p).pop(p.position(entity_index), entity_index);
       return pop_next(entity_index, bits, pools);
@@ -426,23 +457,31 @@ class Pool final : public PoolBase {
   T* page(std::uint32_t p) { return pages_[p]; }
   // erase(pos, false) without the virtual calls; `entity_index` is the entity at `pos`.
   void pop(std::uint32_t pos, std::uint32_t entity_index) {
+    if constexpr (kIndexed) {
+      at(pos).~T();
+      vacate(pos, entity_index, false);
+      return;
+    }
     const std::uint32_t last = pop_slot(pos, entity_index);
     T& from = at(last);
     if (pos != last) at(pos) = std::move(from);
     from.~T();
   }
 
-  // Constructs a new component at the end of the pool.
+  // Constructs a new component at the end of the pool (indexed storage: at slot entity_index).
   template <class... Args>
   T& emplace(std::uint32_t entity_index, std::uint32_t& entry, std::uint64_t tick, Args&&... args) {
-    const std::uint32_t pos = size();
-    if (pos == capacity()) reserve(pos + 1);
+    const std::uint32_t pos = kIndexed ? entity_index : size();
+    if (pos >= capacity()) reserve(pos + 1);
     T* slot = &at(pos);
     if constexpr (std::is_constructible_v<T, Args&&...>)
       ::new (static_cast<void*>(slot)) T(std::forward<Args>(args)...);
     else  // an aggregate from its members (compilers without C++20's parenthesised aggregate init)
       ::new (static_cast<void*>(slot)) T{std::forward<Args>(args)...};
-    push(entity_index, entry, tick);
+    if constexpr (kIndexed)
+      put(entity_index, entry, tick);
+    else
+      push(entity_index, entry, tick);
     return *slot;
   }
 
@@ -917,7 +956,8 @@ class View {
 
   template <std::size_t... I>
   static std::size_t smallest(const Pools& pools, std::index_sequence<I...>) {
-    const std::uint32_t sizes[] = {std::get<I>(pools)->live()...};
+    // An indexed pool's walk covers its holes too.
+    const std::uint32_t sizes[] = {(std::get<I>(pools)->indexed_ ? std::get<I>(pools)->size() : std::get<I>(pools)->live())...};
     std::size_t best = 0;
     for (std::size_t i = 1; i < sizeof...(I); ++i)
       if (sizes[i] < sizes[best]) best = i;
@@ -1053,7 +1093,8 @@ class View {
 };
 
 // A handle on one component pool of a World, for systems that look components up many times:
-// the pool is found once (World::pool<T>()), so each get is two array look-ups. Valid while the
+// the pool is found once (World::pool<T>()), so each get is two array look-ups (one for a type of
+// indexed storage). Valid while the
 // World lives and is not moved; the references it returns follow the rules at the top.
 template <class T>
 class ComponentPool {
@@ -1070,10 +1111,14 @@ class ComponentPool {
     const std::uint32_t pos = pool_->find(e.index);
     return pos == detail::kNone ? nullptr : &pool_->at(pos);
   }
-  // Unchecked: precondition contains(e), asserted in debug builds only. O(1): two look-ups.
+  // Unchecked: precondition contains(e), asserted in debug builds only. O(1): two look-ups, the
+  // sparse entry and the component (indexed storage: the component alone).
   T& get(Entity e) const {
     assert(contains(e) && "ComponentPool::get: the entity lacks this component or the handle is stale");
-    return pool_->at(pool_->position(e.index));
+    if constexpr (detail::Pool<U>::kIndexed)
+      return pool_->at(e.index);
+    else
+      return pool_->at(pool_->position(e.index));
   }
   // The tick at which e's T was last added or patched; 0 when absent or the handle is stale.
   std::uint64_t changed_tick(Entity e) const {
