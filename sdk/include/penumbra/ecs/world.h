@@ -957,7 +957,8 @@ class View {
   template <std::size_t... I>
   static std::size_t smallest(const Pools& pools, std::index_sequence<I...>) {
     // An indexed pool's walk covers its holes too.
-    const std::uint32_t sizes[] = {(std::get<I>(pools)->indexed_ ? std::get<I>(pools)->size() : std::get<I>(pools)->live())...};
+    const auto cost = [](const detail::PoolBase* p) { return p->indexed_ ? p->size() : p->live(); };
+    const std::uint32_t sizes[] = {cost(std::get<I>(pools))...};
     std::size_t best = 0;
     for (std::size_t i = 1; i < sizeof...(I); ++i)
       if (sizes[i] < sizes[best]) best = i;
@@ -1094,8 +1095,8 @@ class View {
 
 // A handle on one component pool of a World, for systems that look components up many times:
 // the pool is found once (World::pool<T>()), so each get is two array look-ups (one for a type of
-// indexed storage). Valid while the
-// World lives and is not moved; the references it returns follow the rules at the top.
+// indexed storage). Valid while the World lives and is not moved; the references it returns
+// follow the rules at the top.
 template <class T>
 class ComponentPool {
   using U = std::remove_cv_t<T>;
