@@ -25,14 +25,10 @@ struct Transform {
   glm::mat4 matrix() const;  // T * R * S
 };
 
-// Local-to-world matrix, written by update_world_transforms(). Indexed storage (world.h): nearly
-// every entity has one, and systems look them up at random (casters, receivers, lights, joints),
-// which then takes one read.
+// Local-to-world matrix, written by update_world_transforms().
 struct WorldTransform {
   glm::mat4 matrix{1.0f};
 };
-template <>
-inline constexpr Storage kComponentStorage<WorldTransform> = Storage::Indexed;
 
 struct Parent {
   Entity entity;
