@@ -57,6 +57,13 @@ inline constexpr Storage kComponentStorage<TrackedSlot> = Storage::Indexed;
 
 namespace {
 
+// A uniformly chosen entity of a model's live ones (index -> handle; not empty).
+Entity pick_entity(const std::map<std::uint32_t, Entity>& entities, Rng& rng) {
+  auto it = entities.begin();
+  std::advance(it, rng.next_u32() % entities.size());
+  return it->second;
+}
+
 std::set<std::uint32_t> visited_indices(World& w) {
   std::set<std::uint32_t> out;
   w.each<Position, Velocity>([&](Entity e, Position&, Velocity&) { out.insert(e.index); });
@@ -177,11 +184,7 @@ TEST(World, RandomOperationsMatchAReferenceModel) {
   std::map<std::uint32_t, float> pos, vel;    // index -> Position::x / Velocity::x
   std::vector<Entity> dead;
   Rng rng = Rng::stream(42, 0);
-  const auto pick = [&]() {
-    auto it = entities.begin();
-    std::advance(it, rng.next_u32() % entities.size());
-    return it->second;
-  };
+  const auto pick = [&] { return pick_entity(entities, rng); };
   for (int step = 0; step < 20000; ++step) {
     const std::uint32_t op = rng.next_u32() % 8;
     if (op == 0 || entities.size() < 4) {
@@ -698,11 +701,7 @@ TEST(WorldGroup, MembersStayPackedUnderRandomOperations) {
   std::map<std::uint32_t, float> pos, vel;
   std::map<std::uint32_t, int> health;
   Rng rng = Rng::stream(7, 0);
-  const auto pick = [&]() {
-    auto it = entities.begin();
-    std::advance(it, rng.next_u32() % entities.size());
-    return it->second;
-  };
+  const auto pick = [&] { return pick_entity(entities, rng); };
   const auto check = [&]() {
     std::set<std::uint32_t> both, health_pos;
     for (const auto& [index, x] : pos) {
@@ -911,11 +910,7 @@ TEST(WorldIndexed, RandomOperationsMatchAReferenceModel) {
   std::map<std::uint32_t, Entity> entities;
   std::map<std::uint32_t, float> slot, vel;
   Rng rng = Rng::stream(7, 0);
-  const auto pick = [&]() {
-    auto it = entities.begin();
-    std::advance(it, rng.next_u32() % entities.size());
-    return it->second;
-  };
+  const auto pick = [&] { return pick_entity(entities, rng); };
   for (int step = 0; step < 20000; ++step) {
     const std::uint32_t op = rng.next_u32() % 9;
     if (op == 0 || entities.size() < 4) {
