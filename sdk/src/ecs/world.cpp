@@ -208,12 +208,17 @@ void PoolBase::put(std::uint32_t entity_index, std::uint32_t& entry, std::uint64
   tick(pos) = tick_value;
 }
 
-void PoolBase::vacate(std::uint32_t pos, std::uint32_t removed, bool iterating) {
+bool PoolBase::vacate(std::uint32_t pos, std::uint32_t removed, bool iterating) {
   ++layout_version_;
   sparse_[removed] = 0;
   index(pos) = kNone;
   ++tombstones_;
-  if (iterating) return;  // a running iteration has taken size() already
+  if (iterating) return pos + 1 == size_;  // a running iteration has taken size() already
+  drop_trailing_holes();
+  return false;
+}
+
+void PoolBase::drop_trailing_holes() {
   while (size_ > 0 && index(size_ - 1) == kNone) {
     --size_;
     --tombstones_;
@@ -224,8 +229,7 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
   if (indexed_) {
     const std::uint32_t removed = index(pos);
     destroy_at(pos);
-    vacate(pos, removed, iterating);
-    return false;
+    return vacate(pos, removed, iterating);
   }
   if (iterating) {
     // Leave a tombstone: positions the running iteration has not reached must not move.
@@ -247,6 +251,11 @@ bool PoolBase::erase(std::uint32_t pos, bool iterating) {
 }
 
 void PoolBase::compact() {
+  compact_pending_ = false;
+  if (indexed_) {  // slots are fixed by entity index: only the tail goes
+    drop_trailing_holes();
+    return;
+  }
   ++layout_version_;
   std::uint32_t out = 0;
   for (std::uint32_t i = 0; i < size_; ++i) {
@@ -261,7 +270,6 @@ void PoolBase::compact() {
   }
   size_ = out;
   tombstones_ = 0;
-  compact_pending_ = false;
 }
 
 void PoolBase::swap_slots(std::uint32_t a, std::uint32_t b) {

@@ -340,11 +340,14 @@ class PoolBase {
   // or at or past size().
   void put(std::uint32_t entity_index, std::uint32_t& entry, std::uint64_t tick_value);
   // Indexed storage: the bookkeeping of removing entity `removed` from slot `pos` (its component
-  // already destroyed): the slot becomes a hole, and trailing holes are dropped unless `iterating`.
-  void vacate(std::uint32_t pos, std::uint32_t removed, bool iterating);
+  // already destroyed): the slot becomes a hole, and trailing holes are dropped. While `iterating`
+  // they stay; returns true when the hole is the last slot (compact() drops it afterwards).
+  bool vacate(std::uint32_t pos, std::uint32_t removed, bool iterating);
   // Removes the component at `pos`: swap-and-pop, or a tombstone while `iterating` (indexed
-  // storage: always a hole). Returns true when a tombstone was left (the pool then needs compact()).
+  // storage: always a hole). Returns true when the pool then needs compact().
   bool erase(std::uint32_t pos, bool iterating);
+  // Indexed storage: shrinks size() to the last slot that holds a component.
+  void drop_trailing_holes();
   // Swap-and-pop of slot `pos`, which holds entity `removed`, for the entities, ticks and sparse
   // array: the last slot's entity takes `pos`. Returns that last slot, whose component the caller
   // moves to `pos` (unless they are the same) and destroys.
@@ -361,7 +364,7 @@ class PoolBase {
     --size_;
     return last;
   }
-  // Removes tombstones, keeping the order of the survivors.
+  // Removes tombstones, keeping the order of the survivors (indexed storage: the trailing holes).
   void compact();
   // Exchanges two dense slots: components, entities and ticks. Precondition: no tombstones.
   void swap_slots(std::uint32_t a, std::uint32_t b);
