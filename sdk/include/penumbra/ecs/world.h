@@ -21,8 +21,9 @@
 // valid until their own component goes), and no group may own it (observing is fine). Views walk
 // it in step with other pools only where their slots hold the same entities (no holes, and
 // components added in index order); elsewhere they look each component up. Suits types that
-// nearly every entity has and that systems look up at random more than they iterate. An entity given such a component during an iteration is visited
-// if its index lies ahead of the iteration (the rule above holds for Dense types only).
+// nearly every entity has and that systems look up at random more than they iterate. An entity
+// given such a component during an iteration is visited if its index lies ahead of the iteration
+// (the rule above holds for Dense types only).
 //
 // Groups. world.group<A, B>() (or group<A>(observe<B>)) keeps the entities that have every one of
 // the group's types packed at the front of each owned pool (A and B in the first form; only A in
