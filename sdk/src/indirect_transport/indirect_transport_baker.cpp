@@ -3,12 +3,14 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <numbers>
 #include <numeric>
 #include <tuple>
+#include <utility>
 #include <unordered_map>
 
 #include <glm/common.hpp>
@@ -696,10 +698,12 @@ SparseTransport direct_operator(const std::vector<TransportPatch>& patches,
   std::vector<std::vector<Triple>> lists(patches.size());
   constexpr std::size_t kDenseBlock = std::size_t{1} << 20;  // receiver x sender coefficients summed densely
   // Each receiver's links, one sender patch at a time: summed into a dense block of the two
-  // patches' coefficients (or sorted triples for blocks above kDenseBlock), emitted by column.
+  // patches' coefficients (or sorted triples for blocks above kDenseBlock), emitted by column;
+  // a bitmap of the block's touched cells gives them in that order.
   (void)jobs.parallel_for(patches.size(), 1, [&](std::size_t begin, std::size_t end) {
-    std::vector<std::pair<std::uint32_t, float>> u, v;
+    std::vector<std::pair<std::uint32_t, float>> u, uc, v;
     std::vector<glm::vec3> block;
+    std::vector<std::uint64_t> touched;
     std::vector<Triple> sorted;
     for (std::size_t r = begin; r < end; ++r) {
       const TransportPatch& rp = patches[r];
@@ -714,30 +718,46 @@ SparseTransport direct_operator(const std::vector<TransportPatch>& patches,
         const TransportPatch& sp = patches[sender];
         const std::size_t cells = std::size_t{rp.leaves()} * sp.leaves();
         const bool dense = cells <= kDenseBlock;
-        if (dense) block.assign(cells, glm::vec3(0.0f));
+        if (dense && block.size() < cells) {
+          block.resize(cells, glm::vec3(0.0f));
+          touched.resize((cells + 63) / 64, 0);
+        }
         sorted.clear();
         for (; k < order.size() && links[r][order[k]].sender_patch == sender; ++k) {
           const TransportLink& link = links[r][order[k]];
           const Node rn = node_of(link.receiver_node), sn = node_of(link.sender_node);
           // W = sqrt(A_r / A_s) sum_c F_c (H_r 1_c) (H_s 1_s)^T rho_s / n_s over the receiver
-          // node's quadrants c (the node itself at a leaf), A the leaf areas.
+          // node's quadrants c (the node itself at a leaf), A the leaf areas. The quadrants' boxes
+          // have coefficients at the same indices (the scaling one, their ancestors' wavelets), so
+          // sum_c F_c H_r 1_c is one list.
           const bool leaf = rn.level == rp.level;
           box_coefficients(sp, sn, float(1u << (2 * (sp.level - sn.level))), v);
           for (std::uint32_t c = 0; c < (leaf ? 1u : 4u); ++c) {
             const Node quadrant = leaf ? rn : Node{rn.level + 1, 2 * rn.i + c % 2, 2 * rn.j + c / 2};
-            box_coefficients(rp, quadrant, 1.0f, u);
-            const glm::vec3 scale = std::sqrt(rp.leaf_area() / sp.leaf_area()) * link.form_factor[c] * sp.albedo;
-            for (const auto& [sv, vv] : v)
-              for (const auto& [ru, uu] : u) {
-                if (dense) block[std::size_t{sv} * rp.leaves() + ru] += scale * (uu * vv);
-                else sorted.push_back({sp.first + sv, rp.first + ru, scale * (uu * vv)});
-              }
+            box_coefficients(rp, quadrant, 1.0f, uc);
+            if (c == 0) u.assign(uc.size(), {0u, 0.0f});
+            for (std::size_t q = 0; q < uc.size(); ++q)
+              u[q] = {uc[q].first, u[q].second + link.form_factor[c] * uc[q].second};
           }
+          const glm::vec3 scale = std::sqrt(rp.leaf_area() / sp.leaf_area()) * sp.albedo;
+          for (const auto& [sv, vv] : v)
+            for (const auto& [ru, uu] : u) {
+              if (uu == 0.0f) continue;
+              if (dense) {
+                const std::size_t cell = std::size_t{sv} * rp.leaves() + ru;
+                block[cell] += scale * (uu * vv);
+                touched[cell >> 6] |= std::uint64_t{1} << (cell & 63u);
+              } else {
+                sorted.push_back({sp.first + sv, rp.first + ru, scale * (uu * vv)});
+              }
+            }
         }
         if (dense) {
-          for (std::uint32_t sv = 0; sv < sp.leaves(); ++sv)
-            for (std::uint32_t ru = 0; ru < rp.leaves(); ++ru) {
-              const glm::vec3 value = block[std::size_t{sv} * rp.leaves() + ru];
+          for (std::size_t w = 0; w < (cells + 63) / 64; ++w)
+            for (std::uint64_t bits = std::exchange(touched[w], 0); bits != 0; bits &= bits - 1) {
+              const std::size_t cell = w * 64 + static_cast<std::size_t>(std::countr_zero(bits));
+              const glm::vec3 value = std::exchange(block[cell], glm::vec3(0.0f));
+              const auto sv = static_cast<std::uint32_t>(cell / rp.leaves()), ru = static_cast<std::uint32_t>(cell % rp.leaves());
               if (value != glm::vec3(0.0f)) out.push_back({sp.first + sv, rp.first + ru, value});
             }
         } else {
@@ -820,40 +840,114 @@ Result<SparseTransport> dense_direct_operator(const RayScene& scene, const std::
 
 namespace {
 
-// C = A B, both CSC, coefficients with max channel below `drop` left out. Parallel over columns
-// of B, each column's entries in row order: deterministic.
-Result<SparseTransport> multiply(const SparseTransport& a, const SparseTransport& b, float drop, JobContext& jobs) {
+// The left factor of the series' products: T with each column's entries by decreasing magnitude
+// (max channel; ties in row order), and those magnitudes.
+struct ByMagnitude {
+  SparseTransport m;
+  std::vector<float> mag;
+};
+ByMagnitude by_magnitude(SparseTransport t) {
+  ByMagnitude out;
+  out.mag.resize(t.value.size());
+  std::vector<std::uint64_t> order;
+  std::vector<std::uint32_t> rows;
+  std::vector<glm::vec3> values;
+  for (std::uint32_t j = 0; j < t.size; ++j) {
+    const std::uint64_t first = t.begin[j];
+    order.resize(t.begin[j + 1] - first);
+    std::iota(order.begin(), order.end(), first);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::uint64_t x, std::uint64_t y) { return max_abs(t.value[x]) > max_abs(t.value[y]); });
+    rows.clear();
+    values.clear();
+    for (const std::uint64_t k : order) {
+      rows.push_back(t.row[k]);
+      values.push_back(t.value[k]);
+    }
+    for (std::size_t q = 0; q < order.size(); ++q) {
+      t.row[first + q] = rows[q];
+      t.value[first + q] = values[q];
+      out.mag[first + q] = max_abs(values[q]);
+    }
+  }
+  out.m = std::move(t);
+  return out;
+}
+
+// C = A B (A by_magnitude, B CSC with rows sorted), coefficients with max channel below `drop`
+// left out, and no product a_ik b_kj below `prune` summed: a column of B stops reading A's column
+// k at its first such product. Columns of B go in blocks of kProductBlock neighbours (a patch's
+// basis functions, which reach much the same rows): each column of A they need is read once for
+// the block, its products summed into the block's accumulators (interleaved per row), whose
+// touched rows a bitmap records so that they come out in row order without a sort. Each column's
+// sum runs over the same products in the same order at any block and thread count: deterministic.
+Result<SparseTransport> multiply(const ByMagnitude& left, const SparseTransport& b, float drop, float prune,
+                                 JobContext& jobs) {
+  constexpr std::size_t kProductBlock = 8;
+  const SparseTransport& a = left.m;
   const std::uint32_t n = b.size;
   std::vector<std::vector<std::uint32_t>> rows(n);
   std::vector<std::vector<glm::vec3>> values(n);
-  const std::size_t grain = 64;
-  PENUMBRA_TRY(jobs.parallel_for(n, grain, [&](std::size_t begin, std::size_t end) {
-    std::vector<glm::vec3> acc(a.size, glm::vec3(0.0f));
-    std::vector<std::uint8_t> mark(a.size, 0);
-    std::vector<std::uint32_t> touched;
-    for (std::size_t j = begin; j < end; ++j) {
-      touched.clear();
-      for (std::uint64_t kb = b.begin[j]; kb < b.begin[j + 1]; ++kb) {
-        const std::uint32_t k = b.row[kb];
-        const glm::vec3 bv = b.value[kb];
-        for (std::uint64_t ka = a.begin[k]; ka < a.begin[k + 1]; ++ka) {
-          const std::uint32_t i = a.row[ka];
-          if (!mark[i]) {
-            mark[i] = 1;
-            touched.push_back(i);
+  const std::size_t blocks = (std::size_t{n} + kProductBlock - 1) / kProductBlock;
+  PENUMBRA_TRY(jobs.parallel_for(blocks, 8, [&](std::size_t begin, std::size_t end) {
+    std::vector<glm::vec3> acc(std::size_t{a.size} * kProductBlock, glm::vec3(0.0f));  // acc[i * block + c]
+    std::vector<std::uint64_t> touched((std::size_t{a.size} + 63) / 64, 0);
+    std::vector<std::uint64_t> needed((std::size_t{b.size} + 63) / 64, 0);  // rows of B the block has
+    std::vector<std::uint8_t> columns(b.size, 0);                          // per such row, the block's columns
+    for (std::size_t blk = begin; blk < end; ++blk) {
+      const std::size_t j0 = blk * kProductBlock, width = std::min<std::size_t>(kProductBlock, n - j0);
+      std::array<std::uint64_t, kProductBlock> cursor{};
+      for (std::size_t c = 0; c < width; ++c) {
+        cursor[c] = b.begin[j0 + c];
+        for (std::uint64_t kb = b.begin[j0 + c]; kb < b.begin[j0 + c + 1]; ++kb) {
+          const std::uint32_t k = b.row[kb];
+          needed[k >> 6] |= std::uint64_t{1} << (k & 63u);
+          columns[k] = static_cast<std::uint8_t>(columns[k] | (1u << c));
+        }
+      }
+      for (std::size_t w = 0; w < needed.size(); ++w)
+        for (std::uint64_t bits = std::exchange(needed[w], 0); bits != 0; bits &= bits - 1) {
+          const auto k = static_cast<std::uint32_t>(w * 64 + static_cast<std::size_t>(std::countr_zero(bits)));
+          // The block's entries in row k of B, by decreasing magnitude.
+          std::array<std::uint32_t, kProductBlock> slot;
+          std::array<glm::vec3, kProductBlock> bv;
+          std::array<float, kProductBlock> bmag;
+          std::size_t count = 0;
+          for (unsigned mask = std::exchange(columns[k], std::uint8_t{0}); mask != 0; mask &= mask - 1) {
+            const auto c = static_cast<std::size_t>(std::countr_zero(mask));
+            const glm::vec3 v = b.value[cursor[c]++];
+            std::size_t q = count++;
+            for (; q > 0 && bmag[q - 1] < max_abs(v); --q) {
+              slot[q] = slot[q - 1];
+              bv[q] = bv[q - 1];
+              bmag[q] = bmag[q - 1];
+            }
+            slot[q] = static_cast<std::uint32_t>(c);
+            bv[q] = v;
+            bmag[q] = max_abs(v);
           }
-          acc[i] += a.value[ka] * bv;
+          for (std::uint64_t ka = a.begin[k]; ka < a.begin[k + 1]; ++ka) {
+            while (count > 0 && left.mag[ka] * bmag[count - 1] < prune) --count;
+            if (count == 0) break;
+            const std::uint32_t i = a.row[ka];
+            const glm::vec3 av = a.value[ka];
+            touched[i >> 6] |= std::uint64_t{1} << (i & 63u);
+            glm::vec3* row = &acc[std::size_t{i} * kProductBlock];
+            for (std::size_t q = 0; q < count; ++q) row[slot[q]] += av * bv[q];
+          }
         }
-      }
-      std::sort(touched.begin(), touched.end());
-      for (std::uint32_t i : touched) {
-        if (max_abs(acc[i]) >= drop && max_abs(acc[i]) > 0.0f) {
-          rows[j].push_back(i);
-          values[j].push_back(acc[i]);
+      for (std::size_t w = 0; w < touched.size(); ++w)
+        for (std::uint64_t bits = std::exchange(touched[w], 0); bits != 0; bits &= bits - 1) {
+          const auto i = static_cast<std::uint32_t>(w * 64 + static_cast<std::size_t>(std::countr_zero(bits)));
+          for (std::size_t c = 0; c < width; ++c) {
+            glm::vec3& v = acc[std::size_t{i} * kProductBlock + c];
+            if (max_abs(v) >= drop && max_abs(v) > 0.0f) {
+              rows[j0 + c].push_back(i);
+              values[j0 + c].push_back(v);
+            }
+            v = glm::vec3(0.0f);
+          }
         }
-        acc[i] = glm::vec3(0.0f);
-        mark[i] = 0;
-      }
     }
   }));
   SparseTransport c;
@@ -924,13 +1018,14 @@ Result<NeumannResult> neumann_series(const SparseTransport& direct, float tolera
   out.global = t;
   out.terms = 1;
   SparseTransport term = t;
+  const ByMagnitude left = by_magnitude(std::move(t));
   jobs.begin_stage("Neumann series", max_terms);
   jobs.advance(1);
   out.last_term_ratio = direct.nonzeros() > 0 ? 1.0f : 0.0f;
   out.converged = direct.nonzeros() == 0;
   while (!out.converged && out.terms < max_terms) {
     if (jobs.cancelled()) return make_error(ErrorCode::Cancelled, "indirect transport: cancelled");
-    auto next = multiply(t, term, drop, jobs);
+    auto next = multiply(left, term, drop, kProductPrune * drop, jobs);
     if (!next) return next.error();
     term = std::move(*next);
     out.global = add(out.global, term);
