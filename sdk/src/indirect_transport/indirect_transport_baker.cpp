@@ -770,16 +770,19 @@ SparseTransport direct_operator(const std::vector<TransportPatch>& patches,
   return from_triples(n, lists);
 }
 
-Result<SparseTransport> dense_direct_operator(const RayScene& scene, const std::vector<TransportPatch>& patches,
-                                              std::uint64_t seed, std::uint64_t keep, std::uint64_t memory_limit,
-                                              JobContext& jobs, std::uint64_t& rays, std::uint64_t& peak_bytes) {
+Result<DenseTransport> dense_direct_operator(const RayScene& scene, const std::vector<TransportPatch>& patches,
+                                             std::uint64_t seed, std::uint64_t memory_limit, JobContext& jobs,
+                                             std::uint64_t& rays) {
   const std::uint32_t n = patches.empty() ? 0u : patches.back().first + patches.back().leaves();
-  peak_bytes = std::uint64_t{n} * n * sizeof(glm::vec3);
-  if (memory_limit > 0 && peak_bytes > memory_limit)
+  const std::uint64_t bytes = std::uint64_t{n} * n * sizeof(glm::vec3);
+  if (memory_limit > 0 && bytes > memory_limit)
     return make_error(ErrorCode::InvalidInput, "dense transport: " + std::to_string(n) + " leaves need a " +
-                                                   std::to_string(peak_bytes / 1000000) + " MB matrix, over the limit");
+                                                   std::to_string(bytes / 1000000) + " MB matrix, over the limit");
   // Leaf-to-leaf kernels with the refinement's estimator, one receiver patch per task.
-  std::vector<glm::vec3> dense(std::size_t{n} * n, glm::vec3(0.0f));  // dense[col * n + row]
+  DenseTransport out;
+  out.size = n;
+  std::vector<glm::vec3>& dense = out.value;
+  dense.assign(std::size_t{n} * n, glm::vec3(0.0f));  // dense[col * n + row]
   std::vector<std::uint64_t> patch_rays(patches.size(), 0);
   jobs.begin_stage("dense links", patches.size());
   PENUMBRA_TRY(jobs.parallel_for(patches.size(), 1, [&](std::size_t begin, std::size_t end) {
@@ -817,18 +820,23 @@ Result<SparseTransport> dense_direct_operator(const RayScene& scene, const std::
       haar_analyse(line, p.level, 1.0f / p.leaf_area());  // H_s^T / sqrt(A_s) on the sender side
       for (std::uint32_t k = 0; k < p.leaves(); ++k) dense[std::size_t{p.first + k} * n + row] = line[k];
     }
+  return out;
+}
+
+SparseTransport truncate_transport(const DenseTransport& dense, std::uint64_t keep) {
+  const std::uint32_t n = dense.size;
   // Truncation to the `keep` largest coefficients.
   float cut = 0.0f;
-  if (keep > 0 && keep < dense.size()) {
-    std::vector<float> mags(dense.size());
-    for (std::size_t k = 0; k < dense.size(); ++k) mags[k] = max_abs(dense[k]);
+  if (keep > 0 && keep < dense.value.size()) {
+    std::vector<float> mags(dense.value.size());
+    for (std::size_t k = 0; k < dense.value.size(); ++k) mags[k] = max_abs(dense.value[k]);
     std::nth_element(mags.begin(), mags.begin() + static_cast<std::ptrdiff_t>(mags.size() - keep), mags.end());
     cut = mags[mags.size() - keep];
   }
   std::vector<std::vector<Triple>> lists(1);
   for (std::uint32_t c = 0; c < n; ++c)
     for (std::uint32_t row = 0; row < n; ++row) {
-      const glm::vec3 v = dense[std::size_t{c} * n + row];
+      const glm::vec3 v = dense.value[std::size_t{c} * n + row];
       const float mag = max_abs(v);
       if (mag > 0.0f && mag >= cut) lists[0].push_back({c, row, v});
     }

@@ -78,20 +78,29 @@ SparseTransport direct_operator(const std::vector<TransportPatch>& patches,
                                 const std::vector<std::vector<TransportLink>>& links, JobContext& jobs);
 
 // The dense baseline (the approach the paper improves on): every leaf-to-leaf link, each evaluated
-// with the same 16-ray estimator, projected onto the Haar bases, then truncated to the `keep`
-// largest coefficients (0: keep all). `rays` and `peak_bytes` report its cost. Cost: O(leaves^2)
-// links; InvalidInput when the dense matrix would exceed `memory_limit` bytes.
-Result<SparseTransport> dense_direct_operator(const RayScene& scene, const std::vector<TransportPatch>& patches,
-                                              std::uint64_t seed, std::uint64_t keep, std::uint64_t memory_limit,
-                                              JobContext& jobs, std::uint64_t& rays, std::uint64_t& peak_bytes);
+// with the same 16-ray estimator, projected onto the Haar bases; truncate_transport then keeps its
+// largest coefficients. `rays` reports the shadow rays traced. Cost: O(leaves^2) links and
+// leaves^2 x 12 bytes; InvalidInput when that would exceed `memory_limit` bytes.
+struct DenseTransport {
+  std::uint32_t size = 0;
+  std::vector<glm::vec3> value;  // value[col * size + row]
+  std::uint64_t bytes() const { return value.size() * sizeof(glm::vec3); }
+};
+Result<DenseTransport> dense_direct_operator(const RayScene& scene, const std::vector<TransportPatch>& patches,
+                                             std::uint64_t seed, std::uint64_t memory_limit, JobContext& jobs,
+                                             std::uint64_t& rays);
+// The `keep` largest coefficients of `dense` (by max channel; ties at the cut all kept; 0: every
+// nonzero one) as a sparse operator. O(size^2).
+SparseTransport truncate_transport(const DenseTransport& dense, std::uint64_t keep);
 
 // G = sum_{k=1..K} T^k: P_1 = T, P_{k+1} = T P_k, with coefficients below drop = drop_threshold x
 // max|T| dropped from T and from every product, and no single product of two coefficients below
 // kProductPrune x drop summed into one; stopping when |P_k|_F <= tolerance |G|_F (converged) or
 // after max_terms terms. Cost: each term reads, per coefficient of P_k, the column of T it meets
-// down to that cut; two threads on the maze's medium operator: about 1.5 s for 12 terms.
-// On the maze (bench indirect-transport) the cut halves the series' time; the error against the
-// path tracer moves by 0.0001 at the medium preset (0.0005 for the dense baseline's operator).
+// down to that cut (on the maze's medium operator, about half of its bake).
+// On the maze (bench indirect-transport) the cut takes a third off the bake's time; the error
+// against the path tracer moves by 0.0001 at the medium preset (0.0005 for the dense baseline's
+// operator).
 inline constexpr float kProductPrune = 0.002f;
 struct NeumannResult {
   SparseTransport global;
