@@ -688,9 +688,9 @@ TEST(IndirectTransportRuntime, UpdatesOnlyWhenALightMovesWithoutDriftOrGrowth) {
 // A light that does not move (DynamicLight::moves false) has its bounce baked and, with no light
 // moving, the bake sums the series for its light alone (T^k E, one vector per term) and keeps
 // neither G nor the probes' entries. The maze's lantern, held at its start, baked both ways: the
-// same lightmap and probes within 1 % RMS (G drops coefficients below drop_threshold after each
-// product and the runtime direct coefficients below 1e-4 of the largest; the fixed light's series
-// drops none), the same direct light, a file a small fraction of the size; moving the fixed
+// same lightmap and probes within 1 % RMS (G drops coefficients below drop_threshold, set to 1e-4
+// here, after each product and the runtime direct coefficients below 1e-4 of the largest; the
+// fixed light's series drops none), the same direct light, a file a small fraction of the size; moving the fixed
 // lantern changes the transport's inputs and not the lightmap; a lantern that moves again finds
 // no operator, and the lightmap stays the baked one, with a warning.
 TEST(IndirectTransportRuntime, AFixedLightsBounceIsBakedWithoutTheOperator) {
@@ -699,6 +699,7 @@ TEST(IndirectTransportRuntime, AFixedLightsBounceIsBakedWithoutTheOperator) {
   for (Entity e : world.view<IndirectTransport>().sorted_entities()) owner = e;
   for (Entity e : world.view<DynamicLight>().sorted_entities()) lantern = e;
   ASSERT_TRUE(owner && lantern);
+  world.patch<IndirectTransport>(owner).drop_threshold = 1e-4f;
   ASSERT_TRUE(world.get<DynamicLight>(lantern).moves) << "a clip carries the lantern";
   world.remove<Animator>(lantern);
   const auto input_hash = [&] {
