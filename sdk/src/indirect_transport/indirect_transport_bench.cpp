@@ -17,7 +17,7 @@
 // operator; peak_bytes: the largest operator held during the bake (dense: its matrix).
 // update_ms: direct light at the texels plus the sparse product after a light move (median).
 // Equal error: the dense truncation with the fewest coefficients that is at least as accurate as
-// the hierarchical run at the default threshold.
+// the hierarchical run at the default settings. drop_threshold: the series' (IndirectTransport).
 // Method `bounce probes` (the probes' spacing in the threshold column, metres): the probes' light
 // at free points of the maze, where moving objects stand (1.0-1.8 m high, no surface within
 // 0.3 m along the axes), with each of the six axis normals, against irradiance() there (content
@@ -279,7 +279,7 @@ Result<Report> run(const Options& options) {
   Report report;
   report.columns = {"scene", "method", "threshold", "finest_level", "bounce_tolerance", "bounces", "links",
                     "coefficients", "precompute_s", "bytes", "peak_bytes", "update_ms", "rel_rmse", "ref_stderr",
-                    "rel_rmse_net", "series", "operator_s", "direct_coefficients"};
+                    "rel_rmse_net", "series", "operator_s", "direct_coefficients", "drop_threshold"};
   ThreadPool pool(options.threads);
   JobContext jobs(&pool);
   World world;
@@ -313,48 +313,58 @@ Result<Report> run(const Options& options) {
     layout.patches = std::move(*layout_patches);
     auto ref = reference(world, *lantern, positions, layout, ref_samples, jobs);
     if (!ref) return ref.error();
-    Point at_default;  // the hierarchical run at the default threshold and tolerance
-    std::vector<float> tolerances = {defaults.bounce_tolerance};
-    if (!options.quick && level == defaults.finest_level) tolerances = {1e-1f, 1e-2f, defaults.bounce_tolerance};
-    for (const float threshold : thresholds)
-      for (const float tolerance : tolerances) {
-        if (tolerance != defaults.bounce_tolerance && threshold != defaults.refinement_threshold) continue;
-        IndirectTransport& t = world.patch<IndirectTransport>(owner);
-        t.refinement_threshold = threshold;
-        t.bounce_tolerance = tolerance;
-        t.data.reset();
-        const auto start = Clock::now();
-        BakeSettings settings;
-        settings.seed = 3;
-        auto baked = bake_world(world, {"indirect-transport"}, settings, jobs);
-        const double seconds = seconds_since(start);
-        if (!baked) return baked.error();
-        const std::shared_ptr<const TransportData> data = world.get<IndirectTransport>(owner).data;
-        if (!data) return make_error(ErrorCode::Internal, "indirect-transport bench: the bake attached nothing");
-        const Error e = error_against(world, *lantern, positions, *data, *ref);
-        const UpdateTimes times = update_ms(world, *lantern, positions, *data);
-        const double ms = times.total;
-        const double bytes = double(data->global.bytes());
-        auto op = hierarchical_operator(*rays, layout.patches, t, settings.seed, jobs);
-        if (!op) return op.error();
-        if (op->global.nonzeros() != data->global.nonzeros() || op->global.row != data->global.row)
-          return make_error(ErrorCode::Internal, "indirect-transport bench: the timed operator differs from the bake's");
-        report.rows.push_back({"maze", "hierarchical", fmt(threshold), std::to_string(level), fmt(tolerance),
-                               std::to_string(data->terms), std::to_string(data->links),
-                               std::to_string(data->global.nonzeros()), fmt(seconds), fmt(bytes), fmt(bytes),
-                               fmt(ms), fmt(e.rel_rmse), fmt(e.ref_stderr), fmt(net(e)), "hierarchical L" + std::to_string(level),
-                               fmt(op->seconds), std::to_string(data->direct_nonzeros)});
-        if (threshold == defaults.refinement_threshold && tolerance == defaults.bounce_tolerance)
-          at_default = {net(e), op->seconds, bytes};
-        if (level == defaults.finest_level && threshold == defaults.refinement_threshold &&
-            tolerance == defaults.bounce_tolerance) {
-          default_net = net(e);
-          default_update = ms;
-          default_split = times;
-        }
-        if (threshold == defaults.refinement_threshold && tolerance == defaults.bounce_tolerance)
-          dense_keep_at_default = data->direct_nonzeros;
+    Point at_default;  // the hierarchical run at the default settings
+    // Every threshold at the default tolerance and drop threshold; at the default level (full run)
+    // also the default threshold with other tolerances and a third of the drop threshold.
+    struct Run {
+      float threshold, tolerance, drop;
+    };
+    std::vector<Run> runs;
+    for (const float threshold : thresholds) {
+      runs.push_back({threshold, defaults.bounce_tolerance, defaults.drop_threshold});
+      if (options.quick || level != defaults.finest_level || threshold != defaults.refinement_threshold) continue;
+      runs.push_back({threshold, 1e-1f, defaults.drop_threshold});
+      runs.push_back({threshold, 1e-2f, defaults.drop_threshold});
+      runs.push_back({threshold, defaults.bounce_tolerance, defaults.drop_threshold / 3.0f});
+    }
+    for (const Run& run : runs) {
+      const bool is_default = run.threshold == defaults.refinement_threshold &&
+                              run.tolerance == defaults.bounce_tolerance && run.drop == defaults.drop_threshold;
+      IndirectTransport& t = world.patch<IndirectTransport>(owner);
+      t.refinement_threshold = run.threshold;
+      t.bounce_tolerance = run.tolerance;
+      t.drop_threshold = run.drop;
+      t.data.reset();
+      const auto start = Clock::now();
+      BakeSettings settings;
+      settings.seed = 3;
+      auto baked = bake_world(world, {"indirect-transport"}, settings, jobs);
+      const double seconds = seconds_since(start);
+      if (!baked) return baked.error();
+      const std::shared_ptr<const TransportData> data = world.get<IndirectTransport>(owner).data;
+      if (!data) return make_error(ErrorCode::Internal, "indirect-transport bench: the bake attached nothing");
+      const Error e = error_against(world, *lantern, positions, *data, *ref);
+      const UpdateTimes times = update_ms(world, *lantern, positions, *data);
+      const double bytes = double(data->global.bytes());
+      auto op = hierarchical_operator(*rays, layout.patches, t, settings.seed, jobs);
+      if (!op) return op.error();
+      if (op->global.nonzeros() != data->global.nonzeros() || op->global.row != data->global.row)
+        return make_error(ErrorCode::Internal, "indirect-transport bench: the timed operator differs from the bake's");
+      report.rows.push_back({"maze", "hierarchical", fmt(run.threshold), std::to_string(level), fmt(run.tolerance),
+                             std::to_string(data->terms), std::to_string(data->links),
+                             std::to_string(data->global.nonzeros()), fmt(seconds), fmt(bytes), fmt(bytes),
+                             fmt(times.total), fmt(e.rel_rmse), fmt(e.ref_stderr), fmt(net(e)),
+                             "hierarchical L" + std::to_string(level), fmt(op->seconds),
+                             std::to_string(data->direct_nonzeros), fmt(run.drop)});
+      if (!is_default) continue;
+      at_default = {net(e), op->seconds, bytes};
+      dense_keep_at_default = data->direct_nonzeros;
+      if (level == defaults.finest_level) {
+        default_net = net(e);
+        default_update = times.total;
+        default_split = times;
       }
+    }
     // The dense baseline (its matrix is leaves^2: skipped over 4 GB): every link computed once,
     // then truncated to fractions of the hierarchical T's coefficient count at the default
     // threshold (1: the same count), each truncation with its own series.
@@ -392,7 +402,7 @@ Result<Report> run(const Options& options) {
                              std::to_string(d.terms), std::to_string(std::uint64_t{d.leaf_count()} * d.leaf_count()),
                              std::to_string(d.global.nonzeros()), fmt(seconds), fmt(double(d.global.bytes())), fmt(peak),
                              "", fmt(e.rel_rmse), fmt(e.ref_stderr), fmt(net(e)), "dense L" + std::to_string(level),
-                             fmt(seconds), std::to_string(keep)});
+                             fmt(seconds), std::to_string(keep), fmt(defaults.drop_threshold)});
       dense_runs.push_back({fraction, {net(e), seconds, double(d.global.bytes())}});
     }
     // The default threshold's run against the dense baseline at the same coefficient count, and at
@@ -440,6 +450,7 @@ Result<Report> run(const Options& options) {
     t.finest_level = preset.finest_level;
     t.refinement_threshold = preset.refinement_threshold;
     t.bounce_tolerance = preset.bounce_tolerance;
+    t.drop_threshold = preset.drop_threshold;
     std::vector<std::string> warnings;
     auto patches = build_transport_patches(world, t, warnings);
     if (!patches) return patches.error();
@@ -466,7 +477,7 @@ Result<Report> run(const Options& options) {
       report.rows.push_back({"maze", "bounce probes", fmt(spacing), std::to_string(data->finest_level), "", "", "",
                              std::to_string(data->probes.entries.size()), fmt(seconds), fmt(bytes), fmt(bytes),
                              fmt(times.probes), fmt(e->rel_rmse), fmt(e->ref_stderr), fmt(net(*e)), "bounce probes",
-                             "", ""});
+                             "", "", ""});
       if (factor == 1.0f)
         report.notes.push_back("bounce probes at the default spacing (" + fmt(spacing, 3) + " m): net relative RMSE " +
                                fmt(net(*e), 3) + " at " + std::to_string(points.size()) +
