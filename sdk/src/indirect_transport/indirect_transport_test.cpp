@@ -289,6 +289,77 @@ TEST(IndirectTransportBake, ClosedBoxConvergesToTheGeometricSeries) {
   EXPECT_NEAR(mean, rho / (1.0f - rho), 0.05 * rho / (1.0f - rho));
 }
 
+// The series' sparse products (columns in blocks, rows gathered by a bitmap, T's columns by
+// magnitude) against dense powers in double: a random signed operator of 37 coefficients (blocks
+// of eight and a partial one), some columns empty. Without a drop threshold nothing is dropped or
+// pruned, so G = T + ... + T^6 to rounding; with one, every coefficient kept is at least the drop,
+// and the result is the same bits on one and two threads.
+TEST(IndirectTransportSeries, SparseProductsMatchDensePowers) {
+  constexpr std::uint32_t n = 37;
+  Rng rng = Rng::stream(41, 0);
+  std::vector<glm::dvec3> dense(std::size_t{n} * n, glm::dvec3(0.0));  // [col * n + row]
+  SparseTransport t;
+  t.size = n;
+  t.begin.assign(n + 1, 0);
+  for (std::uint32_t c = 0; c < n; ++c) {
+    for (std::uint32_t r = 0; r < n && c % 9 != 4; ++r) {
+      if (rng.next_float() > 0.3f) continue;
+      const glm::vec3 v(rng.next_float() * 0.15f - 0.05f, rng.next_float() * 0.1f, rng.next_float() * 0.12f - 0.02f);
+      t.row.push_back(r);
+      t.value.push_back(v);
+      dense[std::size_t{c} * n + r] = glm::dvec3(v);
+    }
+    t.begin[c + 1] = t.row.size();
+  }
+  // Powers T^k in double, summed.
+  std::vector<glm::dvec3> power = dense, sum = dense, next(dense.size());
+  for (int k = 2; k <= 6; ++k) {
+    for (std::uint32_t c = 0; c < n; ++c)
+      for (std::uint32_t r = 0; r < n; ++r) {
+        glm::dvec3 acc(0.0);
+        for (std::uint32_t m = 0; m < n; ++m) acc += dense[std::size_t{m} * n + r] * power[std::size_t{c} * n + m];
+        next[std::size_t{c} * n + r] = acc;
+      }
+    power = next;
+    for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += power[i];
+  }
+  JobContext serial;
+  auto exact = neumann_series(t, 0.0f, 6, 0.0f, 0, serial);
+  ASSERT_TRUE(exact.ok()) << exact.error().message;
+  EXPECT_EQ(exact->terms, 6u);
+  double largest = 0.0, worst = 0.0;
+  for (const glm::dvec3& v : sum) largest = std::max(largest, std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))));
+  std::vector<glm::dvec3> got(dense.size(), glm::dvec3(0.0));
+  for (std::uint32_t c = 0; c < n; ++c)
+    for (std::uint64_t k = exact->global.begin[c]; k < exact->global.begin[c + 1]; ++k) {
+      if (k > exact->global.begin[c]) {
+        EXPECT_LT(exact->global.row[k - 1], exact->global.row[k]) << "rows in order";
+      }
+      got[std::size_t{c} * n + exact->global.row[k]] = glm::dvec3(exact->global.value[k]);
+    }
+  for (std::size_t i = 0; i < sum.size(); ++i) {
+    const glm::dvec3 d = glm::abs(got[i] - sum[i]);
+    worst = std::max(worst, std::max(d.x, std::max(d.y, d.z)));
+  }
+  ASSERT_GT(largest, 0.0);
+  EXPECT_LT(worst, 1e-5 * largest);
+
+  ThreadPool pool(2);
+  JobContext two(&pool);
+  const float drop_threshold = 0.05f;
+  auto dropped = neumann_series(t, 0.0f, 6, drop_threshold, 0, serial);
+  auto dropped_two = neumann_series(t, 0.0f, 6, drop_threshold, 0, two);
+  ASSERT_TRUE(dropped.ok() && dropped_two.ok());
+  float largest_t = 0.0f;
+  for (const glm::vec3& v : t.value) largest_t = std::max(largest_t, std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))));
+  EXPECT_LT(dropped->global.nonzeros(), exact->global.nonzeros());
+  for (const glm::vec3& v : dropped->global.value)
+    EXPECT_GE(std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))), drop_threshold * largest_t * (1.0f - 1e-6f));
+  EXPECT_EQ(dropped->global.begin, dropped_two->global.begin);
+  EXPECT_EQ(dropped->global.row, dropped_two->global.row);
+  EXPECT_TRUE(dropped->global.value == dropped_two->global.value);
+}
+
 // The six irradiances of bounce probe `node` when every covered leaf has direct E = 1 and no
 // indirect light (each patch then sends radiance albedo / pi).
 std::array<glm::vec3, 6> probe_cube_of_uniform(const TransportData& data, std::size_t node) {
