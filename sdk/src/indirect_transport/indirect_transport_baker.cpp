@@ -757,7 +757,8 @@ SparseTransport direct_operator(const std::vector<TransportPatch>& patches,
             for (std::uint64_t bits = std::exchange(touched[w], 0); bits != 0; bits &= bits - 1) {
               const std::size_t cell = w * 64 + static_cast<std::size_t>(std::countr_zero(bits));
               const glm::vec3 value = std::exchange(block[cell], glm::vec3(0.0f));
-              const auto sv = static_cast<std::uint32_t>(cell / rp.leaves()), ru = static_cast<std::uint32_t>(cell % rp.leaves());
+              const auto sv = static_cast<std::uint32_t>(cell / rp.leaves());
+              const auto ru = static_cast<std::uint32_t>(cell % rp.leaves());
               if (value != glm::vec3(0.0f)) out.push_back({sp.first + sv, rp.first + ru, value});
             }
         } else {

@@ -408,7 +408,8 @@ Result<Report> run(const Options& options) {
     // The default threshold's run against the dense baseline at the same coefficient count, and at
     // equal error: the cheapest truncation at least as accurate (its links' time is the same for
     // every truncation; the peak is the dense matrix either way).
-    const auto same = std::find_if(dense_runs.begin(), dense_runs.end(), [](const DenseRun& r) { return r.fraction == 1.0; });
+    const auto same =
+        std::find_if(dense_runs.begin(), dense_runs.end(), [](const DenseRun& r) { return r.fraction == 1.0; });
     report.notes.push_back("level " + std::to_string(level) + ", the same coefficient count: hierarchical " +
                            fmt(at_default.net, 3) + " against dense " + fmt(same->point.net, 3) + " (net relative RMSE)");
     const DenseRun* equal = nullptr;
@@ -429,7 +430,8 @@ Result<Report> run(const Options& options) {
     } else {
       report.notes.push_back("level " + std::to_string(level) + ": no dense truncation is as accurate as the "
                              "hierarchical run at the default threshold (" + fmt(at_default.net, 3) + ")" +
-                             (level == defaults.finest_level ? " (goal FAIL)" : " (the goal is judged at the default finest level)"));
+                             (level == defaults.finest_level ? " (goal FAIL)"
+                                                             : " (the goal is judged at the default finest level)"));
     }
   }
   if (default_net >= 0.0) {

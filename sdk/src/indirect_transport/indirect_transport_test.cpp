@@ -327,8 +327,9 @@ TEST(IndirectTransportSeries, SparseProductsMatchDensePowers) {
   auto exact = neumann_series(t, 0.0f, 6, 0.0f, 0, serial);
   ASSERT_TRUE(exact.ok()) << exact.error().message;
   EXPECT_EQ(exact->terms, 6u);
+  const auto channel_max = [](auto v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); };
   double largest = 0.0, worst = 0.0;
-  for (const glm::dvec3& v : sum) largest = std::max(largest, std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))));
+  for (const glm::dvec3& v : sum) largest = std::max(largest, channel_max(v));
   std::vector<glm::dvec3> got(dense.size(), glm::dvec3(0.0));
   for (std::uint32_t c = 0; c < n; ++c)
     for (std::uint64_t k = exact->global.begin[c]; k < exact->global.begin[c + 1]; ++k) {
@@ -338,8 +339,7 @@ TEST(IndirectTransportSeries, SparseProductsMatchDensePowers) {
       got[std::size_t{c} * n + exact->global.row[k]] = glm::dvec3(exact->global.value[k]);
     }
   for (std::size_t i = 0; i < sum.size(); ++i) {
-    const glm::dvec3 d = glm::abs(got[i] - sum[i]);
-    worst = std::max(worst, std::max(d.x, std::max(d.y, d.z)));
+    worst = std::max(worst, channel_max(got[i] - sum[i]));
   }
   ASSERT_GT(largest, 0.0);
   EXPECT_LT(worst, 1e-5 * largest);
@@ -351,10 +351,10 @@ TEST(IndirectTransportSeries, SparseProductsMatchDensePowers) {
   auto dropped_two = neumann_series(t, 0.0f, 6, drop_threshold, 0, two);
   ASSERT_TRUE(dropped.ok() && dropped_two.ok());
   float largest_t = 0.0f;
-  for (const glm::vec3& v : t.value) largest_t = std::max(largest_t, std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))));
+  for (const glm::vec3& v : t.value) largest_t = std::max(largest_t, channel_max(v));
   EXPECT_LT(dropped->global.nonzeros(), exact->global.nonzeros());
   for (const glm::vec3& v : dropped->global.value)
-    EXPECT_GE(std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))), drop_threshold * largest_t * (1.0f - 1e-6f));
+    EXPECT_GE(channel_max(v), drop_threshold * largest_t * (1.0f - 1e-6f));
   EXPECT_EQ(dropped->global.begin, dropped_two->global.begin);
   EXPECT_EQ(dropped->global.row, dropped_two->global.row);
   EXPECT_TRUE(dropped->global.value == dropped_two->global.value);
