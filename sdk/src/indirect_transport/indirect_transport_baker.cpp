@@ -502,14 +502,13 @@ std::vector<TransportLink> refine_receiver(const RayScene& scene, const std::vec
       const Pending link = stack.back();
       stack.pop_back();
       // Where one node's plane cuts the other, its sample points may all fall on one side: such a
-      // link is refined whatever they show; one wholly behind the other's plane passes nothing.
+      // link is refined unevaluated (the children of nodes with coverage); one wholly behind the
+      // other's plane passes nothing.
       const Side r_side = side_of(sp, node_corners(rp, link.r)), s_side = side_of(rp, node_corners(sp, link.s));
       if (r_side == Side::Behind || s_side == Side::Behind) continue;
       const bool r_leaf = link.r.level == rp.level, s_leaf = link.s.level == sp.level;
       const bool cut = r_side == Side::Both || s_side == Side::Both;
-      const Evaluation ev = evaluate_link(scene, rp, link.r, sp, link.s, seed, rays);
-      if (!ev.any) continue;
-      if ((cut || rho * ev.spread > threshold) && !(r_leaf && s_leaf)) {
+      const auto refine = [&] {
         // Refine the larger side (by area), the other when it is already a leaf; children pushed in
         // reverse so that they are evaluated in index order.
         const bool split_receiver = s_leaf || (!r_leaf && node_area(rp, link.r) >= node_area(sp, link.s));
@@ -519,6 +518,15 @@ std::vector<TransportLink> refine_receiver(const RayScene& scene, const std::vec
           n = {n.level + 1, 2 * n.i + std::uint32_t(c % 2), 2 * n.j + std::uint32_t(c / 2)};
           if ((split_receiver ? r_cov : s_cov)[node_id(n)]) stack.push_back(child);
         }
+      };
+      if (cut && !(r_leaf && s_leaf)) {
+        refine();
+        continue;
+      }
+      const Evaluation ev = evaluate_link(scene, rp, link.r, sp, link.s, seed, rays);
+      if (!ev.any) continue;
+      if (rho * ev.spread > threshold && !(r_leaf && s_leaf)) {
+        refine();
         continue;
       }
       if (!(ev.form_factor > 0.0f)) continue;
