@@ -63,7 +63,7 @@ struct IndirectTransport {
   std::uint32_t max_bounces = 64;
   // After each product, coefficients below drop_threshold x the largest coefficient of T are dropped.
   // On the maze at the medium preset (bench indirect-transport), 3e-4 against 1e-4: the global
-  // operator 36 MB instead of 61 MB, computed in 2.9 s instead of 4.3 s, the error against the
+  // operator 36 MB instead of 61 MB, computed in 3.1 s instead of 4.3 s, the error against the
   // path tracer 0.031 instead of 0.027.
   float drop_threshold = 3e-4f;
   // A directional (glossy) part per patch: not implemented; a bake with it on fails Unsupported.
