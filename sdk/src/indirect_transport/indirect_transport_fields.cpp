@@ -34,7 +34,7 @@ constexpr FieldInfo kTransportFields[] = {
                                              .unit = "bounces", .help = "Neumann terms at most; 64",
                                              .hashed = true, .speed = 0.1f}),
     member<&IndirectTransport::drop_threshold>({.name = "drop_threshold", .type = T::Float, .min = 0, .max = 1,
-                                                .help = "relative size of coefficients dropped from T and after each product; 1e-4",
+                                                .help = "relative size of coefficients dropped from T and after each product; 3e-4",
                                                 .hashed = true, .speed = 1e-6f}),
     member<&IndirectTransport::glossy>({.name = "glossy", .type = T::Bool, .min = 0, .max = 1,
                                         .help = "directional transport (not implemented: the bake refuses it)",
