@@ -10,8 +10,8 @@
 #include <numbers>
 #include <numeric>
 #include <tuple>
-#include <utility>
 #include <unordered_map>
+#include <utility>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -901,6 +901,7 @@ ByMagnitude by_magnitude(SparseTransport t) {
 Result<SparseTransport> multiply(const ByMagnitude& left, const SparseTransport& b, float drop, float prune,
                                  JobContext& jobs) {
   constexpr std::size_t kProductBlock = 8;
+  static_assert(kProductBlock <= 8, "a row of B holds the block's columns as the bits of a byte");
   const SparseTransport& a = left.m;
   const std::uint32_t n = b.size;
   std::vector<std::vector<std::uint32_t>> rows(n);
