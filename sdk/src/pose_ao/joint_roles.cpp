@@ -41,6 +41,8 @@ JointRole joint_role(std::string_view name) {
   for (char c : w)
     if (c != ' ') joined += c;
   if (has(w, " end ") || has(w, "nub") || has(w, " tip ")) return JointRole::End;
+  // The palm's bones (Unreal's "index_metacarpal_l") move with the hand.
+  if (has(joined, "metacarpal")) return JointRole::Hand;
   if (has(joined, "thumb") || has(joined, "index") || has(joined, "middle") || has(joined, "ring") ||
       has(joined, "pinky") || has(joined, "finger"))
     return JointRole::Finger;
@@ -74,6 +76,7 @@ const char* to_string(JointRole role) {
     case JointRole::Forearm: return "forearm";
     case JointRole::Hand: return "hand";
     case JointRole::Finger: return "finger";
+    case JointRole::FingerHinge: return "finger hinge";
     case JointRole::Thigh: return "thigh";
     case JointRole::Calf: return "calf";
     case JointRole::Foot: return "foot";
@@ -94,7 +97,8 @@ float role_limit(JointRole role, float unknown) {
     case JointRole::UpperArm: return 0.9f;
     case JointRole::Forearm: return 1.0f;
     case JointRole::Hand: return 0.6f;
-    case JointRole::Finger: return 0.5f;
+    case JointRole::Finger:
+    case JointRole::FingerHinge: return 0.5f;
     case JointRole::Thigh: return 0.7f;
     case JointRole::Calf: return 0.9f;
     case JointRole::Foot: return 0.4f;
@@ -154,6 +158,13 @@ void assign_chain_roles(std::span<const std::int32_t> parents, std::span<JointRo
     if (chain.size() < 2 || branched || specific) continue;
     for (std::size_t k = 0; k < chain.size(); ++k) roles[chain[k]] = order[std::min<std::size_t>(k, order.size() - 1)];
   }
+  // The interphalangeal joints: a finger joint below another finger joint.
+  const std::vector<JointRole> limbs(roles.begin(), roles.end());
+  for (std::size_t j = 0; j < J; ++j) {
+    const auto p = static_cast<std::size_t>(parents[j]);
+    if (limbs[j] == JointRole::Finger && parents[j] >= 0 && p < J && limbs[p] == JointRole::Finger)
+      roles[j] = JointRole::FingerHinge;
+  }
 }
 
 JointSide joint_side(std::string_view name) {
@@ -179,9 +190,10 @@ std::optional<RoleMotion> role_motion(JointRole role) {
     case JointRole::UpperArm: return RoleMotion{0.7f, {{{D::Forward, -0.6f, 1.2f}, {D::Up, -1.2f, 0.5f}}}};
     case JointRole::Forearm: return RoleMotion{0.8f, {{{D::Forward, 0.0f, 1.4f}, {D::Up, -0.05f, 0.05f}}}};
     // Hands and fingers: which way a palm faces is not known from the skeleton, so their bends are
-    // symmetric.
+    // symmetric. A knuckle spreads a little; the joints beyond it only bend.
     case JointRole::Hand: return RoleMotion{0.1f, {{{D::Up, -0.6f, 0.6f}, {D::Forward, -0.3f, 0.3f}}}};
     case JointRole::Finger: return RoleMotion{0.05f, {{{D::Up, -0.5f, 0.5f}, {D::Forward, -0.15f, 0.15f}}}};
+    case JointRole::FingerHinge: return RoleMotion{0.0f, {{{D::Up, -0.5f, 0.5f}, {D::Forward, 0.0f, 0.0f}}}};
     case JointRole::Thigh: return RoleMotion{0.5f, {{{D::Forward, -0.5f, 1.2f}, {D::Medial, -0.6f, 0.2f}}}};
     case JointRole::Calf: return RoleMotion{0.15f, {{{D::Forward, -1.4f, 0.0f}, {D::Medial, -0.05f, 0.05f}}}};
     case JointRole::Foot: return RoleMotion{0.1f, {{{D::Up, -0.5f, 0.35f}, {D::Medial, -0.25f, 0.25f}}}};

@@ -25,7 +25,7 @@ TEST(JointRoles, TheCommonNamingConventionsAreRecognised) {
       // Unreal
       {"pelvis", JointRole::Hips}, {"spine_03", JointRole::Spine}, {"clavicle_l", JointRole::Clavicle},
       {"upperarm_l", JointRole::UpperArm}, {"lowerarm_r", JointRole::Forearm}, {"hand_l", JointRole::Hand},
-      {"index_02_l", JointRole::Finger}, {"thigh_r", JointRole::Thigh}, {"calf_l", JointRole::Calf},
+      {"index_02_l", JointRole::Finger}, {"index_metacarpal_l", JointRole::Hand}, {"thigh_r", JointRole::Thigh}, {"calf_l", JointRole::Calf},
       {"foot_r", JointRole::Foot}, {"ball_l", JointRole::Toe}, {"upperarm_twist_01_l", JointRole::UpperArm},
       // 3ds Max Biped
       {"Bip01 Pelvis", JointRole::Hips}, {"Bip01 L Clavicle", JointRole::Clavicle},
@@ -79,6 +79,25 @@ TEST(JointRoles, ALimbNamedAsOneChainTakesItsPartsInOrder) {
   std::vector<R> loop = {R::Calf, R::Calf};
   assign_chain_roles(std::vector<std::int32_t>{1, 0}, loop);
   EXPECT_EQ(loop, (std::vector<R>{R::Calf, R::Calf}));
+}
+
+TEST(JointRoles, AFingerJointBelowAnotherIsAHinge) {
+  // 0 hand; 1-4 a finger's knuckle, two hinges and its end joint; 5 an Unreal metacarpal (Hand by
+  // name) with 6 its knuckle and 7 the next joint; 8 a finger joint on the hand's parent's side.
+  using R = JointRole;
+  std::vector<R> roles = {R::Hand, R::Finger, R::Finger, R::Finger, R::Finger, R::Hand, R::Finger, R::Finger, R::Finger};
+  assign_chain_roles(std::vector<std::int32_t>{-1, 0, 1, 2, 3, 0, 5, 6, -1}, roles);
+  EXPECT_EQ(roles, (std::vector<R>{R::Hand, R::Finger, R::FingerHinge, R::FingerHinge, R::FingerHinge, R::Hand,
+                                   R::Finger, R::FingerHinge, R::Finger}));
+  // A hinge bends as far as a knuckle, and neither twists nor spreads.
+  const RoleMotion knuckle = role_motion(R::Finger).value(), hinge = role_motion(R::FingerHinge).value();
+  EXPECT_EQ(hinge.swings[0].towards, knuckle.swings[0].towards);
+  EXPECT_EQ(hinge.swings[0].lo, knuckle.swings[0].lo);
+  EXPECT_EQ(hinge.swings[0].hi, knuckle.swings[0].hi);
+  EXPECT_GT(knuckle.swings[1].hi, 0.0f);
+  EXPECT_EQ(hinge.swings[1].lo, 0.0f);
+  EXPECT_EQ(hinge.swings[1].hi, 0.0f);
+  EXPECT_EQ(hinge.twist, 0.0f);
 }
 
 TEST(JointRoles, SidesComeFromTheSideWordsOfEachConvention) {

@@ -391,7 +391,18 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
   };
   EXPECT_EQ(range_of("mixamorig:HeadTop_End"), 0.0f);
   EXPECT_EQ(range_of("mixamorig:LeftForeArm"), role_motion(JointRole::Forearm)->twist);
-  EXPECT_EQ(range_of("mixamorig:RightHandIndex2"), role_motion(JointRole::Finger)->twist);
+  EXPECT_EQ(range_of("mixamorig:RightHandIndex1"), role_motion(JointRole::Finger)->twist);
+  // A knuckle bends (about z, towards up) and spreads (about y, towards forward); the joints
+  // beyond it only bend.
+  for (const char* finger : {"mixamorig:RightHandIndex1", "mixamorig:LeftHandRing2", "mixamorig:RightHandPinky3"}) {
+    std::size_t j = 0;
+    while (rig->names[j] != finger) ++j;
+    const bool knuckle = std::string_view(finger).ends_with('1');
+    const JointRange& r = space.ranges[j];
+    EXPECT_FLOAT_EQ(r.max.z - r.min.z, 1.0f) << finger;
+    EXPECT_FLOAT_EQ(r.max.y - r.min.y, knuckle ? 0.3f : 0.0f) << finger;
+    EXPECT_FLOAT_EQ(r.max.x - r.min.x, knuckle ? 0.1f : 0.0f) << finger;
+  }
   EXPECT_EQ(space.moving, 62u);  // all but the three end joints
   // Every joint of a role with a motion gets it about its bone, but the hips (no motion) and the
   // thumbs' four joints each, which point 41 degrees off every axis of their frames.

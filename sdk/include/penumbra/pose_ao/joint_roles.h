@@ -34,7 +34,8 @@ enum class JointRole : unsigned char {
   UpperArm,
   Forearm,
   Hand,
-  Finger,    // any finger or thumb segment
+  Finger,       // a finger's or thumb's first joint (knuckle), below the hand
+  FingerHinge,  // a finger or thumb joint below another (assign_chain_roles): bends, no spread
   Thigh,
   Calf,      // shin, lower leg, knee
   Foot,
@@ -53,14 +54,16 @@ const char* to_string(JointRole role);
 // only child of that role of the one before (the last with none), with no joint of the limb's
 // other roles among its ancestors and descendants (an Unreal "upperarm_twist_01_l" sits beside a
 // "lowerarm_l"), takes the limb's roles in order: upper arm, forearm, hand, then finger; thigh,
-// calf, foot, then toe. `parents[j]` is joint j's parent (-1 for a root; a cycle stops the walks).
+// calf, foot, then toe. Then a Finger joint whose parent is a Finger becomes FingerHinge: the
+// middle and distal phalanges' joints (and the thumb's last two) are hinges, which bend but do not
+// spread or twist. `parents[j]` is joint j's parent (-1 for a root; a cycle stops the walks).
 // Precondition: roles.size() == parents.size(). Cost: O(joints x (depth + limb joints)).
 void assign_chain_roles(std::span<const std::int32_t> parents, std::span<JointRole> roles);
 
 // The per-axis limit of a role, for a joint whose role_motion cannot be placed on its bone
 // (pose_space): the joint turns within +-limit radians about each axis of its bind frame. Human
 // ranges of motion, conservative: forearm 1.0, upper arm 0.9, calf 0.9, thigh 0.7, hand 0.6,
-// finger 0.5, head 0.4, foot 0.4, neck 0.35, toe 0.3, spine 0.25, clavicle 0.25, hips 0.3; End 0;
+// finger and finger hinge 0.5, head 0.4, foot 0.4, neck 0.35, toe 0.3, spine 0.25, clavicle 0.25, hips 0.3; End 0;
 // Unknown returns `unknown`.
 float role_limit(JointRole role, float unknown);
 
@@ -82,8 +85,9 @@ enum class BodyDirection : unsigned char {
 // +-twist about the bone, and two swings, each an angle in [lo, hi] about the axis bone x towards,
 // so that a positive swing moves the bone's tip towards `towards`. Human ranges, conservative:
 // the knee bends backward only (Forward, [-1.4, 0]), the elbow forward only, the hip flexes 1.2
-// rad forward and extends 0.5 back, abducts 0.6 and crosses the midline by 0.2. Where a role
-// bends one way only, limits per axis (role_limit) would bend it both ways and through the body.
+// rad forward and extends 0.5 back, abducts 0.6 and crosses the midline by 0.2; a finger's knuckle
+// bends +-0.5 and spreads +-0.15, its hinges beyond only bend. Where a role bends one way only,
+// limits per axis (role_limit) would bend it both ways and through the body.
 struct RoleMotion {
   struct Swing {
     BodyDirection towards = BodyDirection::Forward;
