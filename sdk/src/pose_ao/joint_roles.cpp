@@ -174,6 +174,12 @@ JointSide joint_side(std::string_view name) {
   return JointSide::None;
 }
 
+bool is_thumb(std::string_view name) {
+  const std::string w = words(name);
+  // 3ds Max Biped numbers the fingers from the thumb: "Finger0", then "Finger01", "Finger02".
+  return has(w, "thumb") || has(w, " finger0 ") || has(w, " finger01 ") || has(w, " finger02 ");
+}
+
 std::optional<RoleMotion> role_motion(JointRole role) {
   using D = BodyDirection;
   // {twist, {{towards, lo, hi}, {towards, lo, hi}}}, radians.
@@ -189,11 +195,11 @@ std::optional<RoleMotion> role_motion(JointRole role) {
     // hanging straight down) and raises 0.5.
     case JointRole::UpperArm: return RoleMotion{0.7f, {{{D::Forward, -0.6f, 1.2f}, {D::Up, -1.2f, 0.5f}}}};
     case JointRole::Forearm: return RoleMotion{0.8f, {{{D::Forward, 0.0f, 1.4f}, {D::Up, -0.05f, 0.05f}}}};
-    // Hands and fingers: which way a palm faces is not known from the skeleton, so their bends are
-    // symmetric. A knuckle spreads a little; the joints beyond it only bend.
+    // The wrist bends both ways as far. Fingers curl towards the palm; a knuckle spreads a little,
+    // the joints beyond it only curl.
     case JointRole::Hand: return RoleMotion{0.1f, {{{D::Up, -0.6f, 0.6f}, {D::Forward, -0.3f, 0.3f}}}};
-    case JointRole::Finger: return RoleMotion{0.05f, {{{D::Up, -0.5f, 0.5f}, {D::Forward, -0.15f, 0.15f}}}};
-    case JointRole::FingerHinge: return RoleMotion{0.0f, {{{D::Up, -0.5f, 0.5f}, {D::Forward, 0.0f, 0.0f}}}};
+    case JointRole::Finger: return RoleMotion{0.05f, {{{D::Palm, -0.2f, 0.8f}, {D::Forward, -0.15f, 0.15f}}}};
+    case JointRole::FingerHinge: return RoleMotion{0.0f, {{{D::Palm, 0.0f, 1.0f}, {D::Forward, 0.0f, 0.0f}}}};
     case JointRole::Thigh: return RoleMotion{0.5f, {{{D::Forward, -0.5f, 1.2f}, {D::Medial, -0.6f, 0.2f}}}};
     case JointRole::Calf: return RoleMotion{0.15f, {{{D::Forward, -1.4f, 0.0f}, {D::Medial, -0.05f, 0.05f}}}};
     case JointRole::Foot: return RoleMotion{0.1f, {{{D::Up, -0.5f, 0.35f}, {D::Medial, -0.25f, 0.25f}}}};

@@ -89,15 +89,28 @@ TEST(JointRoles, AFingerJointBelowAnotherIsAHinge) {
   assign_chain_roles(std::vector<std::int32_t>{-1, 0, 1, 2, 3, 0, 5, 6, -1}, roles);
   EXPECT_EQ(roles, (std::vector<R>{R::Hand, R::Finger, R::FingerHinge, R::FingerHinge, R::FingerHinge, R::Hand,
                                    R::Finger, R::FingerHinge, R::Finger}));
-  // A hinge bends as far as a knuckle, and neither twists nor spreads.
+  // Both curl towards the palm; a knuckle extends a little, a hinge not at all, and it neither
+  // twists nor spreads.
   const RoleMotion knuckle = role_motion(R::Finger).value(), hinge = role_motion(R::FingerHinge).value();
-  EXPECT_EQ(hinge.swings[0].towards, knuckle.swings[0].towards);
-  EXPECT_EQ(hinge.swings[0].lo, knuckle.swings[0].lo);
-  EXPECT_EQ(hinge.swings[0].hi, knuckle.swings[0].hi);
+  EXPECT_EQ(knuckle.swings[0].towards, BodyDirection::Palm);
+  EXPECT_EQ(hinge.swings[0].towards, BodyDirection::Palm);
+  EXPECT_LT(knuckle.swings[0].lo, 0.0f);
+  EXPECT_GT(knuckle.swings[0].hi, -2.0f * knuckle.swings[0].lo);
+  EXPECT_EQ(hinge.swings[0].lo, 0.0f);
+  EXPECT_GT(hinge.swings[0].hi, 0.5f);
   EXPECT_GT(knuckle.swings[1].hi, 0.0f);
   EXPECT_EQ(hinge.swings[1].lo, 0.0f);
   EXPECT_EQ(hinge.swings[1].hi, 0.0f);
   EXPECT_EQ(hinge.twist, 0.0f);
+}
+
+TEST(JointRoles, ThumbsAreKnownByName) {
+  for (const char* thumb : {"mixamorig:LeftHandThumb1", "mixamorig:RightHandThumb3", "thumb_01_l", "Bip01 L Finger0",
+                            "Bip01 R Finger02", "DEF-thumb.02.L"})
+    EXPECT_TRUE(is_thumb(thumb)) << thumb;
+  for (const char* other : {"mixamorig:LeftHandIndex1", "index_01_l", "Bip01 L Finger1", "Bip01 R Finger12",
+                            "Bip01 R Finger10", "mixamorig:LeftHand", ""})
+    EXPECT_FALSE(is_thumb(other)) << other;
 }
 
 TEST(JointRoles, SidesComeFromTheSideWordsOfEachConvention) {

@@ -218,6 +218,75 @@ namespace {
 
 float width(const JointRange& r) { return std::max({r.max.x - r.min.x, r.max.y - r.min.y, r.max.z - r.min.z}); }
 
+// The direction of each finger's palm (BodyDirection::Palm) in the bind pose, per hand: normal to
+// the plane of its knuckles' bones and the line across them, on the side where the thumb lies
+// (the thumb sits on the palm's side of the knuckles). Found for the fingers, not the thumb (it
+// curls across the palm), of a hand with a thumb and two other fingers whose knuckles span a
+// line, and a thumb off that plane by a tenth of the line; nullopt elsewhere. A finger's hand: the
+// topmost of the Hand joints above its Finger and FingerHinge joints (a metacarpal is a Hand).
+std::vector<std::optional<glm::vec3>> palms(const PoseRig& rig, std::span<const JointRole> roles,
+                                            const std::vector<std::vector<std::uint32_t>>& children, float height) {
+  const std::size_t J = rig.joint_count();
+  std::vector<std::optional<glm::vec3>> out(J);
+  const auto is_finger = [&](std::size_t j) { return roles[j] == JointRole::Finger || roles[j] == JointRole::FingerHinge; };
+  const auto parent_of = [&](std::size_t j) {
+    return rig.parents[j] >= 0 && static_cast<std::size_t>(rig.parents[j]) < J ? static_cast<std::size_t>(rig.parents[j]) : J;
+  };
+  std::vector<std::size_t> hand(J, J);
+  for (std::size_t j = 0; j < J; ++j) {
+    if (!is_finger(j)) continue;
+    std::size_t a = j;
+    for (std::size_t steps = 0; a < J && is_finger(a) && steps < J; ++steps) a = parent_of(a);
+    for (std::size_t steps = 0; a < J && roles[a] == JointRole::Hand && steps < J; ++steps) {
+      hand[j] = a;
+      a = parent_of(a);
+    }
+  }
+  std::vector<bool> thumb(J);
+  for (std::size_t j = 0; j < J && j < rig.names.size(); ++j) thumb[j] = is_thumb(rig.names[j]);
+  for (std::size_t h = 0; h < J; ++h) {
+    if (roles[h] != JointRole::Hand) continue;
+    // The knuckles (Finger joints) of the hand's fingers, their bones' mean direction, the thumb's joints.
+    std::vector<std::size_t> knuckles;
+    glm::vec3 along(0.0f), thumb_sum(0.0f);
+    int thumb_joints = 0;
+    for (std::size_t j = 0; j < J; ++j) {
+      if (hand[j] != h) continue;
+      if (thumb[j]) {
+        thumb_sum += rig.bind_positions[j];
+        ++thumb_joints;
+        continue;
+      }
+      if (roles[j] != JointRole::Finger) continue;
+      glm::vec3 bone(0.0f);
+      for (const std::uint32_t c : children[j]) bone += rig.bind_positions[c] - rig.bind_positions[j];
+      if (!(glm::length(bone) > 1e-4f * height)) continue;
+      knuckles.push_back(j);
+      along += glm::normalize(bone);
+    }
+    if (knuckles.size() < 2 || thumb_joints == 0 || !(glm::length(along) > 0.5f)) continue;
+    along = glm::normalize(along);
+    glm::vec3 across(0.0f), centre(0.0f);
+    for (const std::size_t a : knuckles) {
+      centre += rig.bind_positions[a] / float(knuckles.size());
+      for (const std::size_t b : knuckles) {
+        const glm::vec3 d = rig.bind_positions[a] - rig.bind_positions[b];
+        if (glm::length(d) > glm::length(across)) across = d;
+      }
+    }
+    const float span = glm::length(across);
+    across -= glm::dot(across, along) * along;
+    if (!(glm::length(across) > 0.5f * span && span > 1e-4f * height)) continue;
+    glm::vec3 normal = glm::normalize(glm::cross(along, across));
+    const float offset = glm::dot(normal, thumb_sum / float(thumb_joints) - centre);
+    if (!(std::abs(offset) > 0.1f * span)) continue;
+    if (offset < 0.0f) normal = -normal;
+    for (std::size_t j = 0; j < J; ++j)
+      if (hand[j] == h && !thumb[j]) out[j] = normal;
+  }
+  return out;
+}
+
 // Each joint's range from its role's motion (role_motion) about its bone, in its bind frame;
 // nullopt where that cannot be placed: a role without a motion, no body frame (no head, neck or
 // spine above the hips, no joints named on both sides), a bone of no length, a medial swing on the
@@ -268,6 +337,7 @@ std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std
     frame[j] = glm::mat3(parent * rig.offsets[j]) * glm::mat3_cast(rig.bind[j].rotation);
     if (rig.parents[j] >= 0) children[static_cast<std::size_t>(rig.parents[j])].push_back(j);
   }
+  const std::vector<std::optional<glm::vec3>> palm = palms(rig, roles, children, height);
   for (std::size_t j = 0; j < J; ++j) {
     const std::optional<RoleMotion> motion = role_motion(roles[j]);
     if (!motion || !(glm::determinant(frame[j]) > 0.0f)) continue;
@@ -302,6 +372,11 @@ std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std
     for (const RoleMotion::Swing& s : motion->swings) {
       if (!placed) break;
       glm::vec3 towards = s.towards == BodyDirection::Forward ? forward : s.towards == BodyDirection::Up ? up : side;
+      float lo = s.lo, hi = s.hi;
+      if (s.towards == BodyDirection::Palm) {
+        towards = palm[j] ? *palm[j] : up;
+        if (!palm[j]) lo = -(hi = 0.5f * (s.hi - s.lo));
+      }
       if (s.towards == BodyDirection::Medial) {
         if (sides[j] == JointSide::None) {
           placed = false;
@@ -317,13 +392,12 @@ std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std
         break;
       }
       used[static_cast<std::size_t>(k)] = true;
-      float lo = s.lo;
       // An upper arm lowers to 0.35 rad short of straight down (it hangs, it does not enter the
       // body): the bone's angle to straight down bounds its downward swing.
       if (s.towards == BodyDirection::Up && roles[j] == JointRole::UpperArm)
         lo = std::max(lo, std::min(0.0f, 0.35f - std::acos(std::clamp(-glm::dot(bone, up), -1.0f, 1.0f))));
-      range.min[k] = sign > 0.0f ? lo : -s.hi;
-      range.max[k] = sign > 0.0f ? s.hi : -lo;
+      range.min[k] = sign > 0.0f ? lo : -hi;
+      range.max[k] = sign > 0.0f ? hi : -lo;
     }
     if (placed) out[j] = range;
   }

@@ -436,7 +436,7 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
 // elbows forward (to 0.01, what a twist and a side swing of a few hundredths give together: the
 // range is a box of rotation vectors), and a thigh crosses the midline by far less than it can
 // move away from it (0.2 rad asked, up to 0.45 with the twist and the flexion).
-TEST(PoseAOProductionRig, TheRolesBendKneesBackwardAndElbowsForward) {
+TEST(PoseAOProductionRig, TheRolesBendKneesBackwardElbowsForwardAndFingersTowardsThePalm) {
   Humanoid h;
   auto rig = make_pose_rig(*h.world, h.body, "humanoid").value();
   const PoseSpace space = pose_space(rig, SkinnedPoseAO{});
@@ -452,12 +452,25 @@ TEST(PoseAOProductionRig, TheRolesBendKneesBackwardAndElbowsForward) {
     const glm::vec3 bone = glm::normalize(rig.bind_positions[joint(child)] - rig.bind_positions[j]);
     return std::pair{bone, pose[j].rotation * bone};
   };
-  int bent_knees = 0, bent_elbows = 0;
+  int bent_knees = 0, bent_elbows = 0, curled_fingers = 0;
   float most_medial = 0.0f, most_lateral = 0.0f;
   for (std::uint64_t p = 0; p < 200; ++p) {
     const Pose pose = random_pose(rig, space.ranges, 11, p);
     for (const char* side : {"Left", "Right"}) {
       const std::string s = side;
+      // The palms face down in the T-pose: a knuckle extends 0.2 rad at most (up), the joints
+      // beyond it curl down only and stay in the finger's plane (no spread, no twist).
+      for (const char* finger : {"Index", "Middle", "Pinky"}) {
+        const std::string f = s + "Hand" + finger;
+        const auto [knuckle, knuckle_now] = tip(pose, f + "1", f + "2");
+        EXPECT_LE(knuckle_now.y, std::sin(0.2f) + 0.01f) << f << "1, pose " << p;
+        for (const char* k : {"2", "3"}) {
+          const auto [hinge, hinge_now] = tip(pose, f + k, f + std::to_string(std::stoi(k) + 1));
+          EXPECT_LE(hinge_now.y, 0.01f) << f << k << ", pose " << p;
+          EXPECT_NEAR(hinge_now.z, hinge.z, 0.01f) << f << k << ", pose " << p;
+          curled_fingers += hinge_now.y < -0.3f;
+        }
+      }
       const auto [shin, shin_now] = tip(pose, s + "Leg", s + "Foot");
       EXPECT_LE(shin_now.z, 0.01f) << side << " knee, pose " << p;  // backward
       bent_knees += shin_now.z < -0.3f;
@@ -475,6 +488,17 @@ TEST(PoseAOProductionRig, TheRolesBendKneesBackwardAndElbowsForward) {
   // And they do bend: the ranges are not empty.
   EXPECT_GT(bent_knees, 100);
   EXPECT_GT(bent_elbows, 100);
+  EXPECT_GT(curled_fingers, 600);  // of 2400 joint-poses
+
+  // Without a thumb to tell the palm's side, fingers curl as far both ways.
+  for (std::string& name : rig.names)
+    if (name.find("Thumb") != std::string::npos) name.replace(name.find("Thumb"), 5, "Digit");
+  const PoseSpace thumbless = pose_space(rig, SkinnedPoseAO{});
+  for (const char* finger : {"LeftHandIndex1", "LeftHandRing2", "RightHandPinky3"}) {
+    const JointRange& r = thumbless.ranges[joint(finger)];
+    EXPECT_FLOAT_EQ(r.max.z, 0.5f) << finger;
+    EXPECT_FLOAT_EQ(r.min.z, -0.5f) << finger;
+  }
 }
 
 // Mean of `ao` over the body's upward-facing vertices under the left sleeve (the gear's tube of

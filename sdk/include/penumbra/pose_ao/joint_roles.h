@@ -72,6 +72,10 @@ float role_limit(JointRole role, float unknown);
 enum class JointSide : unsigned char { None, Left, Right };
 JointSide joint_side(std::string_view name);
 
+// Whether `name` names a thumb joint ("mixamorig:LeftHandThumb2", "thumb_01_l", "Bip01 L Finger0",
+// "Bip01 L Finger01"). Cost: O(name length). Thread-safe.
+bool is_thumb(std::string_view name);
+
 // A direction of the character's body in its bind pose, found from its skeleton
 // (pose_ao_baker.h, pose_space).
 enum class BodyDirection : unsigned char {
@@ -79,6 +83,8 @@ enum class BodyDirection : unsigned char {
   Up,       // from the hips to the head
   Left,     // the character's left
   Medial,   // towards the body's midline: Left for a joint on the right side
+  Palm,     // towards the palm of the finger's hand (pose_space finds it from the knuckles and the
+            // thumb); where it cannot, Up, with the swing's range made symmetric
 };
 
 // A role's anatomical range of motion about its bone (the joint to its children): a twist within
@@ -86,7 +92,8 @@ enum class BodyDirection : unsigned char {
 // so that a positive swing moves the bone's tip towards `towards`. Human ranges, conservative:
 // the knee bends backward only (Forward, [-1.4, 0]), the elbow forward only, the hip flexes 1.2
 // rad forward and extends 0.5 back, abducts 0.6 and crosses the midline by 0.2; a finger's knuckle
-// bends +-0.5 and spreads +-0.15, its hinges beyond only bend. Where a role bends one way only,
+// curls 0.8 towards the palm, extends 0.2 and spreads +-0.15, its hinges beyond curl 1.0 and do
+// nothing else. Where a role bends one way only,
 // limits per axis (role_limit) would bend it both ways and through the body.
 struct RoleMotion {
   struct Swing {
