@@ -25,8 +25,9 @@ TEST(JointRoles, TheCommonNamingConventionsAreRecognised) {
       // Unreal
       {"pelvis", JointRole::Hips}, {"spine_03", JointRole::Spine}, {"clavicle_l", JointRole::Clavicle},
       {"upperarm_l", JointRole::UpperArm}, {"lowerarm_r", JointRole::Forearm}, {"hand_l", JointRole::Hand},
-      {"index_02_l", JointRole::Finger}, {"index_metacarpal_l", JointRole::Hand}, {"thigh_r", JointRole::Thigh}, {"calf_l", JointRole::Calf},
-      {"foot_r", JointRole::Foot}, {"ball_l", JointRole::Toe}, {"upperarm_twist_01_l", JointRole::UpperArm},
+      {"index_02_l", JointRole::Finger}, {"index_metacarpal_l", JointRole::Hand}, {"thigh_r", JointRole::Thigh},
+      {"calf_l", JointRole::Calf}, {"foot_r", JointRole::Foot}, {"ball_l", JointRole::Toe},
+      {"upperarm_twist_01_l", JointRole::UpperArm},
       // 3ds Max Biped
       {"Bip01 Pelvis", JointRole::Hips}, {"Bip01 L Clavicle", JointRole::Clavicle},
       {"Bip01 L UpperArm", JointRole::UpperArm}, {"Bip01 L Forearm", JointRole::Forearm},
@@ -85,7 +86,8 @@ TEST(JointRoles, AFingerJointBelowAnotherIsAHinge) {
   // 0 hand; 1-4 a finger's knuckle, two hinges and its end joint; 5 an Unreal metacarpal (Hand by
   // name) with 6 its knuckle and 7 the next joint; 8 a finger joint on the hand's parent's side.
   using R = JointRole;
-  std::vector<R> roles = {R::Hand, R::Finger, R::Finger, R::Finger, R::Finger, R::Hand, R::Finger, R::Finger, R::Finger};
+  std::vector<R> roles = {R::Hand, R::Finger, R::Finger, R::Finger, R::Finger,
+                          R::Hand, R::Finger, R::Finger, R::Finger};
   assign_chain_roles(std::vector<std::int32_t>{-1, 0, 1, 2, 3, 0, 5, 6, -1}, roles);
   EXPECT_EQ(roles, (std::vector<R>{R::Hand, R::Finger, R::FingerHinge, R::FingerHinge, R::FingerHinge, R::Hand,
                                    R::Finger, R::FingerHinge, R::Finger}));

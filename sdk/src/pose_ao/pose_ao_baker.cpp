@@ -264,7 +264,7 @@ std::vector<std::optional<glm::vec3>> palms(const PoseRig& rig, std::span<const 
       knuckles.push_back(j);
       along += glm::normalize(bone);
     }
-    if (knuckles.size() < 2 || thumb_joints == 0 || !(glm::length(along) > 0.5f)) continue;
+    if (knuckles.size() < 2 || thumb_joints == 0 || !(glm::length(along) > 0.5f * float(knuckles.size()))) continue;
     along = glm::normalize(along);
     glm::vec3 across(0.0f), centre(0.0f);
     for (const std::size_t a : knuckles) {

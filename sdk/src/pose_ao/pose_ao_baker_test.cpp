@@ -392,8 +392,8 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
   EXPECT_EQ(range_of("mixamorig:HeadTop_End"), 0.0f);
   EXPECT_EQ(range_of("mixamorig:LeftForeArm"), role_motion(JointRole::Forearm)->twist);
   EXPECT_EQ(range_of("mixamorig:RightHandIndex1"), role_motion(JointRole::Finger)->twist);
-  // A knuckle bends (about z, towards up) and spreads (about y, towards forward); the joints
-  // beyond it only bend.
+  // A knuckle curls (about z, towards the palm) and spreads (about y, towards forward); the joints
+  // beyond it only curl.
   for (const char* finger : {"mixamorig:RightHandIndex1", "mixamorig:LeftHandRing2", "mixamorig:RightHandPinky3"}) {
     std::size_t j = 0;
     while (rig->names[j] != finger) ++j;
@@ -434,8 +434,9 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
 // head, left from the right-side joints to the left-side ones; the humanoid faces +Z, its left is
 // +X, no joint is rotated in the bind pose): in every random pose the knees bend backward and the
 // elbows forward (to 0.01, what a twist and a side swing of a few hundredths give together: the
-// range is a box of rotation vectors), and a thigh crosses the midline by far less than it can
-// move away from it (0.2 rad asked, up to 0.45 with the twist and the flexion).
+// range is a box of rotation vectors), a thigh crosses the midline by far less than it can move
+// away from it (0.2 rad asked, up to 0.45 with the twist and the flexion), and fingers curl
+// towards the palm, which faces down.
 TEST(PoseAOProductionRig, TheRolesBendKneesBackwardElbowsForwardAndFingersTowardsThePalm) {
   Humanoid h;
   auto rig = make_pose_rig(*h.world, h.body, "humanoid").value();

@@ -26,21 +26,21 @@ namespace penumbra {
 
 enum class JointRole : unsigned char {
   Unknown,
-  Hips,      // pelvis, the hierarchy's root joint
-  Spine,     // spine, chest, abdomen
+  Hips,         // pelvis, the hierarchy's root joint
+  Spine,        // spine, chest, abdomen
   Neck,
   Head,
-  Clavicle,  // shoulder / collar bone
+  Clavicle,     // shoulder / collar bone
   UpperArm,
   Forearm,
   Hand,
   Finger,       // a finger's or thumb's first joint (knuckle), below the hand
   FingerHinge,  // a finger or thumb joint below another (assign_chain_roles): bends, no spread
   Thigh,
-  Calf,      // shin, lower leg, knee
+  Calf,         // shin, lower leg, knee
   Foot,
   Toe,
-  End,       // a leaf marker joint
+  End,          // a leaf marker joint
 };
 
 // The role of the joint named `name`. Cost: O(name length). Thread-safe.
@@ -63,8 +63,8 @@ void assign_chain_roles(std::span<const std::int32_t> parents, std::span<JointRo
 // The per-axis limit of a role, for a joint whose role_motion cannot be placed on its bone
 // (pose_space): the joint turns within +-limit radians about each axis of its bind frame. Human
 // ranges of motion, conservative: forearm 1.0, upper arm 0.9, calf 0.9, thigh 0.7, hand 0.6,
-// finger and finger hinge 0.5, head 0.4, foot 0.4, neck 0.35, toe 0.3, spine 0.25, clavicle 0.25, hips 0.3; End 0;
-// Unknown returns `unknown`.
+// finger and finger hinge 0.5, head 0.4, foot 0.4, neck 0.35, toe 0.3, spine 0.25, clavicle 0.25,
+// hips 0.3; End 0; Unknown returns `unknown`.
 float role_limit(JointRole role, float unknown);
 
 // The side of the body a joint is on, from the side words of its name ("Left", "L", "_l", ".R",
@@ -93,8 +93,8 @@ enum class BodyDirection : unsigned char {
 // the knee bends backward only (Forward, [-1.4, 0]), the elbow forward only, the hip flexes 1.2
 // rad forward and extends 0.5 back, abducts 0.6 and crosses the midline by 0.2; a finger's knuckle
 // curls 0.8 towards the palm, extends 0.2 and spreads +-0.15, its hinges beyond curl 1.0 and do
-// nothing else. Where a role bends one way only,
-// limits per axis (role_limit) would bend it both ways and through the body.
+// nothing else. Where a role bends one way only, limits per axis (role_limit) would bend it both
+// ways and through the body.
 struct RoleMotion {
   struct Swing {
     BodyDirection towards = BodyDirection::Forward;
