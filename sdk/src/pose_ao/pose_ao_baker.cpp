@@ -1746,7 +1746,7 @@ Result<std::vector<BakeChunk>> finish_all(std::span<const BakedGroup> groups, Jo
 // The rules that turn the settings into a bake (the roles' motions in pose_space, the ridge
 // strengths the fit tries), in the inputs' hash so that a bake of an earlier rule reads as out of
 // date.
-constexpr std::uint32_t kPoseAORule = 2;
+constexpr std::uint32_t kPoseAORule = 3;
 
 void hash_inputs(World& world, const BakeSettings&, Hasher& h) {
   h.add(kPoseAOChunkVersion);
