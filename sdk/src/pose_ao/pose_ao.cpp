@@ -49,6 +49,10 @@ Status validate_pose_ao(const SkinnedPoseAO& s, std::size_t joint_count, std::st
         if (!(std::isfinite(r.min[a]) && std::isfinite(r.max[a]) && r.min[a] <= r.max[a]))
           return bad("joint_ranges[" + std::to_string(j) + "] axis " + std::to_string(a) +
                      " is not a finite interval with min <= max");
+      const float norm = glm::length(glm::vec4(r.axes.x, r.axes.y, r.axes.z, r.axes.w));
+      if (!(std::abs(norm - 1.0f) < 1e-3f))
+        return bad("joint_ranges[" + std::to_string(j) + "].axes is not a unit quaternion (length " +
+                   std::to_string(norm) + "); leave it at identity for the joint's own axes");
     }
   }
   return {};

@@ -287,12 +287,14 @@ std::vector<std::optional<glm::vec3>> palms(const PoseRig& rig, std::span<const 
   return out;
 }
 
-// Each joint's range from its role's motion (role_motion) about its bone, in its bind frame;
-// nullopt where that cannot be placed: a role without a motion, no body frame (no head, neck or
-// spine above the hips, no joints named on both sides), a bone of no length, a medial swing on the
-// midline, or a twist or swing axis more than 37 degrees off every axis of the joint's frame (the
-// range is a box in the frame's axes). The body frame: up from the hips to the head (else the
-// neck, else the spine), left from the right-side joints to the left-side ones, forward = left x up.
+// Each joint's range from its role's motion (role_motion) about its bone, in its bind frame: a box
+// in the frame's axes where the twist and swing axes each lie within 37 degrees of one, else a box
+// in axes of its own (JointRange::axes); nullopt where that cannot be placed: a role without a
+// motion, no body frame (no head, neck or spine above the hips, no joints named on both sides), a
+// bone of no length, a medial swing on the midline, a swing towards the bone, or a second swing
+// axis more than 37 degrees off the perpendicular of the bone and the first. The body frame: up
+// from the hips to the head (else the neck, else the spine), left from the right-side joints to
+// the left-side ones, forward = left x up.
 std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std::span<const JointRole> roles) {
   const std::size_t J = rig.joint_count();
   std::vector<std::optional<JointRange>> out(J);
@@ -359,6 +361,35 @@ std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std
         }
       return -1;
     };
+    // Each swing's direction and interval: the palm's side where it is known (else up, the interval
+    // made symmetric), the midline's side for the joint's side of the body, and an upper arm
+    // lowered to 0.35 rad short of straight down (it hangs, it does not enter the body).
+    struct Resolved {
+      glm::vec3 axis;  // bone x towards
+      float lo, hi;
+    };
+    std::array<Resolved, 2> swings{};
+    bool resolved = true;
+    for (std::size_t i = 0; i < 2 && resolved; ++i) {
+      const RoleMotion::Swing& s = motion->swings[i];
+      glm::vec3 towards = s.towards == BodyDirection::Forward ? forward : s.towards == BodyDirection::Up ? up : side;
+      float lo = s.lo, hi = s.hi;
+      if (s.towards == BodyDirection::Palm) {
+        towards = palm[j] ? *palm[j] : up;
+        if (!palm[j]) lo = -(hi = 0.5f * (s.hi - s.lo));
+      }
+      if (s.towards == BodyDirection::Medial) {
+        resolved = sides[j] != JointSide::None;
+        towards = sides[j] == JointSide::Left ? -side : side;
+      }
+      if (s.towards == BodyDirection::Up && roles[j] == JointRole::UpperArm)
+        lo = std::max(lo, std::min(0.0f, 0.35f - std::acos(std::clamp(-glm::dot(bone, up), -1.0f, 1.0f))));
+      swings[i] = Resolved{glm::cross(bone, towards), lo, hi};
+      resolved = resolved && glm::length(swings[i].axis) > 0.3f;
+    }
+    if (!resolved) continue;
+    // The range as a box in the joint's own frame, each axis within 37 degrees of the twist or a
+    // swing axis.
     float twist_sign = 1.0f;
     const int twist_axis = snap(bone, twist_sign);
     JointRange range;
@@ -369,37 +400,36 @@ std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std
       range.min[twist_axis] = -motion->twist;
       range.max[twist_axis] = motion->twist;
     }
-    for (const RoleMotion::Swing& s : motion->swings) {
+    for (const Resolved& s : swings) {
       if (!placed) break;
-      glm::vec3 towards = s.towards == BodyDirection::Forward ? forward : s.towards == BodyDirection::Up ? up : side;
-      float lo = s.lo, hi = s.hi;
-      if (s.towards == BodyDirection::Palm) {
-        towards = palm[j] ? *palm[j] : up;
-        if (!palm[j]) lo = -(hi = 0.5f * (s.hi - s.lo));
-      }
-      if (s.towards == BodyDirection::Medial) {
-        if (sides[j] == JointSide::None) {
-          placed = false;
-          break;
-        }
-        towards = sides[j] == JointSide::Left ? -side : side;
-      }
-      const glm::vec3 axis = glm::cross(bone, towards);
       float sign = 1.0f;
-      const int k = glm::length(axis) > 0.3f ? snap(axis, sign) : -1;
+      const int k = snap(s.axis, sign);
       if (k < 0 || used[static_cast<std::size_t>(k)]) {
         placed = false;
         break;
       }
       used[static_cast<std::size_t>(k)] = true;
-      // An upper arm lowers to 0.35 rad short of straight down (it hangs, it does not enter the
-      // body): the bone's angle to straight down bounds its downward swing.
-      if (s.towards == BodyDirection::Up && roles[j] == JointRole::UpperArm)
-        lo = std::max(lo, std::min(0.0f, 0.35f - std::acos(std::clamp(-glm::dot(bone, up), -1.0f, 1.0f))));
-      range.min[k] = sign > 0.0f ? lo : -hi;
-      range.max[k] = sign > 0.0f ? hi : -lo;
+      range.min[k] = sign > 0.0f ? s.lo : -s.hi;
+      range.max[k] = sign > 0.0f ? s.hi : -s.lo;
     }
-    if (placed) out[j] = range;
+    if (placed) {
+      out[j] = range;
+      continue;
+    }
+    // Else a box in a frame of its own (JointRange::axes): x along the bone, y the first swing's
+    // axis, z = x cross y, which the second swing's axis must lie within 37 degrees of.
+    const glm::vec3 e0 = bone, e1 = glm::normalize(swings[0].axis), e2 = glm::cross(e0, e1);
+    const float along = glm::dot(glm::normalize(swings[1].axis), e2);
+    if (!(std::abs(along) >= 0.8f)) continue;
+    // The frame in the joint's local axes (to_local may scale: an armature's 0.01), orthonormal.
+    glm::mat3 axes(to_local * e0, to_local * e1, glm::vec3(0.0f));
+    axes[0] = glm::normalize(axes[0]);
+    axes[1] = glm::normalize(axes[1] - glm::dot(axes[1], axes[0]) * axes[0]);
+    axes[2] = glm::cross(axes[0], axes[1]);
+    range.axes = glm::normalize(glm::quat_cast(axes));
+    range.min = glm::vec3(-motion->twist, swings[0].lo, along > 0.0f ? swings[1].lo : -swings[1].hi);
+    range.max = glm::vec3(motion->twist, swings[0].hi, along > 0.0f ? swings[1].hi : -swings[1].lo);
+    out[j] = range;
   }
   return out;
 }
@@ -504,7 +534,10 @@ Pose random_pose(const PoseRig& rig, std::span<const JointRange> ranges, std::ui
   for (std::size_t j = 0; j < pose.size(); ++j) {
     glm::vec3 r;
     for (int a = 0; a < 3; ++a) r[a] = ranges[j].min[a] + (ranges[j].max[a] - ranges[j].min[a]) * rng.next_float();
-    pose[j].rotation = glm::normalize(rig.bind[j].rotation * rotation_from_vector(r));
+    glm::quat turn = rotation_from_vector(r);
+    const glm::quat& axes = ranges[j].axes;
+    if (axes != glm::quat(1.0f, 0.0f, 0.0f, 0.0f)) turn = axes * turn * glm::conjugate(axes);
+    pose[j].rotation = glm::normalize(rig.bind[j].rotation * turn);
   }
   return pose;
 }

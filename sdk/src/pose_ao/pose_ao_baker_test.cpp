@@ -161,10 +161,10 @@ TEST(PoseAORig, CesiumMansLimbChainsTakeTheirPartsInOrder) {
   const PoseSpace space = pose_space(rig, s);
   EXPECT_EQ(space.source, PoseSpace::Source::Roles);
   EXPECT_EQ(space.roles, 19u);
-  // Placed on their bones: all but the forearms, hands, the root's spine joint and the left thigh,
-  // whose bind frames lie more than 37 degrees off their bones (they turn +-their role's limit
-  // about each axis). Each knee bends one way, 1.4 rad.
-  EXPECT_EQ(space.anatomical, 13u);
+  // Placed on their bones: all but the hips (no motion); the forearms, hands, the root's spine
+  // joint and the left thigh, whose bind frames lie more than 37 degrees off their bones, in axes
+  // of their own. Each knee bends one way, 1.4 rad.
+  EXPECT_EQ(space.anatomical, 18u);
   for (const char* knee : {"leg_joint_L_2", "leg_joint_R_2"}) {
     std::size_t j = 0;
     while (rig.names[j] != knee) ++j;
@@ -315,16 +315,19 @@ TEST(PoseAOExtremes, ADegeneratePoseSpaceIsWidenedWithAWarningOrRefused) {
   const PoseSpace by_role = pose_space(held, s);
   EXPECT_EQ(by_role.source, PoseSpace::Source::DegenerateClipsRoles);
   EXPECT_EQ(by_role.roles, held.joint_count());
-  // The spine, thighs and shins get their roles' motions about their bones; the hips (no motion)
-  // and the arms (a bone 46 degrees off every axis of its frame) +-their role's limit on each axis.
-  EXPECT_EQ(by_role.anatomical, 5u);
+  // The spine, thighs, shins and arms get their roles' motions about their bones (the arms, whose
+  // bones lie 46 degrees off every axis of their frames, in axes of their own); the hips (no
+  // motion) +-its role's limit on each axis.
+  EXPECT_EQ(by_role.anatomical, 7u);
   for (std::size_t j = 0; j < held.joint_count(); ++j) {
     const JointRole role = joint_role(held.names[j]);
     const glm::vec3 per_axis(role_limit(role, 0.0f));
-    if (role == JointRole::Hips || role == JointRole::UpperArm)
+    if (role == JointRole::Hips)
       EXPECT_EQ(by_role.ranges[j].max, per_axis) << held.names[j];
     else
       EXPECT_NE(by_role.ranges[j].max, per_axis) << held.names[j];
+    const bool own_axes = by_role.ranges[j].axes != glm::quat(1.0f, 0.0f, 0.0f, 0.0f);
+    EXPECT_EQ(own_axes, role == JointRole::UpperArm) << held.names[j];
   }
   // Asked for the clips alone: keys that never change rotate no joint, so every joint gets
   // +-default_range.
@@ -404,9 +407,9 @@ TEST(PoseAOProductionRig, AOneFrameClipGivesWayToTheJointsRoles) {
     EXPECT_FLOAT_EQ(r.max.x - r.min.x, knuckle ? 0.1f : 0.0f) << finger;
   }
   EXPECT_EQ(space.moving, 62u);  // all but the three end joints
-  // Every joint of a role with a motion gets it about its bone, but the hips (no motion) and the
-  // thumbs' four joints each, which point 41 degrees off every axis of their frames.
-  EXPECT_EQ(space.anatomical, 62u - 1u - 8u);
+  // Every joint of a role with a motion gets it about its bone, all but the hips (no motion); the
+  // thumbs, which point 41 degrees off every axis of their frames, in axes of their own.
+  EXPECT_EQ(space.anatomical, 62u - 1u);
 
   // Limits by name go over the roles; a pattern that matches nothing is named in a warning.
   SkinnedPoseAO limited;
@@ -490,6 +493,37 @@ TEST(PoseAOProductionRig, TheRolesBendKneesBackwardElbowsForwardAndFingersToward
   EXPECT_GT(bent_knees, 100);
   EXPECT_GT(bent_elbows, 100);
   EXPECT_GT(curled_fingers, 600);  // of 2400 joint-poses
+
+  // A thumb points 41 degrees off its frame's axes, so its range has axes of its own: its knuckle
+  // twists about its bone by 0.05 at most, its hinges turn only about bone x up (its palm is not
+  // known: the hinge curls +-0.5 both ways).
+  const glm::vec3 up(0.0f, 1.0f, 0.0f);
+  int turned_hinges = 0;
+  for (std::uint64_t p = 0; p < 100; ++p) {
+    const Pose pose = random_pose(rig, space.ranges, 12, p);
+    for (const char* side : {"Left", "Right"}) {
+      const std::string t = std::string(side) + "HandThumb";
+      for (int k = 1; k <= 3; ++k) {
+        const std::size_t j = joint(t + std::to_string(k));
+        const std::size_t next = joint(t + std::to_string(k + 1));
+        const glm::vec3 bone = glm::normalize(rig.bind_positions[next] - rig.bind_positions[j]);
+        const glm::quat q = pose[j].rotation;  // the humanoid's bind rotations are identity
+        const float twist = 2.0f * std::atan2(glm::dot(glm::vec3(q.x, q.y, q.z), bone), q.w);
+        if (k == 1) {
+          EXPECT_LE(std::abs(twist), 0.06f) << t << k << ", pose " << p;
+          continue;
+        }
+        const float angle = glm::angle(q);
+        if (angle < 0.05f) continue;
+        const glm::vec3 axis = glm::axis(q);
+        EXPECT_LT(std::abs(glm::dot(axis, bone)), 0.01f) << t << k << ", pose " << p;
+        EXPECT_GT(std::abs(glm::dot(axis, glm::normalize(glm::cross(bone, up)))), 0.99f) << t << k << ", pose " << p;
+        EXPECT_LE(angle, 0.5f + 1e-4f) << t << k << ", pose " << p;
+        ++turned_hinges;
+      }
+    }
+  }
+  EXPECT_GT(turned_hinges, 300);  // of 400
 
   // Without a thumb to tell the palm's side, fingers curl as far both ways.
   for (std::string& name : rig.names)

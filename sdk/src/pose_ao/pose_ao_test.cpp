@@ -668,6 +668,11 @@ TEST(PoseAOSettings, ValidationNamesTheFieldAndTheFix) {
   s.joint_ranges.resize(8);
   s.joint_ranges[2].min.x = 1.0f;
   EXPECT_FALSE(validate_pose_ao(s, 8, "c"));
+  s.joint_ranges[2] = JointRange{};
+  s.joint_ranges[5].axes = glm::quat(2.0f, 0.0f, 0.0f, 0.0f);
+  EXPECT_NE(validate_pose_ao(s, 8, "c").error().message.find("joint_ranges[5].axes"), std::string::npos);
+  s.joint_ranges[5].axes = glm::angleAxis(0.7f, glm::vec3(0.0f, 0.6f, 0.8f));
+  EXPECT_TRUE(validate_pose_ao(s, 8, "c"));
 }
 
 TEST(PoseAOSystem, NothingWithoutTheComponentAndOnlyOnChange) {

@@ -38,6 +38,7 @@
 #include <string_view>
 #include <vector>
 
+#include <glm/gtc/quaternion.hpp>
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
@@ -59,10 +60,12 @@ constexpr std::uint32_t pose_ao_coefficients(std::uint32_t joints) { return 1 + 
 struct PoseAOData;
 
 // The range of a joint's local rotation, relative to its bind local rotation, as a rotation
-// vector (axis x angle, radians, in the joint's bind local frame): each component in [min, max].
+// vector r (axis x angle, radians): each component in [min, max], about the axes `axes` turns the
+// joint's bind local frame's onto (the rotation is axes exp(r) axes^-1; identity: the frame's own).
 struct JointRange {
   glm::vec3 min{0.0f};
   glm::vec3 max{0.0f};
+  glm::quat axes{1.0f, 0.0f, 0.0f, 0.0f};  // unit
 };
 
 // Authoring component, on an entity with Mesh (joints + weights) and Skin.
@@ -132,7 +135,8 @@ struct SkinnedPoseAO {
 // Checks the settings against a skin of `joint_count` joints. InvalidArgument naming `context`
 // (e.g. "pose-AO 'body' (entity 12)"), the field and the fix: zero poses in total, zero rays,
 // locality above kPoseAOMaxLocality, a negative or non-finite lambda, margin or default range,
-// joint_ranges of the wrong length or with min > max or non-finite bounds. O(joints). Thread-safe.
+// joint_ranges of the wrong length, with min > max, non-finite bounds or axes not a unit
+// quaternion. O(joints). Thread-safe.
 Status validate_pose_ao(const SkinnedPoseAO& settings, std::size_t joint_count, std::string_view context);
 
 // Vertices that share a joint set share one factorisation at bake and one parameter gather at
