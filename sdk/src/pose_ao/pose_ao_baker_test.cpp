@@ -504,10 +504,8 @@ TEST(PoseAOProductionRig, TheRolesBendKneesBackwardElbowsForwardAndFingersToward
     for (const char* side : {"Left", "Right"}) {
       const std::string t = std::string(side) + "HandThumb";
       for (int k = 1; k <= 3; ++k) {
-        const std::size_t j = joint(t + std::to_string(k));
-        const std::size_t next = joint(t + std::to_string(k + 1));
-        const glm::vec3 bone = glm::normalize(rig.bind_positions[next] - rig.bind_positions[j]);
-        const glm::quat q = pose[j].rotation;  // the humanoid's bind rotations are identity
+        const auto [bone, turned] = tip(pose, t + std::to_string(k), t + std::to_string(k + 1));
+        const glm::quat q = pose[joint(t + std::to_string(k))].rotation;  // bind rotations are identity
         const float twist = 2.0f * std::atan2(glm::dot(glm::vec3(q.x, q.y, q.z), bone), q.w);
         if (k == 1) {
           EXPECT_LE(std::abs(twist), 0.06f) << t << k << ", pose " << p;
