@@ -408,6 +408,32 @@ TEST(PoseAOClusters, WeightsSumToOneAndAreContinuousAcrossTheBoundary) {
   EXPECT_EQ(w[0], 1.0f);
 }
 
+TEST(PoseAOClusters, WideWeightsAgreeWithThePortableOnes) {
+  // Sixteen centres in the 36 dimensions of four joints (and 27, 19, 9: every tail length of the
+  // wide loop), poses near and between them so that many blend.
+  Rng rng = Rng::stream(7, 0);
+  for (const std::uint32_t dims : {36u, 27u, 19u, 9u}) {
+    std::vector<float> centers(16 * dims);
+    for (float& c : centers) c = rng.next_float() - 0.5f;
+    for (int pose = 0; pose < 200; ++pose) {
+      const std::uint32_t a = rng.next_u32() % 16, b = rng.next_u32() % 16;
+      const float t = rng.next_float();
+      std::vector<float> theta(dims);
+      for (std::uint32_t i = 0; i < dims; ++i)
+        theta[i] = (1.0f - t) * centers[a * dims + i] + t * centers[b * dims + i] + 0.05f * (rng.next_float() - 0.5f);
+      float portable[16], wide[16];
+      pose_ao_cluster_weights(centers.data(), 16, dims, theta.data(), 0.3f, portable, Isa::Portable);
+      pose_ao_cluster_weights(centers.data(), 16, dims, theta.data(), 0.3f, wide, Isa::Best);
+      float sum = 0.0f;
+      for (int m = 0; m < 16; ++m) {
+        EXPECT_NEAR(wide[m], portable[m], 1e-5f) << dims << " " << pose << " " << m;
+        sum += wide[m];
+      }
+      EXPECT_NEAR(sum, 1.0f, 1e-6f);
+    }
+  }
+}
+
 // AO with a hinge in the child's rotation: open (0.9) while the entry of its local rotation
 // R[1][0] (minus the sine of a turn about z) is negative, darkening linearly beyond, as a limb
 // swinging into a vertex's hemisphere does. One linear map cannot follow the kink.

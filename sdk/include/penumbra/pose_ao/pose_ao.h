@@ -184,9 +184,11 @@ struct PoseAOGroup {
 // normalised to sum 1. Each w_m is continuous in theta (d_m - d is zero on the nearest centre and
 // changes continuously when the nearest changes), so is the blended AO; band 0 takes the nearest
 // centre alone (ties: the lower index). Writes `clusters` weights, returns how many are non-zero.
-// Cost: clusters x dims multiply-adds. Thread-safe.
+// Isa::Best sums the squared distances eight lanes wide where the CPU has AVX2 and FMA (they may
+// differ from Portable's in the last bits); the bake uses Portable, so that what it writes does
+// not depend on the CPU. Cost: clusters x dims multiply-adds. Thread-safe.
 std::uint32_t pose_ao_cluster_weights(const float* centers, std::uint32_t clusters, std::uint32_t dims,
-                                      const float* theta, float band, float* weights);
+                                      const float* theta, float band, float* weights, Isa isa = Isa::Portable);
 
 // Where a bake's pose space came from (pose_space in pose_ao_baker.h).
 enum class PoseSpaceSource : std::uint8_t {
