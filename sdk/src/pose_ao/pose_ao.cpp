@@ -90,10 +90,6 @@ glm::mat3 rotation_of(const glm::mat4& m) {
   return r;
 }
 
-}  // namespace
-
-namespace {
-
 // |a - b|^2 over n entries, in order.
 float squared_distance(const float* a, const float* b, std::uint32_t n) {
   float d = 0.0f;
@@ -117,25 +113,22 @@ __attribute__((target("avx2,fma"))) float squared_distance_avx2(const float* a, 
 }
 #endif
 
+// The widest of the two this CPU runs, or the portable one.
+float squared_distance_on(Isa isa, const float* a, const float* b, std::uint32_t n) {
+#if defined(__x86_64__)
+  if (isa == Isa::Best && cpu_has_avx2_fma_f16c()) return squared_distance_avx2(a, b, n);
+#endif
+  return squared_distance(a, b, n);
+}
+
 }  // namespace
 
 std::uint32_t pose_ao_cluster_weights(const float* centers, std::uint32_t clusters, std::uint32_t dims,
                                       const float* theta, float band, float* weights, Isa isa) {
-#if defined(__x86_64__)
-  const bool wide = isa == Isa::Best && cpu_has_avx2_fma_f16c();
-#else
-  const bool wide = false;
-  (void)isa;
-#endif
   std::uint32_t nearest = 0;
   float least = 0.0f;
   for (std::uint32_t m = 0; m < clusters; ++m) {
-    const float* c = centers + std::size_t{m} * dims;
-#if defined(__x86_64__)
-    const float d = wide ? squared_distance_avx2(theta, c, dims) : squared_distance(theta, c, dims);
-#else
-    const float d = squared_distance(theta, c, dims);
-#endif
+    const float d = squared_distance_on(isa, theta, centers + std::size_t{m} * dims, dims);
     weights[m] = d;
     if (m == 0 || d < least) {
       least = d;

@@ -409,10 +409,10 @@ TEST(PoseAOClusters, WeightsSumToOneAndAreContinuousAcrossTheBoundary) {
 }
 
 TEST(PoseAOClusters, WideWeightsAgreeWithThePortableOnes) {
-  // Sixteen centres in the 36 dimensions of four joints (and 27, 19, 9: every tail length of the
-  // wide loop), poses near and between them so that many blend.
+  // Sixteen centres in the dimensions of four to one joints (the wide loop's tails 4 to 1), poses
+  // near and between them so that many blend.
   Rng rng = Rng::stream(7, 0);
-  for (const std::uint32_t dims : {36u, 27u, 19u, 9u}) {
+  for (const std::uint32_t dims : {36u, 27u, 18u, 9u}) {
     std::vector<float> centers(16 * dims);
     for (float& c : centers) c = rng.next_float() - 0.5f;
     for (int pose = 0; pose < 200; ++pose) {
