@@ -224,8 +224,10 @@ float width(const JointRange& r) { return std::max({r.max.x - r.min.x, r.max.y -
 // curls across the palm), of a hand with a thumb and two other fingers whose knuckles span a
 // line, and a thumb off that plane by a tenth of the line; nullopt elsewhere. A finger's hand: the
 // topmost of the Hand joints above its Finger and FingerHinge joints (a metacarpal is a Hand).
+// bones[j]: joint j's unit bone direction in the bind pose, zero where it has none; height: the
+// body's, for the knuckles' least span.
 std::vector<std::optional<glm::vec3>> palms(const PoseRig& rig, std::span<const JointRole> roles,
-                                            const std::vector<std::vector<std::uint32_t>>& children, float height) {
+                                            std::span<const glm::vec3> bones, float height) {
   const std::size_t J = rig.joint_count();
   std::vector<std::optional<glm::vec3>> out(J);
   const auto is_finger = [&](std::size_t j) { return roles[j] == JointRole::Finger || roles[j] == JointRole::FingerHinge; };
@@ -257,12 +259,9 @@ std::vector<std::optional<glm::vec3>> palms(const PoseRig& rig, std::span<const 
         ++thumb_joints;
         continue;
       }
-      if (roles[j] != JointRole::Finger) continue;
-      glm::vec3 bone(0.0f);
-      for (const std::uint32_t c : children[j]) bone += rig.bind_positions[c] - rig.bind_positions[j];
-      if (!(glm::length(bone) > 1e-4f * height)) continue;
+      if (roles[j] != JointRole::Finger || bones[j] == glm::vec3(0.0f)) continue;
       knuckles.push_back(j);
-      along += glm::normalize(bone);
+      along += bones[j];
     }
     if (knuckles.size() < 2 || thumb_joints == 0 || !(glm::length(along) > 0.5f * float(knuckles.size()))) continue;
     along = glm::normalize(along);
@@ -339,17 +338,21 @@ std::vector<std::optional<JointRange>> anatomical_ranges(const PoseRig& rig, std
     frame[j] = glm::mat3(parent * rig.offsets[j]) * glm::mat3_cast(rig.bind[j].rotation);
     if (rig.parents[j] >= 0) children[static_cast<std::size_t>(rig.parents[j])].push_back(j);
   }
-  const std::vector<std::optional<glm::vec3>> palm = palms(rig, roles, children, height);
+  // Each joint's bone: to the mean of its children, or on from the parent for a joint without any;
+  // zero where that is shorter than 1e-4 of the body's height.
+  std::vector<glm::vec3> bones(J, glm::vec3(0.0f));
   for (std::size_t j = 0; j < J; ++j) {
-    const std::optional<RoleMotion> motion = role_motion(roles[j]);
-    if (!motion || !(glm::determinant(frame[j]) > 0.0f)) continue;
-    // The bone: to the mean of the children, or on from the parent for a joint without any.
     glm::vec3 bone(0.0f);
     for (const std::uint32_t c : children[j]) bone += rig.bind_positions[c] - rig.bind_positions[j];
     if (!(glm::length(bone) > 1e-4f * height) && rig.parents[j] >= 0)
       bone = rig.bind_positions[j] - rig.bind_positions[static_cast<std::size_t>(rig.parents[j])];
-    if (!(glm::length(bone) > 1e-4f * height)) continue;
-    bone = glm::normalize(bone);
+    if (glm::length(bone) > 1e-4f * height) bones[j] = glm::normalize(bone);
+  }
+  const std::vector<std::optional<glm::vec3>> palm = palms(rig, roles, bones, height);
+  for (std::size_t j = 0; j < J; ++j) {
+    const std::optional<RoleMotion> motion = role_motion(roles[j]);
+    if (!motion || !(glm::determinant(frame[j]) > 0.0f) || bones[j] == glm::vec3(0.0f)) continue;
+    const glm::vec3 bone = bones[j];
     const glm::mat3 to_local = glm::inverse(frame[j]);
     // The frame axis a direction lies along (with its sign), or -1 when none is within 37 degrees.
     const auto snap = [&](glm::vec3 v, float& sign) {
