@@ -402,7 +402,11 @@ Result<Report> run(const Options& options) {
                                fmt(measure_ns(d, Isa::Portable), 3) + " ns per vertex against " +
                                fmt(default_ns, 3) + " for the wide one");
       }
-      const Errors mean = errors(held, [&](const std::vector<float>&, std::vector<float>& out) { out = d.mean_ao; }, 0);
+      // Errors of a baseline (AO that ignores the pose) on held-out set `which` (0 all, 1 random, 2 clip).
+      const auto baseline_errors = [&](const std::vector<float>& baseline, int which) {
+        return errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = baseline; }, which);
+      };
+      const Errors mean = baseline_errors(d.mean_ao, 0);
       row("clustered", total, std::to_string(d.locality), std::to_string(d.clusters), fmt(defaults.lambda),
           bake_base + main->fit_s, d.bytes_per_vertex(), default_ns, clustered_err,
           name + " clustered");
@@ -411,17 +415,15 @@ Result<Report> run(const Options& options) {
       row("mean", total, "-", "-", "-", bake_base, 2.0, 0.0, mean, name + " pose average");
       row("bind", total, "-", "-", "-", bind_s, 2.0, 0.0, bind_err, name + " bind pose");
 
+      // Per held-out set (1 random, 2 clip): the default model's errors and the baselines'.
+      const Errors c_r = errors(held, predict(d), 1), c_w = errors(held, predict(d), 2);
+      const Errors mean_r = baseline_errors(d.mean_ao, 1), mean_w = baseline_errors(d.mean_ao, 2);
+      const Errors bind_r = baseline_errors(tr.bind_ao, 1), bind_w = baseline_errors(tr.bind_ao, 2);
       if (name == "CesiumMan" || name == "humanoid") {
         // The goal: each held-out set against its own better baseline, and never worse than
         // bind-pose AO, judged on the errors against the converged AO (the references' noise adds
         // its variance to the square of the model's error and of the baseline's alike, which pulls
         // the ratio towards 1); judged at the largest pose count, printed at the preset's too.
-        const auto held_errors = [&](const std::vector<float>& baseline, int which) {
-          return errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = baseline; }, which);
-        };
-        const Errors c_r = errors(held, predict(d), 1), c_w = errors(held, predict(d), 2);
-        const Errors mean_r = held_errors(d.mean_ao, 1), mean_w = held_errors(d.mean_ao, 2);
-        const Errors bind_r = held_errors(tr.bind_ao, 1), bind_w = held_errors(tr.bind_ao, 2);
         const double net_random = held.net(c_r.rmse, 1) / std::min(held.net(mean_r.rmse, 1), held.net(bind_r.rmse, 1));
         const double net_clip = held.net(c_w.rmse, 2) / std::min(held.net(mean_w.rmse, 2), held.net(bind_w.rmse, 2));
         const bool no_worse = c_r.rmse <= bind_r.rmse && c_w.rmse <= bind_w.rmse;
@@ -440,12 +442,7 @@ Result<Report> run(const Options& options) {
 
       if (i + 1 == pose_counts.size()) {
         // Notes at the largest pose count.
-        const auto set_errors = [&](const PoseAOData& m, int which) { return errors(held, predict(m), which); };
-        const Errors c_r = set_errors(d, 1), c_w = set_errors(d, 2), l_r = set_errors(dl, 1), l_w = set_errors(dl, 2);
-        const Errors mean_r = errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = d.mean_ao; }, 1);
-        const Errors mean_w = errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = d.mean_ao; }, 2);
-        const Errors bind_r = errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = tr.bind_ao; }, 1);
-        const Errors bind_w = errors(held, [&](const std::vector<float>&, std::vector<float>& o) { o = tr.bind_ao; }, 2);
+        const Errors l_r = errors(held, predict(dl), 1), l_w = errors(held, predict(dl), 2);
         const double better_r = std::min(mean_r.rmse, bind_r.rmse), better_w = std::min(mean_w.rmse, bind_w.rmse);
         std::size_t clustered_vertices = 0;
         for (const PoseAOGroup& g : d.groups) clustered_vertices += g.cluster_count > 1 ? g.count : 0;
